@@ -1,0 +1,143 @@
+//! Plain-data components of the hydrofrac ECS (hecs).
+//!
+//! Every kind of entity (node, element, edge) is spawned with one fixed bundle, so it lives in a
+//! single archetype for the whole run: state flags are fields, never marker components.
+//! Relations between entities are `hecs::Entity` fields. Units are SI; the model is plane strain
+//! per unit thickness (forces in N/m, masses in kg/m, stresses in Pa, tension positive).
+
+use hecs::Entity;
+use serde::{Deserialize, Serialize};
+
+/// Stable identifier of an entity within its kind (nodes, elements and edges count separately).
+/// Dense views and every output are ordered by it, so results never depend on hecs' storage
+/// order or on the number of threads.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub struct StableId(pub u64);
+
+/// Which side of the rectangular domain a boundary node or external edge lies on.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum Side {
+    Left,
+    Right,
+    Bottom,
+    Top,
+}
+
+impl Side {
+    pub const ALL: [Side; 4] = [Side::Left, Side::Right, Side::Bottom, Side::Top];
+
+    /// Outward unit normal of the side.
+    pub fn normal(self) -> [f64; 2] {
+        match self {
+            Side::Left => [-1.0, 0.0],
+            Side::Right => [1.0, 0.0],
+            Side::Bottom => [0.0, -1.0],
+            Side::Top => [0.0, 1.0],
+        }
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Side::Left => "left",
+            Side::Right => "right",
+            Side::Bottom => "bottom",
+            Side::Top => "top",
+        }
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Nodes
+// ---------------------------------------------------------------------------------------------
+
+/// Reference (undeformed) position of a node, m.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct NodeRef(pub [f64; 2]);
+
+/// Kinematic state of a node: displacement u (m) and velocity v (m/s, at the last half step).
+/// The dense solid view holds the hot copy during stepping; it is written back here at every
+/// sync point (output frame, topology change, end of run).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct NodeState {
+    pub u: [f64; 2],
+    pub v: [f64; 2],
+}
+
+/// Lumped nodal mass per unit thickness, kg/m (one third of rho*A of each element around it).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct NodeMass(pub f64);
+
+/// Boundary condition of a node: a prescribed displacement per direction (m) where `Some`,
+/// and a constant external force (N/m, from tractions and body forces) added every step.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct NodeBc {
+    pub prescribed: [Option<f64>; 2],
+    pub load: [f64; 2],
+}
+
+/// Topological role of a node. `in_solid` is false for a mother node that has left the solid
+/// mesh after a split; `mother` links a daughter to the node it was split from.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct NodeLink {
+    pub in_solid: bool,
+    pub mother: Option<Entity>,
+}
+
+/// Node bundle: the one archetype of every node entity.
+pub type NodeBundle = (StableId, NodeRef, NodeState, NodeMass, NodeBc, NodeLink);
+
+// ---------------------------------------------------------------------------------------------
+// Elements
+// ---------------------------------------------------------------------------------------------
+
+/// The three nodes of a constant-strain triangle, counter-clockwise.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ElemNodes(pub [Entity; 3]);
+
+/// Precomputed geometry of a constant-strain triangle in the reference configuration:
+/// area A (m^2) and the constant shape-function gradients dN_a/dx, dN_a/dy (1/m).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ElemGeom {
+    pub area: f64,
+    pub dndx: [f64; 3],
+    pub dndy: [f64; 3],
+}
+
+/// Cauchy stress of the element [sigma_xx, sigma_yy, sigma_xy], Pa, tension positive
+/// (sigma_zz = nu (sigma_xx + sigma_yy) in plane strain). Written back from the view at sync points.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ElemStress(pub [f64; 3]);
+
+/// Element bundle: the one archetype of every element entity.
+pub type ElemBundle = (StableId, ElemNodes, ElemGeom, ElemStress);
+
+// ---------------------------------------------------------------------------------------------
+// Edges (faces)
+// ---------------------------------------------------------------------------------------------
+
+/// The two end nodes of an edge.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EdgeNodes(pub [Entity; 2]);
+
+/// The elements on either side of an edge: two for an internal edge, one (`[Some, None]`) for
+/// an external edge (domain boundary or fracture face).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EdgeElems(pub [Option<Entity>; 2]);
+
+impl EdgeElems {
+    pub fn is_external(&self) -> bool {
+        self.0[1].is_none()
+    }
+}
+
+/// Per-edge state: the domain side for external boundary edges, the normal stress across the
+/// edge (Pa, tension positive) and the fracture-ready mark set by the fracture criterion.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct EdgeState {
+    pub side: Option<Side>,
+    pub sigma_n: f64,
+    pub fracture_ready: bool,
+}
+
+/// Edge bundle: the one archetype of every edge entity.
+pub type EdgeBundle = (StableId, EdgeNodes, EdgeElems, EdgeState);

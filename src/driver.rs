@@ -1,0 +1,186 @@
+//! `hydrofrac run`: load a scenario, run it with per-system timing, write the outputs.
+
+use crate::error::{RunError, SetupError};
+use crate::output::{Outputs, write_atomic};
+use crate::scenario::Scenario;
+use crate::schedule::Status;
+use crate::sim::{Finish, Simulation};
+use crate::timing::{TimingLayer, format_table};
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use serde_json::json;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+use tracing_subscriber::layer::SubscriberExt;
+
+/// Options of `hydrofrac run`.
+#[derive(Clone, Debug, Default)]
+pub struct RunOptions {
+    /// Output folder (default `out/<scenario name>`).
+    pub out: Option<PathBuf>,
+    pub disable: Vec<String>,
+    pub set: Vec<String>,
+    /// Write a Chrome/Perfetto trace here.
+    pub trace: Option<PathBuf>,
+    pub quiet: bool,
+}
+
+/// What a finished run reports.
+#[derive(Debug)]
+pub struct RunReport {
+    pub out: PathBuf,
+    pub summary: serde_json::Value,
+    pub timing_table: String,
+}
+
+/// Errors of a run, with the output folder when one was prepared (earlier outputs stay there).
+#[derive(Debug, thiserror::Error)]
+pub enum DriverError {
+    #[error(transparent)]
+    Setup(#[from] SetupError),
+    #[error("{error} (outputs written so far are in {out})")]
+    Run { error: RunError, out: String },
+    #[error("{0}")]
+    Output(std::io::Error),
+}
+
+/// Run a scenario file.
+pub fn run_file(path: &Path, opts: &RunOptions) -> Result<RunReport, DriverError> {
+    let scenario = Scenario::load(path, &opts.set)?;
+    run_scenario(scenario, opts)
+}
+
+/// Run a parsed scenario.
+pub fn run_scenario(scenario: Scenario, opts: &RunOptions) -> Result<RunReport, DriverError> {
+    let out = opts
+        .out
+        .clone()
+        .unwrap_or_else(|| PathBuf::from("out").join(&scenario.name));
+    let mut sim = Simulation::new(scenario, &opts.disable)?;
+    let outputs = Outputs::create(&out, &sim.scenario.output.fields).map_err(DriverError::Output)?;
+    sim.output = Some(outputs);
+
+    let timing = TimingLayer::default();
+    let table = timing.table.clone();
+    let (chrome, _guard) = match &opts.trace {
+        Some(file) => {
+            let (layer, guard) = tracing_chrome::ChromeLayerBuilder::new()
+                .file(file)
+                .include_args(true)
+                .build();
+            (Some(layer), Some(guard))
+        }
+        None => (None, None),
+    };
+    let subscriber = tracing_subscriber::registry().with(timing).with(chrome);
+
+    let bar = progress_bar(&sim, opts.quiet);
+    let t0 = Instant::now();
+    let result = tracing::subscriber::with_default(subscriber, || {
+        sim.run(|s| {
+            bar.set_position(progress_position(s));
+            bar.set_message(format!("t = {:.4e} s  residual {:.2e}", s.time, s.residual));
+        })
+    });
+    let wall = t0.elapsed().as_secs_f64();
+    bar.finish_and_clear();
+    drop(_guard);
+
+    let times = table.lock().expect("timing table").clone();
+    let rows: Vec<(String, bool, u64, f64)> = sim
+        .schedule
+        .entries
+        .iter()
+        .map(|(s, st)| {
+            let t = times.get(s.name()).copied().unwrap_or_default();
+            (s.name().to_string(), *st == Status::Enabled, t.calls, t.total.as_secs_f64())
+        })
+        .collect();
+    let timing_table = format_table(&rows);
+    let summary = summary_json(&sim, &result, wall, &rows);
+    write_atomic(
+        &out.join("summary.json"),
+        serde_json::to_string_pretty(&summary)
+            .expect("json")
+            .as_bytes(),
+    )
+    .map_err(DriverError::Output)?;
+    if let Err(e) = result {
+        return Err(DriverError::Run {
+            error: e,
+            out: out.display().to_string(),
+        });
+    }
+    Ok(RunReport {
+        out,
+        summary,
+        timing_table,
+    })
+}
+
+fn progress_bar(sim: &Simulation, quiet: bool) -> ProgressBar {
+    if quiet {
+        return ProgressBar::hidden();
+    }
+    let bar = ProgressBar::with_draw_target(Some(1000), ProgressDrawTarget::stderr());
+    bar.set_style(
+        ProgressStyle::with_template("{spinner} [{elapsed_precise}] {bar:40} {percent:>3}% {msg}")
+            .expect("template"),
+    );
+    let _ = sim;
+    bar
+}
+
+/// Progress in per mille: by time for timed runs, by residual decades for static ones.
+fn progress_position(s: &Simulation) -> u64 {
+    match s.scenario.time.end {
+        crate::scenario::End::Time(te) => (1000.0 * s.time / te) as u64,
+        crate::scenario::End::Static { tol, .. } => {
+            let done = (s.residual.max(tol).log10() / tol.log10()).clamp(0.0, 1.0);
+            (1000.0 * done) as u64
+        }
+    }
+    .min(1000)
+}
+
+fn summary_json(
+    sim: &Simulation,
+    result: &Result<Finish, RunError>,
+    wall: f64,
+    rows: &[(String, bool, u64, f64)],
+) -> serde_json::Value {
+    let (mean, min, max) = sim.stress_summary();
+    let systems: Vec<serde_json::Value> = sim
+        .schedule
+        .entries
+        .iter()
+        .zip(rows)
+        .map(|((_, st), (name, enabled, calls, total))| {
+            json!({"name": name, "enabled": enabled, "status": st, "calls": calls, "total_s": total})
+        })
+        .collect();
+    let (status, finish, error) = match result {
+        Ok(f) => ("ok", Some(*f), None),
+        Err(e) => ("failed", None, Some(e.to_string())),
+    };
+    json!({
+        "scenario": sim.scenario.name,
+        "status": status,
+        "finish": finish,
+        "error": error,
+        "elements": sim.view.n_elems(),
+        "nodes": sim.view.n_nodes(),
+        "edges": sim.model.edge_count(),
+        "steps": sim.step,
+        "time": sim.time,
+        "dt": sim.params.dt,
+        "dt_critical": sim.dt_crit,
+        "wall_s": wall,
+        "residual": sim.residual,
+        "kinetic_energy": sim.stats.kinetic,
+        "frames": sim.output.as_ref().map_or(0, |o| o.frames),
+        "stress_mean": {"xx": mean[0], "yy": mean[1], "xy": mean[2]},
+        "stress_min": {"xx": min[0], "yy": min[1], "xy": min[2]},
+        "stress_max": {"xx": max[0], "yy": max[1], "xy": max[2]},
+        "systems": systems,
+    })
+}

@@ -1,0 +1,24 @@
+//! hydrofrac: explicit FEM rock mass, fracture-network flow and hydraulic fracturing in hard
+//! rock, after Fu, Johnson and Carrigan (LLNL). SI units throughout, tension positive,
+//! plane strain per unit thickness.
+//!
+//! Layout: `components/` holds the ECS components, `systems/` the step's systems and their
+//! order; `src/` the mesh, model, dense views, scenario files, outputs, verification and CLI.
+
+#[path = "../components/mod.rs"]
+pub mod components;
+#[path = "../systems/mod.rs"]
+pub mod systems;
+
+pub mod driver;
+pub mod error;
+pub mod mesh;
+pub mod model;
+pub mod output;
+pub mod scenario;
+pub mod schedule;
+pub mod sim;
+pub mod timing;
+pub mod view;
+pub mod verify;
+pub mod plot;

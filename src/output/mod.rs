@@ -1,0 +1,153 @@
+//! Output folder: ParaView frames (`frames/solid_NNNNN.vtu` and `solid.pvd`), `timeseries.csv`
+//! and `summary.json`. Every file is written so that a crash leaves the earlier ones readable:
+//! frames and the index are written to a temporary file and renamed, the time series is flushed
+//! row by row, and `summary.json` is written last (a stale one is removed at the start).
+
+pub mod vtk;
+
+use crate::scenario::Field;
+use crate::systems::solid::{SolidParams, cst_stress};
+use crate::view::SolidView;
+use std::fs::File;
+use std::io::{BufWriter, Write};
+use std::path::{Path, PathBuf};
+
+/// One row of `timeseries.csv`.
+#[derive(Clone, Copy, Debug)]
+pub struct SeriesRow {
+    pub step: u64,
+    /// s
+    pub time: f64,
+    /// J/m
+    pub kinetic_energy: f64,
+    /// J/m
+    pub strain_energy: f64,
+    /// dimensionless
+    pub residual: f64,
+    /// m/s
+    pub max_speed: f64,
+}
+
+pub const SERIES_HEADER: &str = "step,time,kinetic_energy,strain_energy,residual,max_speed";
+
+pub struct Outputs {
+    pub dir: PathBuf,
+    pvd: vtk::PvdWriter,
+    series: BufWriter<File>,
+    pub frames: usize,
+    fields: Vec<Field>,
+}
+
+/// Write `bytes` to `path` atomically (temporary file in the same folder, then rename).
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    let tmp = path.with_extension("tmp");
+    {
+        let mut f = File::create(&tmp)?;
+        f.write_all(bytes)?;
+        f.sync_data()?;
+    }
+    std::fs::rename(&tmp, path)
+}
+
+impl Outputs {
+    /// Prepare the folder: create it, check it is writable, and remove results of an earlier run
+    /// (`summary.json`, `timeseries.csv`, `solid.pvd`, `frames/`) so nothing stale passes for a
+    /// result of this one.
+    pub fn create(dir: &Path, fields: &[Field]) -> std::io::Result<Self> {
+        let ctx = |e: std::io::Error, what: &str| {
+            std::io::Error::new(e.kind(), format!("cannot {what} {}: {e}", dir.display()))
+        };
+        std::fs::create_dir_all(dir).map_err(|e| ctx(e, "create output folder"))?;
+        let probe = dir.join(".hydrofrac-write-test");
+        File::create(&probe).map_err(|e| ctx(e, "write to output folder"))?;
+        let _ = std::fs::remove_file(&probe);
+        for stale in ["summary.json", "timeseries.csv", "solid.pvd"] {
+            let p = dir.join(stale);
+            if p.exists() {
+                std::fs::remove_file(&p).map_err(|e| ctx(e, "clean output folder"))?;
+            }
+        }
+        let frames = dir.join("frames");
+        if frames.exists() {
+            std::fs::remove_dir_all(&frames).map_err(|e| ctx(e, "clean output folder"))?;
+        }
+        std::fs::create_dir_all(&frames).map_err(|e| ctx(e, "create frames folder in"))?;
+        let mut series = BufWriter::new(File::create(dir.join("timeseries.csv"))?);
+        writeln!(series, "{SERIES_HEADER}")?;
+        series.flush()?;
+        Ok(Outputs {
+            dir: dir.to_path_buf(),
+            pvd: vtk::PvdWriter::new(&dir.join("solid.pvd")),
+            series,
+            frames: 0,
+            fields: fields.to_vec(),
+        })
+    }
+
+    pub fn write_series(&mut self, r: &SeriesRow) -> std::io::Result<()> {
+        writeln!(
+            self.series,
+            "{},{},{},{},{},{}",
+            r.step, r.time, r.kinetic_energy, r.strain_energy, r.residual, r.max_speed
+        )?;
+        self.series.flush()
+    }
+
+    /// Write one ParaView frame of the solid (reference positions; displacement to warp by).
+    pub fn write_frame(
+        &mut self,
+        v: &SolidView,
+        p: &SolidParams,
+        poisson: f64,
+        time: f64,
+    ) -> std::io::Result<()> {
+        let points: Vec<[f64; 3]> = v.x0.iter().map(|x| [x[0], x[1], 0.0]).collect();
+        let conn: Vec<u32> = v.conn.as_flattened().to_vec();
+        let disp: Vec<f64> = v.u.iter().flat_map(|u| [u[0], u[1], 0.0]).collect();
+        let vel: Vec<f64> = v.v.iter().flat_map(|u| [u[0], u[1], 0.0]).collect();
+        let node_id: Vec<f64> = v.node_id.iter().map(|&i| i as f64).collect();
+        let elem_id: Vec<f64> = v.elem_id.iter().map(|&i| i as f64).collect();
+        let stress: Vec<[f64; 3]> = v
+            .conn
+            .iter()
+            .zip(&v.geom)
+            .map(|(c, g)| cst_stress(g, c.map(|a| v.u[a as usize]), p))
+            .collect();
+        let comp = |k: usize| -> Vec<f64> { stress.iter().map(|s| s[k]).collect() };
+        let (sxx, syy, sxy) = (comp(0), comp(1), comp(2));
+        let szz: Vec<f64> = stress.iter().map(|s| poisson * (s[0] + s[1])).collect();
+        let arr = |name, components, values| vtk::DataArray {
+            name,
+            components,
+            values,
+        };
+        let mut point_data = vec![arr("node_id", 1, &node_id[..])];
+        if self.fields.contains(&Field::Displacement) {
+            point_data.push(arr("displacement", 3, &disp[..]));
+        }
+        if self.fields.contains(&Field::Velocity) {
+            point_data.push(arr("velocity", 3, &vel[..]));
+        }
+        let mut cell_data = vec![arr("element_id", 1, &elem_id[..])];
+        if self.fields.contains(&Field::Stress) {
+            cell_data.push(arr("stress_xx", 1, &sxx[..]));
+            cell_data.push(arr("stress_yy", 1, &syy[..]));
+            cell_data.push(arr("stress_xy", 1, &sxy[..]));
+            cell_data.push(arr("stress_zz", 1, &szz[..]));
+        }
+        let name = format!("solid_{:05}.vtu", self.frames);
+        vtk::write_vtu(
+            &self.dir.join("frames").join(&name),
+            &vtk::VtuPiece {
+                points: &points,
+                kind: vtk::CellKind::Triangle,
+                connectivity: &conn,
+                point_data,
+                cell_data,
+            },
+        )?;
+        self.pvd.add(time, &format!("frames/{name}"))?;
+        self.frames += 1;
+        Ok(())
+    }
+}

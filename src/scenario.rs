@@ -1,0 +1,602 @@
+//! Scenario files (RON): what a user writes to describe a run, its parsing with precise error
+//! positions, `--set PATH=VALUE` overrides, and the validation pass for physical sense.
+//!
+//! All quantities are SI: lengths m, moduli and stresses Pa (tension positive), density kg/m^3,
+//! time s. The model is plane strain per unit thickness.
+
+use crate::error::SetupError;
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+/// A whole scenario. See `scenarios/*.ron` and the README's scenario reference.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Scenario {
+    /// Name used for the default output folder and in `summary.json`.
+    pub name: String,
+    /// Free text shown nowhere but kept with the scenario.
+    #[serde(default)]
+    pub description: String,
+    pub mesh: MeshSpec,
+    pub material: Material,
+    #[serde(default)]
+    pub boundary: Boundary,
+    pub time: TimeControl,
+    #[serde(default)]
+    pub damping: Damping,
+    #[serde(default)]
+    pub systems: SystemsSpec,
+    #[serde(default)]
+    pub output: OutputSpec,
+}
+
+/// The solid mesh.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub enum MeshSpec {
+    /// Square cells of size `h` (m), each split into two triangles with alternating diagonals.
+    Regular {
+        width: f64,
+        height: f64,
+        h: f64,
+        #[serde(default)]
+        origin: [f64; 2],
+    },
+    /// The regular mesh with every node moved randomly by up to `fraction * h` (ChaCha8, `seed`).
+    Perturbed {
+        width: f64,
+        height: f64,
+        h: f64,
+        #[serde(default)]
+        origin: [f64; 2],
+        fraction: f64,
+        seed: u64,
+    },
+}
+
+impl MeshSpec {
+    pub fn h(&self) -> f64 {
+        match self {
+            MeshSpec::Regular { h, .. } | MeshSpec::Perturbed { h, .. } => *h,
+        }
+    }
+    pub fn size(&self) -> (f64, f64) {
+        match self {
+            MeshSpec::Regular { width, height, .. } | MeshSpec::Perturbed { width, height, .. } => {
+                (*width, *height)
+            }
+        }
+    }
+}
+
+/// Linear elastic rock.
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Material {
+    /// Young's modulus E, Pa.
+    pub young: f64,
+    /// Poisson's ratio nu, 0 <= nu < 0.5.
+    pub poisson: f64,
+    /// Density rho, kg/m^3.
+    pub density: f64,
+}
+
+impl Material {
+    /// Lame's first parameter lambda, Pa.
+    pub fn lambda(&self) -> f64 {
+        self.young * self.poisson / ((1.0 + self.poisson) * (1.0 - 2.0 * self.poisson))
+    }
+    /// Shear modulus G, Pa.
+    pub fn shear(&self) -> f64 {
+        self.young / (2.0 * (1.0 + self.poisson))
+    }
+    /// P-wave speed c_p = sqrt((lambda + 2G)/rho), m/s.
+    pub fn p_wave_speed(&self) -> f64 {
+        ((self.lambda() + 2.0 * self.shear()) / self.density).sqrt()
+    }
+    /// Plane-strain strains (exx, eyy) that give the stresses (sxx, syy) with sxy = 0:
+    /// exx = ((1-nu^2) sxx - nu(1+nu) syy)/E, and symmetrically.
+    pub fn plane_strain_strain(&self, sxx: f64, syy: f64) -> (f64, f64) {
+        let (e, nu) = (self.young, self.poisson);
+        (
+            ((1.0 - nu * nu) * sxx - nu * (1.0 + nu) * syy) / e,
+            ((1.0 - nu * nu) * syy - nu * (1.0 + nu) * sxx) / e,
+        )
+    }
+}
+
+/// Boundary conditions on the four sides of the rectangular domain.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub enum Boundary {
+    /// Normal displacements on all four sides computed by plane-strain Hooke's law so that the
+    /// unfractured body carries the uniform stress (sxx, syy), Pa, tension positive. The domain
+    /// centre stays put; tangential motion along the sides is free.
+    InSitu { sxx: f64, syy: f64 },
+    /// One condition per side.
+    Sides {
+        #[serde(default)]
+        left: SideBc,
+        #[serde(default)]
+        right: SideBc,
+        #[serde(default)]
+        bottom: SideBc,
+        #[serde(default)]
+        top: SideBc,
+    },
+}
+
+impl Default for Boundary {
+    fn default() -> Self {
+        Boundary::Sides {
+            left: SideBc::Free,
+            right: SideBc::Free,
+            bottom: SideBc::Free,
+            top: SideBc::Free,
+        }
+    }
+}
+
+/// Condition on one side.
+#[derive(Clone, Copy, Debug, Default, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub enum SideBc {
+    /// Traction-free.
+    #[default]
+    Free,
+    /// Prescribed displacement along the outward normal, m (negative = pushed inwards);
+    /// tangential motion free.
+    Normal(f64),
+    /// Both displacement components zero.
+    Fixed,
+    /// Traction, Pa: `normal` along the outward normal (tension positive, so a confining
+    /// pressure p is `normal: -p`), `shear` along the side's counter-clockwise tangent.
+    Traction { normal: f64, shear: f64 },
+}
+
+/// Time control.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct TimeControl {
+    pub end: End,
+    /// Fraction of the critical step used, in (0, 1]. The critical step is the smallest
+    /// triangle altitude over the P-wave speed; lumped-mass CST meshes are stable up to about
+    /// 0.98 of it, so the default 0.9 keeps a margin.
+    #[serde(default = "default_safety")]
+    pub safety: f64,
+    /// Force this time step, s, instead of `safety` times the critical one. A step above the
+    /// stability limit is allowed (for studies) and is caught as a blow-up.
+    #[serde(default)]
+    pub dt: Option<f64>,
+    /// Hard cap on the number of solid steps.
+    #[serde(default = "default_max_steps")]
+    pub max_steps: u64,
+}
+
+fn default_safety() -> f64 {
+    0.9
+}
+fn default_max_steps() -> u64 {
+    10_000_000
+}
+
+/// When a run ends.
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub enum End {
+    /// After this simulated time, s.
+    Time(f64),
+    /// When the static residual ||unbalanced force on free dofs|| / ||internal force|| drops
+    /// below `tol` (checked after at least `min_steps` steps).
+    Static {
+        tol: f64,
+        #[serde(default = "default_min_steps")]
+        min_steps: u64,
+    },
+}
+
+fn default_min_steps() -> u64 {
+    10
+}
+
+/// Damping for pseudo-static response.
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub enum Damping {
+    /// Undamped central difference (energy-conserving dynamics).
+    None,
+    /// Local non-viscous damping (Cundall): each force component is reduced by
+    /// `alpha * |F| * sign(v)`, 0 <= alpha < 1. Does not change the static solution and needs
+    /// no frequency; the usual choice for dynamic relaxation. Default 0.8.
+    Local(f64),
+    /// Mass-proportional viscous damping with coefficient c, 1/s (force -c m v).
+    Viscous(f64),
+}
+
+impl Default for Damping {
+    fn default() -> Self {
+        Damping::Local(0.8)
+    }
+}
+
+/// Systems switched off for an ablation run (names as in the README's system table).
+#[derive(Clone, Debug, Default, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct SystemsSpec {
+    #[serde(default)]
+    pub disable: Vec<String>,
+}
+
+/// What is written and how often.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct OutputSpec {
+    /// A ParaView frame every this many steps (0: only the first and last frames).
+    #[serde(default)]
+    pub frame_every: u64,
+    /// A `timeseries.csv` row every this many steps (>= 1).
+    #[serde(default = "default_series_every")]
+    pub series_every: u64,
+    /// Nodal and element fields written to the frames.
+    #[serde(default = "default_fields")]
+    pub fields: Vec<Field>,
+}
+
+fn default_series_every() -> u64 {
+    100
+}
+fn default_fields() -> Vec<Field> {
+    vec![Field::Displacement, Field::Velocity, Field::Stress]
+}
+
+impl Default for OutputSpec {
+    fn default() -> Self {
+        OutputSpec {
+            frame_every: 0,
+            series_every: default_series_every(),
+            fields: default_fields(),
+        }
+    }
+}
+
+/// A field in the ParaView frames.
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq, Eq)]
+pub enum Field {
+    /// Nodal displacement, m.
+    Displacement,
+    /// Nodal velocity, m/s.
+    Velocity,
+    /// Element stress sxx, syy, sxy, szz, Pa (tension positive).
+    Stress,
+}
+
+impl Scenario {
+    /// Read and parse a scenario file, apply `--set` overrides, then validate.
+    pub fn load(path: &Path, overrides: &[String]) -> Result<Self, SetupError> {
+        let text = std::fs::read_to_string(path).map_err(|source| SetupError::Read {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        let mut sc = Self::parse(&text, &path.display().to_string())?;
+        if !overrides.is_empty() {
+            sc = sc.with_overrides(overrides)?;
+        }
+        sc.validate()?;
+        Ok(sc)
+    }
+
+    /// Parse RON text. Errors carry file, line, column and the field path.
+    pub fn parse(text: &str, file: &str) -> Result<Self, SetupError> {
+        let opts = ron::Options::default().with_default_extension(ron::extensions::Extensions::IMPLICIT_SOME);
+        let syntax = |e: ron::error::SpannedError, field: String| SetupError::Syntax {
+            file: file.to_string(),
+            line: e.span.start.line,
+            col: e.span.start.col,
+            field,
+            msg: e.code.to_string(),
+        };
+        let mut de = ron::Deserializer::from_str_with_options(text, &opts)
+            .map_err(|e| syntax(e, String::new()))?;
+        let sc: Scenario = match serde_path_to_error::deserialize(&mut de) {
+            Ok(sc) => sc,
+            Err(e) => {
+                let field = e.path().to_string();
+                let spanned = de.span_error(e.into_inner());
+                return Err(syntax(spanned, field));
+            }
+        };
+        // Trailing garbage after the scenario.
+        let rest = de.remainder();
+        if let Some(pos) = rest.find(|c: char| !c.is_whitespace()) {
+            let consumed = &text[..text.len() - rest.len() + pos];
+            let line = consumed.matches('\n').count() + 1;
+            let col = consumed.len() - consumed.rfind('\n').map_or(0, |i| i + 1) + 1;
+            return Err(SetupError::Syntax {
+                file: file.to_string(),
+                line,
+                col,
+                field: String::new(),
+                msg: "unexpected text after the end of the scenario".into(),
+            });
+        }
+        Ok(sc)
+    }
+
+    /// Apply `PATH=VALUE` overrides (e.g. `material.young=3e10`, `mesh.h=2`, `damping=None`).
+    /// A path steps through enum variants on its own (`mesh.h` reaches `mesh.Regular.h`).
+    /// VALUE is read as JSON (numbers, `true`, `null`, `[1, 2]`) and otherwise as a string
+    /// (so unit variants such as `None` work).
+    pub fn with_overrides(&self, overrides: &[String]) -> Result<Self, SetupError> {
+        let mut root = serde_json::to_value(self).map_err(|e| SetupError::Override {
+            spec: String::new(),
+            why: e.to_string(),
+        })?;
+        for spec in overrides {
+            let err = |why: String| SetupError::Override {
+                spec: spec.clone(),
+                why,
+            };
+            let (path, value) = spec
+                .split_once('=')
+                .ok_or_else(|| err("expected PATH=VALUE".into()))?;
+            let value = override_value(value.trim());
+            let mut node = &mut root;
+            let keys: Vec<&str> = path.trim().split('.').collect();
+            for (k, key) in keys.iter().enumerate() {
+                // Step into an enum variant wrapper ({"Regular": {...}}) when the key is not here.
+                loop {
+                    let obj = node
+                        .as_object()
+                        .ok_or_else(|| err(format!("`{}` is not a table", keys[..k].join("."))))?;
+                    if obj.contains_key(*key) || obj.len() != 1 {
+                        break;
+                    }
+                    let only = obj.keys().next().cloned().unwrap_or_default();
+                    if !only.starts_with(|c: char| c.is_ascii_uppercase())
+                        || !node[&only].is_object()
+                    {
+                        break;
+                    }
+                    node = node.get_mut(&only).expect("key exists");
+                }
+                let obj = node
+                    .as_object_mut()
+                    .ok_or_else(|| err(format!("`{}` is not a table", keys[..k].join("."))))?;
+                if !obj.contains_key(*key) {
+                    let mut valid: Vec<&String> = obj.keys().collect();
+                    valid.sort();
+                    let valid: Vec<String> = valid.into_iter().cloned().collect();
+                    return Err(err(format!(
+                        "no field `{key}` here; fields: {}",
+                        valid.join(", ")
+                    )));
+                }
+                node = obj.get_mut(*key).expect("key exists");
+            }
+            *node = value;
+        }
+        serde_path_to_error::deserialize(root).map_err(|e| SetupError::Override {
+            spec: overrides.join(" "),
+            why: format!("field `{}`: {}", e.path(), e.inner()),
+        })
+    }
+
+    /// Check physical sense; the first problem is reported with the field and the reason.
+    pub fn validate(&self) -> Result<(), SetupError> {
+        let finite = |field: &str, v: f64| -> Result<(), SetupError> {
+            if v.is_finite() {
+                Ok(())
+            } else {
+                Err(SetupError::invalid(field, format!("{v} is not a finite number")))
+            }
+        };
+        let positive = |field: &str, v: f64, what: &str| -> Result<(), SetupError> {
+            finite(field, v)?;
+            if v > 0.0 {
+                Ok(())
+            } else {
+                Err(SetupError::invalid(field, format!("{what} must be > 0, got {v}")))
+            }
+        };
+        // Mesh.
+        let (w, hgt) = self.mesh.size();
+        let h = self.mesh.h();
+        positive("mesh.width", w, "the domain width")?;
+        positive("mesh.height", hgt, "the domain height")?;
+        positive("mesh.h", h, "the cell size")?;
+        if h >= w.min(hgt) {
+            return Err(SetupError::invalid(
+                "mesh.h",
+                format!("the cell size {h} m must be smaller than the domain ({w} m x {hgt} m)"),
+            ));
+        }
+        let cells = (w / h).round() * (hgt / h).round() * 2.0;
+        if cells > 5.0e7 {
+            return Err(SetupError::invalid(
+                "mesh.h",
+                format!("{cells:.3e} triangles is more than this engine's 5e7 limit"),
+            ));
+        }
+        if let MeshSpec::Perturbed { fraction, .. } = self.mesh {
+            finite("mesh.fraction", fraction)?;
+            if !(0.0..=0.3).contains(&fraction) {
+                return Err(SetupError::invalid(
+                    "mesh.fraction",
+                    format!("the perturbation must be in [0, 0.3] of h, got {fraction}"),
+                ));
+            }
+        }
+        // Material.
+        let m = &self.material;
+        positive("material.young", m.young, "Young's modulus")?;
+        positive("material.density", m.density, "the density")?;
+        finite("material.poisson", m.poisson)?;
+        if !(0.0..0.5).contains(&m.poisson) {
+            return Err(SetupError::invalid(
+                "material.poisson",
+                format!(
+                    "Poisson's ratio must be in [0, 0.5) (0.5 is incompressible and not representable \
+                     by plane-strain CST), got {}",
+                    m.poisson
+                ),
+            ));
+        }
+        // Boundary.
+        match &self.boundary {
+            Boundary::InSitu { sxx, syy } => {
+                finite("boundary.sxx", *sxx)?;
+                finite("boundary.syy", *syy)?;
+            }
+            Boundary::Sides {
+                left,
+                right,
+                bottom,
+                top,
+            } => {
+                for (name, bc) in [("left", left), ("right", right), ("bottom", bottom), ("top", top)] {
+                    match bc {
+                        SideBc::Normal(d) => finite(&format!("boundary.{name}"), *d)?,
+                        SideBc::Traction { normal, shear } => {
+                            finite(&format!("boundary.{name}.normal"), *normal)?;
+                            finite(&format!("boundary.{name}.shear"), *shear)?;
+                        }
+                        SideBc::Free | SideBc::Fixed => {}
+                    }
+                }
+            }
+        }
+        // Time.
+        let t = &self.time;
+        finite("time.safety", t.safety)?;
+        if !(t.safety > 0.0 && t.safety <= 1.0) {
+            return Err(SetupError::invalid(
+                "time.safety",
+                format!("the safety factor must be in (0, 1], got {}", t.safety),
+            ));
+        }
+        if let Some(dt) = t.dt {
+            positive("time.dt", dt, "the time step")?;
+        }
+        if t.max_steps == 0 {
+            return Err(SetupError::invalid("time.max_steps", "must be at least 1"));
+        }
+        match t.end {
+            End::Time(te) => positive("time.end", te, "the end time")?,
+            End::Static { tol, .. } => positive("time.end.tol", tol, "the residual tolerance")?,
+        }
+        // Damping.
+        match self.damping {
+            Damping::Local(a) => {
+                finite("damping", a)?;
+                if !(0.0..1.0).contains(&a) {
+                    return Err(SetupError::invalid(
+                        "damping",
+                        format!("local damping must be in [0, 1), got {a}"),
+                    ));
+                }
+            }
+            Damping::Viscous(c) => {
+                finite("damping", c)?;
+                if c < 0.0 {
+                    return Err(SetupError::invalid(
+                        "damping",
+                        format!("viscous damping must be >= 0, got {c}"),
+                    ));
+                }
+            }
+            Damping::None => {}
+        }
+        if self.output.series_every == 0 {
+            return Err(SetupError::invalid("output.series_every", "must be at least 1"));
+        }
+        Ok(())
+    }
+}
+
+/// Read an override VALUE: JSON (`3e10`, `true`, `[1, 2]`, `{"Time": 5.0}`), a newtype variant
+/// written as in RON (`Local(0.5)`, `Time(5.0)`), or else a plain string (unit variants: `None`).
+fn override_value(text: &str) -> serde_json::Value {
+    if let Ok(v) = serde_json::from_str(text) {
+        return v;
+    }
+    if let Some((name, rest)) = text.split_once('(')
+        && let Some(inner) = rest.strip_suffix(')')
+        && name.starts_with(|c: char| c.is_ascii_uppercase())
+        && name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_')
+    {
+        let mut obj = serde_json::Map::new();
+        obj.insert(name.to_string(), override_value(inner.trim()));
+        return serde_json::Value::Object(obj);
+    }
+    serde_json::Value::String(text.to_string())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const GOOD: &str = r#"(
+        name: "t",
+        mesh: Regular(width: 10.0, height: 10.0, h: 1.0),
+        material: (young: 20e9, poisson: 0.2, density: 2700.0),
+        boundary: InSitu(sxx: -20e6, syy: -10e6),
+        time: (end: Static(tol: 1e-8)),
+    )"#;
+
+    #[test]
+    fn parses_and_validates() {
+        let sc = Scenario::parse(GOOD, "good.ron").unwrap();
+        sc.validate().unwrap();
+        assert_eq!(sc.time.safety, 0.9);
+        assert_eq!(sc.damping, Damping::Local(0.8));
+    }
+
+    #[test]
+    fn unknown_field_names_line_column_and_field() {
+        let bad = GOOD.replace("density: 2700.0", "density: 2700.0, colour: 1.0");
+        let e = Scenario::parse(&bad, "bad.ron").unwrap_err().to_string();
+        assert!(e.starts_with("bad.ron:4:"), "{e}");
+        assert!(e.contains("colour"), "{e}");
+    }
+
+    #[test]
+    fn wrong_type_names_the_field() {
+        let bad = GOOD.replace("poisson: 0.2", "poisson: \"x\"");
+        let e = Scenario::parse(&bad, "bad.ron").unwrap_err().to_string();
+        assert!(e.starts_with("bad.ron:4:"), "{e}");
+        assert!(e.contains("material.poisson"), "{e}");
+    }
+
+    #[test]
+    fn non_physical_values_are_named() {
+        for (from, to, field) in [
+            ("poisson: 0.2", "poisson: 0.5", "material.poisson"),
+            ("young: 20e9", "young: -1.0", "material.young"),
+            ("h: 1.0", "h: 20.0", "mesh.h"),
+        ] {
+            let sc = Scenario::parse(&GOOD.replace(from, to), "x.ron").unwrap();
+            let e = sc.validate().unwrap_err().to_string();
+            assert!(e.contains(field), "{e}");
+        }
+    }
+
+    #[test]
+    fn overrides_reach_into_variants_and_validate() {
+        let sc = Scenario::parse(GOOD, "good.ron").unwrap();
+        let o = sc
+            .with_overrides(&["material.young=3e10".into(), "mesh.h=0.5".into(), "damping=None".into()])
+            .unwrap();
+        assert_eq!(o.material.young, 3e10);
+        assert_eq!(o.mesh.h(), 0.5);
+        assert_eq!(o.damping, Damping::None);
+        let o = sc
+            .with_overrides(&["damping=Local(0.5)".into(), "time.end=Time(2.5)".into()])
+            .unwrap();
+        assert_eq!(o.damping, Damping::Local(0.5));
+        assert_eq!(o.time.end, End::Time(2.5));
+        let e = sc.with_overrides(&["material.colour=1".into()]).unwrap_err().to_string();
+        assert!(e.contains("density") && e.contains("young"), "{e}");
+        let e = sc.with_overrides(&["material.young=abc".into()]).unwrap_err().to_string();
+        assert!(e.contains("material.young"), "{e}");
+    }
+}

@@ -1,0 +1,201 @@
+//! `hydrofrac verify`: verification cases run at several resolutions, each reporting error and
+//! wall time side by side (`DIR/<case>.csv`, `DIR/<case>.png`), with stated tolerances.
+//!
+//! Cases (verification.md items 1-4): `patch`, `insitu`, `mms`, `stability`.
+
+pub mod solid_cases;
+
+use crate::plot::{Series, loglog};
+use std::io::Write;
+use std::path::Path;
+
+/// One measured error at one resolution.
+#[derive(Clone, Debug)]
+pub struct Row {
+    pub case: &'static str,
+    pub level: usize,
+    /// Mesh size, m.
+    pub h: f64,
+    /// Degrees of freedom (2 per node).
+    pub unknowns: usize,
+    pub metric: String,
+    pub error: f64,
+    pub wall_s: f64,
+}
+
+/// A pass/fail check with the measured value and the limit.
+#[derive(Clone, Debug)]
+pub struct Check {
+    pub what: String,
+    pub value: f64,
+    pub limit: String,
+    pub pass: bool,
+}
+
+#[derive(Clone, Debug, Default)]
+pub struct CaseResult {
+    pub rows: Vec<Row>,
+    pub checks: Vec<Check>,
+}
+
+impl CaseResult {
+    pub fn passed(&self) -> bool {
+        self.checks.iter().all(|c| c.pass)
+    }
+    /// Require `value <= limit`.
+    pub fn check_max(&mut self, what: impl Into<String>, value: f64, limit: f64) {
+        self.checks.push(Check {
+            what: what.into(),
+            value,
+            limit: format!("<= {limit:.1e}"),
+            pass: value <= limit,
+        });
+    }
+    /// Require `lo <= value <= hi`.
+    pub fn check_range(&mut self, what: impl Into<String>, value: f64, lo: f64, hi: f64) {
+        self.checks.push(Check {
+            what: what.into(),
+            value,
+            limit: format!("in [{lo}, {hi}]"),
+            pass: (lo..=hi).contains(&value),
+        });
+    }
+    /// Errors of one metric, by level.
+    pub fn errors(&self, metric: &str) -> Vec<(f64, f64)> {
+        self.rows
+            .iter()
+            .filter(|r| r.metric == metric)
+            .map(|r| (r.h, r.error))
+            .collect()
+    }
+}
+
+/// Observed order of convergence between the last two levels of (h, error) pairs.
+pub fn observed_order(pairs: &[(f64, f64)]) -> f64 {
+    let n = pairs.len();
+    if n < 2 {
+        return f64::NAN;
+    }
+    let (h1, e1) = pairs[n - 2];
+    let (h2, e2) = pairs[n - 1];
+    (e1 / e2).ln() / (h1 / h2).ln()
+}
+
+/// A verification case: name, what it checks, and how to run it.
+pub struct Case {
+    pub name: &'static str,
+    pub about: &'static str,
+    pub run: fn(quick: bool) -> anyhow::Result<CaseResult>,
+}
+
+pub fn cases() -> Vec<Case> {
+    vec![
+        Case {
+            name: "patch",
+            about: "distorted patch, linear displacement field on the boundary: exact to round-off",
+            run: solid_cases::patch,
+        },
+        Case {
+            name: "insitu",
+            about: "uniform in-situ stress (-20/-10 MPa) on regular and perturbed meshes",
+            run: solid_cases::insitu,
+        },
+        Case {
+            name: "mms",
+            about: "manufactured solution: displacement O(h^2), stress O(h)",
+            run: solid_cases::mms,
+        },
+        Case {
+            name: "stability",
+            about: "1e5 undamped steps with no energy growth; a step above the limit is caught",
+            run: solid_cases::stability,
+        },
+    ]
+}
+
+/// Write `DIR/<case>.csv` with columns `case,level,h,unknowns,metric,error,wall_s`.
+pub fn write_csv(dir: &Path, name: &str, res: &CaseResult) -> std::io::Result<()> {
+    let mut s = String::from("case,level,h,unknowns,metric,error,wall_s\n");
+    for r in &res.rows {
+        s += &format!(
+            "{},{},{},{},{},{:e},{}\n",
+            r.case, r.level, r.h, r.unknowns, r.metric, r.error, r.wall_s
+        );
+    }
+    crate::output::write_atomic(&dir.join(format!("{name}.csv")), s.as_bytes())
+}
+
+/// Plot error against wall time, one series per metric.
+pub fn write_plot(dir: &Path, name: &str, res: &CaseResult) -> anyhow::Result<()> {
+    let mut metrics: Vec<&str> = res.rows.iter().map(|r| r.metric.as_str()).collect();
+    metrics.dedup();
+    metrics.sort();
+    metrics.dedup();
+    let series: Vec<Series> = metrics
+        .iter()
+        .map(|m| Series {
+            label: m.to_string(),
+            points: res
+                .rows
+                .iter()
+                .filter(|r| r.metric == *m)
+                .map(|r| (r.wall_s.max(1e-6), r.error))
+                .collect(),
+        })
+        .collect();
+    loglog(
+        &dir.join(format!("{name}.png")),
+        &format!("{name}: error against run time"),
+        "wall time [s]",
+        "error (relative)",
+        &series,
+    )?;
+    Ok(())
+}
+
+/// Run the named cases (all when empty), print tables, write CSVs and plots. Returns whether
+/// every check passed.
+pub fn run_cases(names: &[String], out: &Path, quick: bool) -> anyhow::Result<bool> {
+    let all = cases();
+    for n in names {
+        if !all.iter().any(|c| c.name == n) {
+            let valid: Vec<&str> = all.iter().map(|c| c.name).collect();
+            anyhow::bail!("unknown verification case `{n}`; cases: {}", valid.join(", "));
+        }
+    }
+    std::fs::create_dir_all(out)
+        .map_err(|e| anyhow::anyhow!("cannot create {}: {e}", out.display()))?;
+    let mut ok = true;
+    let mut stdout = std::io::stdout();
+    for case in all.iter().filter(|c| names.is_empty() || names.iter().any(|n| n == c.name)) {
+        writeln!(stdout, "== {}: {}", case.name, case.about)?;
+        let res = (case.run)(quick)?;
+        writeln!(
+            stdout,
+            "{:>5} {:>10} {:>10} {:<22} {:>12} {:>10}",
+            "level", "h [m]", "unknowns", "metric", "error", "wall [s]"
+        )?;
+        for r in &res.rows {
+            writeln!(
+                stdout,
+                "{:>5} {:>10.4} {:>10} {:<22} {:>12.3e} {:>10.3}",
+                r.level, r.h, r.unknowns, r.metric, r.error, r.wall_s
+            )?;
+        }
+        for c in &res.checks {
+            writeln!(
+                stdout,
+                "  [{}] {} = {:.4e} ({})",
+                if c.pass { "pass" } else { "FAIL" },
+                c.what,
+                c.value,
+                c.limit
+            )?;
+        }
+        write_csv(out, case.name, &res)?;
+        write_plot(out, case.name, &res)?;
+        ok &= res.passed();
+    }
+    writeln!(stdout, "verification {} (CSV and PNG in {})", if ok { "passed" } else { "FAILED" }, out.display())?;
+    Ok(ok)
+}

@@ -1,0 +1,163 @@
+//! Dense views: index arrays and struct-of-arrays state copied out of the ECS, ordered by stable
+//! id, for the cross-entity hot loops (architecture.md section 3). A view is rebuilt only when the
+//! model's topology generation moves; between rebuilds the view holds the hot node and element
+//! state, which [`SolidView::write_back`] copies into the components at sync points.
+
+use crate::components::*;
+use crate::model::Model;
+use hecs::Entity;
+
+/// Marker for a dense index that does not exist.
+pub const NONE: u32 = u32::MAX;
+
+/// The solid mesh as flat arrays. Node vectors are `[x, y]` pairs; `elem_force` holds the six
+/// nodal force components of every element from the last internal-force pass.
+#[derive(Default)]
+pub struct SolidView {
+    /// Topology generation this view was built from.
+    pub generation: u64,
+    pub node_entity: Vec<Entity>,
+    pub node_id: Vec<u64>,
+    /// Reference positions, m.
+    pub x0: Vec<[f64; 2]>,
+    /// Displacements, m.
+    pub u: Vec<[f64; 2]>,
+    /// Velocities at the last half step, m/s.
+    pub v: Vec<[f64; 2]>,
+    /// Unbalanced force (internal + external), N/m.
+    pub force: Vec<[f64; 2]>,
+    /// Damping force, N/m (stays zero when the damping system is off).
+    pub f_damp: Vec<[f64; 2]>,
+    /// Constant external load (tractions, body forces), N/m.
+    pub load: Vec<[f64; 2]>,
+    /// Lumped mass, kg/m, and its inverse.
+    pub mass: Vec<f64>,
+    pub inv_mass: Vec<f64>,
+    /// Bit d set: displacement component d is prescribed to `presc[i][d]`.
+    pub fixed: Vec<u8>,
+    pub presc: Vec<[f64; 2]>,
+    pub elem_entity: Vec<Entity>,
+    pub elem_id: Vec<u64>,
+    /// Dense node indices of each element.
+    pub conn: Vec<[u32; 3]>,
+    /// Element geometry packed as [area, dN0/dx, dN1/dx, dN2/dx, dN0/dy, dN1/dy, dN2/dy].
+    pub geom: Vec<[f64; 7]>,
+    /// Element stress [sxx, syy, sxy], Pa.
+    pub stress: Vec<[f64; 3]>,
+    /// Element nodal forces [f0x, f0y, f1x, f1y, f2x, f2y], N/m.
+    pub elem_force: Vec<[f64; 6]>,
+    /// Node -> (element * 6 + 2 * local node) incidence, CSR, ascending element order.
+    pub inc_ptr: Vec<u32>,
+    pub inc: Vec<u32>,
+}
+
+impl SolidView {
+    /// Build the view from the model (nodes in the solid only), ordered by stable id.
+    pub fn build(model: &Model) -> Self {
+        let world = &model.world;
+        let mut nodes: Vec<(u64, Entity, [f64; 2], NodeState, f64, NodeBc)> = world
+            .query::<(Entity, &StableId, &NodeRef, &NodeState, &NodeMass, &NodeBc, &NodeLink)>()
+            .iter()
+            .filter(|r| r.6.in_solid)
+            .map(|(e, id, x, s, m, bc, _)| (id.0, e, x.0, *s, m.0, *bc))
+            .collect();
+        nodes.sort_unstable_by_key(|r| r.0);
+        let max_index = world.iter().map(|e| e.entity().id()).max().map_or(0, |m| m as usize + 1);
+        let mut dense = vec![NONE; max_index];
+        let n = nodes.len();
+        let mut v = SolidView {
+            generation: model.topology_generation,
+            ..Default::default()
+        };
+        v.node_entity.reserve(n);
+        for (i, (id, e, x, s, m, bc)) in nodes.into_iter().enumerate() {
+            dense[e.id() as usize] = i as u32;
+            v.node_entity.push(e);
+            v.node_id.push(id);
+            v.x0.push(x);
+            v.u.push(s.u);
+            v.v.push(s.v);
+            v.mass.push(m);
+            v.inv_mass.push(if m > 0.0 { 1.0 / m } else { 0.0 });
+            v.load.push(bc.load);
+            let mut mask = 0u8;
+            let mut p = [0.0; 2];
+            for d in 0..2 {
+                if let Some(val) = bc.prescribed[d] {
+                    mask |= 1 << d;
+                    p[d] = val;
+                }
+            }
+            v.fixed.push(mask);
+            v.presc.push(p);
+        }
+        v.force = vec![[0.0; 2]; n];
+        v.f_damp = vec![[0.0; 2]; n];
+
+        let mut elems: Vec<(u64, Entity, ElemNodes, ElemGeom, [f64; 3])> = world
+            .query::<(Entity, &StableId, &ElemNodes, &ElemGeom, &ElemStress)>()
+            .iter()
+            .map(|(e, id, en, g, s)| (id.0, e, *en, *g, s.0))
+            .collect();
+        elems.sort_unstable_by_key(|r| r.0);
+        let ne = elems.len();
+        v.elem_entity.reserve(ne);
+        for (id, e, en, g, s) in elems {
+            v.elem_entity.push(e);
+            v.elem_id.push(id);
+            v.conn.push(en.0.map(|n| dense[n.id() as usize]));
+            v.geom.push([g.area, g.dndx[0], g.dndx[1], g.dndx[2], g.dndy[0], g.dndy[1], g.dndy[2]]);
+            v.stress.push(s);
+        }
+        v.elem_force = vec![[0.0; 6]; ne];
+        // Node incidence (CSR) for the deterministic gather of element forces.
+        let mut count = vec![0u32; n + 1];
+        for c in &v.conn {
+            for &a in c {
+                count[a as usize + 1] += 1;
+            }
+        }
+        for i in 0..n {
+            count[i + 1] += count[i];
+        }
+        let mut fill = count.clone();
+        v.inc = vec![0; count[n] as usize];
+        for (e, c) in v.conn.iter().enumerate() {
+            for (k, &a) in c.iter().enumerate() {
+                v.inc[fill[a as usize] as usize] = (e * 6 + 2 * k) as u32;
+                fill[a as usize] += 1;
+            }
+        }
+        v.inc_ptr = count;
+        v
+    }
+
+    pub fn n_nodes(&self) -> usize {
+        self.node_entity.len()
+    }
+    pub fn n_elems(&self) -> usize {
+        self.elem_entity.len()
+    }
+
+    /// Copy the hot state (displacement, velocity, stress) back into the components.
+    pub fn write_back(&self, model: &mut Model) {
+        let mut view = model.world.view_mut::<&mut NodeState>();
+        for (i, &e) in self.node_entity.iter().enumerate() {
+            if let Some(s) = view.get_mut(e) {
+                s.u = self.u[i];
+                s.v = self.v[i];
+            }
+        }
+        let mut view = model.world.view_mut::<&mut ElemStress>();
+        for (k, &e) in self.elem_entity.iter().enumerate() {
+            if let Some(s) = view.get_mut(e) {
+                s.0 = self.stress[k];
+            }
+        }
+    }
+
+    /// Deformed position of node i, m.
+    pub fn position(&self, i: usize) -> [f64; 2] {
+        [self.x0[i][0] + self.u[i][0], self.x0[i][1] + self.u[i][1]]
+    }
+}

@@ -1,0 +1,78 @@
+//! The systems of a step and their literal order.
+//!
+//! A step runs the enabled systems of [`SystemId::ORDER`] one after the other, each inside one
+//! `tracing` span named after it (opened on the scheduler thread; rayon work inside a system is
+//! counted in that system's span). Order is load-bearing:
+//! - `internal_force` overwrites the force array, so it runs first;
+//! - `external_load` adds to it, and `damping` reads the complete unbalanced force;
+//! - `integrate` consumes forces and produces the step statistics that `monitor` checks;
+//! - `monitor` must run before `output` so that no frame with non-finite values is written.
+
+pub mod solid;
+
+/// A named system of the step.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum SystemId {
+    InternalForce,
+    ExternalLoad,
+    Damping,
+    Integrate,
+    Monitor,
+    Output,
+}
+
+impl SystemId {
+    /// The step, in order.
+    pub const ORDER: [SystemId; 6] = [
+        SystemId::InternalForce,
+        SystemId::ExternalLoad,
+        SystemId::Damping,
+        SystemId::Integrate,
+        SystemId::Monitor,
+        SystemId::Output,
+    ];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            SystemId::InternalForce => "internal_force",
+            SystemId::ExternalLoad => "external_load",
+            SystemId::Damping => "damping",
+            SystemId::Integrate => "integrate",
+            SystemId::Monitor => "monitor",
+            SystemId::Output => "output",
+        }
+    }
+
+    /// One line on what the system does (shown by `hydrofrac systems` and in the README).
+    pub fn doc(self) -> &'static str {
+        match self {
+            SystemId::InternalForce => "CST stresses and nodal internal forces, gathered by node",
+            SystemId::ExternalLoad => "adds constant boundary tractions and body forces",
+            SystemId::Damping => "local (Cundall) or viscous damping force for pseudo-static response",
+            SystemId::Integrate => "central-difference update of velocity and displacement; prescribed displacements",
+            SystemId::Monitor => "blow-up detection (non-finite or runaway velocity), residual and convergence",
+            SystemId::Output => "ParaView frames and timeseries.csv rows at the scenario's intervals",
+        }
+    }
+
+    /// Systems that cannot be switched off (the run would be unsafe or meaningless).
+    pub fn required(self) -> bool {
+        matches!(self, SystemId::Integrate | SystemId::Monitor)
+    }
+
+    pub fn from_name(name: &str) -> Option<SystemId> {
+        Self::ORDER.into_iter().find(|s| s.name() == name)
+    }
+
+    /// The system's span. Names are literals so the timing layer and Perfetto see them as is.
+    pub fn span(self) -> tracing::Span {
+        match self {
+            SystemId::InternalForce => tracing::info_span!(target: "hydrofrac::system", "internal_force"),
+            SystemId::ExternalLoad => tracing::info_span!(target: "hydrofrac::system", "external_load"),
+            SystemId::Damping => tracing::info_span!(target: "hydrofrac::system", "damping"),
+            SystemId::Integrate => tracing::info_span!(target: "hydrofrac::system", "integrate"),
+            SystemId::Monitor => tracing::info_span!(target: "hydrofrac::system", "monitor"),
+            SystemId::Output => tracing::info_span!(target: "hydrofrac::system", "output"),
+        }
+    }
+}

@@ -1,0 +1,273 @@
+//! Solid systems: internal force of plane-strain constant-strain triangles, external loads,
+//! damping, and central-difference integration with prescribed displacements.
+//!
+//! All run on the dense [`SolidView`]. Parallel loops write only their own element or node;
+//! reductions are summed over fixed-size chunks in chunk order, so results are bit-identical
+//! for any number of threads.
+
+use crate::scenario::Damping;
+use crate::view::SolidView;
+use rayon::prelude::*;
+
+/// Material and step constants used by the solid kernels.
+#[derive(Clone, Copy, Debug)]
+pub struct SolidParams {
+    /// lambda + 2G, Pa.
+    pub lam2g: f64,
+    /// Lame's lambda, Pa.
+    pub lam: f64,
+    /// Shear modulus G, Pa.
+    pub g: f64,
+    /// Time step, s.
+    pub dt: f64,
+    pub damping: Damping,
+}
+
+/// Elements per rayon task in element loops, nodes per task / reduction chunk in node loops.
+pub const ELEM_GRAIN: usize = 4096;
+pub const NODE_CHUNK: usize = 4096;
+
+/// Strain of one element from its nodal displacements: [exx, eyy, gamma_xy] (engineering shear).
+#[inline(always)]
+pub fn cst_strain(g: &[f64; 7], u: [[f64; 2]; 3]) -> [f64; 3] {
+    [
+        g[1] * u[0][0] + g[2] * u[1][0] + g[3] * u[2][0],
+        g[4] * u[0][1] + g[5] * u[1][1] + g[6] * u[2][1],
+        g[4] * u[0][0] + g[5] * u[1][0] + g[6] * u[2][0] + g[1] * u[0][1] + g[2] * u[1][1] + g[3] * u[2][1],
+    ]
+}
+
+/// Plane-strain Hooke's law: [sxx, syy, sxy], Pa, from [exx, eyy, gamma_xy].
+#[inline(always)]
+pub fn hooke(e: [f64; 3], p: &SolidParams) -> [f64; 3] {
+    [p.lam2g * e[0] + p.lam * e[1], p.lam * e[0] + p.lam2g * e[1], p.g * e[2]]
+}
+
+/// Stress of one element from its nodal displacements: [sxx, syy, sxy], Pa.
+#[inline(always)]
+pub fn cst_stress(g: &[f64; 7], u: [[f64; 2]; 3], p: &SolidParams) -> [f64; 3] {
+    hooke(cst_strain(g, u), p)
+}
+
+/// Nodal internal forces of one element, f_a = -A B_a^T sigma, N/m.
+#[inline(always)]
+pub fn cst_forces(g: &[f64; 7], s: [f64; 3]) -> [f64; 6] {
+    let a = g[0];
+    let mut f = [0.0; 6];
+    for k in 0..3 {
+        let (bx, by) = (g[1 + k], g[4 + k]);
+        f[2 * k] = -a * (bx * s[0] + by * s[2]);
+        f[2 * k + 1] = -a * (bx * s[2] + by * s[1]);
+    }
+    f
+}
+
+/// `internal_force`: element stresses and nodal forces, then a gather by node (no atomics).
+/// Overwrites `force` with the internal force.
+pub fn internal_force(v: &mut SolidView, p: &SolidParams) {
+    let (conn, geom, u) = (&v.conn, &v.geom, &v.u);
+    v.stress
+        .par_iter_mut()
+        .zip(v.elem_force.par_iter_mut())
+        .zip(conn.par_iter().zip(geom.par_iter()))
+        .with_min_len(ELEM_GRAIN)
+        .for_each(|((s, f), (c, g))| {
+            let ue = [u[c[0] as usize], u[c[1] as usize], u[c[2] as usize]];
+            *s = cst_stress(g, ue, p);
+            *f = cst_forces(g, *s);
+        });
+    let ef = v.elem_force.as_flattened();
+    let (ptr, inc) = (&v.inc_ptr, &v.inc);
+    v.force
+        .par_iter_mut()
+        .enumerate()
+        .with_min_len(NODE_CHUNK)
+        .for_each(|(i, f)| {
+            let mut acc = [0.0; 2];
+            for &k in &inc[ptr[i] as usize..ptr[i + 1] as usize] {
+                acc[0] += ef[k as usize];
+                acc[1] += ef[k as usize + 1];
+            }
+            *f = acc;
+        });
+}
+
+/// Recompute element stresses from the current displacements (the stress kept by
+/// `internal_force` lags the displacement by one step).
+pub fn update_stress(v: &mut SolidView, p: &SolidParams) {
+    let (conn, geom, u) = (&v.conn, &v.geom, &v.u);
+    v.stress
+        .par_iter_mut()
+        .zip(conn.par_iter().zip(geom.par_iter()))
+        .with_min_len(ELEM_GRAIN)
+        .for_each(|(s, (c, g))| *s = cst_stress(g, c.map(|a| u[a as usize]), p));
+}
+
+/// `external_load`: add the constant external loads (tractions, body forces) to `force`.
+pub fn external_load(v: &mut SolidView) {
+    v.force
+        .par_iter_mut()
+        .zip(v.load.par_iter())
+        .with_min_len(NODE_CHUNK)
+        .for_each(|(f, l)| {
+            f[0] += l[0];
+            f[1] += l[1];
+        });
+}
+
+/// `damping`: damping force from the unbalanced force and the velocity.
+/// Local (Cundall): -alpha |F| sign(v_new) per component, with v_new the undamped predictor;
+/// viscous: -c m v.
+pub fn damping(v: &mut SolidView, p: &SolidParams) {
+    let (force, vel, mass, inv_m, dt) = (&v.force, &v.v, &v.mass, &v.inv_mass, p.dt);
+    match p.damping {
+        Damping::None => v.f_damp.iter_mut().for_each(|f| *f = [0.0; 2]),
+        Damping::Local(alpha) => v
+            .f_damp
+            .par_iter_mut()
+            .enumerate()
+            .with_min_len(NODE_CHUNK)
+            .for_each(|(i, fd)| {
+                for d in 0..2 {
+                    // Sign of the undamped predictor v + dt F/m, i.e. of the new velocity: with
+                    // the sign of the old velocity the damping force feeds the highest mode
+                    // (whose velocity flips every step) and the scheme is unstable near dt_crit.
+                    let s = vel[i][d] + dt * force[i][d] * inv_m[i];
+                    fd[d] = if s > 0.0 {
+                        -alpha * force[i][d].abs()
+                    } else if s < 0.0 {
+                        alpha * force[i][d].abs()
+                    } else {
+                        0.0
+                    };
+                }
+            }),
+        Damping::Viscous(c) => v
+            .f_damp
+            .par_iter_mut()
+            .enumerate()
+            .with_min_len(NODE_CHUNK)
+            .for_each(|(i, fd)| {
+                fd[0] = -c * mass[i] * vel[i][0];
+                fd[1] = -c * mass[i] * vel[i][1];
+            }),
+    }
+}
+
+/// Quantities reduced over the nodes during integration.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct StepStats {
+    /// Kinetic energy at the new half step, J/m.
+    pub kinetic: f64,
+    /// Leapfrog kinetic energy 1/2 sum m v(n-1/2).v(n+1/2), J/m: with `strain` it forms the
+    /// energy that central difference conserves exactly for undamped linear elasticity.
+    pub kinetic_mid: f64,
+    /// Strain energy at the start of the step, -1/2 sum u(n).f_int(u(n)), J/m.
+    pub strain: f64,
+    /// Sum of squared unbalanced force on free dofs, (N/m)^2.
+    pub res2: f64,
+    /// Sum of squared reactions on prescribed dofs plus squared loads, (N/m)^2.
+    pub ref2: f64,
+    /// Largest speed and the dense node index where it occurs.
+    pub vmax: f64,
+    pub vmax_node: usize,
+    /// First node (dense index) with a non-finite displacement or velocity.
+    pub non_finite: Option<usize>,
+}
+
+impl StepStats {
+    fn merge(mut self, o: StepStats) -> StepStats {
+        self.kinetic += o.kinetic;
+        self.kinetic_mid += o.kinetic_mid;
+        self.strain += o.strain;
+        self.res2 += o.res2;
+        self.ref2 += o.ref2;
+        if o.vmax > self.vmax {
+            self.vmax = o.vmax;
+            self.vmax_node = o.vmax_node;
+        }
+        if self.non_finite.is_none() {
+            self.non_finite = o.non_finite;
+        }
+        self
+    }
+
+    /// Static residual: ||unbalanced force on free dofs|| / ||reactions and loads||.
+    pub fn residual(&self) -> f64 {
+        if self.ref2 > 0.0 {
+            (self.res2 / self.ref2).sqrt()
+        } else if self.res2 == 0.0 {
+            0.0
+        } else {
+            f64::INFINITY
+        }
+    }
+}
+
+/// `integrate`: central difference, v += dt (F + F_damp)/m, u += dt v; prescribed components
+/// are held at their value with zero velocity. Returns the step statistics.
+pub fn integrate(v: &mut SolidView, p: &SolidParams) -> StepStats {
+    let dt = p.dt;
+    let (force, fdamp, inv_m, mass, fixed, presc, load) =
+        (&v.force, &v.f_damp, &v.inv_mass, &v.mass, &v.fixed, &v.presc, &v.load);
+    let partials: Vec<StepStats> = v
+        .u
+        .par_chunks_mut(NODE_CHUNK)
+        .zip(v.v.par_chunks_mut(NODE_CHUNK))
+        .enumerate()
+        .map(|(c, (uc, vc))| {
+            let mut st = StepStats::default();
+            let base = c * NODE_CHUNK;
+            for (k, (u, vel)) in uc.iter_mut().zip(vc.iter_mut()).enumerate() {
+                let i = base + k;
+                let v_old = *vel;
+                for d in 0..2 {
+                    let f = force[i][d];
+                    st.strain -= 0.5 * u[d] * (f - load[i][d]);
+                    st.ref2 += load[i][d] * load[i][d];
+                    if fixed[i] & (1 << d) != 0 {
+                        st.ref2 += f * f;
+                        u[d] = presc[i][d];
+                        vel[d] = 0.0;
+                    } else {
+                        st.res2 += f * f;
+                        vel[d] += dt * (f + fdamp[i][d]) * inv_m[i];
+                        u[d] += dt * vel[d];
+                    }
+                }
+                let s2 = vel[0] * vel[0] + vel[1] * vel[1];
+                st.kinetic += 0.5 * mass[i] * s2;
+                st.kinetic_mid += 0.5 * mass[i] * (v_old[0] * vel[0] + v_old[1] * vel[1]);
+                if !(s2.is_finite() && u[0].is_finite() && u[1].is_finite()) {
+                    st.non_finite.get_or_insert(i);
+                } else if s2 > st.vmax * st.vmax {
+                    st.vmax = s2.sqrt();
+                    st.vmax_node = i;
+                }
+            }
+            st
+        })
+        .collect();
+    partials.into_iter().fold(StepStats::default(), StepStats::merge)
+}
+
+/// Strain energy 1/2 sum_e A sigma:epsilon, J/m, from the current element stresses
+/// (plane strain: the zz term vanishes because eps_zz = 0).
+pub fn strain_energy(v: &SolidView, p: &SolidParams) -> f64 {
+    let partial: Vec<f64> = v
+        .conn
+        .par_chunks(ELEM_GRAIN)
+        .zip(v.geom.par_chunks(ELEM_GRAIN))
+        .map(|(cc, gc)| {
+            let mut e = 0.0;
+            for (c, g) in cc.iter().zip(gc) {
+                let ue = [v.u[c[0] as usize], v.u[c[1] as usize], v.u[c[2] as usize]];
+                let eps = cst_strain(g, ue);
+                let s = hooke(eps, p);
+                e += 0.5 * g[0] * (s[0] * eps[0] + s[1] * eps[1] + s[2] * eps[2]);
+            }
+            e
+        })
+        .collect();
+    partial.into_iter().sum()
+}
