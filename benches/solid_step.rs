@@ -1,1 +1,95 @@
-fn main(){}
+//! Whole solid step (internal force, boundary conditions, damping, integration) in ns per
+//! element per step: the ECS engine (`Simulation::step_once`, with its schedule, spans and
+//! monitoring) beside the flat-array reference kernel of the same physics, on 20,000, 320,000
+//! and 1,280,000-element meshes, with 1 and 2 threads.
+//!
+//! Run: `cargo bench --bench solid_step` (criterion reports Melem/s; ns/element = 1000 / that).
+//! Set HYDROFRAC_BENCH_SIZES=100,400 to pick meshes (cells per side of the 100 m square).
+
+use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
+use hydrofrac::mesh::TriMesh;
+use hydrofrac::reference::FlatSolid;
+use hydrofrac::scenario::{Boundary, Damping, End, Material, MeshSpec};
+use hydrofrac::sim::Simulation;
+use hydrofrac::verify::solid_cases::scenario;
+use std::time::Duration;
+
+const ROCK: Material = Material {
+    young: 20e9,
+    poisson: 0.2,
+    density: 2700.0,
+};
+
+fn sizes() -> Vec<usize> {
+    std::env::var("HYDROFRAC_BENCH_SIZES")
+        .ok()
+        .map(|s| s.split(',').filter_map(|x| x.trim().parse().ok()).collect())
+        .unwrap_or_else(|| vec![100, 400, 800])
+}
+
+fn solid_step(c: &mut Criterion) {
+    let mut group = c.benchmark_group("solid_step");
+    group
+        .sample_size(10)
+        .warm_up_time(Duration::from_millis(500))
+        .measurement_time(Duration::from_secs(2));
+    for n in sizes() {
+        let h = 100.0 / n as f64;
+        let elems = 2 * n * n;
+        group.throughput(Throughput::Elements(elems as u64));
+        let sc = scenario(
+            "bench",
+            MeshSpec::Regular {
+                width: 100.0,
+                height: 100.0,
+                h,
+                origin: [0.0, 0.0],
+            },
+            ROCK,
+            Boundary::InSitu {
+                sxx: -20e6,
+                syy: -10e6,
+            },
+            End::Time(1e9),
+            Damping::Local(0.8),
+        );
+        let mut sim = Simulation::new(sc, &[]).unwrap();
+        let mesh = TriMesh::regular(100.0, 100.0, h, [0.0, 0.0]).unwrap();
+        let bcs: Vec<[Option<f64>; 2]> = (0..sim.view.n_nodes())
+            .map(|i| {
+                [0, 1].map(|d| (sim.view.fixed[i] & (1 << d) != 0).then_some(sim.view.presc[i][d]))
+            })
+            .collect();
+        let w = n + 1;
+        let mut flat = FlatSolid::new(&mesh, &ROCK, sim.params, 0.8, |x| {
+            let (i, j) = ((x[0] / h).round() as usize, (x[1] / h).round() as usize);
+            bcs[j * w + i]
+        });
+        for threads in [1usize, 2] {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            group.bench_function(BenchmarkId::new(format!("ecs/{threads}t"), elems), |b| {
+                pool.install(|| b.iter(|| sim.step_once().unwrap()))
+            });
+            group.bench_function(
+                BenchmarkId::new(format!("flat_parallel/{threads}t"), elems),
+                |b| pool.install(|| b.iter(|| flat.step_parallel())),
+            );
+            if threads == 1 {
+                group.bench_function(BenchmarkId::new("flat_serial/1t", elems), |b| {
+                    b.iter(|| flat.step_serial())
+                });
+            }
+        }
+    }
+    group.finish();
+}
+
+criterion_group! {
+    name = benches;
+    config = Criterion::default().without_plots();
+    targets = solid_step
+}
+criterion_main!(benches);

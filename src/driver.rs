@@ -56,7 +56,8 @@ pub fn run_scenario(scenario: Scenario, opts: &RunOptions) -> Result<RunReport, 
         .clone()
         .unwrap_or_else(|| PathBuf::from("out").join(&scenario.name));
     let mut sim = Simulation::new(scenario, &opts.disable)?;
-    let outputs = Outputs::create(&out, &sim.scenario.output.fields).map_err(DriverError::Output)?;
+    let outputs =
+        Outputs::create(&out, &sim.scenario.output.fields).map_err(DriverError::Output)?;
     sim.output = Some(outputs);
 
     let timing = TimingLayer::default();
@@ -92,7 +93,12 @@ pub fn run_scenario(scenario: Scenario, opts: &RunOptions) -> Result<RunReport, 
         .iter()
         .map(|(s, st)| {
             let t = times.get(s.name()).copied().unwrap_or_default();
-            (s.name().to_string(), *st == Status::Enabled, t.calls, t.total.as_secs_f64())
+            (
+                s.name().to_string(),
+                *st == Status::Enabled,
+                t.calls,
+                t.total.as_secs_f64(),
+            )
         })
         .collect();
     let timing_table = format_table(&rows);

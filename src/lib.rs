@@ -5,6 +5,10 @@
 //! Layout: `components/` holds the ECS components, `systems/` the step's systems and their
 //! order; `src/` the mesh, model, dense views, scenario files, outputs, verification and CLI.
 
+// Index loops over the 2 components of a vector or the 3 nodes of a triangle read like the
+// equations they implement.
+#![allow(clippy::needless_range_loop)]
+
 #[path = "../components/mod.rs"]
 pub mod components;
 #[path = "../systems/mod.rs"]
@@ -15,10 +19,11 @@ pub mod error;
 pub mod mesh;
 pub mod model;
 pub mod output;
+pub mod plot;
+pub mod reference;
 pub mod scenario;
 pub mod schedule;
 pub mod sim;
 pub mod timing;
-pub mod view;
 pub mod verify;
-pub mod plot;
+pub mod view;

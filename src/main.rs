@@ -7,7 +7,11 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 #[derive(Parser)]
-#[command(name = "hydrofrac", version, about = "Hydraulic fracturing in hard rock: explicit FEM rock mass, fracture flow, node splitting")]
+#[command(
+    name = "hydrofrac",
+    version,
+    about = "Hydraulic fracturing in hard rock: explicit FEM rock mass, fracture flow, node splitting"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -92,7 +96,9 @@ fn real_main() -> Result<ExitCode> {
                     s["finish"].as_str().unwrap_or(""),
                 );
                 if s["finish"] == "max_steps" {
-                    eprintln!("warning: stopped at time.max_steps before the end condition was met");
+                    eprintln!(
+                        "warning: stopped at time.max_steps before the end condition was met"
+                    );
                 }
                 println!("{}", report.timing_table);
                 println!("outputs in {}", report.out.display());
@@ -101,7 +107,11 @@ fn real_main() -> Result<ExitCode> {
         }
         Command::Verify { cases, out, quick } => {
             let ok = hydrofrac::verify::run_cases(&cases, &out, quick)?;
-            Ok(if ok { ExitCode::SUCCESS } else { ExitCode::FAILURE })
+            Ok(if ok {
+                ExitCode::SUCCESS
+            } else {
+                ExitCode::FAILURE
+            })
         }
         Command::Systems => {
             for s in hydrofrac::systems::SystemId::ORDER {

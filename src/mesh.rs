@@ -101,9 +101,9 @@ impl TriMesh {
                     if on_y { p[1] } else { p[1] + dy },
                 ];
                 mesh.nodes[n] = q;
-                let ok = node_tris[n]
-                    .iter()
-                    .all(|&t| mesh.area(&mesh.triangles[t as usize]) > 0.25 * orig_area[t as usize]);
+                let ok = node_tris[n].iter().all(|&t| {
+                    mesh.area(&mesh.triangles[t as usize]) > 0.25 * orig_area[t as usize]
+                });
                 if ok {
                     break;
                 }

@@ -28,7 +28,8 @@ pub struct Model {
 
 /// Geometry of a constant-strain triangle with nodes p (counter-clockwise).
 pub fn element_geometry(p: [[f64; 2]; 3]) -> ElemGeom {
-    let two_a = (p[1][0] - p[0][0]) * (p[2][1] - p[0][1]) - (p[2][0] - p[0][0]) * (p[1][1] - p[0][1]);
+    let two_a =
+        (p[1][0] - p[0][0]) * (p[2][1] - p[0][1]) - (p[2][0] - p[0][0]) * (p[1][1] - p[0][1]);
     let inv = 1.0 / two_a;
     ElemGeom {
         area: 0.5 * two_a,
@@ -55,7 +56,11 @@ impl Model {
             .iter()
             .map(|t| element_geometry([0, 1, 2].map(|k| mesh.nodes[t[k] as usize])))
             .collect();
-        if let Some((e, g)) = geoms.iter().enumerate().find(|(_, g)| !(g.area > 0.0)) {
+        if let Some((e, g)) = geoms
+            .iter()
+            .enumerate()
+            .find(|(_, g)| g.area.is_nan() || g.area <= 0.0)
+        {
             return Err(SetupError::invalid(
                 "mesh",
                 format!("triangle {e} has non-positive area {:.3e} m^2", g.area),
@@ -208,7 +213,12 @@ impl Model {
         let side_index = |s: Side| Side::ALL.iter().position(|&t| t == s).expect("side");
         // Prescribed displacements.
         let mut updates = Vec::new();
-        for (e, (x, link)) in self.world.query::<(Entity, &NodeRef, &NodeLink)>().iter().map(|(e, x, l)| (e, (x, l))) {
+        for (e, (x, link)) in self
+            .world
+            .query::<(Entity, &NodeRef, &NodeLink)>()
+            .iter()
+            .map(|(e, x, l)| (e, (x, l)))
+        {
             if !link.in_solid {
                 continue;
             }

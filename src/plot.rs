@@ -1,5 +1,1077 @@
-// TEMPORARY STUB (replaced by helper's module)
-pub struct Series { pub label: String, pub points: Vec<(f64, f64)> }
-#[derive(Debug, thiserror::Error)] pub enum PlotError { #[error("x")] X }
-pub fn loglog(_p: &std::path::Path, _t: &str, _x: &str, _y: &str, _s: &[Series]) -> Result<(), PlotError> { Ok(()) }
-pub fn lines(_p: &std::path::Path, _t: &str, _x: &str, _y: &str, _s: &[Series]) -> Result<(), PlotError> { Ok(()) }
+//! PNG line plots (log-log and linear) drawn with plotters' bitmap backend and
+//! an embedded DejaVu Sans font (`assets/DejaVuSans.ttf`).
+//!
+//! Log plots are drawn in log10 space with power-of-ten tick labels. Series
+//! with more than 60 points get no markers. The legend goes in the plot
+//! corner covering the fewest curve samples. PNGs are written atomically
+//! (`<name>.tmp.png` in the same folder, then renamed).
+//!
+//! All text is drawn by this module glyph by glyph (`Pen`), not by
+//! plotters' text path, to work around its letter-spacing bug.
+
+use std::fs;
+use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
+
+use plotters::coord::Shift;
+use plotters::coord::ranged1d::{DefaultFormatting, KeyPointHint, Ranged};
+use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, VPos};
+use plotters::style::{FontStyle, RGBColor};
+
+/// One named polyline (drawn in the given order).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Series {
+    pub label: String,
+    pub points: Vec<(f64, f64)>,
+}
+
+/// Error from [`loglog`] / [`lines`].
+#[derive(Debug, thiserror::Error)]
+pub enum PlotError {
+    #[error("the embedded plot font could not be loaded")]
+    Font,
+    #[error("cannot draw plot {path}: {message}")]
+    Draw { path: PathBuf, message: String },
+    #[error("cannot write plot {path}: {source}")]
+    Io {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+}
+
+const WIDTH: u32 = 1000;
+const HEIGHT: u32 = 700;
+/// Series with more points than this are drawn as plain lines (no markers).
+const MAX_MARKED_POINTS: usize = 60;
+
+static FONT_BYTES: &[u8] = include_bytes!(concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/assets/DejaVuSans.ttf"
+));
+
+fn ensure_font() -> Result<(), PlotError> {
+    static REGISTERED: OnceLock<bool> = OnceLock::new();
+    let ok = *REGISTERED.get_or_init(|| {
+        plotters::style::register_font("sans-serif", FontStyle::Normal, FONT_BYTES).is_ok()
+    });
+    if ok { Ok(()) } else { Err(PlotError::Font) }
+}
+
+/// Tableau-10 palette.
+const PALETTE: [RGBColor; 10] = [
+    RGBColor(31, 119, 180),
+    RGBColor(255, 127, 14),
+    RGBColor(44, 160, 44),
+    RGBColor(214, 39, 40),
+    RGBColor(148, 103, 189),
+    RGBColor(140, 86, 75),
+    RGBColor(227, 119, 194),
+    RGBColor(127, 127, 127),
+    RGBColor(188, 189, 34),
+    RGBColor(23, 190, 207),
+];
+
+/// Log-log plot, one line+markers per series, legend, axis labels, 1000x700
+/// px PNG. Non-positive and non-finite points are dropped (noted on the plot);
+/// if nothing is left, a PNG with a "no data" note is still written.
+pub fn loglog(
+    path: &Path,
+    title: &str,
+    xlabel: &str,
+    ylabel: &str,
+    series: &[Series],
+) -> Result<(), PlotError> {
+    render(path, title, xlabel, ylabel, series, true)
+}
+
+/// Linear-axes line plot (e.g. time series), same style as [`loglog`].
+/// Non-finite points are dropped.
+pub fn lines(
+    path: &Path,
+    title: &str,
+    xlabel: &str,
+    ylabel: &str,
+    series: &[Series],
+) -> Result<(), PlotError> {
+    render(path, title, xlabel, ylabel, series, false)
+}
+
+// ---------------------------------------------------------------------------
+// Axis ranges, ticks and labels
+// ---------------------------------------------------------------------------
+
+#[derive(Clone)]
+struct Axis {
+    lo: f64,
+    hi: f64,
+    major: Vec<f64>,
+    minor: Vec<f64>,
+    /// Log axis: values are log10 of data.
+    log: bool,
+    /// Linear: tick step. Log: unused.
+    step: f64,
+    /// Plain decimal labels (vs. scientific).
+    plain: bool,
+    /// Log axis spanning too little for 1..9 x 10^k ticks: linear ticks
+    /// (in value space) and their labels.
+    fine: Option<Box<Axis>>,
+}
+
+const SUPERSCRIPT: [char; 10] = ['⁰', '¹', '²', '³', '⁴', '⁵', '⁶', '⁷', '⁸', '⁹'];
+
+fn superscript(k: i32) -> String {
+    let mut s = String::new();
+    if k < 0 {
+        s.push('⁻');
+    }
+    for d in k.unsigned_abs().to_string().bytes() {
+        s.push(SUPERSCRIPT[(d - b'0') as usize]);
+    }
+    s
+}
+
+/// `m × 10^k` written out in plain decimal (m, k integers, m in 1..=9).
+fn plain_decimal(m: i64, k: i32) -> String {
+    if k >= 0 {
+        format!("{}{}", m, "0".repeat(k as usize))
+    } else {
+        format!("0.{}{}", "0".repeat((-k - 1) as usize), m)
+    }
+}
+
+impl Axis {
+    /// Linear axis over the data extent plus 5% margins.
+    fn linear(dmin: f64, dmax: f64) -> Axis {
+        let (lo, hi) = if dmax > dmin {
+            let pad = 0.05 * (dmax - dmin);
+            (dmin - pad, dmax + pad)
+        } else {
+            let pad = if dmin == 0.0 { 1.0 } else { 0.1 * dmin.abs() };
+            (dmin - pad, dmin + pad)
+        };
+        Axis::linear_exact(lo.max(-f64::MAX), hi.min(f64::MAX))
+    }
+
+    /// Linear axis over exactly `lo..hi`, ~8 ticks at 1/2/2.5/5 x 10^k.
+    fn linear_exact(lo: f64, hi: f64) -> Axis {
+        // Divide first so huge ranges do not overflow.
+        let raw = hi / 8.0 - lo / 8.0;
+        let raw = if raw > 0.0 && raw.is_finite() {
+            raw
+        } else {
+            1.0
+        };
+        let mag = 10f64.powf(raw.log10().floor());
+        let step = [1.0, 2.0, 2.5, 5.0, 10.0]
+            .iter()
+            .map(|f| f * mag)
+            .find(|&s| s >= raw * (1.0 - 1e-12))
+            .unwrap_or(10.0 * mag);
+        let minor_step = if (step / mag - 2.0).abs() < 1e-9 {
+            step / 4.0
+        } else {
+            step / 5.0
+        };
+        let multiples = |s: f64| -> Vec<f64> {
+            let first = (lo / s).ceil() as i64;
+            let last = (hi / s).floor() as i64;
+            (first..=last.max(first - 1))
+                .map(|i| {
+                    let v = i as f64 * s;
+                    if v.abs() < s * 1e-9 { 0.0 } else { v }
+                })
+                .collect()
+        };
+        let major = multiples(step);
+        let minor = multiples(minor_step);
+        let big = lo.abs().max(hi.abs());
+        let plain = (1e-3..1e6).contains(&big) && step >= 1e-6;
+        Axis {
+            lo,
+            hi,
+            major,
+            minor,
+            log: false,
+            step,
+            plain,
+            fine: None,
+        }
+    }
+
+    /// `lmin`, `lmax` are log10 of the positive data extent.
+    fn log(lmin: f64, lmax: f64) -> Axis {
+        // Margins in decades: 5% of the span (at least 0.05), half a decade
+        // each side when all values are equal.
+        let (lo, hi) = if lmax - lmin < 1e-9 {
+            (lmin - 0.5, lmax + 0.5)
+        } else {
+            let m = (0.05 * (lmax - lmin)).max(0.05);
+            (lmin - m, lmax + m)
+        };
+
+        let in_range = |t: f64| t >= lo && t <= hi;
+        let first = lo.floor() as i64;
+        let last = hi.ceil() as i64;
+        let decades: Vec<f64> = (first..=last)
+            .map(|k| k as f64)
+            .filter(|&t| in_range(t))
+            .collect();
+        let with_mults = |ms: &[i64]| -> Vec<f64> {
+            (first..=last)
+                .flat_map(|k| ms.iter().map(move |&m| k as f64 + (m as f64).log10()))
+                .filter(|&t| in_range(t))
+                .collect()
+        };
+        let all = with_mults(&[1, 2, 3, 4, 5, 6, 7, 8, 9]);
+        let major = if decades.len() >= 3 {
+            let stride = decades.len().div_ceil(10);
+            decades
+                .iter()
+                .copied()
+                .filter(|t| (*t as i64).rem_euclid(stride as i64) == 0)
+                .collect()
+        } else {
+            let m125 = with_mults(&[1, 2, 5]);
+            if m125.len() >= 3 { m125 } else { all.clone() }
+        };
+        if major.len() < 2 {
+            // Less than a factor ~2 in range: linear ticks in value space.
+            let fine = Axis::linear_exact(10f64.powf(lo), 10f64.powf(hi));
+            let to_log = |v: &Vec<f64>| v.iter().filter(|&&x| x > 0.0).map(|x| x.log10()).collect();
+            return Axis {
+                lo,
+                hi,
+                major: to_log(&fine.major),
+                minor: to_log(&fine.minor),
+                log: true,
+                step: 0.0,
+                plain: false,
+                fine: Some(Box::new(fine)),
+            };
+        }
+        let minor = if decades.len() <= 8 { all } else { decades };
+        let plain = major
+            .iter()
+            .all(|&t| (-3.0 - 1e-9..=5.0 + 1e-9).contains(&t));
+        Axis {
+            lo,
+            hi,
+            major,
+            minor,
+            log: true,
+            step: 0.0,
+            plain,
+            fine: None,
+        }
+    }
+
+    /// Tick label for axis value `v` (log10 of the data on log axes).
+    fn label(&self, v: f64) -> String {
+        // Typographic minus sign.
+        self.label_ascii(v).replacen('-', "\u{2212}", 1)
+    }
+
+    fn label_ascii(&self, v: f64) -> String {
+        if let Some(fine) = &self.fine {
+            fine.label_ascii(10f64.powf(v))
+        } else if self.log {
+            let k = (v + 1e-9).floor();
+            let m = 10f64.powf(v - k).round() as i64;
+            let (m, k) = if m >= 10 {
+                (1, k as i32 + 1)
+            } else {
+                (m.max(1), k as i32)
+            };
+            if self.plain {
+                plain_decimal(m, k)
+            } else if m == 1 {
+                format!("10{}", superscript(k))
+            } else {
+                format!("{m}×10{}", superscript(k))
+            }
+        } else {
+            // Decimal places needed to distinguish multiples of the tick step.
+            let ks = (self.step.log10() + 1e-9).floor();
+            let extra = if (self.step / 10f64.powf(ks) - 2.5).abs() < 1e-6 {
+                1.0
+            } else {
+                0.0
+            };
+            if self.plain {
+                let decimals = (extra - ks).clamp(0.0, 12.0) as usize;
+                let s = format!("{v:.decimals$}");
+                // Avoid "-0.0" for values that round to zero.
+                if s.trim_start_matches(['-', '0', '.']).is_empty() {
+                    s.trim_start_matches('-').to_string()
+                } else {
+                    s
+                }
+            } else {
+                let e = self.exponent();
+                let decimals = (e as f64 - ks + extra).clamp(0.0, 10.0) as usize;
+                let s = format!("{:.decimals$}", v / 10f64.powi(e));
+                if s.trim_start_matches(['-', '0', '.']).is_empty() {
+                    s.trim_start_matches('-').to_string()
+                } else {
+                    s
+                }
+            }
+        }
+    }
+
+    /// Common power of ten of a scientific linear axis.
+    fn exponent(&self) -> i32 {
+        let big = self.lo.abs().max(self.hi.abs());
+        if big > 0.0 && big.is_finite() {
+            (big.log10() + 1e-9).floor() as i32
+        } else {
+            0
+        }
+    }
+
+    /// Axis multiplier label ("×10⁻⁵") for scientific linear axes.
+    fn multiplier(&self) -> Option<String> {
+        if let Some(fine) = &self.fine {
+            return fine.multiplier();
+        }
+        (!self.log && !self.plain).then(|| format!("×10{}", superscript(self.exponent())))
+    }
+}
+
+/// Linear mapping of `lo..hi` with our own major (labelled) and minor ticks.
+impl Ranged for Axis {
+    type FormatOption = DefaultFormatting;
+    type ValueType = f64;
+
+    fn map(&self, v: &f64, limit: (i32, i32)) -> i32 {
+        let f = (*v - self.lo) / (self.hi - self.lo);
+        let f = if f.is_finite() {
+            f.clamp(-10.0, 10.0)
+        } else {
+            0.5
+        };
+        limit.0 + ((limit.1 - limit.0) as f64 * f + 1e-3).floor() as i32
+    }
+
+    fn key_points<H: KeyPointHint>(&self, hint: H) -> Vec<f64> {
+        if hint.weight().allow_light_points() {
+            self.minor.clone()
+        } else {
+            self.major.clone()
+        }
+    }
+
+    fn range(&self) -> std::ops::Range<f64> {
+        self.lo..self.hi
+    }
+}
+
+// ---------------------------------------------------------------------------
+// Rendering
+// ---------------------------------------------------------------------------
+
+fn draw_err(path: &Path, e: impl std::fmt::Display) -> PlotError {
+    PlotError::Draw {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    }
+}
+
+fn tmp_png_path(path: &Path) -> Result<PathBuf, PlotError> {
+    let name = path.file_name().ok_or_else(|| PlotError::Io {
+        path: path.to_path_buf(),
+        source: std::io::Error::new(std::io::ErrorKind::InvalidInput, "not a file path"),
+    })?;
+    let mut tmp = name.to_os_string();
+    tmp.push(".tmp.png");
+    Ok(path.with_file_name(tmp))
+}
+
+fn render(
+    path: &Path,
+    title: &str,
+    xlabel: &str,
+    ylabel: &str,
+    series: &[Series],
+    log: bool,
+) -> Result<(), PlotError> {
+    ensure_font()?;
+    let tmp = tmp_png_path(path)?;
+    let result = draw_to(&tmp, path, title, xlabel, ylabel, series, log).and_then(|()| {
+        let io = |source| PlotError::Io {
+            path: path.to_path_buf(),
+            source,
+        };
+        fs::OpenOptions::new()
+            .write(true)
+            .open(&tmp)
+            .and_then(|f| f.sync_all())
+            .map_err(io)?;
+        fs::rename(&tmp, path).map_err(io)
+    });
+    if result.is_err() {
+        let _ = fs::remove_file(&tmp);
+    }
+    result
+}
+
+// Text is drawn glyph by glyph: plotters 0.3.7's ab_glyph path drops each
+// glyph's left side bearing, which gives visibly uneven letter spacing. Here
+// each glyph's ink is placed at pen + left side bearing (read from the
+// embedded font's `cmap`/`hmtx`; centred in its advance box as a fallback).
+
+/// Big-endian reads from the font file, `None` when out of bounds.
+fn be_u16(d: &[u8], at: usize) -> Option<u16> {
+    Some(u16::from_be_bytes([*d.get(at)?, *d.get(at + 1)?]))
+}
+
+fn be_u32(d: &[u8], at: usize) -> Option<u32> {
+    Some(((be_u16(d, at)? as u32) << 16) | be_u16(d, at + 2)? as u32)
+}
+
+fn ttf_table(d: &[u8], tag: &[u8; 4]) -> Option<usize> {
+    let n = be_u16(d, 4)? as usize;
+    (0..n).find_map(|i| {
+        let rec = 12 + 16 * i;
+        (d.get(rec..rec + 4)? == tag).then(|| be_u32(d, rec + 8).map(|o| o as usize))?
+    })
+}
+
+/// Glyph id of `c` from a format-4 (BMP) `cmap` subtable.
+fn ttf_glyph(d: &[u8], c: char) -> Option<u16> {
+    let c = u16::try_from(c as u32).ok()?;
+    let cmap = ttf_table(d, b"cmap")?;
+    let n = be_u16(d, cmap + 2)? as usize;
+    let sub = (0..n).find_map(|i| {
+        let rec = cmap + 4 + 8 * i;
+        let (pid, eid) = (be_u16(d, rec)?, be_u16(d, rec + 2)?);
+        let off = cmap + be_u32(d, rec + 4)? as usize;
+        ((pid == 3 && eid == 1) || pid == 0)
+            .then_some(off)
+            .filter(|&o| be_u16(d, o) == Some(4))
+    })?;
+    let seg_count = be_u16(d, sub + 6)? as usize / 2;
+    let ends = sub + 14;
+    let starts = ends + 2 * seg_count + 2;
+    let deltas = starts + 2 * seg_count;
+    let range_offsets = deltas + 2 * seg_count;
+    for i in 0..seg_count {
+        if be_u16(d, ends + 2 * i)? < c {
+            continue;
+        }
+        let start = be_u16(d, starts + 2 * i)?;
+        if start > c {
+            return None;
+        }
+        let delta = be_u16(d, deltas + 2 * i)?;
+        let ro = be_u16(d, range_offsets + 2 * i)? as usize;
+        if ro == 0 {
+            return Some(c.wrapping_add(delta));
+        }
+        let g = be_u16(d, range_offsets + 2 * i + ro + 2 * (c - start) as usize)?;
+        return (g != 0).then(|| g.wrapping_add(delta));
+    }
+    None
+}
+
+/// (advance, left side bearing) of `c` in font units.
+fn ttf_h_metrics(d: &[u8], c: char) -> Option<(u16, i16)> {
+    let g = ttf_glyph(d, c)? as usize;
+    let hhea = ttf_table(d, b"hhea")?;
+    let hmtx = ttf_table(d, b"hmtx")?;
+    let long = be_u16(d, hhea + 34)? as usize;
+    if long == 0 {
+        return None;
+    }
+    let advance = be_u16(d, hmtx + 4 * g.min(long - 1))?;
+    let lsb = if g < long {
+        be_u16(d, hmtx + 4 * g + 2)?
+    } else {
+        be_u16(d, hmtx + 4 * long + 2 * (g - long))?
+    };
+    Some((advance, lsb as i16))
+}
+
+struct Pen {
+    font: FontDesc<'static>,
+    color: RGBColor,
+    /// Local y of the cap top and the baseline, as produced by `FontDesc::draw`.
+    cap_top: f64,
+    baseline: f64,
+    /// Pixels per font unit (`None`: font tables unreadable, centre glyphs).
+    px_per_unit: Option<f64>,
+}
+
+impl Pen {
+    fn new(size: f64, color: RGBColor) -> Pen {
+        let font = FontDesc::new(FontFamily::SansSerif, size, FontStyle::Normal);
+        let (mut top, mut bottom) = (i32::MAX, i32::MIN);
+        let _ = font.draw("H", (0, 0), |_, y, a| {
+            if a > 0.5 {
+                top = top.min(y);
+                bottom = bottom.max(y + 1);
+            }
+            Ok::<(), ()>(())
+        });
+        let (cap_top, baseline) = if top < bottom {
+            (top as f64, bottom as f64)
+        } else {
+            (0.0, 0.6 * size)
+        };
+        let px_per_unit =
+            ttf_h_metrics(FONT_BYTES, 'H')
+                .filter(|m| m.0 > 0)
+                .and_then(|(adv, _)| {
+                    let w = font.box_size("HHHHHHHHHHHHHHHHHHHH").ok()?.0 as f64;
+                    Some(w / (20.0 * adv as f64))
+                });
+        Pen {
+            font,
+            color,
+            cap_top,
+            baseline,
+            px_per_unit,
+        }
+    }
+
+    fn width(&self, s: &str) -> i32 {
+        self.font.box_size(s).map(|b| b.0 as i32).unwrap_or(0)
+    }
+
+    /// Cap height in pixels.
+    fn cap(&self) -> i32 {
+        (self.baseline - self.cap_top).round() as i32
+    }
+
+    /// Draw `s` anchored at `pos` (vertical anchor relative to the cap
+    /// height); `vertical` text reads bottom-to-top.
+    fn draw(
+        &self,
+        area: &DrawingArea<BitMapBackend, Shift>,
+        s: &str,
+        pos: (i32, i32),
+        (h, v): (HPos, VPos),
+        vertical: bool,
+    ) -> Result<(), String> {
+        let w = self.width(s) as f64;
+        let dx = match h {
+            HPos::Left => 0.0,
+            HPos::Center => -w / 2.0,
+            HPos::Right => -w,
+        };
+        let dy = match v {
+            VPos::Top => -self.cap_top,
+            VPos::Center => -(self.cap_top + self.baseline) / 2.0,
+            VPos::Bottom => -self.baseline,
+        };
+        let mut glyph = Vec::new();
+        for (i, c) in s.char_indices() {
+            let cs = &s[i..i + c.len_utf8()];
+            glyph.clear();
+            self.font
+                .draw(cs, (0, 0), |x, y, a| {
+                    glyph.push((x, y, a));
+                    Ok::<(), ()>(())
+                })
+                .map_err(|e| e.to_string())?
+                .map_err(|()| "glyph rasterisation failed".to_string())?;
+            let Some(ink) = glyph.iter().map(|g| g.0 + 1).max() else {
+                continue;
+            };
+            let pen = self.width(&s[..i]) as f64;
+            // Whole-pixel offsets, so every glyph row/column maps one-to-one.
+            let lsb = match (self.px_per_unit, ttf_h_metrics(FONT_BYTES, c)) {
+                (Some(k), Some((_, lsb))) => (lsb as f64 * k).floor(),
+                _ => ((self.width(cs) - ink) as f64 / 2.0).round(),
+            };
+            let ox = (pen + dx + 0.5).floor() as i32 + lsb as i32;
+            let oy = (dy + 0.5).floor() as i32;
+            for &(x, y, a) in &glyph {
+                if a <= 0.0 {
+                    continue;
+                }
+                let (lx, ly) = (ox + x, oy + y);
+                let p = if vertical {
+                    (pos.0 + ly, pos.1 - lx)
+                } else {
+                    (pos.0 + lx, pos.1 + ly)
+                };
+                area.draw_pixel(p, &self.color.mix(a.min(1.0) as f64))
+                    .map_err(|e| e.to_string())?;
+            }
+        }
+        Ok(())
+    }
+}
+
+#[derive(Clone, Copy)]
+enum Marker {
+    Circle,
+    Square,
+    Triangle,
+    Diamond,
+}
+
+fn draw_marker(
+    area: &DrawingArea<BitMapBackend, Shift>,
+    (x, y): (i32, i32),
+    marker: Marker,
+    color: RGBColor,
+) -> Result<(), String> {
+    let st = color.filled();
+    let r = match marker {
+        Marker::Circle => area.draw(&Circle::new((x, y), 5, st)),
+        Marker::Square => area.draw(&Rectangle::new([(x - 4, y - 4), (x + 4, y + 4)], st)),
+        Marker::Triangle => area.draw(&TriangleMarker::new((x, y), 6, st)),
+        Marker::Diamond => area.draw(&Polygon::new(
+            vec![(x, y - 6), (x + 6, y), (x, y + 6), (x - 6, y)],
+            st,
+        )),
+    };
+    r.map_err(|e| e.to_string())
+}
+
+/// Pick the plot corner where a `w`x`h` px legend box (inset by `inset`)
+/// covers the fewest curve samples; returns the box's top-left corner.
+fn legend_origin(
+    curves: &[Vec<(i32, i32)>],
+    (px, py): (std::ops::Range<i32>, std::ops::Range<i32>),
+    (w, h): (i32, i32),
+    inset: i32,
+) -> (i32, i32) {
+    let left = px.start + inset;
+    let right = px.end - inset - w;
+    let top = py.start + inset;
+    let bottom = py.end - inset - h;
+    // Preference order on ties: upper right, upper left, lower right, lower left.
+    let corners = [(right, top), (left, top), (right, bottom), (left, bottom)];
+    let mut counts = [0usize; 4];
+    let mut visit = |x: f64, y: f64| {
+        let m = 6.0;
+        for (k, &(cx, cy)) in corners.iter().enumerate() {
+            if x >= (cx as f64 - m)
+                && x <= ((cx + w) as f64 + m)
+                && y >= (cy as f64 - m)
+                && y <= ((cy + h) as f64 + m)
+            {
+                counts[k] += 1;
+            }
+        }
+    };
+    for pts in curves {
+        for seg in pts.windows(2) {
+            let (a, b) = (seg[0], seg[1]);
+            let (ddx, ddy) = ((b.0 - a.0) as f64, (b.1 - a.1) as f64);
+            let n = ((ddx * ddx + ddy * ddy).sqrt() / 3.0)
+                .ceil()
+                .clamp(1.0, 1000.0) as usize;
+            for i in 0..n {
+                let f = i as f64 / n as f64;
+                visit(a.0 as f64 + f * ddx, a.1 as f64 + f * ddy);
+            }
+        }
+        if let Some(&(x, y)) = pts.last() {
+            visit(x as f64, y as f64);
+        }
+    }
+    let best = (0..4).min_by_key(|&k| counts[k]).unwrap_or(0);
+    corners[best]
+}
+
+const TITLE_SIZE: f64 = 28.0;
+const DESC_SIZE: f64 = 21.0;
+const TICK_SIZE: f64 = 17.0;
+const LEGEND_SIZE: f64 = 17.0;
+const TICK_GAP: i32 = 10;
+
+const MARKERS: [Marker; 4] = [
+    Marker::Circle,
+    Marker::Square,
+    Marker::Triangle,
+    Marker::Diamond,
+];
+
+/// Colour and marker of series `i` (colours cycle first).
+fn series_style(i: usize) -> (RGBColor, Marker) {
+    (
+        PALETTE[i % PALETTE.len()],
+        MARKERS[(i / PALETTE.len()) % MARKERS.len()],
+    )
+}
+
+fn draw_to(
+    tmp: &Path,
+    path: &Path,
+    title: &str,
+    xlabel: &str,
+    ylabel: &str,
+    series: &[Series],
+    log: bool,
+) -> Result<(), PlotError> {
+    // Filter and (for log plots) transform the data.
+    let mut dropped = 0usize;
+    let data: Vec<Vec<(f64, f64)>> = series
+        .iter()
+        .map(|s| {
+            let kept: Vec<(f64, f64)> = s
+                .points
+                .iter()
+                .filter(|(x, y)| x.is_finite() && y.is_finite() && (!log || (*x > 0.0 && *y > 0.0)))
+                .map(|&(x, y)| if log { (x.log10(), y.log10()) } else { (x, y) })
+                .collect();
+            dropped += s.points.len() - kept.len();
+            kept
+        })
+        .collect();
+    let (mut xmin, mut xmax, mut ymin, mut ymax) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
+    for &(x, y) in data.iter().flatten() {
+        xmin = xmin.min(x);
+        xmax = xmax.max(x);
+        ymin = ymin.min(y);
+        ymax = ymax.max(y);
+    }
+    let empty = xmin > xmax;
+    let (x_axis, y_axis) = match (empty, log) {
+        (true, true) => (Axis::log(0.0, 1.0), Axis::log(0.0, 1.0)),
+        (true, false) => (Axis::linear(0.0, 1.0), Axis::linear(0.0, 1.0)),
+        (false, true) => (Axis::log(xmin, xmax), Axis::log(ymin, ymax)),
+        (false, false) => (Axis::linear(xmin, xmax), Axis::linear(ymin, ymax)),
+    };
+
+    let black = RGBColor(0, 0, 0);
+    let title_pen = Pen::new(TITLE_SIZE, black);
+    let desc_pen = Pen::new(DESC_SIZE, black);
+    let tick_pen = Pen::new(TICK_SIZE, RGBColor(30, 30, 30));
+    let legend_pen = Pen::new(LEGEND_SIZE, black);
+
+    let x_labels: Vec<(f64, String)> = x_axis.major.iter().map(|&t| (t, x_axis.label(t))).collect();
+    let y_labels: Vec<(f64, String)> = y_axis.major.iter().map(|&t| (t, y_axis.label(t))).collect();
+    let y_tick_w = y_labels
+        .iter()
+        .map(|(_, l)| tick_pen.width(l))
+        .max()
+        .unwrap_or(0);
+    let last_x_w = x_labels.last().map(|(_, l)| tick_pen.width(l)).unwrap_or(0);
+
+    // Layout in pixels.
+    let desc_h = desc_pen.cap() + 6;
+    let ydesc_w = if ylabel.is_empty() { 0 } else { desc_h + 18 };
+    let xdesc_h = if xlabel.is_empty() { 0 } else { 18 + desc_h };
+    let y_area = 16 + ydesc_w + y_tick_w + TICK_GAP;
+    let x_area = TICK_GAP + tick_pen.cap() + 8 + xdesc_h + 14;
+    let top = if title.is_empty() {
+        24
+    } else {
+        18 + title_pen.cap() + 26
+    };
+    let right = (last_x_w / 2 + 12).max(32);
+
+    let root = BitMapBackend::new(tmp, (WIDTH, HEIGHT)).into_drawing_area();
+    let inner = || -> Result<(), String> {
+        root.fill(&WHITE).map_err(|e| e.to_string())?;
+        let no_label = |_: &f64| String::new();
+        let mut chart = ChartBuilder::on(&root)
+            .margin_top(top)
+            .margin_right(right)
+            .x_label_area_size(x_area)
+            .y_label_area_size(y_area)
+            .build_cartesian_2d(x_axis.clone(), y_axis.clone())
+            .map_err(|e| e.to_string())?;
+        chart
+            .configure_mesh()
+            .x_label_formatter(&no_label)
+            .y_label_formatter(&no_label)
+            .bold_line_style(BLACK.mix(0.16))
+            .light_line_style(BLACK.mix(0.05))
+            .axis_style(BLACK.stroke_width(1))
+            .set_all_tick_mark_size(6)
+            .draw()
+            .map_err(|e| e.to_string())?;
+        let (px, py) = chart.plotting_area().get_pixel_range();
+        // Close the frame on the top and right.
+        root.draw(&PathElement::new(
+            vec![
+                (px.start, py.start),
+                (px.end - 1, py.start),
+                (px.end - 1, py.end - 1),
+            ],
+            BLACK.stroke_width(1),
+        ))
+        .map_err(|e| e.to_string())?;
+
+        // Tick labels, axis descriptions, title.
+        for (t, l) in &x_labels {
+            let (x, _) = chart.backend_coord(&(*t, y_axis.lo));
+            let at = (x, py.end + TICK_GAP);
+            tick_pen.draw(&root, l, at, (HPos::Center, VPos::Top), false)?;
+        }
+        for (t, l) in &y_labels {
+            let (_, y) = chart.backend_coord(&(x_axis.lo, *t));
+            let at = (px.start - TICK_GAP, y);
+            tick_pen.draw(&root, l, at, (HPos::Right, VPos::Center), false)?;
+        }
+        let cx = (px.start + px.end) / 2;
+        let cy = (py.start + py.end) / 2;
+        let center = (HPos::Center, VPos::Center);
+        let center_top = (HPos::Center, VPos::Top);
+        if !xlabel.is_empty() {
+            let y = py.end + TICK_GAP + tick_pen.cap() + 8 + 18;
+            desc_pen.draw(&root, xlabel, (cx, y), center_top, false)?;
+        }
+        if !ylabel.is_empty() {
+            let x = px.start - TICK_GAP - y_tick_w - 18 - desc_h / 2;
+            desc_pen.draw(&root, ylabel, (x, cy), center, true)?;
+        }
+        if !title.is_empty() {
+            title_pen.draw(&root, title, (cx, 18), center_top, false)?;
+        }
+        if let Some(m) = x_axis.multiplier() {
+            let at = (px.end, py.end + TICK_GAP + tick_pen.cap() + 8 + 18);
+            tick_pen.draw(&root, &m, at, (HPos::Right, VPos::Top), false)?;
+        }
+        if let Some(m) = y_axis.multiplier() {
+            let at = (px.start, py.start - 8);
+            tick_pen.draw(&root, &m, at, (HPos::Left, VPos::Bottom), false)?;
+        }
+
+        // Curves.
+        let mut pixel_curves = Vec::with_capacity(data.len());
+        for (i, pts) in data.iter().enumerate() {
+            let (color, marker) = series_style(i);
+            chart
+                .draw_series(LineSeries::new(pts.iter().copied(), color.stroke_width(2)))
+                .map_err(|e| e.to_string())?;
+            let pix: Vec<(i32, i32)> = pts.iter().map(|p| chart.backend_coord(p)).collect();
+            if pts.len() <= MAX_MARKED_POINTS {
+                for &p in &pix {
+                    draw_marker(&root, p, marker, color)?;
+                }
+            }
+            pixel_curves.push(pix);
+        }
+
+        // Legend: series with a label and at least one drawable point.
+        let entries: Vec<usize> = (0..series.len())
+            .filter(|&i| !series[i].label.is_empty() && !data[i].is_empty())
+            .collect();
+        if !entries.is_empty() {
+            let row_h = legend_pen.cap() * 2;
+            let sample_w = 34;
+            let pad = 12;
+            let text_w = entries
+                .iter()
+                .map(|&i| legend_pen.width(&series[i].label))
+                .max()
+                .unwrap_or(0);
+            let w = pad + sample_w + 10 + text_w + pad;
+            let h = 2 * pad + row_h * entries.len() as i32 - legend_pen.cap();
+            let (lx, ly) = legend_origin(&pixel_curves, (px.clone(), py.clone()), (w, h), 12);
+            let corners = [(lx, ly), (lx + w, ly + h)];
+            root.draw(&Rectangle::new(corners, WHITE.mix(0.92).filled()))
+                .map_err(|e| e.to_string())?;
+            root.draw(&Rectangle::new(corners, BLACK.mix(0.35)))
+                .map_err(|e| e.to_string())?;
+            for (row, &i) in entries.iter().enumerate() {
+                let (color, marker) = series_style(i);
+                let y = ly + pad + legend_pen.cap() / 2 + row as i32 * row_h;
+                let x0 = lx + pad;
+                root.draw(&PathElement::new(
+                    vec![(x0, y), (x0 + sample_w, y)],
+                    color.stroke_width(2),
+                ))
+                .map_err(|e| e.to_string())?;
+                if data[i].len() <= MAX_MARKED_POINTS {
+                    draw_marker(&root, (x0 + sample_w / 2, y), marker, color)?;
+                }
+                let at = (x0 + sample_w + 10, y);
+                legend_pen.draw(
+                    &root,
+                    &series[i].label,
+                    at,
+                    (HPos::Left, VPos::Center),
+                    false,
+                )?;
+            }
+        }
+
+        // Notes.
+        if empty {
+            let pen = Pen::new(22.0, RGBColor(90, 90, 90));
+            let msg = if log {
+                "no data to plot (no finite, positive points)"
+            } else {
+                "no data to plot (no finite points)"
+            };
+            pen.draw(&root, msg, (cx, cy), center, false)?;
+        } else if dropped > 0 {
+            let what = if log {
+                "non-positive or non-finite"
+            } else {
+                "non-finite"
+            };
+            let plural = if dropped == 1 { "" } else { "s" };
+            let msg = format!("{dropped} {what} point{plural} omitted");
+            let pen = Pen::new(15.0, RGBColor(110, 110, 110));
+            let at = (12, HEIGHT as i32 - 12);
+            pen.draw(&root, &msg, at, (HPos::Left, VPos::Bottom), false)?;
+        }
+        root.present().map_err(|e| e.to_string())
+    };
+    let r = inner();
+    drop(root);
+    r.map_err(|m| draw_err(path, m))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn tmp_dir(name: &str) -> PathBuf {
+        let d = std::env::temp_dir().join(format!("plot_test_{}_{name}", std::process::id()));
+        let _ = fs::remove_dir_all(&d);
+        fs::create_dir_all(&d).unwrap();
+        d
+    }
+
+    fn assert_png(path: &Path) {
+        let bytes = fs::read(path).unwrap();
+        assert_eq!(&bytes[..8], b"\x89PNG\r\n\x1a\n");
+        assert!(
+            bytes.len() > 5000,
+            "suspiciously small PNG: {}",
+            bytes.len()
+        );
+    }
+
+    fn convergence() -> Vec<Series> {
+        let h: Vec<f64> = (0..6).map(|i| 0.1 / 2f64.powi(i)).collect();
+        vec![
+            Series {
+                label: "L2 error (displacement)".into(),
+                points: h.iter().map(|&h| (h, 0.8 * h * h)).collect(),
+            },
+            Series {
+                label: "energy error".into(),
+                points: h.iter().map(|&h| (h, 0.3 * h)).collect(),
+            },
+        ]
+    }
+
+    #[test]
+    fn loglog_two_series_writes_png() {
+        let dir = tmp_dir("loglog");
+        let p = dir.join("conv.png");
+        loglog(&p, "Convergence", "h", "error", &convergence()).unwrap();
+        assert_png(&p);
+        let names: Vec<_> = fs::read_dir(&dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name())
+            .collect();
+        assert_eq!(names, vec![std::ffi::OsString::from("conv.png")]);
+        fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn lines_two_series_writes_png() {
+        let dir = tmp_dir("lines");
+        let p = dir.join("ts.png");
+        let s = vec![
+            Series {
+                label: "pressure".into(),
+                points: (0..500)
+                    .map(|i| (i as f64 * 0.01, (i as f64 * 0.03).sin()))
+                    .collect(),
+            },
+            Series {
+                label: "aperture".into(),
+                points: (0..500)
+                    .map(|i| (i as f64 * 0.01, 0.5 * (i as f64 * 0.01)))
+                    .collect(),
+            },
+        ];
+        lines(&p, "Time series", "t [s]", "value", &s).unwrap();
+        assert_png(&p);
+        fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn degenerate_input_does_not_panic() {
+        let dir = tmp_dir("degenerate");
+        let bad = vec![
+            Series {
+                label: "negative".into(),
+                points: vec![(-1.0, 2.0), (1.0, -3.0), (0.0, 0.0), (f64::NAN, 1.0)],
+            },
+            Series {
+                label: "empty".into(),
+                points: vec![],
+            },
+        ];
+        loglog(&dir.join("a.png"), "all dropped", "x", "y", &bad).unwrap();
+        assert_png(&dir.join("a.png"));
+        loglog(&dir.join("b.png"), "no series", "x", "y", &[]).unwrap();
+        lines(&dir.join("c.png"), "no series", "x", "y", &[]).unwrap();
+        let single = vec![Series {
+            label: "one point".into(),
+            points: vec![(3.0, 3.0), (3.0, 3.0)],
+        }];
+        loglog(&dir.join("d.png"), "single", "x", "y", &single).unwrap();
+        lines(&dir.join("e.png"), "single", "x", "y", &single).unwrap();
+        let huge = vec![Series {
+            label: String::new(),
+            points: vec![(-f64::MAX, 0.0), (f64::MAX, 1e-300), (0.0, f64::INFINITY)],
+        }];
+        lines(&dir.join("f.png"), "huge", "x", "y", &huge).unwrap();
+        let many: Vec<Series> = (0..25)
+            .map(|i| Series {
+                label: format!("s{i}"),
+                points: vec![(1.0, 1.0 + i as f64), (1e12, 1e-12 * (1.0 + i as f64))],
+            })
+            .collect();
+        loglog(&dir.join("g.png"), "many", "x", "y", &many).unwrap();
+        for f in ["b.png", "c.png", "d.png", "e.png", "f.png", "g.png"] {
+            assert_png(&dir.join(f));
+        }
+        fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn tick_labels() {
+        let a = Axis::log(-3.0, 0.0);
+        let labels: Vec<_> = a.major.iter().map(|&t| a.label(t)).collect();
+        assert!(labels.contains(&"0.001".to_string()), "{labels:?}");
+        assert!(labels.contains(&"1".to_string()), "{labels:?}");
+        let a = Axis::log(-12.0, -6.0);
+        let labels: Vec<_> = a.major.iter().map(|&t| a.label(t)).collect();
+        assert!(labels.contains(&"10⁻⁹".to_string()), "{labels:?}");
+        let a = Axis::linear(0.0, 1.0);
+        let labels: Vec<_> = a.major.iter().map(|&t| a.label(t)).collect();
+        assert_eq!(labels, ["0.0", "0.2", "0.4", "0.6", "0.8", "1.0"]);
+        assert_eq!(a.multiplier(), None);
+        let a = Axis::linear(-1.0, 0.0);
+        let labels: Vec<_> = a.major.iter().map(|&t| a.label(t)).collect();
+        assert_eq!(labels.first().map(String::as_str), Some("\u{2212}1.0"));
+        assert_eq!(labels.last().map(String::as_str), Some("0.0"));
+        let a = Axis::linear(0.0, 3e-7);
+        let labels: Vec<_> = a.major.iter().map(|&t| a.label(t)).collect();
+        assert_eq!(labels, ["0.0", "0.5", "1.0", "1.5", "2.0", "2.5", "3.0"]);
+        assert_eq!(a.multiplier().as_deref(), Some("×10⁻⁷"));
+        // Narrow log range still gets at least two labelled ticks.
+        let a = Axis::log(2f64.log10(), 4f64.log10());
+        let labels: Vec<_> = a.major.iter().map(|&t| a.label(t)).collect();
+        assert_eq!(labels, ["2", "3", "4"]);
+    }
+
+    #[test]
+    fn embedded_font_metrics_are_read() {
+        // 'H' and 'r' in DejaVu Sans (font units).
+        assert_eq!(ttf_h_metrics(FONT_BYTES, 'H'), Some((1540, 201)));
+        assert!(ttf_h_metrics(FONT_BYTES, 'r').is_some());
+        assert!(ttf_h_metrics(FONT_BYTES, '⁻').is_some());
+        assert!(ttf_glyph(FONT_BYTES, '\u{10FFFF}').is_none());
+        ensure_font().unwrap();
+        assert!(Pen::new(17.0, RGBColor(0, 0, 0)).px_per_unit.is_some());
+    }
+}

@@ -287,7 +287,8 @@ impl Scenario {
 
     /// Parse RON text. Errors carry file, line, column and the field path.
     pub fn parse(text: &str, file: &str) -> Result<Self, SetupError> {
-        let opts = ron::Options::default().with_default_extension(ron::extensions::Extensions::IMPLICIT_SOME);
+        let opts = ron::Options::default()
+            .with_default_extension(ron::extensions::Extensions::IMPLICIT_SOME);
         let syntax = |e: ron::error::SpannedError, field: String| SetupError::Syntax {
             file: file.to_string(),
             line: e.span.start.line,
@@ -387,7 +388,10 @@ impl Scenario {
             if v.is_finite() {
                 Ok(())
             } else {
-                Err(SetupError::invalid(field, format!("{v} is not a finite number")))
+                Err(SetupError::invalid(
+                    field,
+                    format!("{v} is not a finite number"),
+                ))
             }
         };
         let positive = |field: &str, v: f64, what: &str| -> Result<(), SetupError> {
@@ -395,7 +399,10 @@ impl Scenario {
             if v > 0.0 {
                 Ok(())
             } else {
-                Err(SetupError::invalid(field, format!("{what} must be > 0, got {v}")))
+                Err(SetupError::invalid(
+                    field,
+                    format!("{what} must be > 0, got {v}"),
+                ))
             }
         };
         // Mesh.
@@ -453,7 +460,12 @@ impl Scenario {
                 bottom,
                 top,
             } => {
-                for (name, bc) in [("left", left), ("right", right), ("bottom", bottom), ("top", top)] {
+                for (name, bc) in [
+                    ("left", left),
+                    ("right", right),
+                    ("bottom", bottom),
+                    ("top", top),
+                ] {
                     match bc {
                         SideBc::Normal(d) => finite(&format!("boundary.{name}"), *d)?,
                         SideBc::Traction { normal, shear } => {
@@ -507,7 +519,10 @@ impl Scenario {
             Damping::None => {}
         }
         if self.output.series_every == 0 {
-            return Err(SetupError::invalid("output.series_every", "must be at least 1"));
+            return Err(SetupError::invalid(
+                "output.series_every",
+                "must be at least 1",
+            ));
         }
         Ok(())
     }
@@ -584,7 +599,11 @@ mod tests {
     fn overrides_reach_into_variants_and_validate() {
         let sc = Scenario::parse(GOOD, "good.ron").unwrap();
         let o = sc
-            .with_overrides(&["material.young=3e10".into(), "mesh.h=0.5".into(), "damping=None".into()])
+            .with_overrides(&[
+                "material.young=3e10".into(),
+                "mesh.h=0.5".into(),
+                "damping=None".into(),
+            ])
             .unwrap();
         assert_eq!(o.material.young, 3e10);
         assert_eq!(o.mesh.h(), 0.5);
@@ -594,9 +613,15 @@ mod tests {
             .unwrap();
         assert_eq!(o.damping, Damping::Local(0.5));
         assert_eq!(o.time.end, End::Time(2.5));
-        let e = sc.with_overrides(&["material.colour=1".into()]).unwrap_err().to_string();
+        let e = sc
+            .with_overrides(&["material.colour=1".into()])
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("density") && e.contains("young"), "{e}");
-        let e = sc.with_overrides(&["material.young=abc".into()]).unwrap_err().to_string();
+        let e = sc
+            .with_overrides(&["material.young=abc".into()])
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("material.young"), "{e}");
     }
 }

@@ -22,7 +22,10 @@ pub struct Schedule {
 impl Schedule {
     /// Build the schedule. `disabled` are names from the scenario and the command line;
     /// `has_data` says whether the scene has what a system works on.
-    pub fn new(disabled: &[String], has_data: impl Fn(SystemId) -> bool) -> Result<Self, SetupError> {
+    pub fn new(
+        disabled: &[String],
+        has_data: impl Fn(SystemId) -> bool,
+    ) -> Result<Self, SetupError> {
         for name in disabled {
             match SystemId::from_name(name) {
                 None => {
@@ -66,7 +69,9 @@ impl Schedule {
     }
 
     pub fn is_enabled(&self, s: SystemId) -> bool {
-        self.entries.iter().any(|&(t, st)| t == s && st == Status::Enabled)
+        self.entries
+            .iter()
+            .any(|&(t, st)| t == s && st == Status::Enabled)
     }
 }
 
@@ -76,8 +81,13 @@ mod tests {
 
     #[test]
     fn unknown_names_list_the_valid_ones() {
-        let e = Schedule::new(&["contactt".into()], |_| true).unwrap_err().to_string();
-        assert!(e.contains("contactt") && e.contains("internal_force") && e.contains("damping"), "{e}");
+        let e = Schedule::new(&["contactt".into()], |_| true)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("contactt") && e.contains("internal_force") && e.contains("damping"),
+            "{e}"
+        );
     }
 
     #[test]

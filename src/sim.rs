@@ -199,7 +199,10 @@ impl Simulation {
             RunError::BlowUp {
                 step: self.step,
                 time: self.time,
-                entity: format!("node {} at ({:.4}, {:.4}) m", self.view.node_id[i], x[0], x[1]),
+                entity: format!(
+                    "node {} at ({:.4}, {:.4}) m",
+                    self.view.node_id[i], x[0], x[1]
+                ),
                 quantity,
                 value,
                 why,
@@ -244,11 +247,11 @@ impl Simulation {
 
     fn frame_due(&self) -> bool {
         let every = self.scenario.output.frame_every;
-        self.finish.is_some() || (every > 0 && self.step % every == 0)
+        self.finish.is_some() || (every > 0 && self.step.is_multiple_of(every))
     }
 
     fn series_due(&self) -> bool {
-        self.finish.is_some() || self.step % self.scenario.output.series_every == 0
+        self.finish.is_some() || self.step.is_multiple_of(self.scenario.output.series_every)
     }
 
     /// The current time-series row.
@@ -257,7 +260,7 @@ impl Simulation {
             step: self.step,
             time: self.time,
             kinetic_energy: self.stats.kinetic,
-            strain_energy: solid::strain_energy(&self.view, &self.params),
+            strain_energy: self.stats.strain,
             residual: self.residual,
             max_speed: self.stats.vmax,
         }
@@ -286,7 +289,7 @@ impl Simulation {
         }
         while self.finish.is_none() {
             self.step_once()?;
-            if self.step % 256 == 0 {
+            if self.step.is_multiple_of(256) {
                 progress(self);
             }
         }

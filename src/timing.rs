@@ -4,8 +4,8 @@
 use std::collections::BTreeMap;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
-use tracing::span::{Attributes, Id};
 use tracing::Subscriber;
+use tracing::span::{Attributes, Id};
 use tracing_subscriber::layer::{Context, Layer};
 use tracing_subscriber::registry::LookupSpan;
 
@@ -57,7 +57,10 @@ where
 /// A printable table: system, calls, total seconds, share of the summed time.
 pub fn format_table(rows: &[(String, bool, u64, f64)]) -> String {
     let sum: f64 = rows.iter().map(|r| r.3).sum();
-    let mut out = format!("{:<18} {:>8} {:>10} {:>12} {:>7}\n", "system", "enabled", "calls", "total [s]", "share");
+    let mut out = format!(
+        "{:<18} {:>8} {:>10} {:>12} {:>7}\n",
+        "system", "enabled", "calls", "total [s]", "share"
+    );
     for (name, enabled, calls, total) in rows {
         let share = if sum > 0.0 { 100.0 * total / sum } else { 0.0 };
         out += &format!(

@@ -56,13 +56,25 @@ impl SolidView {
     pub fn build(model: &Model) -> Self {
         let world = &model.world;
         let mut nodes: Vec<(u64, Entity, [f64; 2], NodeState, f64, NodeBc)> = world
-            .query::<(Entity, &StableId, &NodeRef, &NodeState, &NodeMass, &NodeBc, &NodeLink)>()
+            .query::<(
+                Entity,
+                &StableId,
+                &NodeRef,
+                &NodeState,
+                &NodeMass,
+                &NodeBc,
+                &NodeLink,
+            )>()
             .iter()
             .filter(|r| r.6.in_solid)
             .map(|(e, id, x, s, m, bc, _)| (id.0, e, x.0, *s, m.0, *bc))
             .collect();
         nodes.sort_unstable_by_key(|r| r.0);
-        let max_index = world.iter().map(|e| e.entity().id()).max().map_or(0, |m| m as usize + 1);
+        let max_index = world
+            .iter()
+            .map(|e| e.entity().id())
+            .max()
+            .map_or(0, |m| m as usize + 1);
         let mut dense = vec![NONE; max_index];
         let n = nodes.len();
         let mut v = SolidView {
@@ -106,7 +118,9 @@ impl SolidView {
             v.elem_entity.push(e);
             v.elem_id.push(id);
             v.conn.push(en.0.map(|n| dense[n.id() as usize]));
-            v.geom.push([g.area, g.dndx[0], g.dndx[1], g.dndx[2], g.dndy[0], g.dndy[1], g.dndy[2]]);
+            v.geom.push([
+                g.area, g.dndx[0], g.dndx[1], g.dndx[2], g.dndy[0], g.dndy[1], g.dndy[2],
+            ]);
             v.stress.push(s);
         }
         v.elem_force = vec![[0.0; 6]; ne];

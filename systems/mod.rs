@@ -48,10 +48,18 @@ impl SystemId {
         match self {
             SystemId::InternalForce => "CST stresses and nodal internal forces, gathered by node",
             SystemId::ExternalLoad => "adds constant boundary tractions and body forces",
-            SystemId::Damping => "local (Cundall) or viscous damping force for pseudo-static response",
-            SystemId::Integrate => "central-difference update of velocity and displacement; prescribed displacements",
-            SystemId::Monitor => "blow-up detection (non-finite or runaway velocity), residual and convergence",
-            SystemId::Output => "ParaView frames and timeseries.csv rows at the scenario's intervals",
+            SystemId::Damping => {
+                "local (Cundall) or viscous damping force for pseudo-static response"
+            }
+            SystemId::Integrate => {
+                "central-difference update of velocity and displacement; prescribed displacements"
+            }
+            SystemId::Monitor => {
+                "blow-up detection (non-finite or runaway velocity), residual and convergence"
+            }
+            SystemId::Output => {
+                "ParaView frames and timeseries.csv rows at the scenario's intervals"
+            }
         }
     }
 
@@ -67,8 +75,12 @@ impl SystemId {
     /// The system's span. Names are literals so the timing layer and Perfetto see them as is.
     pub fn span(self) -> tracing::Span {
         match self {
-            SystemId::InternalForce => tracing::info_span!(target: "hydrofrac::system", "internal_force"),
-            SystemId::ExternalLoad => tracing::info_span!(target: "hydrofrac::system", "external_load"),
+            SystemId::InternalForce => {
+                tracing::info_span!(target: "hydrofrac::system", "internal_force")
+            }
+            SystemId::ExternalLoad => {
+                tracing::info_span!(target: "hydrofrac::system", "external_load")
+            }
             SystemId::Damping => tracing::info_span!(target: "hydrofrac::system", "damping"),
             SystemId::Integrate => tracing::info_span!(target: "hydrofrac::system", "integrate"),
             SystemId::Monitor => tracing::info_span!(target: "hydrofrac::system", "monitor"),

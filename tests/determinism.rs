@@ -14,11 +14,18 @@ fn run(threads: usize) -> (Vec<[f64; 2]>, Vec<[f64; 3]>, f64) {
             "time.end=Time(0.05)".into(),
         ])
         .unwrap();
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap();
     pool.install(|| {
         let mut sim = Simulation::new(sc, &[]).unwrap();
         sim.run(|_| {}).unwrap();
-        (sim.view.u.clone(), sim.view.stress.clone(), sim.stats.kinetic)
+        (
+            sim.view.u.clone(),
+            sim.view.stress.clone(),
+            sim.stats.kinetic,
+        )
     })
 }
 

@@ -37,7 +37,10 @@ fn manufactured_solution_converges_at_the_cst_rates() {
     for metric in ["displacement_l2", "stress_l2"] {
         let e = res.errors(metric);
         assert_eq!(e.len(), 4);
-        assert!(e.windows(2).all(|w| w[1].1 < w[0].1), "{metric} not decreasing: {e:?}");
+        assert!(
+            e.windows(2).all(|w| w[1].1 < w[0].1),
+            "{metric} not decreasing: {e:?}"
+        );
     }
 }
 
@@ -68,7 +71,10 @@ fn stability_1e5_steps_on_the_20000_element_mesh() {
     );
     let (growth, _wall, nodes) = solid_cases::energy_growth(sc, 100_000).unwrap();
     assert_eq!(nodes, 101 * 101);
-    assert!(growth.abs() < 1e-12, "energy changed by {growth:.3e} over 1e5 steps");
+    assert!(
+        growth.abs() < 1e-12,
+        "energy changed by {growth:.3e} over 1e5 steps"
+    );
 }
 
 /// Quick stability case: stiff material, the default step below the true critical step of

@@ -20,7 +20,7 @@ pub struct SeriesRow {
     pub time: f64,
     /// J/m
     pub kinetic_energy: f64,
-    /// J/m
+    /// Strain energy at the start of the last step, J/m.
     pub strain_energy: f64,
     /// dimensionless
     pub residual: f64,

@@ -160,14 +160,20 @@ pub fn run_cases(names: &[String], out: &Path, quick: bool) -> anyhow::Result<bo
     for n in names {
         if !all.iter().any(|c| c.name == n) {
             let valid: Vec<&str> = all.iter().map(|c| c.name).collect();
-            anyhow::bail!("unknown verification case `{n}`; cases: {}", valid.join(", "));
+            anyhow::bail!(
+                "unknown verification case `{n}`; cases: {}",
+                valid.join(", ")
+            );
         }
     }
     std::fs::create_dir_all(out)
         .map_err(|e| anyhow::anyhow!("cannot create {}: {e}", out.display()))?;
     let mut ok = true;
     let mut stdout = std::io::stdout();
-    for case in all.iter().filter(|c| names.is_empty() || names.iter().any(|n| n == c.name)) {
+    for case in all
+        .iter()
+        .filter(|c| names.is_empty() || names.iter().any(|n| n == c.name))
+    {
         writeln!(stdout, "== {}: {}", case.name, case.about)?;
         let res = (case.run)(quick)?;
         writeln!(
@@ -196,6 +202,11 @@ pub fn run_cases(names: &[String], out: &Path, quick: bool) -> anyhow::Result<bo
         write_plot(out, case.name, &res)?;
         ok &= res.passed();
     }
-    writeln!(stdout, "verification {} (CSV and PNG in {})", if ok { "passed" } else { "FAILED" }, out.display())?;
+    writeln!(
+        stdout,
+        "verification {} (CSV and PNG in {})",
+        if ok { "passed" } else { "FAILED" },
+        out.display()
+    )?;
     Ok(ok)
 }

@@ -3,7 +3,9 @@
 use super::{CaseResult, Row, observed_order};
 use crate::error::RunError;
 use crate::model::Model;
-use crate::scenario::{Boundary, Damping, End, Material, MeshSpec, OutputSpec, Scenario, SystemsSpec, TimeControl};
+use crate::scenario::{
+    Boundary, Damping, End, Material, MeshSpec, OutputSpec, Scenario, SystemsSpec, TimeControl,
+};
 use crate::sim::{Finish, Simulation};
 use crate::systems::solid::{self, cst_stress};
 use crate::view::SolidView;
@@ -12,7 +14,14 @@ use rand::{RngExt, SeedableRng};
 use std::time::Instant;
 
 /// A scenario built in code (no outputs written).
-pub fn scenario(name: &str, mesh: MeshSpec, material: Material, boundary: Boundary, end: End, damping: Damping) -> Scenario {
+pub fn scenario(
+    name: &str,
+    mesh: MeshSpec,
+    material: Material,
+    boundary: Boundary,
+    end: End,
+    damping: Damping,
+) -> Scenario {
     Scenario {
         name: name.into(),
         description: String::new(),
@@ -100,7 +109,10 @@ pub fn patch(quick: bool) -> anyhow::Result<CaseResult> {
             square(n, 1.0, Some((0.3, 11 + n as u64))),
             mat,
             Boundary::default(),
-            End::Static { tol: 1e-13, min_steps: 10 },
+            End::Static {
+                tol: 1e-13,
+                min_steps: 10,
+            },
             Damping::Local(0.8),
         );
         let (sim, wall) = relax(sc, |m| m.prescribe_boundary_field(exact))?;
@@ -115,7 +127,11 @@ pub fn patch(quick: bool) -> anyhow::Result<CaseResult> {
         let ds = v
             .stress
             .iter()
-            .map(|s| (0..3).map(|k| (s[k] - s_exact[k]).abs()).fold(0.0, f64::max))
+            .map(|s| {
+                (0..3)
+                    .map(|k| (s[k] - s_exact[k]).abs())
+                    .fold(0.0, f64::max)
+            })
             .fold(0.0, f64::max);
         let h = 1.0 / n as f64;
         for (metric, error) in [("displacement_max", du / umax), ("stress_max", ds / smax)] {
@@ -139,18 +155,28 @@ pub fn patch(quick: bool) -> anyhow::Result<CaseResult> {
 /// mesh. Error: largest deviation of any element stress component over 20 MPa. Tolerance 1e-6
 /// (the issue's); the relaxation to a residual of 1e-9 leaves about 1e-8.
 pub fn insitu(quick: bool) -> anyhow::Result<CaseResult> {
-    let hs: &[f64] = if quick { &[10.0, 5.0, 2.5] } else { &[4.0, 2.0, 1.0] };
+    let hs: &[f64] = if quick {
+        &[10.0, 5.0, 2.5]
+    } else {
+        &[4.0, 2.0, 1.0]
+    };
     let (sxx, syy) = (-20e6, -10e6);
     let mut res = CaseResult::default();
     for (level, &h) in hs.iter().enumerate() {
-        for (metric, perturb) in [("stress_regular", None), ("stress_perturbed", Some((0.2, 42)))] {
+        for (metric, perturb) in [
+            ("stress_regular", None),
+            ("stress_perturbed", Some((0.2, 42))),
+        ] {
             let n = (100.0 / h).round() as usize;
             let sc = scenario(
                 "insitu",
                 square(n, 100.0, perturb),
                 ROCK,
                 Boundary::InSitu { sxx, syy },
-                End::Static { tol: 1e-9, min_steps: 10 },
+                End::Static {
+                    tol: 1e-9,
+                    min_steps: 10,
+                },
                 Damping::Local(0.8),
             );
             let (sim, wall) = relax(sc, |_| {})?;
@@ -189,12 +215,20 @@ impl Manufactured {
     /// u_x = a_x sin(pi x) sin(pi y) + b_x x, u_y = a_y sin(pi x) sin(pi y) + b_y y on the unit square.
     pub fn u(&self, p: [f64; 2]) -> [f64; 2] {
         let f = (std::f64::consts::PI * p[0]).sin() * (std::f64::consts::PI * p[1]).sin();
-        [self.a[0] * f + self.b[0] * p[0], self.a[1] * f + self.b[1] * p[1]]
+        [
+            self.a[0] * f + self.b[0] * p[0],
+            self.a[1] * f + self.b[1] * p[1],
+        ]
     }
     /// Strain [exx, eyy, gamma_xy].
     pub fn strain(&self, p: [f64; 2]) -> [f64; 3] {
         let pi = std::f64::consts::PI;
-        let (sx, cx, sy, cy) = ((pi * p[0]).sin(), (pi * p[0]).cos(), (pi * p[1]).sin(), (pi * p[1]).cos());
+        let (sx, cx, sy, cy) = (
+            (pi * p[0]).sin(),
+            (pi * p[0]).cos(),
+            (pi * p[1]).sin(),
+            (pi * p[1]).cos(),
+        );
         let fx = pi * cx * sy;
         let fy = pi * sx * cy;
         [
@@ -206,7 +240,11 @@ impl Manufactured {
     pub fn stress(&self, p: [f64; 2]) -> [f64; 3] {
         let (lam, g) = (self.mat.lambda(), self.mat.shear());
         let e = self.strain(p);
-        [(lam + 2.0 * g) * e[0] + lam * e[1], lam * e[0] + (lam + 2.0 * g) * e[1], g * e[2]]
+        [
+            (lam + 2.0 * g) * e[0] + lam * e[1],
+            lam * e[0] + (lam + 2.0 * g) * e[1],
+            g * e[2],
+        ]
     }
     /// Body force b = -div(sigma), N/m^3.
     pub fn body_force(&self, p: [f64; 2]) -> [f64; 2] {
@@ -231,7 +269,11 @@ impl Manufactured {
 /// relative L2 (3-point rule) of element stress. Expected orders 2 and 1 (CST); accepted
 /// ranges [1.8, 2.3] and [0.85, 1.3] between the two finest levels.
 pub fn mms(quick: bool) -> anyhow::Result<CaseResult> {
-    let levels: &[usize] = if quick { &[4, 8, 16, 32] } else { &[8, 16, 32, 64] };
+    let levels: &[usize] = if quick {
+        &[4, 8, 16, 32]
+    } else {
+        &[8, 16, 32, 64]
+    };
     let mat = Material {
         young: 10e9,
         poisson: 0.25,
@@ -249,7 +291,10 @@ pub fn mms(quick: bool) -> anyhow::Result<CaseResult> {
             square(n, 1.0, None),
             mat,
             Boundary::default(),
-            End::Static { tol: 1e-11, min_steps: 10 },
+            End::Static {
+                tol: 1e-11,
+                min_steps: 10,
+            },
             Damping::Local(0.8),
         );
         let (sim, wall) = relax(sc, |m| {
@@ -363,7 +408,11 @@ pub fn energy_growth(sc: Scenario, steps: u64) -> anyhow::Result<(f64, f64, usiz
     let k = (energy.len() / 10).max(1);
     let first: f64 = energy[..k].iter().sum::<f64>() / k as f64;
     let last: f64 = energy[energy.len() - k..].iter().sum::<f64>() / k as f64;
-    Ok(((last - first) / first, t0.elapsed().as_secs_f64(), sim.view.n_nodes()))
+    Ok((
+        (last - first) / first,
+        t0.elapsed().as_secs_f64(),
+        sim.view.n_nodes(),
+    ))
 }
 
 /// Stability: undamped runs after the in-situ boundary displacements are switched on at once
@@ -374,7 +423,11 @@ pub fn energy_growth(sc: Scenario, steps: u64) -> anyhow::Result<(f64, f64, usiz
 /// must be stopped with a blow-up error naming the step and node, never with NaN output.
 pub fn stability(quick: bool) -> anyhow::Result<CaseResult> {
     let steps: u64 = if quick { 10_000 } else { 100_000 };
-    let hs: &[f64] = if quick { &[10.0, 5.0, 2.5] } else { &[4.0, 2.0, 1.0] };
+    let hs: &[f64] = if quick {
+        &[10.0, 5.0, 2.5]
+    } else {
+        &[4.0, 2.0, 1.0]
+    };
     let mut res = CaseResult::default();
     let insitu = Boundary::InSitu {
         sxx: -20e6,
@@ -384,9 +437,22 @@ pub fn stability(quick: bool) -> anyhow::Result<CaseResult> {
         let n = (100.0 / h).round() as usize;
         for (metric, mat) in [
             ("energy_growth", ROCK),
-            ("energy_growth_nu0.45", Material { poisson: 0.45, ..ROCK }),
+            (
+                "energy_growth_nu0.45",
+                Material {
+                    poisson: 0.45,
+                    ..ROCK
+                },
+            ),
         ] {
-            let sc = scenario("stability", square(n, 100.0, None), mat, insitu.clone(), End::Time(1e9), Damping::None);
+            let sc = scenario(
+                "stability",
+                square(n, 100.0, None),
+                mat,
+                insitu.clone(),
+                End::Time(1e9),
+                Damping::None,
+            );
             let (growth, wall, nodes) = energy_growth(sc, steps)?;
             res.rows.push(Row {
                 case: "stability",
@@ -397,21 +463,49 @@ pub fn stability(quick: bool) -> anyhow::Result<CaseResult> {
                 error: growth.abs(),
                 wall_s: wall,
             });
-            res.check_max(format!("{metric} at h = {h} m over {steps} steps"), growth, 1e-12);
+            res.check_max(
+                format!("{metric} at h = {h} m over {steps} steps"),
+                growth,
+                1e-12,
+            );
         }
     }
     // The default step against the mesh's true critical step, regular and perturbed.
-    for (what, mesh) in [("regular", square(50, 100.0, None)), ("perturbed", square(50, 100.0, Some((0.3, 5))))] {
+    for (what, mesh) in [
+        ("regular", square(50, 100.0, None)),
+        ("perturbed", square(50, 100.0, Some((0.3, 5)))),
+    ] {
         for nu in [0.2, 0.45] {
-            let sc = scenario("stability", mesh.clone(), Material { poisson: nu, ..ROCK }, insitu.clone(), End::Time(1.0), Damping::None);
+            let sc = scenario(
+                "stability",
+                mesh.clone(),
+                Material {
+                    poisson: nu,
+                    ..ROCK
+                },
+                insitu.clone(),
+                End::Time(1.0),
+                Damping::None,
+            );
             let sim = Simulation::new(sc, &[])?;
             let lmax = max_eigenvalue(&sim.view, &sim.params, 400);
             let dt_true = 2.0 / lmax.sqrt();
-            res.check_max(format!("dt / true critical step, {what} mesh, nu = {nu}"), sim.dt() / dt_true, 1.0);
+            res.check_max(
+                format!("dt / true critical step, {what} mesh, nu = {nu}"),
+                sim.dt() / dt_true,
+                1.0,
+            );
         }
     }
     // A step 1.5x the altitude estimate must be caught.
-    let mut sc = scenario("stability", square(25, 100.0, None), ROCK, insitu, End::Time(1.0), Damping::None);
+    let mut sc = scenario(
+        "stability",
+        square(25, 100.0, None),
+        ROCK,
+        insitu,
+        End::Time(1.0),
+        Damping::None,
+    );
     let probe = Simulation::new(sc.clone(), &[])?;
     sc.time.dt = Some(1.5 * probe.dt_crit);
     let mut sim = Simulation::new(sc, &[])?;
@@ -423,13 +517,21 @@ pub fn stability(quick: bool) -> anyhow::Result<CaseResult> {
             Ok(()) => {}
         }
     };
-    let finite = sim.view.u.iter().all(|u| u[0].is_finite() && u[1].is_finite());
+    let finite = sim
+        .view
+        .u
+        .iter()
+        .all(|u| u[0].is_finite() && u[1].is_finite());
     res.check_max(
         "steps until a 1.5x over-limit step is caught",
         caught.map_or(f64::INFINITY, |s| s as f64),
         20_000.0,
     );
-    res.check_max("non-finite displacements when caught (0 = none)", if finite { 0.0 } else { 1.0 }, 0.0);
+    res.check_max(
+        "non-finite displacements when caught (0 = none)",
+        if finite { 0.0 } else { 1.0 },
+        0.0,
+    );
     Ok(res)
 }
 
