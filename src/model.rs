@@ -262,6 +262,41 @@ impl Model {
         self.topology_generation += 1;
     }
 
+    /// Prescribe displacement components on the nodes nearest to each pin (which must be within
+    /// half a cell diagonal of a node).
+    pub fn apply_pins(&mut self, pins: &[crate::scenario::Pin]) -> Result<(), SetupError> {
+        for (i, pin) in pins.iter().enumerate() {
+            let nearest = self
+                .world
+                .query::<(Entity, &NodeRef, &NodeLink)>()
+                .iter()
+                .filter(|(_, _, l)| l.in_solid)
+                .map(|(e, x, _)| (e, (x.0[0] - pin.at[0]).hypot(x.0[1] - pin.at[1])))
+                .min_by(|a, b| a.1.total_cmp(&b.1));
+            let Some((e, dist)) = nearest else {
+                return Err(SetupError::invalid("pins", "the mesh has no nodes"));
+            };
+            if dist > 0.5 * std::f64::consts::SQRT_2 * self.h {
+                return Err(SetupError::invalid(
+                    &format!("pins[{i}].at"),
+                    format!(
+                        "({}, {}) is {dist:.3} m from the nearest node (more than half a cell diagonal)",
+                        pin.at[0], pin.at[1]
+                    ),
+                ));
+            }
+            let mut bc = self.world.get::<&mut NodeBc>(e).expect("node");
+            if let Some(ux) = pin.ux {
+                bc.prescribed[0] = Some(ux);
+            }
+            if let Some(uy) = pin.uy {
+                bc.prescribed[1] = Some(uy);
+            }
+        }
+        self.topology_generation += 1;
+        Ok(())
+    }
+
     /// Prescribe displacements on every boundary node from a function of the reference position
     /// (for patch tests and manufactured solutions).
     pub fn prescribe_boundary_field(&mut self, f: impl Fn([f64; 2]) -> [f64; 2]) {

@@ -21,6 +21,10 @@ pub struct Scenario {
     pub material: Material,
     #[serde(default)]
     pub boundary: Boundary,
+    /// Single nodes with prescribed displacement components (e.g. to remove rigid-body motion
+    /// under pure traction loading).
+    #[serde(default)]
+    pub pins: Vec<Pin>,
     pub time: TimeControl,
     #[serde(default)]
     pub damping: Damping,
@@ -152,6 +156,20 @@ pub enum SideBc {
     /// Traction, Pa: `normal` along the outward normal (tension positive, so a confining
     /// pressure p is `normal: -p`), `shear` along the side's counter-clockwise tangent.
     Traction { normal: f64, shear: f64 },
+}
+
+/// A prescribed displacement on the node nearest to `at` (within half a cell diagonal).
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Pin {
+    /// Position, m.
+    pub at: [f64; 2],
+    /// Prescribed x displacement, m (`None`: free).
+    #[serde(default)]
+    pub ux: Option<f64>,
+    /// Prescribed y displacement, m (`None`: free).
+    #[serde(default)]
+    pub uy: Option<f64>,
 }
 
 /// Time control.
@@ -475,6 +493,20 @@ impl Scenario {
                         SideBc::Free | SideBc::Fixed => {}
                     }
                 }
+            }
+        }
+        for (i, pin) in self.pins.iter().enumerate() {
+            let field = format!("pins[{i}]");
+            for v in [
+                pin.at[0],
+                pin.at[1],
+                pin.ux.unwrap_or(0.0),
+                pin.uy.unwrap_or(0.0),
+            ] {
+                finite(&field, v)?;
+            }
+            if pin.ux.is_none() && pin.uy.is_none() {
+                return Err(SetupError::invalid(&field, "prescribes neither ux nor uy"));
             }
         }
         // Time.

@@ -76,6 +76,7 @@ impl Simulation {
         let mesh = build_mesh(&scenario.mesh)?;
         let mut model = Model::from_mesh(&mesh, scenario.material)?;
         model.apply_boundary(&scenario.boundary);
+        model.apply_pins(&scenario.pins)?;
         let mat = scenario.material;
         let c_p = mat.p_wave_speed();
         let dt_crit = model.min_altitude / c_p;

@@ -28,6 +28,7 @@ pub fn scenario(
         mesh,
         material,
         boundary,
+        pins: Vec::new(),
         time: TimeControl {
             end,
             safety: 0.9,
