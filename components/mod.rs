@@ -141,3 +141,63 @@ pub struct EdgeState {
 
 /// Edge bundle: the one archetype of every edge entity.
 pub type EdgeBundle = (StableId, EdgeNodes, EdgeElems, EdgeState);
+
+// ---------------------------------------------------------------------------------------------
+// Flow cells and flow boundaries
+// ---------------------------------------------------------------------------------------------
+
+/// The two nodes a flow cell runs between. Cells exchange fluid with every other cell that shares
+/// one of these nodes (the seed's pairs), so junction connectivity is held by the nodes: a split
+/// that creates cells only has to point them at the right (mother) nodes.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CellNodes(pub [Entity; 2]);
+
+/// Fluid state of a cell (per unit thickness): hydraulic aperture a (m), fluid mass m (kg/m),
+/// pressure P (Pa) and the throughput |flow| through the cell (m^2/s) at the last flow step.
+/// Volume V = a L (m^2), density rho = m / V.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct CellFluid {
+    pub aperture: f64,
+    pub mass: f64,
+    pub pressure: f64,
+    pub flow_rate: f64,
+}
+
+/// Whether a cell was there at the start or created by fracturing, and when (s).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum CellKind {
+    Preexisting,
+    New,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CellOrigin {
+    pub kind: CellKind,
+    pub created_t: f64,
+}
+
+/// Flow cell bundle: the one archetype of every cell entity.
+pub type CellBundle = (StableId, CellNodes, CellFluid, CellOrigin);
+
+/// Where a flow boundary condition acts: every cell at a node, or one cell.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum FlowBcTarget {
+    Node(Entity),
+    Cell(Entity),
+}
+
+/// A flow boundary condition: `index` into the scenario's `flow_boundaries`, its target, and its
+/// state at the last flow step: boundary pressure (Pa), rate into the network (m^2/s) and the
+/// cumulative volumes in and out (m^2, at reference density).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FlowBc {
+    pub index: usize,
+    pub target: FlowBcTarget,
+    pub pressure: f64,
+    pub rate: f64,
+    pub volume_in: f64,
+    pub volume_out: f64,
+}
+
+/// Flow boundary bundle.
+pub type FlowBcBundle = (StableId, FlowBc);

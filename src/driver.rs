@@ -56,8 +56,13 @@ pub fn run_scenario(scenario: Scenario, opts: &RunOptions) -> Result<RunReport, 
         .clone()
         .unwrap_or_else(|| PathBuf::from("out").join(&scenario.name));
     let mut sim = Simulation::new(scenario, &opts.disable)?;
-    let outputs =
-        Outputs::create(&out, &sim.scenario.output.fields).map_err(DriverError::Output)?;
+    let outputs = Outputs::create(&out, &sim.scenario.output.fields, &sim.series_columns())
+        .map_err(DriverError::Output)?;
+    if let Some(f) = &sim.flow {
+        outputs
+            .write_fractures_csv(&f.network.fractures)
+            .map_err(DriverError::Output)?;
+    }
     sim.output = Some(outputs);
 
     let timing = TimingLayer::default();
@@ -102,7 +107,13 @@ pub fn run_scenario(scenario: Scenario, opts: &RunOptions) -> Result<RunReport, 
         })
         .collect();
     let timing_table = format_table(&rows);
-    let summary = summary_json(&sim, &result, wall, &rows);
+    let mut summary = summary_json(&sim, &result, wall, &rows);
+    if let (Some(f), Some(o)) = (&sim.flow, &sim.output) {
+        o.write_network_csv(&f.view).map_err(DriverError::Output)?;
+        if let Err(e) = crate::output::plots::flow_figures(&sim, &o.dir) {
+            summary["warnings"] = json!([format!("figures not written: {e}")]);
+        }
+    }
     write_atomic(
         &out.join("summary.json"),
         serde_json::to_string_pretty(&summary)
@@ -168,8 +179,34 @@ fn summary_json(
         Ok(f) => ("ok", Some(*f), None),
         Err(e) => ("failed", None, Some(e.to_string())),
     };
+    let flow = sim.flow.as_ref().map(|f| {
+        let (inj, prod, stored, err) = sim.flow_balance().unwrap_or_default();
+        let bcs: Vec<serde_json::Value> = f
+            .view
+            .bcs
+            .iter()
+            .map(|b| {
+                json!({"name": sim.bc_name(b.index), "pressure": b.pressure, "rate": b.rate,
+                       "volume_in": b.volume_in, "volume_out": b.volume_out})
+            })
+            .collect();
+        json!({
+            "cells": f.view.n_cells(),
+            "pairs": f.view.pairs.len(),
+            "dt": f.dt,
+            "dt_critical": f.dt_crit,
+            "substeps": f.substeps,
+            "residual": f.residual,
+            "boundaries": bcs,
+            "injected_volume": inj,
+            "produced_volume": prod,
+            "stored_volume_change": stored,
+            "mass_balance_error": err,
+        })
+    });
     json!({
         "scenario": sim.scenario.name,
+        "flow": flow,
         "status": status,
         "finish": finish,
         "error": error,

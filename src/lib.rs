@@ -16,8 +16,10 @@ pub mod systems;
 
 pub mod driver;
 pub mod error;
+pub mod flow;
 pub mod mesh;
 pub mod model;
+pub mod network;
 pub mod output;
 pub mod plot;
 pub mod reference;

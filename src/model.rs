@@ -24,6 +24,7 @@ pub struct Model {
     pub next_node_id: u64,
     pub next_elem_id: u64,
     pub next_edge_id: u64,
+    pub next_cell_id: u64,
 }
 
 /// Geometry of a constant-strain triangle with nodes p (counter-clockwise).
@@ -172,7 +173,180 @@ impl Model {
             next_node_id: mesh.nodes.len() as u64,
             next_elem_id: mesh.triangles.len() as u64,
             next_edge_id: edge_id,
+            next_cell_id: 0,
         })
+    }
+
+    /// A model with no solid (flow-only scenes).
+    pub fn empty() -> Self {
+        Model {
+            world: World::new(),
+            material: Material {
+                young: 1.0,
+                poisson: 0.0,
+                density: 1.0,
+            },
+            bbox: [0.0; 4],
+            h: 1.0,
+            min_altitude: f64::INFINITY,
+            topology_generation: 0,
+            next_node_id: 0,
+            next_elem_id: 0,
+            next_edge_id: 0,
+            next_cell_id: 0,
+        }
+    }
+
+    /// Spawn a rigid network's nodes (outside the solid) and its cells, each holding fluid per
+    /// `initial` at reference density `rho_r` and bulk modulus `k`.
+    pub fn add_network(
+        &mut self,
+        net: &crate::network::CellNetwork,
+        initial: crate::scenario::InitialFluid,
+        rho_r: f64,
+        k: f64,
+    ) {
+        let nodes: Vec<Entity> = net
+            .nodes
+            .iter()
+            .map(|&x| {
+                let id = self.next_node_id;
+                self.next_node_id += 1;
+                let bundle: NodeBundle = (
+                    StableId(id),
+                    NodeRef(x),
+                    NodeState::default(),
+                    NodeMass(0.0),
+                    NodeBc::default(),
+                    NodeLink {
+                        in_solid: false,
+                        mother: None,
+                    },
+                );
+                self.world.spawn(bundle)
+            })
+            .collect();
+        for &(a, b, aperture, _) in &net.cells {
+            let (pa, pb) = (net.nodes[a as usize], net.nodes[b as usize]);
+            let len = ((pb[0] - pa[0]).powi(2) + (pb[1] - pa[1]).powi(2)).sqrt();
+            let (mass, pressure) = match initial {
+                crate::scenario::InitialFluid::Empty => (0.0, 0.0),
+                crate::scenario::InitialFluid::Full(p) => {
+                    (rho_r * (1.0 + p / k) * aperture * len, p)
+                }
+            };
+            let id = self.next_cell_id;
+            self.next_cell_id += 1;
+            let bundle: CellBundle = (
+                StableId(id),
+                CellNodes([nodes[a as usize], nodes[b as usize]]),
+                CellFluid {
+                    aperture,
+                    mass,
+                    pressure,
+                    flow_rate: 0.0,
+                },
+                CellOrigin {
+                    kind: CellKind::Preexisting,
+                    created_t: 0.0,
+                },
+            );
+            self.world.spawn(bundle);
+        }
+        self.topology_generation += 1;
+    }
+
+    /// Attach the scenario's flow boundaries to the nearest network node or cell centre.
+    pub fn add_flow_boundaries(
+        &mut self,
+        bcs: &[crate::scenario::FlowBoundary],
+    ) -> Result<(), SetupError> {
+        use crate::scenario::FlowTarget;
+        let mut cell_ends: Vec<(Entity, [Entity; 2])> = self
+            .world
+            .query::<(Entity, &CellNodes)>()
+            .iter()
+            .map(|(e, c)| (e, c.0))
+            .collect();
+        cell_ends.sort_by_key(|(e, _)| self.world.get::<&StableId>(*e).map(|i| i.0).unwrap_or(0));
+        let pos = |e: Entity| self.world.get::<&NodeRef>(e).expect("node").0;
+        let mut spawned = Vec::new();
+        for (i, bc) in bcs.iter().enumerate() {
+            let (target, d_near, p) = match bc.at {
+                FlowTarget::Node(p) => {
+                    let best = cell_ends
+                        .iter()
+                        .flat_map(|(_, n)| n.iter().copied())
+                        .map(|n| (n, dist(pos(n), p)))
+                        .min_by(|a, b| a.1.total_cmp(&b.1));
+                    let Some((n, d)) = best else {
+                        return Err(SetupError::invalid(
+                            "flow_boundaries",
+                            "the network has no cells",
+                        ));
+                    };
+                    (FlowBcTarget::Node(n), d, p)
+                }
+                FlowTarget::Cell(p) => {
+                    let best = cell_ends
+                        .iter()
+                        .map(|(c, n)| {
+                            let (a, b) = (pos(n[0]), pos(n[1]));
+                            (*c, dist([0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1])], p))
+                        })
+                        .min_by(|a, b| a.1.total_cmp(&b.1));
+                    let Some((c, d)) = best else {
+                        return Err(SetupError::invalid(
+                            "flow_boundaries",
+                            "the network has no cells",
+                        ));
+                    };
+                    (FlowBcTarget::Cell(c), d, p)
+                }
+            };
+            // The nearest node or cell centre must be close compared with the cells around it.
+            let near = match target {
+                FlowBcTarget::Node(n) => cell_ends
+                    .iter()
+                    .filter(|(_, e)| e.contains(&n))
+                    .map(|(_, e)| dist(pos(e[0]), pos(e[1])))
+                    .fold(0.0, f64::max),
+                FlowBcTarget::Cell(c) => cell_ends
+                    .iter()
+                    .find(|(e, _)| *e == c)
+                    .map(|(_, e)| dist(pos(e[0]), pos(e[1])))
+                    .unwrap_or(0.0),
+            };
+            if dist_ok(d_near, near).is_err() {
+                return Err(SetupError::invalid(
+                    &format!("flow_boundaries[{i}].at"),
+                    format!(
+                        "({}, {}) is {d_near:.3} m from the nearest network {}; put it on the network",
+                        p[0],
+                        p[1],
+                        if matches!(target, FlowBcTarget::Node(_)) {
+                            "node"
+                        } else {
+                            "cell centre"
+                        }
+                    ),
+                ));
+            }
+            spawned.push(FlowBc {
+                index: i,
+                target,
+                pressure: 0.0,
+                rate: 0.0,
+                volume_in: 0.0,
+                volume_out: 0.0,
+            });
+        }
+        for (k, bc) in spawned.into_iter().enumerate() {
+            let bundle: FlowBcBundle = (StableId(k as u64), bc);
+            self.world.spawn(bundle);
+        }
+        self.topology_generation += 1;
+        Ok(())
     }
 
     /// Which sides of the domain a reference position lies on (corners are on two).
@@ -343,6 +517,10 @@ impl Model {
         self.topology_generation += 1;
     }
 
+    pub fn cell_count(&self) -> usize {
+        self.world.query::<&CellNodes>().iter().count()
+    }
+
     pub fn node_count(&self) -> usize {
         self.world
             .query::<&NodeLink>()
@@ -355,6 +533,19 @@ impl Model {
     }
     pub fn edge_count(&self) -> usize {
         self.world.query::<&EdgeNodes>().iter().count()
+    }
+}
+
+fn dist(a: [f64; 2], b: [f64; 2]) -> f64 {
+    (a[0] - b[0]).hypot(a[1] - b[1])
+}
+
+/// A boundary point may sit at most half a cell length from its node or cell centre.
+fn dist_ok(d: f64, cell_len: f64) -> Result<(), ()> {
+    if d <= 0.5 * cell_len + 1e-9 {
+        Ok(())
+    } else {
+        Err(())
     }
 }
 

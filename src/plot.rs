@@ -1,10 +1,15 @@
-//! PNG line plots (log-log and linear) drawn with plotters' bitmap backend and
-//! an embedded DejaVu Sans font (`assets/DejaVuSans.ttf`).
+//! PNG line plots (log-log and linear) and fracture-network maps, drawn with
+//! plotters' bitmap backend and an embedded DejaVu Sans font
+//! (`assets/DejaVuSans.ttf`).
 //!
 //! Log plots are drawn in log10 space with power-of-ten tick labels. Series
 //! with more than 60 points get no markers. The legend goes in the plot
 //! corner covering the fewest curve samples. PNGs are written atomically
 //! (`<name>.tmp.png` in the same folder, then renamed).
+//!
+//! Network maps ([`network`]) draw each segment as an anti-aliased line
+//! coloured by a hand-made viridis colormap, with equal x/y scales and a
+//! colour bar.
 //!
 //! All text is drawn by this module glyph by glyph (`Pen`), not by
 //! plotters' text path, to work around its letter-spacing bug.
@@ -26,11 +31,27 @@ pub struct Series {
     pub points: Vec<(f64, f64)>,
 }
 
-/// Error from [`loglog`] / [`lines`].
+/// How a scalar maps to colour (see [`network`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum ColourScale {
+    Linear,
+    Log,
+}
+
+/// One line segment of a fracture network, m.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Segment {
+    pub a: [f64; 2],
+    pub b: [f64; 2],
+}
+
+/// Error from [`loglog`] / [`lines`] / [`network`].
 #[derive(Debug, thiserror::Error)]
 pub enum PlotError {
     #[error("the embedded plot font could not be loaded")]
     Font,
+    #[error("invalid input for plot {path}: {message}")]
+    Input { path: PathBuf, message: String },
     #[error("cannot draw plot {path}: {message}")]
     Draw { path: PathBuf, message: String },
     #[error("cannot write plot {path}: {source}")]
@@ -96,6 +117,64 @@ pub fn lines(
     series: &[Series],
 ) -> Result<(), PlotError> {
     render(path, title, xlabel, ylabel, series, false)
+}
+
+/// Draw a fracture network: each segment as a line coloured by `values[k]`
+/// (viridis colormap), `width_px[k]` px wide when given (e.g. scaled
+/// aperture; non-finite widths use the 2 px default, others are clamped to
+/// 0.75..=40 px), equal x/y scales in metres, a vertical colour bar labelled
+/// `value_label`, and `title` on top; 1100x900 px PNG, written atomically.
+///
+/// Non-finite values are drawn grey (below the coloured segments, which are
+/// drawn in increasing value order); [`ColourScale::Log`] also greys out
+/// non-positive values and labels the colour bar in powers of ten. Segments
+/// with non-finite end points are left out. Both are counted in a note.
+/// `markers` are labelled points (e.g. a pump) drawn as filled circles. An
+/// empty network or one without any colourable value still gives a PNG,
+/// with a note. `values` (and `width_px`) must have one entry per segment,
+/// else [`PlotError::Input`].
+#[allow(clippy::too_many_arguments)]
+pub fn network(
+    path: &Path,
+    title: &str,
+    segments: &[Segment],
+    values: &[f64],
+    value_label: &str,
+    scale: ColourScale,
+    width_px: Option<&[f64]>,
+    markers: &[([f64; 2], &str)],
+) -> Result<(), PlotError> {
+    let input_err = |message: String| PlotError::Input {
+        path: path.to_path_buf(),
+        message,
+    };
+    if values.len() != segments.len() {
+        return Err(input_err(format!(
+            "{} values given for {} segments (need one value per segment)",
+            values.len(),
+            segments.len()
+        )));
+    }
+    if let Some(w) = width_px
+        && w.len() != segments.len()
+    {
+        return Err(input_err(format!(
+            "{} line widths given for {} segments (need one width per segment)",
+            w.len(),
+            segments.len()
+        )));
+    }
+    ensure_font()?;
+    let net = Network {
+        title,
+        segments,
+        values,
+        value_label,
+        scale,
+        width_px,
+        markers,
+    };
+    write_atomically(path, |tmp| draw_network(tmp, path, &net))
 }
 
 // ---------------------------------------------------------------------------
@@ -169,6 +248,18 @@ impl Axis {
             .map(|f| f * mag)
             .find(|&s| s >= raw * (1.0 - 1e-12))
             .unwrap_or(10.0 * mag);
+        Axis::linear_stepped(lo, hi, step)
+    }
+
+    /// Linear axis over exactly `lo..hi` with major ticks every `step`
+    /// (a 1/2/2.5/5 x 10^k value).
+    fn linear_stepped(lo: f64, hi: f64, step: f64) -> Axis {
+        let step = if step > 0.0 && step.is_finite() {
+            step
+        } else {
+            1.0
+        };
+        let mag = 10f64.powf((step.log10() + 1e-9).floor());
         let minor_step = if (step / mag - 2.0).abs() < 1e-9 {
             step / 4.0
         } else {
@@ -398,8 +489,19 @@ fn render(
     log: bool,
 ) -> Result<(), PlotError> {
     ensure_font()?;
+    write_atomically(path, |tmp| {
+        draw_to(tmp, path, title, xlabel, ylabel, series, log)
+    })
+}
+
+/// Run `draw` on `<name>.tmp.png` next to `path`, then sync and rename it to
+/// `path`; the temporary file is removed on failure.
+fn write_atomically(
+    path: &Path,
+    draw: impl FnOnce(&Path) -> Result<(), PlotError>,
+) -> Result<(), PlotError> {
     let tmp = tmp_png_path(path)?;
-    let result = draw_to(&tmp, path, title, xlabel, ylabel, series, log).and_then(|()| {
+    let result = draw(&tmp).and_then(|()| {
         let io = |source| PlotError::Io {
             path: path.to_path_buf(),
             source,
@@ -924,6 +1026,582 @@ fn draw_to(
     r.map_err(|m| draw_err(path, m))
 }
 
+// ---------------------------------------------------------------------------
+// Network maps
+// ---------------------------------------------------------------------------
+
+const NET_WIDTH: u32 = 1100;
+const NET_HEIGHT: u32 = 900;
+/// Line width when no widths are given, and for non-finite widths, px.
+const NET_LINE_PX: f64 = 2.0;
+/// Range that given line widths are clamped to, px.
+const NET_LINE_MIN_PX: f64 = 0.75;
+const NET_LINE_MAX_PX: f64 = 40.0;
+/// Colour of segments without a usable value.
+const NO_VALUE_GREY: RGBColor = RGBColor(178, 178, 178);
+const MARKER_FILL: RGBColor = RGBColor(214, 39, 40);
+/// Colour bar: gap to the plot frame, width, major tick length (px).
+const BAR_GAP: i32 = 28;
+const BAR_W: i32 = 24;
+const BAR_TICK: i32 = 6;
+
+/// Viridis (matplotlib) at t = 0, 1/8, ..., 1.
+const VIRIDIS: [(u8, u8, u8); 9] = [
+    (68, 1, 84),
+    (71, 45, 123),
+    (59, 82, 139),
+    (44, 114, 142),
+    (33, 145, 140),
+    (40, 174, 128),
+    (94, 201, 98),
+    (173, 220, 48),
+    (253, 231, 37),
+];
+
+/// Viridis colour at `t` in 0..=1 (clamped), linear between the anchors.
+fn viridis(t: f64) -> RGBColor {
+    let t = if t.is_finite() {
+        t.clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    let x = t * (VIRIDIS.len() - 1) as f64;
+    let i = (x.floor() as usize).min(VIRIDIS.len() - 2);
+    let f = x - i as f64;
+    let (p, q) = (VIRIDIS[i], VIRIDIS[i + 1]);
+    let lerp = |p: u8, q: u8| (p as f64 + f * (q as f64 - p as f64)).round() as u8;
+    RGBColor(lerp(p.0, q.0), lerp(p.1, q.1), lerp(p.2, q.2))
+}
+
+/// Arguments of [`network`], validated.
+struct Network<'a> {
+    title: &'a str,
+    segments: &'a [Segment],
+    values: &'a [f64],
+    value_label: &'a str,
+    scale: ColourScale,
+    width_px: Option<&'a [f64]>,
+    markers: &'a [([f64; 2], &'a str)],
+}
+
+impl Network<'_> {
+    /// Whether `v` gets a colour (else grey).
+    fn usable(&self, v: f64) -> bool {
+        v.is_finite() && (self.scale == ColourScale::Linear || v > 0.0)
+    }
+
+    /// Value in colour-bar space (log10 for log scales).
+    fn bar_value(&self, v: f64) -> f64 {
+        match self.scale {
+            ColourScale::Linear => v,
+            ColourScale::Log => v.log10(),
+        }
+    }
+
+    fn line_width(&self, k: usize) -> f64 {
+        match self.width_px.map(|w| w[k]) {
+            Some(w) if w.is_finite() => w.clamp(NET_LINE_MIN_PX, NET_LINE_MAX_PX),
+            _ => NET_LINE_PX,
+        }
+    }
+}
+
+/// Colour-bar axis over exactly `vmin..=vmax` (positive for log scales; the
+/// axis is then in log10 space with power-of-ten labels).
+fn colour_axis(vmin: f64, vmax: f64, scale: ColourScale) -> Axis {
+    match scale {
+        ColourScale::Linear if vmax > vmin => Axis::linear_exact(vmin, vmax),
+        ColourScale::Linear => Axis::linear(vmin, vmax),
+        ColourScale::Log => {
+            let (lmin, lmax) = (vmin.log10(), vmax.log10());
+            let mut a = Axis::log(lmin, lmax);
+            a.plain = false;
+            if lmax - lmin > 1e-9 {
+                // Drop the margins when at least two labelled ticks remain.
+                let inside = |t: &f64| *t >= lmin - 1e-9 && *t <= lmax + 1e-9;
+                let major: Vec<f64> = a.major.iter().copied().filter(inside).collect();
+                if major.len() >= 2 {
+                    a.minor.retain(inside);
+                    a.major = major;
+                    a.lo = lmin;
+                    a.hi = lmax;
+                }
+            }
+            a
+        }
+    }
+}
+
+/// Position of `v` (colour-bar space) on `axis`, 0..=1.
+fn colour_fraction(axis: &Axis, v: f64) -> f64 {
+    // Halve first so extreme ranges do not overflow.
+    let f = (v / 2.0 - axis.lo / 2.0) / (axis.hi / 2.0 - axis.lo / 2.0);
+    if f.is_finite() {
+        f.clamp(0.0, 1.0)
+    } else {
+        0.5
+    }
+}
+
+/// Axes with equal metres per pixel for the data box `[xmin, xmax, ymin,
+/// ymax]` (plus a margin), filling `w` x `h` px (the axes' pixel lengths);
+/// both get the same tick step.
+fn equal_axes(bbox: [f64; 4], w: f64, h: f64) -> (Axis, Axis) {
+    let try_box = |[xmin, xmax, ymin, ymax]: [f64; 4]| -> Option<(Axis, Axis)> {
+        let span = (xmax - xmin).max(ymax - ymin);
+        let pad = if span > 0.0 {
+            0.04 * span
+        } else {
+            let m = xmin.abs().max(ymin.abs());
+            if m > 0.0 { 0.1 * m } else { 1.0 }
+        };
+        let (xs, ys) = (xmax - xmin + 2.0 * pad, ymax - ymin + 2.0 * pad);
+        let px_per_m = (w / xs).min(h / ys);
+        let (xc, yc) = (xmin / 2.0 + xmax / 2.0, ymin / 2.0 + ymax / 2.0);
+        let (hx, hy) = (0.5 * w / px_per_m, 0.5 * h / px_per_m);
+        let ok = [xc - hx, xc + hx, yc - hy, yc + hy]
+            .iter()
+            .all(|v| v.is_finite())
+            && px_per_m > 0.0
+            && hx > 0.0
+            && hy > 0.0;
+        if !ok {
+            return None;
+        }
+        let x = Axis::linear_exact(xc - hx, xc + hx);
+        let y = Axis::linear_exact(yc - hy, yc + hy);
+        let step = x.step.max(y.step);
+        Some((
+            Axis::linear_stepped(x.lo, x.hi, step),
+            Axis::linear_stepped(y.lo, y.hi, step),
+        ))
+    };
+    try_box(bbox)
+        .or_else(|| try_box([0.0, 1.0, 0.0, 1.0]))
+        .unwrap_or_else(|| (Axis::linear(0.0, 1.0), Axis::linear(0.0, 1.0)))
+}
+
+/// Anti-aliased line from `a` to `b` (continuous pixel coordinates: pixel
+/// `(i, j)` covers `[i, i+1) x [j, j+1)`), `w` px wide with round caps,
+/// clipped to the pixel ranges `clip`. `a == b` gives a disc.
+fn draw_aa_segment(
+    area: &DrawingArea<BitMapBackend, Shift>,
+    a: (f64, f64),
+    b: (f64, f64),
+    w: f64,
+    color: RGBColor,
+    clip: &(std::ops::Range<i32>, std::ops::Range<i32>),
+) -> Result<(), String> {
+    // Work with pixel centres on integers.
+    let a = (a.0 - 0.5, a.1 - 0.5);
+    let (dx, dy) = (b.0 - 0.5 - a.0, b.1 - 0.5 - a.1);
+    let len2 = dx * dx + dy * dy;
+    let r = 0.5 * w;
+    let reach = r + 0.5;
+    // Walk along the longer direction u; cover a band across it (v).
+    let steep = dy.abs() > dx.abs();
+    let (au, av, du, dv) = if steep {
+        (a.1, a.0, dy, dx)
+    } else {
+        (a.0, a.1, dx, dy)
+    };
+    let (clip_u, clip_v) = if steep {
+        (&clip.1, &clip.0)
+    } else {
+        (&clip.0, &clip.1)
+    };
+    let slope = if du != 0.0 { dv / du } else { 0.0 };
+    let band = reach * (1.0 + slope * slope).sqrt() + 0.5;
+    let u_lo = (au.min(au + du) - reach).floor().max(clip_u.start as f64);
+    let u_hi = (au.max(au + du) + reach)
+        .ceil()
+        .min((clip_u.end - 1) as f64);
+    if u_lo.is_nan() || u_hi.is_nan() || u_lo > u_hi {
+        return Ok(());
+    }
+    for u in u_lo as i32..=u_hi as i32 {
+        let s = if du != 0.0 {
+            ((u as f64 - au) / du).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        let vc = av + s * dv;
+        let v_lo = (vc - band).floor().max(clip_v.start as f64);
+        let v_hi = (vc + band).ceil().min((clip_v.end - 1) as f64);
+        if v_lo.is_nan() || v_hi.is_nan() || v_lo > v_hi {
+            continue;
+        }
+        for v in v_lo as i32..=v_hi as i32 {
+            let (x, y) = if steep { (v, u) } else { (u, v) };
+            let (qx, qy) = (x as f64 - a.0, y as f64 - a.1);
+            let t = if len2 > 0.0 {
+                ((qx * dx + qy * dy) / len2).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
+            let (ex, ey) = (qx - t * dx, qy - t * dy);
+            let cover = (reach - (ex * ex + ey * ey).sqrt()).min(1.0);
+            if cover > 0.0 {
+                area.draw_pixel((x, y), &color.mix(cover))
+                    .map_err(|e| e.to_string())?;
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Text on a legend-style box (white, thin grey border).
+fn boxed_text(
+    area: &DrawingArea<BitMapBackend, Shift>,
+    pen: &Pen,
+    s: &str,
+    pos: (i32, i32),
+    h: HPos,
+) -> Result<(), String> {
+    let w = pen.width(s);
+    let x0 = match h {
+        HPos::Left => pos.0,
+        HPos::Center => pos.0 - w / 2,
+        HPos::Right => pos.0 - w,
+    };
+    // Room for descenders below the baseline.
+    let (pad_x, pad_y, desc) = (8, 7, pen.cap() / 4);
+    let corners = [
+        (x0 - pad_x, pos.1 - pen.cap() / 2 - pad_y),
+        (x0 + w + pad_x, pos.1 + (pen.cap() + 1) / 2 + desc + pad_y),
+    ];
+    area.draw(&Rectangle::new(corners, WHITE.mix(0.92).filled()))
+        .map_err(|e| e.to_string())?;
+    area.draw(&Rectangle::new(corners, BLACK.mix(0.35)))
+        .map_err(|e| e.to_string())?;
+    pen.draw(area, s, (x0, pos.1), (HPos::Left, VPos::Center), false)
+}
+
+fn draw_network(tmp: &Path, path: &Path, net: &Network) -> Result<(), PlotError> {
+    let finite = |p: &[f64; 2]| p[0].is_finite() && p[1].is_finite();
+    let drawable: Vec<usize> = (0..net.segments.len())
+        .filter(|&k| finite(&net.segments[k].a) && finite(&net.segments[k].b))
+        .collect();
+    let no_coords = net.segments.len() - drawable.len();
+    let markers: Vec<&([f64; 2], &str)> = net.markers.iter().filter(|m| finite(&m.0)).collect();
+
+    // Data box of the drawable segments and markers.
+    let mut bbox = [f64::MAX, f64::MIN, f64::MAX, f64::MIN];
+    let points = drawable
+        .iter()
+        .flat_map(|&k| [net.segments[k].a, net.segments[k].b])
+        .chain(markers.iter().map(|m| m.0));
+    for [x, y] in points {
+        bbox = [
+            bbox[0].min(x),
+            bbox[1].max(x),
+            bbox[2].min(y),
+            bbox[3].max(y),
+        ];
+    }
+    if bbox[0] > bbox[1] {
+        bbox = [0.0, 1.0, 0.0, 1.0];
+    }
+
+    // Colour range of the usable values of drawable segments.
+    let (mut vmin, mut vmax) = (f64::MAX, f64::MIN);
+    for &k in &drawable {
+        let v = net.values[k];
+        if net.usable(v) {
+            vmin = vmin.min(v);
+            vmax = vmax.max(v);
+        }
+    }
+    let bar = (vmin <= vmax).then(|| colour_axis(vmin, vmax, net.scale));
+    let greyed = drawable
+        .iter()
+        .filter(|&&k| !net.usable(net.values[k]))
+        .count();
+
+    let black = RGBColor(0, 0, 0);
+    let title_pen = Pen::new(TITLE_SIZE, black);
+    let desc_pen = Pen::new(DESC_SIZE, black);
+    let tick_pen = Pen::new(TICK_SIZE, RGBColor(30, 30, 30));
+    let label_pen = Pen::new(LEGEND_SIZE, black);
+
+    let bar_labels: Vec<(f64, String)> = bar
+        .iter()
+        .flat_map(|a| a.major.iter().map(|&t| (t, a.label(t))))
+        .collect();
+    let bar_mult = bar.as_ref().and_then(Axis::multiplier);
+    let bar_tick_w = bar_labels
+        .iter()
+        .map(|(_, l)| tick_pen.width(l))
+        .max()
+        .unwrap_or(0);
+
+    // Layout in pixels (margins around the plotting area).
+    let desc_h = desc_pen.cap() + 6;
+    let top = if net.title.is_empty() {
+        24
+    } else {
+        18 + title_pen.cap() + 26
+    };
+    let bottom = TICK_GAP + tick_pen.cap() + 8 + 18 + desc_h + 14;
+    let bar_desc_w = if net.value_label.is_empty() {
+        0
+    } else {
+        16 + desc_h
+    };
+    let right = (BAR_GAP + BAR_W + BAR_TICK + 6 + bar_tick_w + bar_desc_w + 20)
+        .max(BAR_GAP + bar_mult.as_deref().map_or(0, |m| tick_pen.width(m)) + 16);
+    let (w_px, h_px) = (NET_WIDTH as i32, NET_HEIGHT as i32);
+    let mut y_tick_w = 0;
+    let (mut left, mut axes);
+    let mut tries = 0;
+    loop {
+        left = 16 + desc_h + 18 + y_tick_w + TICK_GAP;
+        // Pixel lengths of the axes as plotters maps them.
+        let ax_w = (w_px - right - 1 - left).max(10) as f64;
+        let ax_h = (h_px - bottom - 1 - top).max(10) as f64;
+        axes = equal_axes(bbox, ax_w, ax_h);
+        let need = axes
+            .1
+            .major
+            .iter()
+            .map(|&t| tick_pen.width(&axes.1.label(t)))
+            .max()
+            .unwrap_or(0);
+        tries += 1;
+        if need <= y_tick_w || tries == 5 {
+            break;
+        }
+        y_tick_w = need;
+    }
+    let (x_axis, y_axis) = axes;
+    let x_labels: Vec<(f64, String)> = x_axis.major.iter().map(|&t| (t, x_axis.label(t))).collect();
+    let y_labels: Vec<(f64, String)> = y_axis.major.iter().map(|&t| (t, y_axis.label(t))).collect();
+
+    // Drawing order: grey segments first, then by increasing value.
+    let mut order: Vec<(Option<f64>, usize)> = drawable
+        .iter()
+        .map(|&k| {
+            let v = net.values[k];
+            let t = match &bar {
+                Some(a) if net.usable(v) => Some(colour_fraction(a, net.bar_value(v))),
+                _ => None,
+            };
+            (t, k)
+        })
+        .collect();
+    order.sort_by(|p, q| match (p.0, q.0) {
+        (Some(a), Some(b)) => a.total_cmp(&b),
+        (p, q) => p.is_some().cmp(&q.is_some()),
+    });
+
+    let root = BitMapBackend::new(tmp, (NET_WIDTH, NET_HEIGHT)).into_drawing_area();
+    let inner = || -> Result<(), String> {
+        root.fill(&WHITE).map_err(|e| e.to_string())?;
+        let no_label = |_: &f64| String::new();
+        let mut chart = ChartBuilder::on(&root)
+            .margin_top(top)
+            .margin_right(right)
+            .x_label_area_size(bottom)
+            .y_label_area_size(left)
+            .build_cartesian_2d(x_axis.clone(), y_axis.clone())
+            .map_err(|e| e.to_string())?;
+        chart
+            .configure_mesh()
+            .x_label_formatter(&no_label)
+            .y_label_formatter(&no_label)
+            .bold_line_style(BLACK.mix(0.12))
+            .light_line_style(BLACK.mix(0.04))
+            .axis_style(BLACK.stroke_width(1))
+            .set_all_tick_mark_size(6)
+            .draw()
+            .map_err(|e| e.to_string())?;
+        let (px, py) = chart.plotting_area().get_pixel_range();
+        let clip = (px.clone(), py.clone());
+
+        // Metres to continuous pixel coordinates.
+        let (x0, y0) = chart.backend_coord(&(x_axis.lo, y_axis.lo));
+        let (x1, y1) = chart.backend_coord(&(x_axis.hi, y_axis.hi));
+        let to_px = |p: [f64; 2]| -> (f64, f64) {
+            let fx = (p[0] - x_axis.lo) / (x_axis.hi - x_axis.lo);
+            let fy = (p[1] - y_axis.lo) / (y_axis.hi - y_axis.lo);
+            (
+                x0 as f64 + fx * (x1 - x0) as f64,
+                y0 as f64 + fy * (y1 - y0) as f64,
+            )
+        };
+
+        // Segments and markers.
+        for &(t, k) in &order {
+            let color = t.map_or(NO_VALUE_GREY, viridis);
+            let s = &net.segments[k];
+            let w = net.line_width(k);
+            draw_aa_segment(&root, to_px(s.a), to_px(s.b), w, color, &clip)?;
+        }
+        for &&(p, _) in &markers {
+            let c = to_px(p);
+            draw_aa_segment(&root, c, c, 17.0, WHITE, &clip)?;
+            draw_aa_segment(&root, c, c, 14.0, RGBColor(40, 40, 40), &clip)?;
+            draw_aa_segment(&root, c, c, 11.0, MARKER_FILL, &clip)?;
+        }
+        for &&(p, label) in &markers {
+            if label.is_empty() {
+                continue;
+            }
+            let (cx, cy) = to_px(p);
+            let (cx, cy) = (cx.floor() as i32, cy.floor() as i32);
+            let w = label_pen.width(label);
+            let half = label_pen.cap() / 2 + 10;
+            let y = cy.clamp(py.start + half, (py.end - half).max(py.start + half));
+            if cx + 16 + w + 10 <= px.end {
+                boxed_text(&root, &label_pen, label, (cx + 16, y), HPos::Left)?;
+            } else {
+                boxed_text(&root, &label_pen, label, (cx - 16, y), HPos::Right)?;
+            }
+        }
+        // Close the frame on the top and right (over the segments).
+        root.draw(&PathElement::new(
+            vec![
+                (px.start, py.start),
+                (px.end - 1, py.start),
+                (px.end - 1, py.end - 1),
+            ],
+            BLACK.stroke_width(1),
+        ))
+        .map_err(|e| e.to_string())?;
+
+        // Axis tick labels, descriptions, title.
+        for (t, l) in &x_labels {
+            let (x, _) = chart.backend_coord(&(*t, y_axis.lo));
+            let at = (x, py.end + TICK_GAP);
+            tick_pen.draw(&root, l, at, (HPos::Center, VPos::Top), false)?;
+        }
+        for (t, l) in &y_labels {
+            let (_, y) = chart.backend_coord(&(x_axis.lo, *t));
+            let at = (px.start - TICK_GAP, y);
+            tick_pen.draw(&root, l, at, (HPos::Right, VPos::Center), false)?;
+        }
+        let cx = (px.start + px.end) / 2;
+        let cy = (py.start + py.end) / 2;
+        let center = (HPos::Center, VPos::Center);
+        let center_top = (HPos::Center, VPos::Top);
+        let y = py.end + TICK_GAP + tick_pen.cap() + 8 + 18;
+        desc_pen.draw(&root, "x [m]", (cx, y), center_top, false)?;
+        let x = px.start - TICK_GAP - y_tick_w - 18 - desc_h / 2;
+        desc_pen.draw(&root, "y [m]", (x, cy), center, true)?;
+        if !net.title.is_empty() {
+            title_pen.draw(&root, net.title, (cx, 18), center_top, false)?;
+        }
+        if let Some(m) = x_axis.multiplier() {
+            let at = (px.end, py.end + TICK_GAP + tick_pen.cap() + 8 + 18);
+            tick_pen.draw(&root, &m, at, (HPos::Right, VPos::Top), false)?;
+        }
+        if let Some(m) = y_axis.multiplier() {
+            let at = (px.start, py.start - 8);
+            tick_pen.draw(&root, &m, at, (HPos::Left, VPos::Bottom), false)?;
+        }
+
+        // Colour bar, as tall as the plotting area.
+        let bx0 = px.end - 1 + BAR_GAP;
+        let bx1 = bx0 + BAR_W;
+        let (b_top, b_bot) = (py.start, py.end - 1);
+        let bar_y = |f: f64| b_bot - (f * (b_bot - b_top) as f64).round() as i32;
+        for yy in b_top..=b_bot {
+            let color = if bar.is_some() {
+                viridis((b_bot - yy) as f64 / (b_bot - b_top).max(1) as f64)
+            } else {
+                RGBColor(240, 240, 240)
+            };
+            root.draw(&PathElement::new(vec![(bx0, yy), (bx1, yy)], color))
+                .map_err(|e| e.to_string())?;
+        }
+        root.draw(&Rectangle::new(
+            [(bx0, b_top), (bx1, b_bot)],
+            BLACK.stroke_width(1),
+        ))
+        .map_err(|e| e.to_string())?;
+        if let Some(a) = &bar {
+            for &t in &a.minor {
+                let y = bar_y(colour_fraction(a, t));
+                root.draw(&PathElement::new(vec![(bx1, y), (bx1 + 3, y)], BLACK))
+                    .map_err(|e| e.to_string())?;
+            }
+            for (t, l) in &bar_labels {
+                let y = bar_y(colour_fraction(a, *t));
+                root.draw(&PathElement::new(
+                    vec![(bx1, y), (bx1 + BAR_TICK, y)],
+                    BLACK,
+                ))
+                .map_err(|e| e.to_string())?;
+                let at = (bx1 + BAR_TICK + 6, y);
+                tick_pen.draw(&root, l, at, (HPos::Left, VPos::Center), false)?;
+            }
+        }
+        if let Some(m) = &bar_mult {
+            let at = (bx0, b_top - 8);
+            tick_pen.draw(&root, m, at, (HPos::Left, VPos::Bottom), false)?;
+        }
+        if !net.value_label.is_empty() {
+            let x = bx1 + BAR_TICK + 6 + bar_tick_w + 16 + desc_h / 2;
+            let at = (x, (b_top + b_bot) / 2);
+            desc_pen.draw(&root, net.value_label, at, center, true)?;
+        }
+
+        // Notes.
+        let big_note = if net.segments.is_empty() {
+            Some("no segments to plot")
+        } else if drawable.is_empty() {
+            Some("no segments with finite end points to plot")
+        } else if bar.is_none() {
+            Some(match net.scale {
+                ColourScale::Linear => "no finite values to colour (all segments grey)",
+                ColourScale::Log => "no finite, positive values to colour (all segments grey)",
+            })
+        } else {
+            None
+        };
+        if let Some(msg) = big_note {
+            let pen = Pen::new(22.0, RGBColor(90, 90, 90));
+            if drawable.is_empty() && markers.is_empty() {
+                pen.draw(&root, msg, (cx, cy), center, false)?;
+            } else {
+                // Near the top, to hide little of the drawing.
+                let at = (cx, py.start + 24 + pen.cap() / 2);
+                boxed_text(&root, &pen, msg, at, HPos::Center)?;
+            }
+        }
+        let mut notes = Vec::new();
+        if greyed > 0 && bar.is_some() {
+            let what = match net.scale {
+                ColourScale::Linear => "a non-finite value",
+                ColourScale::Log => "a non-positive or non-finite value",
+            };
+            let s = if greyed == 1 { "" } else { "s" };
+            notes.push(format!("{greyed} segment{s} with {what} drawn grey"));
+        }
+        if no_coords > 0 {
+            let s = if no_coords == 1 { "" } else { "s" };
+            notes.push(format!(
+                "{no_coords} segment{s} with non-finite end points omitted"
+            ));
+        }
+        if !notes.is_empty() {
+            let pen = Pen::new(15.0, RGBColor(110, 110, 110));
+            let at = (12, h_px - 12);
+            pen.draw(
+                &root,
+                &notes.join("; "),
+                at,
+                (HPos::Left, VPos::Bottom),
+                false,
+            )?;
+        }
+        root.present().map_err(|e| e.to_string())
+    };
+    let r = inner();
+    drop(root);
+    r.map_err(|m| draw_err(path, m))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -1035,6 +1713,319 @@ mod tests {
             assert_png(&dir.join(f));
         }
         fs::remove_dir_all(&dir).unwrap();
+    }
+
+    /// Deterministic pseudo-random numbers in 0..1.
+    fn rng(state: &mut u64) -> f64 {
+        *state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (*state >> 11) as f64 / (1u64 << 53) as f64
+    }
+
+    /// `n` random segments in two orientation families over 200 m x 120 m.
+    fn random_network(n: usize, seed: u64) -> Vec<Segment> {
+        let mut s = seed;
+        (0..n)
+            .map(|i| {
+                let (cx, cy) = (200.0 * rng(&mut s), 120.0 * rng(&mut s));
+                let base = if i % 2 == 0 { 30f64 } else { 115.0 };
+                let ang = (base + 20.0 * (rng(&mut s) - 0.5)).to_radians();
+                let half = 0.5 * (5.0 + 35.0 * rng(&mut s));
+                let (dx, dy) = (half * ang.cos(), half * ang.sin());
+                Segment {
+                    a: [cx - dx, cy - dy],
+                    b: [cx + dx, cy + dy],
+                }
+            })
+            .collect()
+    }
+
+    fn only_file(dir: &Path, name: &str) {
+        let names: Vec<_> = fs::read_dir(dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name())
+            .collect();
+        assert_eq!(names, vec![std::ffi::OsString::from(name)]);
+    }
+
+    #[test]
+    fn network_random_linear_and_log_write_png() {
+        let dir = tmp_dir("network");
+        let segs = random_network(200, 7);
+        let mut s = 99;
+        let mut lin: Vec<f64> = segs.iter().map(|g| 1e7 - 2e4 * g.a[0]).collect();
+        lin[3] = f64::NAN;
+        lin[4] = f64::INFINITY;
+        let p = dir.join("lin.png");
+        let none: &[([f64; 2], &str)] = &[];
+        network(
+            &p,
+            "Pressure",
+            &segs,
+            &lin,
+            "p [Pa]",
+            ColourScale::Linear,
+            None,
+            none,
+        )
+        .unwrap();
+        assert_png(&p);
+        only_file(&dir, "lin.png");
+
+        let mut q: Vec<f64> = (0..segs.len())
+            .map(|_| 10f64.powf(-9.0 + 5.0 * rng(&mut s)))
+            .collect();
+        q[0] = 0.0;
+        q[1] = -1e-6;
+        q[2] = f64::NAN;
+        let widths: Vec<f64> = q.iter().map(|v| 1.0 + (v.log10() + 9.0)).collect();
+        let markers = [([20.0, 60.0], "pump"), ([180.0, 60.0], "production")];
+        let p = dir.join("log.png");
+        let label = "q [m³/s]";
+        network(
+            &p,
+            "Flow",
+            &segs,
+            &q,
+            label,
+            ColourScale::Log,
+            Some(&widths),
+            &markers,
+        )
+        .unwrap();
+        assert_png(&p);
+        fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn network_degenerate_input_does_not_panic() {
+        let dir = tmp_dir("network_degenerate");
+        let none: &[([f64; 2], &str)] = &[];
+        let lin = ColourScale::Linear;
+        let log = ColourScale::Log;
+        network(&dir.join("a.png"), "empty", &[], &[], "v", lin, None, none).unwrap();
+        network(&dir.join("b.png"), "", &[], &[], "", log, Some(&[]), none).unwrap();
+        let segs = random_network(50, 3);
+        let nan = vec![f64::NAN; segs.len()];
+        network(
+            &dir.join("c.png"),
+            "all NaN",
+            &segs,
+            &nan,
+            "v",
+            lin,
+            None,
+            none,
+        )
+        .unwrap();
+        let neg = vec![-1.0; segs.len()];
+        network(
+            &dir.join("d.png"),
+            "all negative",
+            &segs,
+            &neg,
+            "v",
+            log,
+            None,
+            none,
+        )
+        .unwrap();
+        let one = [Segment {
+            a: [5.0, 5.0],
+            b: [5.0, 5.0],
+        }];
+        let markers = [([5.0, 5.0], "well")];
+        network(
+            &dir.join("e.png"),
+            "point",
+            &one,
+            &[2.0],
+            "v",
+            log,
+            None,
+            &markers,
+        )
+        .unwrap();
+        let odd = [
+            Segment {
+                a: [f64::NAN, 0.0],
+                b: [1.0, 1.0],
+            },
+            Segment {
+                a: [0.0, 0.0],
+                b: [1e3, 0.0],
+            },
+            Segment {
+                a: [-f64::MAX, 0.0],
+                b: [f64::MAX, 1e-300],
+            },
+        ];
+        let w = [f64::NAN, 1e9, -3.0];
+        let v = [1.0, 1.0, 1.0];
+        network(
+            &dir.join("f.png"),
+            "odd",
+            &odd,
+            &v,
+            "v",
+            lin,
+            Some(&w),
+            none,
+        )
+        .unwrap();
+        let far = [([f64::INFINITY, 0.0], "lost"), ([1.0, 2.0], "")];
+        network(
+            &dir.join("g.png"),
+            "markers only",
+            &[],
+            &[],
+            "v",
+            lin,
+            None,
+            &far,
+        )
+        .unwrap();
+        for f in [
+            "a.png", "b.png", "c.png", "d.png", "e.png", "f.png", "g.png",
+        ] {
+            assert_png(&dir.join(f));
+        }
+        fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn network_length_mismatch_is_err() {
+        let dir = tmp_dir("network_mismatch");
+        let segs = random_network(10, 1);
+        let p = dir.join("x.png");
+        let none: &[([f64; 2], &str)] = &[];
+        let lin = ColourScale::Linear;
+        let e = network(&p, "t", &segs, &[1.0; 9], "v", lin, None, none).unwrap_err();
+        assert!(matches!(e, PlotError::Input { .. }), "{e:?}");
+        assert!(
+            e.to_string().contains("9 values given for 10 segments"),
+            "{e}"
+        );
+        let w = [2.0; 11];
+        let e = network(&p, "t", &segs, &[1.0; 10], "v", lin, Some(&w), none).unwrap_err();
+        assert!(
+            e.to_string()
+                .contains("11 line widths given for 10 segments"),
+            "{e}"
+        );
+        assert_eq!(fs::read_dir(&dir).unwrap().count(), 0);
+        fs::remove_dir_all(&dir).unwrap();
+    }
+
+    /// Example maps for looking at: written to `$PLOT_EXAMPLES_DIR` when set
+    /// (kept), else to a temporary folder (removed).
+    #[test]
+    fn network_examples_render() {
+        let keep = std::env::var_os("PLOT_EXAMPLES_DIR").map(PathBuf::from);
+        let dir = match &keep {
+            Some(d) => {
+                fs::create_dir_all(d).unwrap();
+                d.clone()
+            }
+            None => tmp_dir("network_examples"),
+        };
+
+        // Grid network, 150 m x 110 m, pressure falling from left to right.
+        let (nx, ny, h) = (16, 12, 10.0);
+        let mut segs = Vec::new();
+        for j in 0..ny {
+            for i in 0..nx {
+                let p = [i as f64 * h, j as f64 * h];
+                if i + 1 < nx {
+                    segs.push(Segment {
+                        a: p,
+                        b: [p[0] + h, p[1]],
+                    });
+                }
+                if j + 1 < ny {
+                    segs.push(Segment {
+                        a: p,
+                        b: [p[0], p[1] + h],
+                    });
+                }
+            }
+        }
+        let mut s = 5;
+        let pressure: Vec<f64> = segs
+            .iter()
+            .map(|g| {
+                let x = 0.5 * (g.a[0] + g.b[0]);
+                2.0e7 - 5.0e6 * x / 150.0 + 1.0e5 * (rng(&mut s) - 0.5)
+            })
+            .collect();
+        let p = dir.join("network_grid_pressure.png");
+        let none: &[([f64; 2], &str)] = &[];
+        let (title, lin) = ("Grid network: fluid pressure", ColourScale::Linear);
+        network(
+            &p,
+            title,
+            &segs,
+            &pressure,
+            "pressure [Pa]",
+            lin,
+            None,
+            none,
+        )
+        .unwrap();
+        assert_png(&p);
+
+        // Random network, log-scale flow rate, widths by flow rate.
+        let segs = random_network(180, 11);
+        let q: Vec<f64> = segs
+            .iter()
+            .enumerate()
+            .map(|(k, g)| match k {
+                5 => f64::NAN,
+                6 => 0.0,
+                _ => {
+                    let y = 0.5 * (g.a[1] + g.b[1]);
+                    10f64.powf(-4.0 - 5.0 * ((y - 60.0).abs() / 60.0) - rng(&mut s))
+                }
+            })
+            .collect();
+        let widths: Vec<f64> = q.iter().map(|v| 0.8 + 1.2 * (v.log10() + 10.0)).collect();
+        let markers = [([20.0, 60.0], "pump"), ([180.0, 60.0], "production")];
+        let p = dir.join("network_flow_log.png");
+        let (title, log) = ("Fracture network: flow rate", ColourScale::Log);
+        let label = "flow rate [m³/s]";
+        network(&p, title, &segs, &q, label, log, Some(&widths), &markers).unwrap();
+        assert_png(&p);
+
+        if keep.is_none() {
+            fs::remove_dir_all(&dir).unwrap();
+        }
+    }
+
+    #[test]
+    fn network_colours_and_axes() {
+        assert_eq!(viridis(0.0), RGBColor(68, 1, 84));
+        assert_eq!(viridis(1.0), RGBColor(253, 231, 37));
+        assert_eq!(viridis(0.5), RGBColor(33, 145, 140));
+        assert_eq!(viridis(f64::NAN), viridis(0.0));
+        assert_eq!(viridis(7.0), viridis(1.0));
+        // Equal metres per pixel on both axes, same tick step.
+        let (x, y) = equal_axes([0.0, 200.0, 0.0, 50.0], 800.0, 700.0);
+        let (mx, my) = ((x.hi - x.lo) / 800.0, (y.hi - y.lo) / 700.0);
+        assert!((mx / my - 1.0).abs() < 1e-12, "{mx} {my}");
+        assert_eq!(x.step, y.step);
+        assert!(x.lo < 0.0 && x.hi > 200.0 && y.lo < 0.0 && y.hi > 50.0);
+        // Log colour bar: exact data range, power-of-ten labels.
+        let a = colour_axis(1e-9, 1e-4, ColourScale::Log);
+        let labels: Vec<_> = a.major.iter().map(|&t| a.label(t)).collect();
+        assert_eq!(labels, ["10⁻⁹", "10⁻⁸", "10⁻⁷", "10⁻⁶", "10⁻⁵", "10⁻⁴"]);
+        assert_eq!(colour_fraction(&a, -9.0), 0.0);
+        assert_eq!(colour_fraction(&a, -4.0), 1.0);
+        let a = colour_axis(0.5, 20.0, ColourScale::Log);
+        let labels: Vec<_> = a.major.iter().map(|&t| a.label(t)).collect();
+        assert_eq!(labels, ["5×10⁻¹", "10⁰", "2×10⁰", "5×10⁰", "10¹", "2×10¹"]);
+        let a = colour_axis(3.0, 3.0, ColourScale::Linear);
+        assert_eq!(colour_fraction(&a, 3.0), 0.5);
     }
 
     #[test]

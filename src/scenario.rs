@@ -5,6 +5,7 @@
 //! time s. The model is plane strain per unit thickness.
 
 use crate::error::SetupError;
+pub use crate::network::{Fracture, NetworkSpec, RandomNetwork};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
@@ -17,10 +18,26 @@ pub struct Scenario {
     /// Free text shown nowhere but kept with the scenario.
     #[serde(default)]
     pub description: String,
-    pub mesh: MeshSpec,
-    pub material: Material,
+    /// The solid mesh (absent in flow-only scenes).
+    #[serde(default)]
+    pub mesh: Option<MeshSpec>,
+    /// The rock (required with a mesh).
+    #[serde(default)]
+    pub material: Option<Material>,
     #[serde(default)]
     pub boundary: Boundary,
+    /// A rigid fracture network (flow-only scenes).
+    #[serde(default)]
+    pub network: Option<NetworkSpec>,
+    /// The fluid in the fractures (default: water at 25 C).
+    #[serde(default)]
+    pub fluid: Fluid,
+    /// Initial state of the fluid in the cells.
+    #[serde(default)]
+    pub initial_fluid: InitialFluid,
+    /// Flow boundary conditions (pump, rate, pressure) at network nodes or cells.
+    #[serde(default)]
+    pub flow_boundaries: Vec<FlowBoundary>,
     /// Single nodes with prescribed displacement components (e.g. to remove rigid-body motion
     /// under pure traction loading).
     #[serde(default)]
@@ -158,6 +175,111 @@ pub enum SideBc {
     Traction { normal: f64, shear: f64 },
 }
 
+/// Fluid properties (defaults: water at 25 C, the seed's values).
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Fluid {
+    /// Dynamic viscosity mu, Pa s.
+    #[serde(default = "default_viscosity")]
+    pub viscosity: f64,
+    /// Bulk modulus K, Pa.
+    #[serde(default = "default_bulk")]
+    pub bulk_modulus: f64,
+    /// Reference density rho_r (density at zero pressure), kg/m^3.
+    #[serde(default = "default_rho_f")]
+    pub density: f64,
+}
+
+fn default_viscosity() -> f64 {
+    8.9e-4
+}
+fn default_bulk() -> f64 {
+    2.2e9
+}
+fn default_rho_f() -> f64 {
+    1000.0
+}
+
+impl Default for Fluid {
+    fn default() -> Self {
+        Fluid {
+            viscosity: default_viscosity(),
+            bulk_modulus: default_bulk(),
+            density: default_rho_f(),
+        }
+    }
+}
+
+/// Fluid in the cells at t = 0.
+#[derive(Clone, Copy, Debug, Default, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub enum InitialFluid {
+    /// No fluid (cells fill first; pressure is zero until a cell is full).
+    #[default]
+    Empty,
+    /// Every cell full at this pressure, Pa.
+    Full(f64),
+}
+
+/// Where a flow boundary acts.
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq)]
+pub enum FlowTarget {
+    /// The network node nearest to this point, m: every cell meeting there connects to the
+    /// boundary through half its length.
+    Node([f64; 2]),
+    /// The cell whose centre is nearest to this point, m: it connects through half its length.
+    Cell([f64; 2]),
+}
+
+/// What a flow boundary imposes.
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub enum FlowBcKind {
+    /// Fixed pressure, Pa.
+    Pressure(f64),
+    /// Fixed volumetric rate into the network, m^2/s (per metre of thickness; negative = out).
+    Rate(f64),
+    /// Pump characteristic P = p_max (1 - (2/pi) atan(q / q_half)), Pa and m^2/s, solved with
+    /// the network every flow step; a check valve stops backflow (q >= 0).
+    Pump { p_max: f64, q_half: f64 },
+}
+
+/// A flow boundary condition.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct FlowBoundary {
+    /// Label used in outputs (default "bc<k>").
+    #[serde(default)]
+    pub name: String,
+    pub at: FlowTarget,
+    pub kind: FlowBcKind,
+    /// Piecewise-linear multiplier against time, [(t s, factor)], constant beyond the ends:
+    /// scales the pressure, the rate or the pump's p_max (0 = off, e.g. shut-in).
+    #[serde(default)]
+    pub schedule: Vec<(f64, f64)>,
+}
+
+impl FlowBoundary {
+    /// The schedule factor at time t (1 without a schedule).
+    pub fn factor(&self, t: f64) -> f64 {
+        let s = &self.schedule;
+        match s.len() {
+            0 => 1.0,
+            _ if t <= s[0].0 => s[0].1,
+            _ if t >= s[s.len() - 1].0 => s[s.len() - 1].1,
+            _ => {
+                let k = s.partition_point(|p| p.0 <= t);
+                let ((t0, f0), (t1, f1)) = (s[k - 1], s[k]);
+                if t1 > t0 {
+                    f0 + (f1 - f0) * (t - t0) / (t1 - t0)
+                } else {
+                    f1
+                }
+            }
+        }
+    }
+}
+
 /// A prescribed displacement on the node nearest to `at` (within half a cell diagonal).
 #[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
@@ -186,7 +308,11 @@ pub struct TimeControl {
     /// stability limit is allowed (for studies) and is caught as a blow-up.
     #[serde(default)]
     pub dt: Option<f64>,
-    /// Hard cap on the number of solid steps.
+    /// Force the flow sub-step, s (studies; above the flow stability limit it is caught as a
+    /// blow-up). Default: `safety` times the flow critical step.
+    #[serde(default)]
+    pub flow_dt: Option<f64>,
+    /// Hard cap on the number of steps.
     #[serde(default = "default_max_steps")]
     pub max_steps: u64,
 }
@@ -424,47 +550,64 @@ impl Scenario {
             }
         };
         // Mesh.
-        let (w, hgt) = self.mesh.size();
-        let h = self.mesh.h();
-        positive("mesh.width", w, "the domain width")?;
-        positive("mesh.height", hgt, "the domain height")?;
-        positive("mesh.h", h, "the cell size")?;
-        if h >= w.min(hgt) {
-            return Err(SetupError::invalid(
-                "mesh.h",
-                format!("the cell size {h} m must be smaller than the domain ({w} m x {hgt} m)"),
-            ));
-        }
-        let cells = (w / h).round() * (hgt / h).round() * 2.0;
-        if cells > 5.0e7 {
-            return Err(SetupError::invalid(
-                "mesh.h",
-                format!("{cells:.3e} triangles is more than this engine's 5e7 limit"),
-            ));
-        }
-        if let MeshSpec::Perturbed { fraction, .. } = self.mesh {
-            finite("mesh.fraction", fraction)?;
-            if !(0.0..=0.3).contains(&fraction) {
+        if let Some(mesh) = &self.mesh {
+            let (w, hgt) = mesh.size();
+            let h = mesh.h();
+            positive("mesh.width", w, "the domain width")?;
+            positive("mesh.height", hgt, "the domain height")?;
+            positive("mesh.h", h, "the cell size")?;
+            if h >= w.min(hgt) {
                 return Err(SetupError::invalid(
-                    "mesh.fraction",
-                    format!("the perturbation must be in [0, 0.3] of h, got {fraction}"),
+                    "mesh.h",
+                    format!(
+                        "the cell size {h} m must be smaller than the domain ({w} m x {hgt} m)"
+                    ),
                 ));
+            }
+            let cells = (w / h).round() * (hgt / h).round() * 2.0;
+            if cells > 5.0e7 {
+                return Err(SetupError::invalid(
+                    "mesh.h",
+                    format!("{cells:.3e} triangles is more than this engine's 5e7 limit"),
+                ));
+            }
+            if let MeshSpec::Perturbed { fraction, .. } = *mesh {
+                finite("mesh.fraction", fraction)?;
+                if !(0.0..=0.3).contains(&fraction) {
+                    return Err(SetupError::invalid(
+                        "mesh.fraction",
+                        format!("the perturbation must be in [0, 0.3] of h, got {fraction}"),
+                    ));
+                }
             }
         }
         // Material.
-        let m = &self.material;
-        positive("material.young", m.young, "Young's modulus")?;
-        positive("material.density", m.density, "the density")?;
-        finite("material.poisson", m.poisson)?;
-        if !(0.0..0.5).contains(&m.poisson) {
+        if self.mesh.is_some() && self.material.is_none() {
             return Err(SetupError::invalid(
-                "material.poisson",
-                format!(
-                    "Poisson's ratio must be in [0, 0.5) (0.5 is incompressible and not representable \
-                     by plane-strain CST), got {}",
-                    m.poisson
-                ),
+                "material",
+                "a scene with a mesh needs a material",
             ));
+        }
+        if self.mesh.is_none() && self.network.is_none() {
+            return Err(SetupError::invalid(
+                "mesh",
+                "a scene needs a mesh, a network, or both",
+            ));
+        }
+        if let Some(m) = &self.material {
+            positive("material.young", m.young, "Young's modulus")?;
+            positive("material.density", m.density, "the density")?;
+            finite("material.poisson", m.poisson)?;
+            if !(0.0..0.5).contains(&m.poisson) {
+                return Err(SetupError::invalid(
+                    "material.poisson",
+                    format!(
+                        "Poisson's ratio must be in [0, 0.5) (0.5 is incompressible and not representable \
+                     by plane-strain CST), got {}",
+                        m.poisson
+                    ),
+                ));
+            }
         }
         // Boundary.
         match &self.boundary {
@@ -521,6 +664,9 @@ impl Scenario {
         if let Some(dt) = t.dt {
             positive("time.dt", dt, "the time step")?;
         }
+        if let Some(dt) = t.flow_dt {
+            positive("time.flow_dt", dt, "the flow step")?;
+        }
         if t.max_steps == 0 {
             return Err(SetupError::invalid("time.max_steps", "must be at least 1"));
         }
@@ -549,6 +695,64 @@ impl Scenario {
                 }
             }
             Damping::None => {}
+        }
+        // Network and fluid.
+        if let Some(n) = &self.network {
+            n.validate()?;
+        }
+        let fl = &self.fluid;
+        positive("fluid.viscosity", fl.viscosity, "the viscosity")?;
+        positive("fluid.bulk_modulus", fl.bulk_modulus, "the bulk modulus")?;
+        positive("fluid.density", fl.density, "the reference density")?;
+        if let InitialFluid::Full(p) = self.initial_fluid {
+            finite("initial_fluid", p)?;
+            if p < 0.0 {
+                return Err(SetupError::invalid(
+                    "initial_fluid",
+                    format!("pressure must be >= 0, got {p}"),
+                ));
+            }
+        }
+        if !self.flow_boundaries.is_empty() && self.network.is_none() {
+            return Err(SetupError::invalid(
+                "flow_boundaries",
+                "there is no fracture network to act on",
+            ));
+        }
+        for (i, b) in self.flow_boundaries.iter().enumerate() {
+            let field = format!("flow_boundaries[{i}]");
+            let (FlowTarget::Node(p) | FlowTarget::Cell(p)) = b.at;
+            finite(&format!("{field}.at"), p[0])?;
+            finite(&format!("{field}.at"), p[1])?;
+            match b.kind {
+                FlowBcKind::Pressure(v) | FlowBcKind::Rate(v) => {
+                    finite(&format!("{field}.kind"), v)?
+                }
+                FlowBcKind::Pump { p_max, q_half } => {
+                    positive(
+                        &format!("{field}.kind.p_max"),
+                        p_max,
+                        "the pump's maximum pressure",
+                    )?;
+                    positive(
+                        &format!("{field}.kind.q_half"),
+                        q_half,
+                        "the pump's half-pressure rate",
+                    )?;
+                }
+            }
+            for (k, w) in b.schedule.windows(2).enumerate() {
+                if !(w[1].0 >= w[0].0) {
+                    return Err(SetupError::invalid(
+                        &format!("{field}.schedule[{}]", k + 1),
+                        "times must not decrease",
+                    ));
+                }
+            }
+            for (t, f) in &b.schedule {
+                finite(&format!("{field}.schedule"), *t)?;
+                finite(&format!("{field}.schedule"), *f)?;
+            }
         }
         if self.output.series_every == 0 {
             return Err(SetupError::invalid(
@@ -637,8 +841,8 @@ mod tests {
                 "damping=None".into(),
             ])
             .unwrap();
-        assert_eq!(o.material.young, 3e10);
-        assert_eq!(o.mesh.h(), 0.5);
+        assert_eq!(o.material.unwrap().young, 3e10);
+        assert_eq!(o.mesh.as_ref().unwrap().h(), 0.5);
         assert_eq!(o.damping, Damping::None);
         let o = sc
             .with_overrides(&["damping=Local(0.5)".into(), "time.end=Time(2.5)".into()])

@@ -1,12 +1,15 @@
-//! A simulation: the model, its dense view, the schedule, and the step loop.
+//! A simulation: the model, its dense views, the schedule, and the step loop.
 
 use crate::error::{RunError, SetupError};
+use crate::flow::{FlowParams, FlowView};
 use crate::mesh::TriMesh;
 use crate::model::Model;
-use crate::output::{Outputs, SeriesRow};
-use crate::scenario::{Damping, End, MeshSpec, Scenario};
-use crate::schedule::Schedule;
+use crate::network::CellNetwork;
+use crate::output::Outputs;
+use crate::scenario::{Damping, End, Material, MeshSpec, Scenario};
+use crate::schedule::{Schedule, Status};
 use crate::systems::SystemId;
+use crate::systems::flow::{self as flowsys, FlowStats};
 use crate::systems::solid::{self, SolidParams, StepStats};
 use crate::view::SolidView;
 
@@ -20,10 +23,28 @@ pub const SPEED_LIMIT_FRACTION: f64 = 1.0;
 pub enum Finish {
     /// Reached the end time.
     EndTime,
-    /// Static residual below tolerance.
+    /// Static (or steady) residual below tolerance.
     Converged,
     /// Hit `time.max_steps` first.
     MaxSteps,
+}
+
+/// The fracture-network flow part of a simulation.
+pub struct FlowPart {
+    pub view: FlowView,
+    pub params: FlowParams,
+    /// Flow sub-step, s, and sub-steps per step.
+    pub dt: f64,
+    pub substeps: u64,
+    /// Explicit critical flow step, s.
+    pub dt_crit: f64,
+    pub stats: FlowStats,
+    /// Fluid mass at the start, kg/m.
+    pub initial_mass: f64,
+    /// Steady residual ||net inflow per cell|| / sum |boundary rates|.
+    pub residual: f64,
+    /// The fractures the network was cut from (written to the output).
+    pub network: CellNetwork,
 }
 
 pub struct Simulation {
@@ -31,17 +52,18 @@ pub struct Simulation {
     pub model: Model,
     pub view: SolidView,
     pub params: SolidParams,
+    pub flow: Option<FlowPart>,
     pub schedule: Schedule,
-    /// Critical step min altitude / c_p, s.
+    /// Critical solid step min altitude / c_p, s (infinite without a solid).
     pub dt_crit: f64,
     /// P-wave speed, m/s.
     pub c_p: f64,
     pub step: u64,
     /// Simulated time, s.
     pub time: f64,
-    /// Statistics of the last step.
+    /// Statistics of the last solid step.
     pub stats: StepStats,
-    /// Static residual after the last step.
+    /// Static residual after the last step (solid and flow, the larger).
     pub residual: f64,
     pub finish: Option<Finish>,
     pub output: Option<Outputs>,
@@ -69,19 +91,73 @@ pub fn build_mesh(spec: &MeshSpec) -> Result<TriMesh, SetupError> {
     }
 }
 
+fn solid_params(mat: &Material, dt: f64, damping: Damping) -> SolidParams {
+    SolidParams {
+        lam2g: mat.lambda() + 2.0 * mat.shear(),
+        lam: mat.lambda(),
+        g: mat.shear(),
+        dt,
+        damping,
+    }
+}
+
 impl Simulation {
     /// Set up a validated scenario; `extra_disable` adds system names to switch off.
     pub fn new(scenario: Scenario, extra_disable: &[String]) -> Result<Self, SetupError> {
         scenario.validate()?;
-        let mesh = build_mesh(&scenario.mesh)?;
-        let mut model = Model::from_mesh(&mesh, scenario.material)?;
-        model.apply_boundary(&scenario.boundary);
-        model.apply_pins(&scenario.pins)?;
-        let mat = scenario.material;
-        let c_p = mat.p_wave_speed();
-        let dt_crit = model.min_altitude / c_p;
-        let mut dt = scenario.time.dt.unwrap_or(scenario.time.safety * dt_crit);
-        let steps_to_end = match scenario.time.end {
+        let mut model = match (&scenario.mesh, &scenario.material) {
+            (Some(spec), Some(mat)) => {
+                let mesh = build_mesh(spec)?;
+                let mut m = Model::from_mesh(&mesh, *mat)?;
+                m.apply_boundary(&scenario.boundary);
+                m.apply_pins(&scenario.pins)?;
+                m
+            }
+            _ => Model::empty(),
+        };
+        let has_solid = scenario.mesh.is_some();
+        let (c_p, dt_crit) = if has_solid {
+            let c = model.material.p_wave_speed();
+            (c, model.min_altitude / c)
+        } else {
+            (0.0, f64::INFINITY)
+        };
+        // Flow.
+        let flow = match &scenario.network {
+            None => None,
+            Some(spec) => {
+                let fp = FlowParams::from(scenario.fluid);
+                let net = spec.discretise();
+                model.add_network(&net, scenario.initial_fluid, fp.rho_r, fp.k);
+                model.add_flow_boundaries(&scenario.flow_boundaries)?;
+                let mut view = FlowView::build(&model, &fp);
+                view.set_bc_kinds(&scenario.flow_boundaries);
+                let crit = view.critical_step(&fp);
+                let initial_mass = view.mass.iter().sum();
+                Some(FlowPart {
+                    view,
+                    params: fp,
+                    dt: 0.0,
+                    substeps: 1,
+                    dt_crit: crit,
+                    stats: FlowStats::default(),
+                    initial_mass,
+                    residual: f64::INFINITY,
+                    network: net,
+                })
+            }
+        };
+        // Steps: the solid sets the step when there is one; flow sub-steps fill it.
+        let t = &scenario.time;
+        let flow_auto = flow.as_ref().map(|f| t.safety * f.dt_crit);
+        let mut dt = match (t.dt, has_solid, flow_auto, t.flow_dt) {
+            (Some(dt), _, _, _) => dt,
+            (None, true, _, _) => t.safety * dt_crit,
+            (None, false, _, Some(fdt)) => fdt,
+            (None, false, Some(fa), None) => fa,
+            (None, false, None, None) => unreachable!("validated: a mesh or a network"),
+        };
+        let steps_to_end = match t.end {
             End::Time(te) => {
                 let n = (te / dt - 1e-9).ceil().max(1.0);
                 dt = te / n;
@@ -89,33 +165,38 @@ impl Simulation {
             }
             End::Static { .. } => None,
         };
-        if scenario.time.dt.is_some() && dt > dt_crit {
+        if t.dt.is_some() && dt > dt_crit {
             tracing::warn!(
                 "time.dt = {dt:.3e} s is above the critical step {dt_crit:.3e} s; expect a blow-up"
             );
         }
-        let params = SolidParams {
-            lam2g: mat.lambda() + 2.0 * mat.shear(),
-            lam: mat.lambda(),
-            g: mat.shear(),
-            dt,
-            damping: scenario.damping,
-        };
+        let mut flow = flow;
+        if let Some(f) = flow.as_mut() {
+            let target = t.flow_dt.unwrap_or(t.safety * f.dt_crit);
+            f.substeps = ((dt / target) * (1.0 - 1e-12)).ceil().max(1.0) as u64;
+            f.dt = dt / f.substeps as f64;
+        }
+        let mat = model.material;
+        let params = solid_params(&mat, dt, scenario.damping);
         let mut disabled = scenario.systems.disable.clone();
         disabled.extend(extra_disable.iter().cloned());
         let view = SolidView::build(&model);
         let has_load = view.load.iter().any(|l| l[0] != 0.0 || l[1] != 0.0);
         let damping_on = scenario.damping != Damping::None;
+        let has_flow = flow.is_some();
         let schedule = Schedule::new(&disabled, |s| match s {
+            SystemId::InternalForce | SystemId::Integrate => has_solid,
             SystemId::ExternalLoad => has_load,
-            SystemId::Damping => damping_on,
-            _ => true,
+            SystemId::Damping => has_solid && damping_on,
+            SystemId::FlowSubsteps => has_flow,
+            SystemId::Monitor | SystemId::Output => true,
         })?;
         Ok(Simulation {
             scenario,
             model,
             view,
             params,
+            flow,
             schedule,
             dt_crit,
             c_p,
@@ -133,25 +214,39 @@ impl Simulation {
     pub fn sync(&mut self) {
         solid::update_stress(&mut self.view, &self.params);
         self.view.write_back(&mut self.model);
+        if let Some(f) = &self.flow {
+            f.view.write_back(&mut self.model);
+        }
     }
 
     /// Change the model (boundary conditions, loads, topology) between steps: the state is
-    /// synced first and the view is rebuilt if the topology generation moved.
+    /// synced first and the views are rebuilt if the topology generation moved.
     pub fn edit_model(&mut self, f: impl FnOnce(&mut Model)) {
         self.sync();
         f(&mut self.model);
+        self.rebuild_views_if_needed();
+    }
+
+    fn rebuild_views_if_needed(&mut self) {
         if self.view.generation != self.model.topology_generation {
             self.view = SolidView::build(&self.model);
             let has_load = self.view.load.iter().any(|l| l[0] != 0.0 || l[1] != 0.0);
             for (s, st) in &mut self.schedule.entries {
-                if *s == SystemId::ExternalLoad && *st != crate::schedule::Status::DisabledByUser {
+                if *s == SystemId::ExternalLoad && *st != Status::DisabledByUser {
                     *st = if has_load {
-                        crate::schedule::Status::Enabled
+                        Status::Enabled
                     } else {
-                        crate::schedule::Status::NoData
+                        Status::NoData
                     };
                 }
             }
+        }
+        if let Some(f) = self.flow.as_mut()
+            && f.view.generation != self.model.topology_generation
+        {
+            f.view = FlowView::build(&self.model, &f.params);
+            f.view.set_bc_kinds(&self.scenario.flow_boundaries);
+            f.dt_crit = f.view.critical_step(&f.params);
         }
     }
 
@@ -162,11 +257,8 @@ impl Simulation {
 
     /// One step: every enabled system in order, each in its span.
     pub fn step_once(&mut self) -> Result<(), RunError> {
-        if self.view.generation != self.model.topology_generation {
-            self.view = SolidView::build(&self.model);
-        }
-        let next_step = self.step + 1;
-        let next_time = self.time + self.params.dt;
+        self.rebuild_views_if_needed();
+        let t0 = self.time;
         let systems: Vec<SystemId> = self.schedule.enabled().collect();
         for sys in systems {
             let _span = sys.span().entered();
@@ -174,12 +266,13 @@ impl Simulation {
                 SystemId::InternalForce => solid::internal_force(&mut self.view, &self.params),
                 SystemId::ExternalLoad => solid::external_load(&mut self.view),
                 SystemId::Damping => solid::damping(&mut self.view, &self.params),
-                SystemId::Integrate => {
-                    self.stats = solid::integrate(&mut self.view, &self.params);
-                    self.step = next_step;
-                    self.time = next_time;
+                SystemId::Integrate => self.stats = solid::integrate(&mut self.view, &self.params),
+                SystemId::FlowSubsteps => self.flow_substeps(t0),
+                SystemId::Monitor => {
+                    self.step += 1;
+                    self.time = t0 + self.params.dt;
+                    self.monitor()?;
                 }
-                SystemId::Monitor => self.monitor()?,
                 SystemId::Output => {
                     let frame = self.frame_due();
                     let row = self.series_due();
@@ -192,33 +285,64 @@ impl Simulation {
         Ok(())
     }
 
+    /// `flow_substeps`: N explicit flow steps covering the solid step, stopping at the first
+    /// cell with negative or non-finite mass (reported by `monitor`).
+    fn flow_substeps(&mut self, t0: f64) {
+        let specs = &self.scenario.flow_boundaries;
+        let Some(f) = self.flow.as_mut() else { return };
+        for k in 0..f.substeps {
+            f.stats = flowsys::flow_step(&mut f.view, &f.params, specs, f.dt, t0 + k as f64 * f.dt);
+            if f.stats.bad_cell.is_some() {
+                break;
+            }
+        }
+        let bc: f64 = f.view.bcs.iter().map(|b| b.rate.abs()).sum();
+        let net = f.stats.net2.sqrt();
+        f.residual = if bc > 0.0 {
+            net / bc
+        } else if net == 0.0 {
+            0.0
+        } else {
+            f64::INFINITY
+        };
+    }
+
     /// `monitor`: stop on non-finite or runaway state, update the residual and the end state.
     fn monitor(&mut self) -> Result<(), RunError> {
         let st = self.stats;
-        let blow = |i: usize, quantity: &'static str, value: f64, why: String| {
-            let x = self.view.x0[i];
+        let blow = |entity: String, quantity: &'static str, value: f64, why: String, dt: f64| {
             RunError::BlowUp {
                 step: self.step,
                 time: self.time,
-                entity: format!(
-                    "node {} at ({:.4}, {:.4}) m",
-                    self.view.node_id[i], x[0], x[1]
-                ),
+                entity,
                 quantity,
                 value,
                 why,
-                dt: self.params.dt,
+                dt,
             }
+        };
+        let node = |i: usize| {
+            let x = self.view.x0[i];
+            format!(
+                "node {} at ({:.4}, {:.4}) m",
+                self.view.node_id[i], x[0], x[1]
+            )
         };
         if let Some(i) = st.non_finite {
             let v = self.view.v[i];
             let value = if v[0].is_finite() { v[1] } else { v[0] };
-            return Err(blow(i, "velocity", value, "a non-finite value".into()));
+            return Err(blow(
+                node(i),
+                "velocity",
+                value,
+                "a non-finite value".into(),
+                self.params.dt,
+            ));
         }
         let limit = SPEED_LIMIT_FRACTION * self.c_p;
-        if st.vmax > limit {
+        if self.view.n_nodes() > 0 && st.vmax > limit {
             return Err(blow(
-                st.vmax_node,
+                node(st.vmax_node),
                 "speed",
                 st.vmax,
                 format!(
@@ -226,9 +350,36 @@ impl Simulation {
                      exceeds the stability limit {:.3e} s or the loading is not physical)",
                     self.dt_crit
                 ),
+                self.params.dt,
             ));
         }
-        self.residual = st.residual();
+        let mut residual = if self.view.n_nodes() > 0 {
+            st.residual()
+        } else {
+            0.0
+        };
+        if let Some(f) = &self.flow {
+            if let Some(c) = f.stats.bad_cell {
+                let [a, b] = f.view.cell_nodes[c].map(|n| f.view.node_pos[n as usize]);
+                return Err(blow(
+                    format!(
+                        "cell {} at ({:.4}, {:.4}) m",
+                        f.view.cell_id[c],
+                        0.5 * (a[0] + b[0]),
+                        0.5 * (a[1] + b[1])
+                    ),
+                    "fluid mass",
+                    f.view.mass[c],
+                    format!(
+                        "negative or non-finite: the flow step exceeds its stability limit {:.3e} s",
+                        f.dt_crit
+                    ),
+                    f.dt,
+                ));
+            }
+            residual = residual.max(f.residual);
+        }
+        self.residual = residual;
         if let End::Static { tol, min_steps } = self.scenario.time.end
             && self.step >= min_steps
             && self.residual < tol
@@ -255,37 +406,117 @@ impl Simulation {
         self.finish.is_some() || self.step.is_multiple_of(self.scenario.output.series_every)
     }
 
-    /// The current time-series row.
-    pub fn series_row(&self) -> SeriesRow {
-        SeriesRow {
-            step: self.step,
-            time: self.time,
-            kinetic_energy: self.stats.kinetic,
-            strain_energy: self.stats.strain,
-            residual: self.residual,
-            max_speed: self.stats.vmax,
+    /// Names of the time-series columns of this scene.
+    pub fn series_columns(&self) -> Vec<String> {
+        let mut c: Vec<String> = vec!["step".into(), "time".into()];
+        if self.view.n_nodes() > 0 {
+            for n in ["kinetic_energy", "strain_energy", "residual", "max_speed"] {
+                c.push(n.into());
+            }
         }
+        if let Some(f) = &self.flow {
+            for b in &f.view.bcs {
+                let name = self.bc_name(b.index);
+                c.push(format!("{name}_pressure"));
+                c.push(format!("{name}_rate"));
+            }
+            for n in [
+                "injected_volume",
+                "produced_volume",
+                "stored_volume",
+                "mass_balance_error",
+                "flow_residual",
+            ] {
+                c.push(n.into());
+            }
+        }
+        c
+    }
+
+    /// Label of flow boundary `index`.
+    pub fn bc_name(&self, index: usize) -> String {
+        let n = &self.scenario.flow_boundaries[index].name;
+        if n.is_empty() {
+            format!("bc{index}")
+        } else {
+            n.clone()
+        }
+    }
+
+    /// Values of the time-series columns now.
+    pub fn series_values(&self) -> Vec<f64> {
+        let mut v = vec![self.step as f64, self.time];
+        if self.view.n_nodes() > 0 {
+            v.extend([
+                self.stats.kinetic,
+                self.stats.strain,
+                self.stats.residual(),
+                self.stats.vmax,
+            ]);
+        }
+        if let Some(f) = &self.flow {
+            for b in &f.view.bcs {
+                v.push(b.pressure);
+                v.push(b.rate);
+            }
+            let (inj, prod, stored, err) = self.flow_balance().expect("flow");
+            v.extend([inj, prod, stored, err, f.residual]);
+        }
+        v
+    }
+
+    /// Flow volumes (m^2 at reference density): injected, produced, stored change, and the
+    /// relative mass-balance error |stored change - (injected - produced)| / max(injected,
+    /// produced, stored, initial).
+    pub fn flow_balance(&self) -> Option<(f64, f64, f64, f64)> {
+        let f = self.flow.as_ref()?;
+        let inj: f64 = f.view.bcs.iter().map(|b| b.volume_in).sum();
+        let prod: f64 = f.view.bcs.iter().map(|b| b.volume_out).sum();
+        let stored = (f.view.mass.iter().sum::<f64>() - f.initial_mass) / f.params.rho_r;
+        let scale = inj
+            .max(prod)
+            .max(stored.abs())
+            .max(f.initial_mass / f.params.rho_r);
+        let err = if scale > 0.0 {
+            (stored - (inj - prod)).abs() / scale
+        } else {
+            0.0
+        };
+        Some((inj, prod, stored, err))
     }
 
     fn write_outputs(&mut self, frame: bool, row: bool) -> Result<(), RunError> {
         if self.output.is_none() {
             return Ok(());
         }
-        let r = self.series_row();
-        let poisson = self.scenario.material.poisson;
+        let values = self.series_values();
+        let poisson = self.model.material.poisson;
+        let time = self.time;
         let out = self.output.as_mut().expect("checked");
         if row {
-            out.write_series(&r)?;
+            out.write_series(&values)?;
         }
         if frame {
-            out.write_frame(&self.view, &self.params, poisson, self.time)?;
+            if self.view.n_elems() > 0 {
+                out.write_frame(&self.view, &self.params, poisson, time)?;
+            }
+            if let Some(f) = &self.flow {
+                out.write_network_frame(&f.view, time)?;
+            }
         }
         Ok(())
     }
 
-    /// Run to the end. `progress` is called every few hundred steps with (step, time, residual).
+    /// Run to the end. `progress` is called every few hundred steps.
     pub fn run(&mut self, mut progress: impl FnMut(&Simulation)) -> Result<Finish, RunError> {
+        self.rebuild_views_if_needed();
         if self.step == 0 && self.output.is_some() && self.schedule.is_enabled(SystemId::Output) {
+            if let Some(f) = self.flow.as_mut() {
+                // Pressures and boundary state at t = 0 for the first frame and row.
+                f.view.pressure = (0..f.view.n_cells())
+                    .map(|c| crate::flow::pressure_of(f.view.mass[c], f.view.volume[c], &f.params))
+                    .collect();
+            }
             self.write_outputs(true, true)?;
         }
         while self.finish.is_none() {
@@ -298,8 +529,7 @@ impl Simulation {
         Ok(self.finish.expect("loop ends with a finish"))
     }
 
-    /// Mean element stress [sxx, syy, sxy] weighted by area, Pa, and the largest relative
-    /// deviation of any element from it.
+    /// Mean element stress [sxx, syy, sxy] weighted by area, Pa, with the element minimum and maximum.
     pub fn stress_summary(&self) -> ([f64; 3], [f64; 3], [f64; 3]) {
         let mut mean = [0.0; 3];
         let mut min = [f64::INFINITY; 3];
@@ -312,6 +542,9 @@ impl Simulation {
                 max[k] = max[k].max(s[k]);
             }
             area += g[0];
+        }
+        if area == 0.0 {
+            return ([0.0; 3], [0.0; 3], [0.0; 3]);
         }
         (mean.map(|m| m / area), min, max)
     }

@@ -8,6 +8,7 @@
 //! - `integrate` consumes forces and produces the step statistics that `monitor` checks;
 //! - `monitor` must run before `output` so that no frame with non-finite values is written.
 
+pub mod flow;
 pub mod solid;
 
 /// A named system of the step.
@@ -17,17 +18,19 @@ pub enum SystemId {
     ExternalLoad,
     Damping,
     Integrate,
+    FlowSubsteps,
     Monitor,
     Output,
 }
 
 impl SystemId {
     /// The step, in order.
-    pub const ORDER: [SystemId; 6] = [
+    pub const ORDER: [SystemId; 7] = [
         SystemId::InternalForce,
         SystemId::ExternalLoad,
         SystemId::Damping,
         SystemId::Integrate,
+        SystemId::FlowSubsteps,
         SystemId::Monitor,
         SystemId::Output,
     ];
@@ -38,6 +41,7 @@ impl SystemId {
             SystemId::ExternalLoad => "external_load",
             SystemId::Damping => "damping",
             SystemId::Integrate => "integrate",
+            SystemId::FlowSubsteps => "flow_substeps",
             SystemId::Monitor => "monitor",
             SystemId::Output => "output",
         }
@@ -53,6 +57,9 @@ impl SystemId {
             }
             SystemId::Integrate => {
                 "central-difference update of velocity and displacement; prescribed displacements"
+            }
+            SystemId::FlowSubsteps => {
+                "N explicit finite-volume steps of the fracture network (pairs, pump, rate, pressure)"
             }
             SystemId::Monitor => {
                 "blow-up detection (non-finite or runaway velocity), residual and convergence"
@@ -83,6 +90,9 @@ impl SystemId {
             }
             SystemId::Damping => tracing::info_span!(target: "hydrofrac::system", "damping"),
             SystemId::Integrate => tracing::info_span!(target: "hydrofrac::system", "integrate"),
+            SystemId::FlowSubsteps => {
+                tracing::info_span!(target: "hydrofrac::system", "flow_substeps")
+            }
             SystemId::Monitor => tracing::info_span!(target: "hydrofrac::system", "monitor"),
             SystemId::Output => tracing::info_span!(target: "hydrofrac::system", "output"),
         }

@@ -3,8 +3,12 @@
 //! frames and the index are written to a temporary file and renamed, the time series is flushed
 //! row by row, and `summary.json` is written last (a stale one is removed at the start).
 
+pub mod plots;
 pub mod vtk;
 
+use crate::components::CellKind;
+use crate::flow::FlowView;
+use crate::network::Fracture;
 use crate::scenario::Field;
 use crate::systems::solid::{SolidParams, cst_stress};
 use crate::view::SolidView;
@@ -12,29 +16,15 @@ use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 
-/// One row of `timeseries.csv`.
-#[derive(Clone, Copy, Debug)]
-pub struct SeriesRow {
-    pub step: u64,
-    /// s
-    pub time: f64,
-    /// J/m
-    pub kinetic_energy: f64,
-    /// Strain energy at the start of the last step, J/m.
-    pub strain_energy: f64,
-    /// dimensionless
-    pub residual: f64,
-    /// m/s
-    pub max_speed: f64,
-}
-
-pub const SERIES_HEADER: &str = "step,time,kinetic_energy,strain_energy,residual,max_speed";
-
 pub struct Outputs {
     pub dir: PathBuf,
     pvd: vtk::PvdWriter,
+    network_pvd: vtk::PvdWriter,
     series: BufWriter<File>,
+    /// Solid frames written.
     pub frames: usize,
+    /// Network frames written.
+    pub network_frames: usize,
     fields: Vec<Field>,
 }
 
@@ -53,7 +43,7 @@ impl Outputs {
     /// Prepare the folder: create it, check it is writable, and remove results of an earlier run
     /// (`summary.json`, `timeseries.csv`, `solid.pvd`, `frames/`) so nothing stale passes for a
     /// result of this one.
-    pub fn create(dir: &Path, fields: &[Field]) -> std::io::Result<Self> {
+    pub fn create(dir: &Path, fields: &[Field], columns: &[String]) -> std::io::Result<Self> {
         let ctx = |e: std::io::Error, what: &str| {
             std::io::Error::new(e.kind(), format!("cannot {what} {}: {e}", dir.display()))
         };
@@ -61,7 +51,14 @@ impl Outputs {
         let probe = dir.join(".hydrofrac-write-test");
         File::create(&probe).map_err(|e| ctx(e, "write to output folder"))?;
         let _ = std::fs::remove_file(&probe);
-        for stale in ["summary.json", "timeseries.csv", "solid.pvd"] {
+        for stale in [
+            "summary.json",
+            "timeseries.csv",
+            "solid.pvd",
+            "network.pvd",
+            "network.csv",
+            "network_generated.csv",
+        ] {
             let p = dir.join(stale);
             if p.exists() {
                 std::fs::remove_file(&p).map_err(|e| ctx(e, "clean output folder"))?;
@@ -73,24 +70,105 @@ impl Outputs {
         }
         std::fs::create_dir_all(&frames).map_err(|e| ctx(e, "create frames folder in"))?;
         let mut series = BufWriter::new(File::create(dir.join("timeseries.csv"))?);
-        writeln!(series, "{SERIES_HEADER}")?;
+        writeln!(series, "{}", columns.join(","))?;
         series.flush()?;
         Ok(Outputs {
             dir: dir.to_path_buf(),
             pvd: vtk::PvdWriter::new(&dir.join("solid.pvd")),
+            network_pvd: vtk::PvdWriter::new(&dir.join("network.pvd")),
             series,
             frames: 0,
+            network_frames: 0,
             fields: fields.to_vec(),
         })
     }
 
-    pub fn write_series(&mut self, r: &SeriesRow) -> std::io::Result<()> {
-        writeln!(
-            self.series,
-            "{},{},{},{},{},{}",
-            r.step, r.time, r.kinetic_energy, r.strain_energy, r.residual, r.max_speed
-        )?;
+    /// Append one `timeseries.csv` row (the values of the columns given at creation).
+    pub fn write_series(&mut self, values: &[f64]) -> std::io::Result<()> {
+        let mut line = String::with_capacity(24 * values.len());
+        for (k, v) in values.iter().enumerate() {
+            if k > 0 {
+                line.push(',');
+            }
+            line += &format!("{v:e}");
+        }
+        writeln!(self.series, "{line}")?;
         self.series.flush()
+    }
+
+    /// Write one ParaView frame of the network: cells as lines with pressure (Pa), aperture (m),
+    /// flow rate (m^2/s), cell id and kind (0 pre-existing, 1 new).
+    pub fn write_network_frame(&mut self, f: &FlowView, time: f64) -> std::io::Result<()> {
+        let points: Vec<[f64; 3]> = f.node_pos.iter().map(|x| [x[0], x[1], 0.0]).collect();
+        let conn: Vec<u32> = f.cell_nodes.as_flattened().to_vec();
+        let id: Vec<f64> = f.cell_id.iter().map(|&i| i as f64).collect();
+        let kind: Vec<f64> = f
+            .kind
+            .iter()
+            .map(|k| if *k == CellKind::New { 1.0 } else { 0.0 })
+            .collect();
+        let arr = |name, values| vtk::DataArray {
+            name,
+            components: 1,
+            values,
+        };
+        let name = format!("network_{:05}.vtu", self.network_frames);
+        vtk::write_vtu(
+            &self.dir.join("frames").join(&name),
+            &vtk::VtuPiece {
+                points: &points,
+                kind: vtk::CellKind::Line,
+                connectivity: &conn,
+                point_data: vec![],
+                cell_data: vec![
+                    arr("pressure", &f.pressure[..]),
+                    arr("aperture", &f.aperture[..]),
+                    arr("flow_rate", &f.flow_rate[..]),
+                    arr("cell_id", &id[..]),
+                    arr("kind", &kind[..]),
+                ],
+            },
+        )?;
+        self.network_pvd.add(time, &format!("frames/{name}"))?;
+        self.network_frames += 1;
+        Ok(())
+    }
+
+    /// `network.csv`: one row per cell, `x0,y0,x1,y1,aperture,pressure,flow_rate,kind,created_t`.
+    pub fn write_network_csv(&self, f: &FlowView) -> std::io::Result<()> {
+        let mut s = String::from("x0,y0,x1,y1,aperture,pressure,flow_rate,kind,created_t\n");
+        for c in 0..f.n_cells() {
+            let [a, b] = f.cell_nodes[c].map(|n| f.node_pos[n as usize]);
+            let kind = match f.kind[c] {
+                CellKind::Preexisting => "preexisting",
+                CellKind::New => "new",
+            };
+            s += &format!(
+                "{},{},{},{},{},{},{},{},{}\n",
+                a[0],
+                a[1],
+                b[0],
+                b[1],
+                f.aperture[c],
+                f.pressure[c],
+                f.flow_rate[c],
+                kind,
+                f.created_t[c]
+            );
+        }
+        write_atomic(&self.dir.join("network.csv"), s.as_bytes())
+    }
+
+    /// `network_generated.csv`: the fractures the network was cut from, `x0,y0,x1,y1,aperture`.
+    pub fn write_fractures_csv(&self, fractures: &[Fracture]) -> std::io::Result<()> {
+        let mut s = String::from("x0,y0,x1,y1,aperture\n");
+        for f in fractures {
+            s += &format!(
+                "{},{},{},{},{}\n",
+                f.from[0], f.from[1], f.to[0], f.to[1], f.aperture
+            );
+        }
+        write_atomic(&self.dir.join("network_generated.csv"), s.as_bytes())
     }
 
     /// Write one ParaView frame of the solid (reference positions; displacement to warp by).
