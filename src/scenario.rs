@@ -742,7 +742,7 @@ impl Scenario {
                 }
             }
             for (k, w) in b.schedule.windows(2).enumerate() {
-                if !(w[1].0 >= w[0].0) {
+                if w[1].0 < w[0].0 || w[1].0.is_nan() {
                     return Err(SetupError::invalid(
                         &format!("{field}.schedule[{}]", k + 1),
                         "times must not decrease",

@@ -95,11 +95,11 @@ fn network_figures(sim: &Simulation, dir: &Path) -> anyhow::Result<()> {
         .bcs
         .iter()
         .zip(&names)
-        .filter_map(|(b, name)| {
+        .map(|(b, name)| {
             let pos = match sim.scenario.flow_boundaries[b.index].at {
                 crate::scenario::FlowTarget::Node(p) | crate::scenario::FlowTarget::Cell(p) => p,
             };
-            Some((pos, name.as_str()))
+            (pos, name.as_str())
         })
         .collect();
     let mpa: Vec<f64> = v.pressure.iter().map(|p| p / 1e6).collect();
