@@ -151,6 +151,7 @@ fn progress_bar(sim: &Simulation, quiet: bool) -> ProgressBar {
 fn progress_position(s: &Simulation) -> u64 {
     match s.scenario.time.end {
         crate::scenario::End::Time(te) => (1000.0 * s.time / te) as u64,
+        crate::scenario::End::SteadyDirect => 1000,
         crate::scenario::End::Static { tol, .. } => {
             let done = (s.residual.max(tol).log10() / tol.log10()).clamp(0.0, 1.0);
             (1000.0 * done) as u64

@@ -9,6 +9,9 @@ use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
+/// Snapping distance as a fraction of the cell length.
+pub const SNAP: f64 = 0.3;
+
 /// One fracture: a straight segment with a uniform hydraulic aperture.
 #[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
@@ -55,7 +58,9 @@ pub struct NetworkSpec {
     #[serde(default)]
     pub random: Option<RandomNetwork>,
     /// Target cell length, m: each piece of fracture between intersections is cut into
-    /// ceil(piece / cell_length) equal cells.
+    /// ceil(piece / cell_length) equal cells. Intersections and ends closer than
+    /// 0.3 cell_length to an existing network point snap to it, so no cell is shorter than
+    /// that (the explicit flow step shrinks with the square of the shortest cell).
     pub cell_length: f64,
 }
 
@@ -238,13 +243,14 @@ impl NetworkSpec {
             })
             .fold(1.0, f64::max);
         let tol = 1e-9 * scale;
+        let snap = (SNAP * self.cell_length).max(tol);
         // Break points along each fracture: (parameter, shared point id).
         let mut points: Vec<[f64; 2]> = Vec::new();
         let mut breaks: Vec<Vec<(f64, u32)>> = vec![Vec::new(); fr.len()];
         let find_or_add = |p: [f64; 2], points: &mut Vec<[f64; 2]>| -> u32 {
             if let Some(k) = points
                 .iter()
-                .position(|q| (q[0] - p[0]).abs() <= tol && (q[1] - p[1]).abs() <= tol)
+                .position(|q| (q[0] - p[0]).hypot(q[1] - p[1]) <= snap)
             {
                 k as u32
             } else {
@@ -252,22 +258,29 @@ impl NetworkSpec {
                 (points.len() - 1) as u32
             }
         };
+        let project = |f: &Fracture, p: [f64; 2]| {
+            let d = [f.to[0] - f.from[0], f.to[1] - f.from[1]];
+            let t = ((p[0] - f.from[0]) * d[0] + (p[1] - f.from[1]) * d[1])
+                / (d[0] * d[0] + d[1] * d[1]);
+            t.clamp(0.0, 1.0)
+        };
         for (i, f) in fr.iter().enumerate() {
             let a = find_or_add(f.from, &mut points);
             let b = find_or_add(f.to, &mut points);
-            breaks[i].push((0.0, a));
-            breaks[i].push((1.0, b));
+            breaks[i].push((project(f, points[a as usize]), a));
+            breaks[i].push((project(f, points[b as usize]), b));
         }
         for i in 0..fr.len() {
             for j in i + 1..fr.len() {
-                if let Some((t, u)) = intersect(&fr[i], &fr[j], tol) {
+                if let Some((t, _)) = intersect(&fr[i], &fr[j], tol) {
                     let p = [
                         fr[i].from[0] + t * (fr[i].to[0] - fr[i].from[0]),
                         fr[i].from[1] + t * (fr[i].to[1] - fr[i].from[1]),
                     ];
                     let k = find_or_add(p, &mut points);
-                    breaks[i].push((t, k));
-                    breaks[j].push((u, k));
+                    let q = points[k as usize];
+                    breaks[i].push((project(&fr[i], q), k));
+                    breaks[j].push((project(&fr[j], q), k));
                 }
             }
         }
@@ -276,31 +289,29 @@ impl NetworkSpec {
             cells: Vec::new(),
             fractures: fr.clone(),
         };
-        for (i, f) in fr.iter().enumerate() {
-            let b = &mut breaks[i];
-            b.sort_by(|x, y| x.0.total_cmp(&y.0));
+        for (fi, b) in breaks.iter_mut().enumerate() {
+            b.sort_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
             b.dedup_by_key(|x| x.1);
-            let len = ((f.to[0] - f.from[0]).powi(2) + (f.to[1] - f.from[1]).powi(2)).sqrt();
             for w in b.windows(2) {
-                let ((t0, n0), (t1, n1)) = (w[0], w[1]);
+                let ((_, n0), (_, n1)) = (w[0], w[1]);
                 if n0 == n1 {
                     continue;
                 }
-                let piece = (t1 - t0) * len;
+                // Cut between the actual (possibly snapped) end points.
+                let (pa, pb) = (net.nodes[n0 as usize], net.nodes[n1 as usize]);
+                let piece = (pb[0] - pa[0]).hypot(pb[1] - pa[1]);
                 let m = (piece / self.cell_length - 1e-9).ceil().max(1.0) as usize;
                 let mut prev = n0;
                 for k in 1..=m {
                     let next = if k == m {
                         n1
                     } else {
-                        let t = t0 + (t1 - t0) * k as f64 / m as f64;
-                        net.nodes.push([
-                            f.from[0] + t * (f.to[0] - f.from[0]),
-                            f.from[1] + t * (f.to[1] - f.from[1]),
-                        ]);
+                        let t = k as f64 / m as f64;
+                        net.nodes
+                            .push([pa[0] + t * (pb[0] - pa[0]), pa[1] + t * (pb[1] - pa[1])]);
                         (net.nodes.len() - 1) as u32
                     };
-                    net.cells.push((prev, next, f.aperture, i as u32));
+                    net.cells.push((prev, next, fr[fi].aperture, fi as u32));
                     prev = next;
                 }
             }

@@ -337,6 +337,9 @@ pub enum End {
         #[serde(default = "default_min_steps")]
         min_steps: u64,
     },
+    /// Flow-only scenes: solve the incompressible steady state of the network directly (sparse
+    /// Cholesky), no time stepping. Pressure and rate boundaries only.
+    SteadyDirect,
 }
 
 fn default_min_steps() -> u64 {
@@ -673,6 +676,24 @@ impl Scenario {
         match t.end {
             End::Time(te) => positive("time.end", te, "the end time")?,
             End::Static { tol, .. } => positive("time.end.tol", tol, "the residual tolerance")?,
+            End::SteadyDirect => {
+                if self.mesh.is_some() || self.network.is_none() {
+                    return Err(SetupError::invalid(
+                        "time.end",
+                        "SteadyDirect solves a rigid network: it needs a network and no mesh",
+                    ));
+                }
+                if let Some(i) = self
+                    .flow_boundaries
+                    .iter()
+                    .position(|b| matches!(b.kind, FlowBcKind::Pump { .. }))
+                {
+                    return Err(SetupError::invalid(
+                        &format!("flow_boundaries[{i}].kind"),
+                        "SteadyDirect takes pressure and rate boundaries, not a pump",
+                    ));
+                }
+            }
         }
         // Damping.
         match self.damping {

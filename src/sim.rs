@@ -17,6 +17,10 @@ use crate::view::SolidView;
 /// small-strain elasticity, so the run is treated as blown up.
 pub const SPEED_LIMIT_FRACTION: f64 = 1.0;
 
+/// Flow sub-steps per step in flow-only scenes: the schedule, spans and monitoring run once per
+/// step, so a step of several flow sub-steps keeps their cost small against the flow kernel.
+pub const FLOW_ONLY_SUBSTEPS: u64 = 32;
+
 /// How a run ended.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
 #[serde(rename_all = "snake_case")]
@@ -153,8 +157,8 @@ impl Simulation {
         let mut dt = match (t.dt, has_solid, flow_auto, t.flow_dt) {
             (Some(dt), _, _, _) => dt,
             (None, true, _, _) => t.safety * dt_crit,
-            (None, false, _, Some(fdt)) => fdt,
-            (None, false, Some(fa), None) => fa,
+            (None, false, _, Some(fdt)) => FLOW_ONLY_SUBSTEPS as f64 * fdt,
+            (None, false, Some(fa), None) => FLOW_ONLY_SUBSTEPS as f64 * fa,
             (None, false, None, None) => unreachable!("validated: a mesh or a network"),
         };
         let steps_to_end = match t.end {
@@ -163,7 +167,7 @@ impl Simulation {
                 dt = te / n;
                 Some(n as u64)
             }
-            End::Static { .. } => None,
+            End::Static { .. } | End::SteadyDirect => None,
         };
         if t.dt.is_some() && dt > dt_crit {
             tracing::warn!(
@@ -507,9 +511,70 @@ impl Simulation {
         Ok(())
     }
 
+    /// Solve the network's steady state directly and store it as the current state (cell
+    /// pressures, masses at those pressures, throughputs, boundary pressures and rates).
+    pub fn solve_steady_direct(&mut self) -> Result<(), SetupError> {
+        let names: Vec<String> = (0..self.scenario.flow_boundaries.len())
+            .map(|i| self.bc_name(i))
+            .collect();
+        let specs = &self.scenario.flow_boundaries;
+        let t = self.time;
+        let Some(f) = self.flow.as_mut() else {
+            return Err(SetupError::invalid(
+                "time.end",
+                "SteadyDirect needs a network",
+            ));
+        };
+        let mut solver = crate::flow::steady::SteadySolver::new();
+        let sol = f
+            .view
+            .solve_steady(&mut solver, specs, |i| names[i].clone(), t)
+            .map_err(|e| SetupError::invalid("flow", e.to_string()))?;
+        let v = &mut f.view;
+        for c in 0..v.n_cells() {
+            v.pressure[c] = sol.pressure[c];
+            v.mass[c] = f.params.rho_r * (1.0 + sol.pressure[c] / f.params.k) * v.volume[c];
+        }
+        // Throughput per cell from the pair flows and the boundary flows of the solution.
+        for (k, pr) in v.pairs.iter().enumerate() {
+            v.pair_q[k] =
+                v.kappa[k] * (sol.pressure[pr[0] as usize] - sol.pressure[pr[1] as usize]);
+        }
+        v.bc_in.iter_mut().for_each(|q| *q = 0.0);
+        for (b, &(pb, rate)) in v.bcs.iter_mut().zip(&sol.boundaries) {
+            for (k, &c) in b.cells.iter().enumerate() {
+                b.q_cells[k] = b.kappa[k] * (pb - sol.pressure[c as usize]);
+                v.bc_in[c as usize] += b.q_cells[k];
+            }
+            b.pressure = pb;
+            b.rate = rate;
+        }
+        for c in 0..v.n_cells() {
+            let through: f64 = v.inc[v.inc_ptr[c] as usize..v.inc_ptr[c + 1] as usize]
+                .iter()
+                .map(|&e| v.pair_q[(e >> 1) as usize].abs())
+                .sum();
+            v.flow_rate[c] = 0.5 * (through + v.bc_in[c].abs());
+        }
+        f.residual = sol.residual;
+        // No time passes: the solved state is the reference for the mass balance.
+        f.initial_mass = v.mass.iter().sum();
+        Ok(())
+    }
+
     /// Run to the end. `progress` is called every few hundred steps.
     pub fn run(&mut self, mut progress: impl FnMut(&Simulation)) -> Result<Finish, RunError> {
         self.rebuild_views_if_needed();
+        if self.scenario.time.end == End::SteadyDirect {
+            self.solve_steady_direct()?;
+            self.residual = self.flow.as_ref().map_or(0.0, |f| f.residual);
+            self.finish = Some(Finish::Converged);
+            if self.output.is_some() {
+                self.write_outputs(true, true)?;
+            }
+            self.sync();
+            return Ok(Finish::Converged);
+        }
         if self.step == 0 && self.output.is_some() && self.schedule.is_enabled(SystemId::Output) {
             if let Some(f) = self.flow.as_mut() {
                 // Pressures and boundary state at t = 0 for the first frame and row.
