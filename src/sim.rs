@@ -43,8 +43,8 @@ pub struct FlowPart {
     /// Explicit critical flow step, s.
     pub dt_crit: f64,
     pub stats: FlowStats,
-    /// Fluid mass at the start, kg/m.
-    pub initial_mass: f64,
+    /// Fluid excess mass (above rho_r V) summed at the start, kg/m.
+    pub initial_excess: f64,
     /// Steady residual ||net inflow per cell|| / sum |boundary rates|.
     pub residual: f64,
     /// The fractures the network was cut from (written to the output).
@@ -137,7 +137,7 @@ impl Simulation {
                 let mut view = FlowView::build(&model, &fp);
                 view.set_bc_kinds(&scenario.flow_boundaries);
                 let crit = view.critical_step(&fp);
-                let initial_mass = view.mass.iter().sum();
+                let initial_excess = view.excess.iter().sum();
                 Some(FlowPart {
                     view,
                     params: fp,
@@ -145,7 +145,7 @@ impl Simulation {
                     substeps: 1,
                     dt_crit: crit,
                     stats: FlowStats::default(),
-                    initial_mass,
+                    initial_excess,
                     residual: f64::INFINITY,
                     network: net,
                 })
@@ -219,7 +219,7 @@ impl Simulation {
         solid::update_stress(&mut self.view, &self.params);
         self.view.write_back(&mut self.model);
         if let Some(f) = &self.flow {
-            f.view.write_back(&mut self.model);
+            f.view.write_back(&mut self.model, &f.params);
         }
     }
 
@@ -363,6 +363,28 @@ impl Simulation {
             0.0
         };
         if let Some(f) = &self.flow {
+            // The explicit flow step must respect the stability bound (a forced `time.flow_dt`
+            // may not): above it the scheme oscillates, and the P = 0 floor of unfilled cells can
+            // hold the oscillation bounded, so it would not show up as a blow-up by itself.
+            if f.dt > f.dt_crit * (1.0 + 1e-9)
+                && let Some((c, bound)) = f.view.critical_cell(&f.params)
+            {
+                let [a, b] = f.view.cell_nodes[c].map(|n| f.view.node_pos[n as usize]);
+                return Err(blow(
+                    format!(
+                        "cell {} at ({:.4}, {:.4}) m",
+                        f.view.cell_id[c],
+                        0.5 * (a[0] + b[0]),
+                        0.5 * (a[1] + b[1])
+                    ),
+                    "flow step",
+                    f.dt,
+                    format!(
+                        "above the cell's stability bound V/(K sum kappa) = {bound:.4e} s: unstable"
+                    ),
+                    f.dt,
+                ));
+            }
             if let Some(c) = f.stats.bad_cell {
                 let [a, b] = f.view.cell_nodes[c].map(|n| f.view.node_pos[n as usize]);
                 return Err(blow(
@@ -373,7 +395,7 @@ impl Simulation {
                         0.5 * (a[1] + b[1])
                     ),
                     "fluid mass",
-                    f.view.mass[c],
+                    f.view.excess[c] + f.params.rho_r * f.view.volume[c],
                     format!(
                         "negative or non-finite: the flow step exceeds its stability limit {:.3e} s",
                         f.dt_crit
@@ -471,16 +493,17 @@ impl Simulation {
 
     /// Flow volumes (m^2 at reference density): injected, produced, stored change, and the
     /// relative mass-balance error |stored change - (injected - produced)| / max(injected,
-    /// produced, stored, initial).
+    /// produced, |stored change|, network volume). The network volume (sum of a L) is in the
+    /// scale because the cell masses carry round-off of eps times the mass they can hold.
     pub fn flow_balance(&self) -> Option<(f64, f64, f64, f64)> {
         let f = self.flow.as_ref()?;
         let inj: f64 = f.view.bcs.iter().map(|b| b.volume_in).sum();
         let prod: f64 = f.view.bcs.iter().map(|b| b.volume_out).sum();
-        let stored = (f.view.mass.iter().sum::<f64>() - f.initial_mass) / f.params.rho_r;
+        let stored = (f.view.excess.iter().sum::<f64>() - f.initial_excess) / f.params.rho_r;
         let scale = inj
             .max(prod)
             .max(stored.abs())
-            .max(f.initial_mass / f.params.rho_r);
+            .max(f.view.volume.iter().sum::<f64>());
         let err = if scale > 0.0 {
             (stored - (inj - prod)).abs() / scale
         } else {
@@ -533,7 +556,7 @@ impl Simulation {
         let v = &mut f.view;
         for c in 0..v.n_cells() {
             v.pressure[c] = sol.pressure[c];
-            v.mass[c] = f.params.rho_r * (1.0 + sol.pressure[c] / f.params.k) * v.volume[c];
+            v.excess[c] = f.params.rho_r * sol.pressure[c] / f.params.k * v.volume[c];
         }
         // Throughput per cell from the pair flows and the boundary flows of the solution.
         for (k, pr) in v.pairs.iter().enumerate() {
@@ -558,7 +581,7 @@ impl Simulation {
         }
         f.residual = sol.residual;
         // No time passes: the solved state is the reference for the mass balance.
-        f.initial_mass = v.mass.iter().sum();
+        f.initial_excess = v.excess.iter().sum();
         Ok(())
     }
 
@@ -579,7 +602,9 @@ impl Simulation {
             if let Some(f) = self.flow.as_mut() {
                 // Pressures and boundary state at t = 0 for the first frame and row.
                 f.view.pressure = (0..f.view.n_cells())
-                    .map(|c| crate::flow::pressure_of(f.view.mass[c], f.view.volume[c], &f.params))
+                    .map(|c| {
+                        crate::flow::pressure_of(f.view.excess[c], f.view.volume[c], &f.params)
+                    })
                     .collect();
             }
             self.write_outputs(true, true)?;

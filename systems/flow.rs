@@ -99,7 +99,8 @@ pub fn boundary_flows(v: &mut FlowView, specs: &[FlowBoundary], t: f64) {
 }
 
 /// One explicit flow step of length dt at time t: pressures, pair fluxes, boundary flows, mass
-/// update (m += dt rho_r sum of inflows), throughput, and the boundaries' cumulative volumes.
+/// update (excess mass += dt rho_r sum of inflows), throughput, and the boundaries' cumulative
+/// volumes.
 pub fn flow_step(
     v: &mut FlowView,
     p: &FlowParams,
@@ -110,7 +111,7 @@ pub fn flow_step(
     // Pressures from mass.
     v.pressure
         .par_iter_mut()
-        .zip(v.mass.par_iter().zip(v.volume.par_iter()))
+        .zip(v.excess.par_iter().zip(v.volume.par_iter()))
         .with_min_len(CELL_CHUNK)
         .for_each(|(pr, (m, vol))| *pr = pressure_of(*m, *vol, p));
     // Pair fluxes, first -> second.
@@ -122,12 +123,12 @@ pub fn flow_step(
         .for_each(|(q, (pr, k))| *q = k * (pres[pr[0] as usize] - pres[pr[1] as usize]));
     boundary_flows(v, specs, t);
     // Gather and update, reducing in fixed chunks.
-    let (ptr, inc, pq, bc_in) = (&v.inc_ptr, &v.inc, &v.pair_q, &v.bc_in);
+    let (ptr, inc, pq, bc_in, vol) = (&v.inc_ptr, &v.inc, &v.pair_q, &v.bc_in, &v.volume);
     let rho_dt = p.rho_r * dt;
     let partial: Vec<FlowStats> = v
-        .mass
+        .excess
         .par_chunks_mut(CELL_CHUNK)
-        .zip(v.mass_comp.par_chunks_mut(CELL_CHUNK))
+        .zip(v.excess_comp.par_chunks_mut(CELL_CHUNK))
         .zip(v.flow_rate.par_chunks_mut(CELL_CHUNK))
         .enumerate()
         .map(|(ch, ((mc, cc), fc))| {
@@ -148,7 +149,7 @@ pub fn flow_step(
                 kahan_add(m, comp, rho_dt * net);
                 *fr = 0.5 * through;
                 st.net2 += net * net;
-                if !(*m >= 0.0 && m.is_finite()) && st.bad_cell.is_none() {
+                if !(*m >= -p.rho_r * vol[i] && m.is_finite()) && st.bad_cell.is_none() {
                     st.bad_cell = Some(i);
                 }
             }

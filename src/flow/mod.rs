@@ -40,12 +40,14 @@ impl From<Fluid> for FlowParams {
     }
 }
 
-/// Pressure of a cell from its mass and volume, Pa (equation (4), corrected).
+/// Pressure of a cell from its excess mass e = m - rho_r V (kg/m) and volume V (m^2), Pa:
+/// equation (4) corrected, P = K (rho/rho_r - 1) = K e / (rho_r V) when the cell is full (e > 0),
+/// else 0. Working with the excess keeps full relative precision in P; with the total mass the
+/// subtraction of 1 limits P to steps of K * 2.2e-16 = 5e-7 Pa, which floors steady residuals.
 #[inline(always)]
-pub fn pressure_of(mass: f64, volume: f64, p: &FlowParams) -> f64 {
-    let ratio = mass / (p.rho_r * volume);
-    if ratio > 1.0 {
-        p.k * (ratio - 1.0)
+pub fn pressure_of(excess: f64, volume: f64, p: &FlowParams) -> f64 {
+    if excess > 0.0 {
+        p.k * excess / (p.rho_r * volume)
     } else {
         0.0
     }
@@ -104,14 +106,16 @@ pub struct FlowView {
     pub node_entity: Vec<Entity>,
     /// Current node positions, m.
     pub node_pos: Vec<[f64; 2]>,
-    /// Length L (m), aperture a (m), volume a L (m^2), mass (kg/m), pressure (Pa), throughput (m^2/s).
+    /// Length L (m), aperture a (m), volume a L (m^2), pressure (Pa), throughput (m^2/s).
     pub length: Vec<f64>,
     pub aperture: Vec<f64>,
     pub volume: Vec<f64>,
-    pub mass: Vec<f64>,
-    /// Kahan compensation of `mass` (the low-order bits lost by the running sum): mass is
+    /// Fluid mass above the reference mass rho_r V, kg/m (negative while the cell fills); the
+    /// cell's mass is `excess + rho_r * volume`.
+    pub excess: Vec<f64>,
+    /// Kahan compensation of `excess` (the low-order bits lost by the running sum): it is
     /// accumulated over millions of sub-steps and the balance is checked to 1e-12.
-    pub mass_comp: Vec<f64>,
+    pub excess_comp: Vec<f64>,
     pub pressure: Vec<f64>,
     pub flow_rate: Vec<f64>,
     pub kind: Vec<CellKind>,
@@ -174,7 +178,7 @@ impl FlowView {
             v.cell_id.push(*id);
             v.cell_nodes.push(n.0.map(|x| dense[x.id() as usize]));
             v.aperture.push(f.aperture);
-            v.mass.push(f.mass);
+            v.excess.push(f.mass);
             v.pressure.push(f.pressure);
             v.flow_rate.push(f.flow_rate);
             v.kind.push(o.kind);
@@ -184,8 +188,11 @@ impl FlowView {
         v.length = vec![0.0; nc];
         v.volume = vec![0.0; nc];
         v.bc_in = vec![0.0; nc];
-        v.mass_comp = vec![0.0; nc];
+        v.excess_comp = vec![0.0; nc];
         v.update_geometry();
+        for c in 0..nc {
+            v.excess[c] -= p.rho_r * v.volume[c];
+        }
         // Pairs: at every node, every two cells that meet there.
         let mut at_node: Vec<Vec<u32>> = vec![Vec::new(); v.node_pos.len()];
         for (c, n) in v.cell_nodes.iter().enumerate() {
@@ -306,6 +313,11 @@ impl FlowView {
     /// transmissibilities, pairs and boundaries). For a chain of equal cells it equals the seed's
     /// 6 mu/K (L/a)^2; architecture.md's 2 V_i/(K sum kappa) is twice the chain limit.
     pub fn critical_step(&self, p: &FlowParams) -> f64 {
+        self.critical_cell(p).map_or(f64::INFINITY, |c| c.1)
+    }
+
+    /// The cell with the smallest stability bound and that bound, s.
+    pub fn critical_cell(&self, p: &FlowParams) -> Option<(usize, f64)> {
         let mut sum = vec![0.0; self.n_cells()];
         for (k, pr) in self.pairs.iter().enumerate() {
             sum[pr[0] as usize] += self.kappa[k];
@@ -318,22 +330,43 @@ impl FlowView {
         }
         (0..self.n_cells())
             .filter(|&c| sum[c] > 0.0)
-            .map(|c| self.volume[c] / (p.k * sum[c]))
-            .fold(f64::INFINITY, f64::min)
+            .map(|c| (c, self.volume[c] / (p.k * sum[c])))
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+    }
+
+    /// Cells connected through pairs to any of `seeds`.
+    pub fn grounded_cells(&self, seeds: &[u32]) -> Vec<bool> {
+        let mut seen = vec![false; self.n_cells()];
+        let mut stack: Vec<u32> = seeds.to_vec();
+        while let Some(c) = stack.pop() {
+            if std::mem::replace(&mut seen[c as usize], true) {
+                continue;
+            }
+            for &e in
+                &self.inc[self.inc_ptr[c as usize] as usize..self.inc_ptr[c as usize + 1] as usize]
+            {
+                let pr = self.pairs[(e >> 1) as usize];
+                let other = pr[1 - (e & 1) as usize];
+                if !seen[other as usize] {
+                    stack.push(other);
+                }
+            }
+        }
+        seen
     }
 
     /// Fluid volume at reference density, m^2.
     pub fn stored_volume(&self, p: &FlowParams) -> f64 {
-        self.mass.iter().sum::<f64>() / p.rho_r
+        self.excess.iter().sum::<f64>() / p.rho_r + self.volume.iter().sum::<f64>()
     }
 
     /// Copy the cell and boundary state back into the components.
-    pub fn write_back(&self, model: &mut Model) {
+    pub fn write_back(&self, model: &mut Model, p: &FlowParams) {
         let mut view = model.world.view_mut::<&mut CellFluid>();
         for (i, &e) in self.cell_entity.iter().enumerate() {
             if let Some(f) = view.get_mut(e) {
                 f.aperture = self.aperture[i];
-                f.mass = self.mass[i];
+                f.mass = self.excess[i] + p.rho_r * self.volume[i];
                 f.pressure = self.pressure[i];
                 f.flow_rate = self.flow_rate[i];
             }
@@ -439,6 +472,14 @@ impl FlowView {
         }
         let mut pressure = sol.pressure;
         pressure.truncate(nc);
+        // Cells in a cluster no pressure boundary reaches keep their pressure: the steady
+        // problem leaves it undetermined, and a closed cluster keeps its fluid.
+        let grounded = self.grounded_cells(&dirichlet.iter().map(|d| d.0).collect::<Vec<_>>());
+        for c in 0..nc {
+            if !grounded[c] {
+                pressure[c] = self.pressure[c];
+            }
+        }
         Ok(SteadyNetwork {
             pressure,
             boundaries,

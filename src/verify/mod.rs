@@ -3,6 +3,7 @@
 //!
 //! Cases (verification.md items 1-4): `patch`, `insitu`, `mms`, `stability`.
 
+pub mod flow_cases;
 pub mod solid_cases;
 
 use crate::plot::{Series, loglog};
@@ -110,6 +111,36 @@ pub fn cases() -> Vec<Case> {
             about: "1e5 undamped steps with no energy growth; a step above the limit is caught",
             run: solid_cases::stability,
         },
+        Case {
+            name: "cubic_law",
+            about: "steady flow through one fracture and X/T junctions against Q = a^3 dp/(12 mu L)",
+            run: flow_cases::cubic_law,
+        },
+        Case {
+            name: "diffusion",
+            about: "pressure diffusion in a rigid fracture against the closed-end series and erfc",
+            run: flow_cases::diffusion,
+        },
+        Case {
+            name: "mass_balance",
+            about: "injected = stored + produced at every step, with the pump switched off and on",
+            run: flow_cases::mass_balance,
+        },
+        Case {
+            name: "pump_curve",
+            about: "pump operating point against a fracture of known resistance",
+            run: flow_cases::pump_curve,
+        },
+        Case {
+            name: "steady",
+            about: "explicit run to steady state against the direct sparse solve, random network",
+            run: flow_cases::steady,
+        },
+        Case {
+            name: "flow_stability",
+            about: "automatic flow step stable for a = 1e-6..1e-2 m, K = 1e8..1e10 Pa; over-limit caught",
+            run: flow_cases::flow_stability,
+        },
     ]
 }
 
@@ -178,13 +209,13 @@ pub fn run_cases(names: &[String], out: &Path, quick: bool) -> anyhow::Result<bo
         let res = (case.run)(quick)?;
         writeln!(
             stdout,
-            "{:>5} {:>10} {:>10} {:<22} {:>12} {:>10}",
+            "{:>5} {:>10} {:>10} {:<32} {:>12} {:>10}",
             "level", "h [m]", "unknowns", "metric", "error", "wall [s]"
         )?;
         for r in &res.rows {
             writeln!(
                 stdout,
-                "{:>5} {:>10.4} {:>10} {:<22} {:>12.3e} {:>10.3}",
+                "{:>5} {:>10.4} {:>10} {:<32} {:>12.3e} {:>10.3}",
                 r.level, r.h, r.unknowns, r.metric, r.error, r.wall_s
             )?;
         }

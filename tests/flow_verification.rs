@@ -1,0 +1,93 @@
+//! Fracture-network flow verification (verification.md items 10-13) at test resolutions. Every
+//! check's tolerance and its reason are in `src/verify/flow_cases.rs`.
+
+use hydrofrac::flow::{FlowParams, pressure_of};
+use hydrofrac::scenario::{End, FlowBcKind, FlowTarget, InitialFluid};
+use hydrofrac::sim::Simulation;
+use hydrofrac::verify::{CaseResult, flow_cases};
+
+fn assert_case(name: &str, res: &CaseResult) {
+    let failed: Vec<String> = res
+        .checks
+        .iter()
+        .filter(|c| !c.pass)
+        .map(|c| format!("{} = {:.4e} (required {})", c.what, c.value, c.limit))
+        .collect();
+    assert!(failed.is_empty(), "{name} failed:\n{}", failed.join("\n"));
+    assert!(!res.checks.is_empty(), "{name} checked nothing");
+}
+
+#[test]
+fn cubic_law_single_x_and_t_junctions() {
+    assert_case("cubic_law", &flow_cases::cubic_law(true).unwrap());
+}
+
+#[test]
+fn pressure_diffusion_second_order() {
+    let res = flow_cases::diffusion(true).unwrap();
+    assert_case("diffusion", &res);
+    assert_eq!(res.errors("closed_end_series").len(), 4);
+}
+
+#[test]
+fn mass_balance_with_pump_switching() {
+    assert_case("mass_balance", &flow_cases::mass_balance(true).unwrap());
+}
+
+#[test]
+fn pump_operating_point() {
+    assert_case("pump_curve", &flow_cases::pump_curve(true).unwrap());
+}
+
+#[test]
+fn explicit_steady_state_matches_direct_solve_on_random_network() {
+    assert_case("steady", &flow_cases::steady(true).unwrap());
+}
+
+#[test]
+fn automatic_flow_step_is_stable_and_over_limit_is_caught() {
+    assert_case("flow_stability", &flow_cases::flow_stability(true).unwrap());
+}
+
+/// The maximum-principle check of `flow_stability` can fail: stepping the kernel directly at
+/// 3x the bound (bypassing the monitor) drives pressures outside the initial/boundary range.
+#[test]
+fn over_limit_kernel_violates_the_maximum_principle() {
+    let sc = flow_cases::flow_scenario(
+        "unstable",
+        hydrofrac::verify::flow_cases::net(
+            vec![hydrofrac::network::Fracture {
+                from: [0.0, 0.0],
+                to: [10.0, 0.0],
+                aperture: 1e-4,
+            }],
+            None,
+            0.5,
+        ),
+        vec![flow_cases::bc(
+            "step",
+            FlowTarget::Node([0.0, 0.0]),
+            FlowBcKind::Pressure(2e6),
+        )],
+        InitialFluid::Full(1e6),
+        End::Time(1.0),
+        flow_cases::WATER,
+    );
+    let mut sim = Simulation::new(sc, &[]).unwrap();
+    let f = sim.flow.as_mut().unwrap();
+    let p: FlowParams = f.params;
+    let dt = 3.0 * f.dt_crit;
+    let specs = sim.scenario.flow_boundaries.clone();
+    let mut over = 0.0f64;
+    for k in 0..200 {
+        hydrofrac::systems::flow::flow_step(&mut f.view, &p, &specs, dt, k as f64 * dt);
+        for c in 0..f.view.n_cells() {
+            let pc = pressure_of(f.view.excess[c], f.view.volume[c], &p);
+            over = over.max((pc - 2e6).max(1e6 - pc) / 1e6);
+        }
+    }
+    assert!(
+        over > 0.1,
+        "an over-limit step stayed within bounds ({over})"
+    );
+}
