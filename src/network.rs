@@ -247,16 +247,32 @@ impl NetworkSpec {
         // Break points along each fracture: (parameter, shared point id).
         let mut points: Vec<[f64; 2]> = Vec::new();
         let mut breaks: Vec<Vec<(f64, u32)>> = vec![Vec::new(); fr.len()];
-        let find_or_add = |p: [f64; 2], points: &mut Vec<[f64; 2]>| -> u32 {
-            if let Some(k) = points
-                .iter()
-                .position(|q| (q[0] - p[0]).hypot(q[1] - p[1]) <= snap)
-            {
-                k as u32
-            } else {
-                points.push(p);
-                (points.len() - 1) as u32
+        // Points within `snap` of an existing point reuse it: a hash grid of cell size `snap`
+        // finds the candidates among the 3 x 3 neighbouring buckets.
+        let mut grid: std::collections::HashMap<(i64, i64), Vec<u32>> =
+            std::collections::HashMap::new();
+        let key = |p: [f64; 2]| ((p[0] / snap).floor() as i64, (p[1] / snap).floor() as i64);
+        let mut find_or_add = |p: [f64; 2], points: &mut Vec<[f64; 2]>| -> u32 {
+            let (kx, ky) = key(p);
+            let mut best: Option<(f64, u32)> = None;
+            for dx in -1..=1 {
+                for dy in -1..=1 {
+                    for &k in grid.get(&(kx + dx, ky + dy)).map_or(&[][..], |v| &v[..]) {
+                        let q = points[k as usize];
+                        let d = (q[0] - p[0]).hypot(q[1] - p[1]);
+                        if d <= snap && best.is_none_or(|b| (d, k) < b) {
+                            best = Some((d, k));
+                        }
+                    }
+                }
             }
+            if let Some((_, k)) = best {
+                return k;
+            }
+            points.push(p);
+            let k = (points.len() - 1) as u32;
+            grid.entry((kx, ky)).or_default().push(k);
+            k
         };
         let project = |f: &Fracture, p: [f64; 2]| {
             let d = [f.to[0] - f.from[0], f.to[1] - f.from[1]];

@@ -213,3 +213,55 @@ fn update_dof(
     *v = flush_tiny(*v + dt * (fj + fd) * inv_m[j / 2]);
     *u = flush_tiny(*u + dt * *v);
 }
+
+/// Flat-array reference of one explicit flow sub-step (pressure from excess mass, pair fluxes,
+/// serial scatter into the cells, mass update) without boundaries: the work per pair and per
+/// cell that the engine's `flow_step` does, for the benchmark.
+pub struct FlatFlow {
+    pub excess: Vec<f64>,
+    pub volume: Vec<f64>,
+    pub pressure: Vec<f64>,
+    pub net: Vec<f64>,
+    pub pairs: Vec<[u32; 2]>,
+    pub kappa: Vec<f64>,
+    pub k: f64,
+    pub rho_r: f64,
+}
+
+impl FlatFlow {
+    /// Copy a network's cells and pairs out of a flow view.
+    pub fn from_view(v: &crate::flow::FlowView, p: &crate::flow::FlowParams) -> Self {
+        FlatFlow {
+            excess: v.excess.clone(),
+            volume: v.volume.clone(),
+            pressure: vec![0.0; v.n_cells()],
+            net: vec![0.0; v.n_cells()],
+            pairs: v.pairs.clone(),
+            kappa: v.kappa.clone(),
+            k: p.k,
+            rho_r: p.rho_r,
+        }
+    }
+
+    pub fn step(&mut self, dt: f64) {
+        for c in 0..self.excess.len() {
+            let e = self.excess[c];
+            self.pressure[c] = if e > 0.0 {
+                self.k * e / (self.rho_r * self.volume[c])
+            } else {
+                0.0
+            };
+            self.net[c] = 0.0;
+        }
+        for (pr, k) in self.pairs.iter().zip(&self.kappa) {
+            let (i, j) = (pr[0] as usize, pr[1] as usize);
+            let q = k * (self.pressure[i] - self.pressure[j]);
+            self.net[i] -= q;
+            self.net[j] += q;
+        }
+        let rho_dt = self.rho_r * dt;
+        for (e, n) in self.excess.iter_mut().zip(&self.net) {
+            *e += rho_dt * n;
+        }
+    }
+}
