@@ -369,14 +369,8 @@ impl Simulation {
             if f.dt > f.dt_crit * (1.0 + 1e-9)
                 && let Some((c, bound)) = f.view.critical_cell(&f.params)
             {
-                let [a, b] = f.view.cell_nodes[c].map(|n| f.view.node_pos[n as usize]);
                 return Err(blow(
-                    format!(
-                        "cell {} at ({:.4}, {:.4}) m",
-                        f.view.cell_id[c],
-                        0.5 * (a[0] + b[0]),
-                        0.5 * (a[1] + b[1])
-                    ),
+                    f.view.cell_label(c),
                     "flow step",
                     f.dt,
                     format!(
@@ -386,14 +380,8 @@ impl Simulation {
                 ));
             }
             if let Some(c) = f.stats.bad_cell {
-                let [a, b] = f.view.cell_nodes[c].map(|n| f.view.node_pos[n as usize]);
                 return Err(blow(
-                    format!(
-                        "cell {} at ({:.4}, {:.4}) m",
-                        f.view.cell_id[c],
-                        0.5 * (a[0] + b[0]),
-                        0.5 * (a[1] + b[1])
-                    ),
+                    f.view.cell_label(c),
                     "fluid mass",
                     f.view.excess[c] + f.params.rho_r * f.view.volume[c],
                     format!(

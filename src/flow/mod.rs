@@ -334,6 +334,17 @@ impl FlowView {
             .min_by(|a, b| a.1.total_cmp(&b.1))
     }
 
+    /// "cell ID at (x, y) m" for messages.
+    pub fn cell_label(&self, c: usize) -> String {
+        let [a, b] = self.cell_nodes[c].map(|n| self.node_pos[n as usize]);
+        format!(
+            "cell {} at ({:.4}, {:.4}) m",
+            self.cell_id[c],
+            0.5 * (a[0] + b[0]),
+            0.5 * (a[1] + b[1])
+        )
+    }
+
     /// Cells connected through pairs to any of `seeds`.
     pub fn grounded_cells(&self, seeds: &[u32]) -> Vec<bool> {
         let mut seen = vec![false; self.n_cells()];

@@ -81,6 +81,28 @@ fn frac(a: [f64; 2], b: [f64; 2], aperture: f64) -> Fracture {
     }
 }
 
+/// Two well fractures, (0, 10)-(5, 10) and (25, 10)-(30, 10), 0.5 mm, joined by `count` seeded
+/// random fractures (families 20 and 110 degrees +- 15, 4-14 m, 0.05-0.3 mm) in a 30 m x 20 m box.
+pub fn wells_network(seed: u64, count: usize, cell_length: f64) -> NetworkSpec {
+    net(
+        vec![
+            frac([0.0, 10.0], [5.0, 10.0], 5e-4),
+            frac([25.0, 10.0], [30.0, 10.0], 5e-4),
+        ],
+        Some(RandomNetwork {
+            seed,
+            count,
+            origin: [0.0, 0.0],
+            size: [30.0, 20.0],
+            angles_deg: vec![20.0, 110.0],
+            jitter_deg: 15.0,
+            length: [4.0, 14.0],
+            aperture: [5e-5, 3e-4],
+        }),
+        cell_length,
+    )
+}
+
 /// Run to the end; returns the simulation and its wall time.
 pub fn run(sc: Scenario) -> anyhow::Result<(Simulation, f64)> {
     let t0 = Instant::now();
@@ -414,23 +436,7 @@ pub fn mass_balance(quick: bool) -> anyhow::Result<CaseResult> {
         ];
         let sc = flow_scenario(
             "mass_balance",
-            net(
-                vec![
-                    frac([0.0, 10.0], [5.0, 10.0], 5e-4),
-                    frac([25.0, 10.0], [30.0, 10.0], 5e-4),
-                ],
-                Some(RandomNetwork {
-                    seed: 7,
-                    count: 40,
-                    origin: [0.0, 0.0],
-                    size: [30.0, 20.0],
-                    angles_deg: vec![20.0, 110.0],
-                    jitter_deg: 15.0,
-                    length: [4.0, 14.0],
-                    aperture: [5e-5, 3e-4],
-                }),
-                cl,
-            ),
+            wells_network(7, 40, cl),
             vec![
                 pump,
                 bc(
@@ -567,23 +573,7 @@ pub fn steady(quick: bool) -> anyhow::Result<CaseResult> {
         let mk = |end: End| {
             flow_scenario(
                 "steady",
-                net(
-                    vec![
-                        frac([0.0, 10.0], [5.0, 10.0], 5e-4),
-                        frac([25.0, 10.0], [30.0, 10.0], 5e-4),
-                    ],
-                    Some(RandomNetwork {
-                        seed: 2026,
-                        count: 50,
-                        origin: [0.0, 0.0],
-                        size: [30.0, 20.0],
-                        angles_deg: vec![20.0, 110.0],
-                        jitter_deg: 15.0,
-                        length: [4.0, 14.0],
-                        aperture: [5e-5, 3e-4],
-                    }),
-                    cl,
-                ),
+                wells_network(2026, 50, cl),
                 vec![
                     bc(
                         "injection",

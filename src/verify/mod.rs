@@ -43,6 +43,18 @@ impl CaseResult {
     pub fn passed(&self) -> bool {
         self.checks.iter().all(|c| c.pass)
     }
+    /// The failed checks, one line each (measured value and requirement); an error line when
+    /// the case checked nothing, so an empty case cannot pass silently.
+    pub fn failures(&self) -> Vec<String> {
+        if self.checks.is_empty() {
+            return vec!["the case checked nothing".into()];
+        }
+        self.checks
+            .iter()
+            .filter(|c| !c.pass)
+            .map(|c| format!("{} = {:.4e} (required {})", c.what, c.value, c.limit))
+            .collect()
+    }
     /// Require `value <= limit`.
     pub fn check_max(&mut self, what: impl Into<String>, value: f64, limit: f64) {
         self.checks.push(Check {
