@@ -10,7 +10,7 @@ use std::process::ExitCode;
 #[command(
     name = "hydrofrac",
     version,
-    about = "Hydraulic fracturing in hard rock: explicit FEM rock mass, fracture flow, node splitting"
+    about = "Hydraulic fracturing in hard rock: explicit FEM rock mass and fracture-network flow (SI units, tension positive)"
 )]
 struct Cli {
     #[command(subcommand)]

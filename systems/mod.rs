@@ -62,7 +62,7 @@ impl SystemId {
                 "N explicit finite-volume steps of the fracture network (pairs, pump, rate, pressure)"
             }
             SystemId::Monitor => {
-                "blow-up detection (non-finite or runaway velocity), residual and convergence"
+                "advances the clock; blow-up detection (solid speed, cell mass, flow step bound); residual and end"
             }
             SystemId::Output => {
                 "ParaView frames and timeseries.csv rows at the scenario's intervals"
