@@ -113,6 +113,40 @@ impl TriMesh {
         Ok(mesh)
     }
 
+    /// A mesh from nodes and counter-clockwise triangles (e.g. imported); the bounding box is
+    /// the domain and h the mean edge length.
+    pub fn from_triangles(nodes: Vec<[f64; 2]>, triangles: Vec<[u32; 3]>) -> Self {
+        let mut bbox = [
+            f64::INFINITY,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NEG_INFINITY,
+        ];
+        for p in &nodes {
+            bbox = [
+                bbox[0].min(p[0]),
+                bbox[1].min(p[1]),
+                bbox[2].max(p[0]),
+                bbox[3].max(p[1]),
+            ];
+        }
+        let (mut sum, mut n) = (0.0, 0usize);
+        for t in &triangles {
+            for k in 0..3 {
+                let (a, b) = (nodes[t[k] as usize], nodes[t[(k + 1) % 3] as usize]);
+                sum += (b[0] - a[0]).hypot(b[1] - a[1]);
+                n += 1;
+            }
+        }
+        let h = if n > 0 { sum / n as f64 } else { 1.0 };
+        TriMesh {
+            nodes,
+            triangles,
+            bbox,
+            h,
+        }
+    }
+
     /// Area of a triangle of this mesh, m^2.
     pub fn area(&self, t: &[u32; 3]) -> f64 {
         signed_area(

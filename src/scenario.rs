@@ -73,19 +73,26 @@ pub enum MeshSpec {
         fraction: f64,
         seed: u64,
     },
+    /// A 2D triangle mesh from a Gmsh `.msh` file (ASCII 2.2 or 4.1, first-order triangles),
+    /// path relative to the scenario file. The domain sides are the bounding box's edges.
+    Gmsh { file: String },
 }
 
 impl MeshSpec {
-    pub fn h(&self) -> f64 {
+    /// Nominal cell size, m (`None` for an imported mesh).
+    pub fn h(&self) -> Option<f64> {
         match self {
-            MeshSpec::Regular { h, .. } | MeshSpec::Perturbed { h, .. } => *h,
+            MeshSpec::Regular { h, .. } | MeshSpec::Perturbed { h, .. } => Some(*h),
+            MeshSpec::Gmsh { .. } => None,
         }
     }
-    pub fn size(&self) -> (f64, f64) {
+    /// Domain size, m (`None` for an imported mesh).
+    pub fn size(&self) -> Option<(f64, f64)> {
         match self {
             MeshSpec::Regular { width, height, .. } | MeshSpec::Perturbed { width, height, .. } => {
-                (*width, *height)
+                Some((*width, *height))
             }
+            MeshSpec::Gmsh { .. } => None,
         }
     }
 }
@@ -425,6 +432,13 @@ impl Scenario {
             source,
         })?;
         let mut sc = Self::parse(&text, &path.display().to_string())?;
+        // Mesh files are relative to the scenario file.
+        if let Some(MeshSpec::Gmsh { file }) = &mut sc.mesh
+            && Path::new(file.as_str()).is_relative()
+            && let Some(dir) = path.parent()
+        {
+            *file = dir.join(file.as_str()).display().to_string();
+        }
         if !overrides.is_empty() {
             sc = sc.with_overrides(overrides)?;
         }
@@ -553,9 +567,9 @@ impl Scenario {
             }
         };
         // Mesh.
-        if let Some(mesh) = &self.mesh {
-            let (w, hgt) = mesh.size();
-            let h = mesh.h();
+        if let Some(mesh) = &self.mesh
+            && let (Some((w, hgt)), Some(h)) = (mesh.size(), mesh.h())
+        {
             positive("mesh.width", w, "the domain width")?;
             positive("mesh.height", hgt, "the domain height")?;
             positive("mesh.h", h, "the cell size")?;
@@ -863,7 +877,7 @@ mod tests {
             ])
             .unwrap();
         assert_eq!(o.material.unwrap().young, 3e10);
-        assert_eq!(o.mesh.as_ref().unwrap().h(), 0.5);
+        assert_eq!(o.mesh.as_ref().unwrap().h(), Some(0.5));
         assert_eq!(o.damping, Damping::None);
         let o = sc
             .with_overrides(&["damping=Local(0.5)".into(), "time.end=Time(2.5)".into()])

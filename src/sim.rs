@@ -92,6 +92,11 @@ pub fn build_mesh(spec: &MeshSpec) -> Result<TriMesh, SetupError> {
             fraction,
             seed,
         } => TriMesh::perturbed(width, height, h, origin, fraction, seed),
+        MeshSpec::Gmsh { ref file } => {
+            let g = crate::gmsh::read_msh(std::path::Path::new(file))
+                .map_err(|e| SetupError::invalid("mesh.file", e.to_string()))?;
+            Ok(TriMesh::from_triangles(g.nodes, g.triangles))
+        }
     }
 }
 
