@@ -222,6 +222,7 @@ fn summary_json(
         "residual": sim.residual,
         "kinetic_energy": sim.stats.kinetic,
         "frames": sim.output.as_ref().map_or(0, |o| o.frames),
+        "fracture_ready_edges": sim.scenario.fracture.map(|_| sim.ready_edges),
         "stress_mean": {"xx": mean[0], "yy": mean[1], "xy": mean[2]},
         "stress_min": {"xx": min[0], "yy": min[1], "xy": min[2]},
         "stress_max": {"xx": max[0], "yy": max[1], "xy": max[2]},

@@ -26,6 +26,9 @@ pub struct Scenario {
     pub material: Option<Material>,
     #[serde(default)]
     pub boundary: Boundary,
+    /// Fracturing of the rock (the criterion; node splitting comes with the fracture issue).
+    #[serde(default)]
+    pub fracture: Option<FractureSpec>,
     /// A rigid fracture network (flow-only scenes).
     #[serde(default)]
     pub network: Option<NetworkSpec>,
@@ -180,6 +183,15 @@ pub enum SideBc {
     /// Traction, Pa: `normal` along the outward normal (tension positive, so a confining
     /// pressure p is `normal: -p`), `shear` along the side's counter-clockwise tangent.
     Traction { normal: f64, shear: f64 },
+}
+
+/// Fracture criterion parameters.
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct FractureSpec {
+    /// lambda * T0, Pa: an internal edge is fracture-ready when the normal stress across it
+    /// (tension positive) reaches this (seed equation (7); the seed uses 1 MPa at h = 1 m).
+    pub strength: f64,
 }
 
 /// Fluid properties (defaults: water at 25 C, the seed's values).
@@ -730,6 +742,15 @@ impl Scenario {
                 }
             }
             Damping::None => {}
+        }
+        if let Some(f) = &self.fracture {
+            positive("fracture.strength", f.strength, "lambda*T0")?;
+            if self.mesh.is_none() {
+                return Err(SetupError::invalid(
+                    "fracture",
+                    "the fracture criterion needs a solid mesh",
+                ));
+            }
         }
         // Network and fluid.
         if let Some(n) = &self.network {

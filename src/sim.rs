@@ -10,6 +10,7 @@ use crate::scenario::{Damping, End, Material, MeshSpec, Scenario};
 use crate::schedule::{Schedule, Status};
 use crate::systems::SystemId;
 use crate::systems::flow::{self as flowsys, FlowStats};
+use crate::systems::fracture;
 use crate::systems::solid::{self, SolidParams, StepStats};
 use crate::view::SolidView;
 
@@ -71,6 +72,8 @@ pub struct Simulation {
     pub residual: f64,
     pub finish: Option<Finish>,
     pub output: Option<Outputs>,
+    /// Internal edges marked fracture-ready so far.
+    pub ready_edges: usize,
     /// Steps to run for an `End::Time` scenario.
     steps_to_end: Option<u64>,
 }
@@ -193,11 +196,13 @@ impl Simulation {
         let has_load = view.load.iter().any(|l| l[0] != 0.0 || l[1] != 0.0);
         let damping_on = scenario.damping != Damping::None;
         let has_flow = flow.is_some();
+        let has_fracture = has_solid && scenario.fracture.is_some();
         let schedule = Schedule::new(&disabled, |s| match s {
             SystemId::InternalForce | SystemId::Integrate => has_solid,
             SystemId::ExternalLoad => has_load,
             SystemId::Damping => has_solid && damping_on,
             SystemId::FlowSubsteps => has_flow,
+            SystemId::FractureCriterion => has_fracture,
             SystemId::Monitor | SystemId::Output => true,
         })?;
         Ok(Simulation {
@@ -215,6 +220,7 @@ impl Simulation {
             residual: f64::INFINITY,
             finish: None,
             output: None,
+            ready_edges: 0,
             steps_to_end,
         })
     }
@@ -277,6 +283,10 @@ impl Simulation {
                 SystemId::Damping => solid::damping(&mut self.view, &self.params),
                 SystemId::Integrate => self.stats = solid::integrate(&mut self.view, &self.params),
                 SystemId::FlowSubsteps => self.flow_substeps(t0),
+                SystemId::FractureCriterion => {
+                    let strength = self.scenario.fracture.map_or(f64::INFINITY, |f| f.strength);
+                    self.ready_edges = fracture::fracture_criterion(&mut self.view, strength);
+                }
                 SystemId::Monitor => {
                     self.step += 1;
                     self.time = t0 + self.params.dt;
@@ -432,6 +442,9 @@ impl Simulation {
             for n in ["kinetic_energy", "strain_energy", "residual", "max_speed"] {
                 c.push(n.into());
             }
+        }
+        if self.scenario.fracture.is_some() {
+            c.push("fracture_ready_edges".into());
         }
         if let Some(f) = &self.flow {
             for b in &f.view.bcs {

@@ -49,6 +49,14 @@ pub struct SolidView {
     /// Node -> (element * 6 + 2 * local node) incidence, CSR, ascending element order.
     pub inc_ptr: Vec<u32>,
     pub inc: Vec<u32>,
+    /// Internal edges (two elements), ordered by stable id: entity, the dense indices of the two
+    /// elements, the unit normal in the reference configuration, and the criterion state.
+    pub edge_entity: Vec<Entity>,
+    pub edge_elems: Vec<[u32; 2]>,
+    pub edge_normal: Vec<[f64; 2]>,
+    /// Normal stress across the edge, Pa (tension positive), and the fracture-ready mark.
+    pub edge_sigma_n: Vec<f64>,
+    pub edge_ready: Vec<bool>,
 }
 
 impl SolidView {
@@ -143,6 +151,38 @@ impl SolidView {
             }
         }
         v.inc_ptr = count;
+        // Internal edges for the fracture criterion.
+        let mut elem_dense = vec![NONE; max_index];
+        for (k, e) in v.elem_entity.iter().enumerate() {
+            elem_dense[e.id() as usize] = k as u32;
+        }
+        let mut edges: Vec<(u64, Entity, [u32; 2], [f64; 2], EdgeState)> = world
+            .query::<(Entity, &StableId, &EdgeNodes, &EdgeElems, &EdgeState)>()
+            .iter()
+            .filter_map(|(e, id, en, ee, st)| {
+                let [Some(a), Some(b)] = ee.0 else {
+                    return None;
+                };
+                let [p, q] = en.0.map(|n| world.get::<&NodeRef>(n).expect("node").0);
+                let (dx, dy) = (q[0] - p[0], q[1] - p[1]);
+                let len = dx.hypot(dy);
+                Some((
+                    id.0,
+                    e,
+                    [elem_dense[a.id() as usize], elem_dense[b.id() as usize]],
+                    [dy / len, -dx / len],
+                    *st,
+                ))
+            })
+            .collect();
+        edges.sort_unstable_by_key(|r| r.0);
+        for (_, e, el, n, st) in edges {
+            v.edge_entity.push(e);
+            v.edge_elems.push(el);
+            v.edge_normal.push(n);
+            v.edge_sigma_n.push(st.sigma_n);
+            v.edge_ready.push(st.fracture_ready);
+        }
         v
     }
 
@@ -166,6 +206,13 @@ impl SolidView {
         for (k, &e) in self.elem_entity.iter().enumerate() {
             if let Some(s) = view.get_mut(e) {
                 s.0 = self.stress[k];
+            }
+        }
+        let mut view = model.world.view_mut::<&mut EdgeState>();
+        for (k, &e) in self.edge_entity.iter().enumerate() {
+            if let Some(s) = view.get_mut(e) {
+                s.sigma_n = self.edge_sigma_n[k];
+                s.fracture_ready = self.edge_ready[k];
             }
         }
     }

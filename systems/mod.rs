@@ -9,6 +9,7 @@
 //! - `monitor` must run before `output` so that no frame with non-finite values is written.
 
 pub mod flow;
+pub mod fracture;
 pub mod solid;
 
 /// A named system of the step.
@@ -19,18 +20,20 @@ pub enum SystemId {
     Damping,
     Integrate,
     FlowSubsteps,
+    FractureCriterion,
     Monitor,
     Output,
 }
 
 impl SystemId {
     /// The step, in order.
-    pub const ORDER: [SystemId; 7] = [
+    pub const ORDER: [SystemId; 8] = [
         SystemId::InternalForce,
         SystemId::ExternalLoad,
         SystemId::Damping,
         SystemId::Integrate,
         SystemId::FlowSubsteps,
+        SystemId::FractureCriterion,
         SystemId::Monitor,
         SystemId::Output,
     ];
@@ -42,6 +45,7 @@ impl SystemId {
             SystemId::Damping => "damping",
             SystemId::Integrate => "integrate",
             SystemId::FlowSubsteps => "flow_substeps",
+            SystemId::FractureCriterion => "fracture_criterion",
             SystemId::Monitor => "monitor",
             SystemId::Output => "output",
         }
@@ -60,6 +64,9 @@ impl SystemId {
             }
             SystemId::FlowSubsteps => {
                 "N explicit finite-volume steps of the fracture network (pairs, pump, rate, pressure)"
+            }
+            SystemId::FractureCriterion => {
+                "marks internal edges whose normal stress reaches lambda*T0 (never changes topology)"
             }
             SystemId::Monitor => {
                 "advances the clock; blow-up detection (solid speed, cell mass, flow step bound); residual and end"
@@ -92,6 +99,9 @@ impl SystemId {
             SystemId::Integrate => tracing::info_span!(target: "hydrofrac::system", "integrate"),
             SystemId::FlowSubsteps => {
                 tracing::info_span!(target: "hydrofrac::system", "flow_substeps")
+            }
+            SystemId::FractureCriterion => {
+                tracing::info_span!(target: "hydrofrac::system", "fracture_criterion")
             }
             SystemId::Monitor => tracing::info_span!(target: "hydrofrac::system", "monitor"),
             SystemId::Output => tracing::info_span!(target: "hydrofrac::system", "output"),

@@ -33,6 +33,7 @@ pub fn flow_scenario(
         mesh: None,
         material: None,
         boundary: Boundary::default(),
+        fracture: None,
         network: Some(network),
         fluid,
         initial_fluid: initial,

@@ -28,6 +28,7 @@ pub fn scenario(
         mesh: Some(mesh),
         material: Some(material),
         boundary,
+        fracture: None,
         network: None,
         fluid: Default::default(),
         initial_fluid: Default::default(),

@@ -1,0 +1,82 @@
+//! The fracture criterion (seed equation (7)) marks exactly the internal edges whose normal
+//! stress reaches lambda*T0. Uniaxial tension sxx = 5 MPa on the regular mesh gives sigma_n =
+//! 5 MPa on vertical edges, 2.5 MPa on the 45-degree diagonals and 0 on horizontal edges, so the
+//! marked set is known exactly for any strength.
+
+use hydrofrac::scenario::Scenario;
+use hydrofrac::sim::{Finish, Simulation};
+use hydrofrac::systems::fracture::fracture_criterion;
+
+const PLATE: &str = r#"(
+    name: "criterion",
+    mesh: Regular(width: 20.0, height: 10.0, h: 1.0),
+    material: (young: 20e9, poisson: 0.25, density: 2700.0),
+    boundary: Sides(left: Normal(0.0), right: Traction(normal: 5e6, shear: 0.0)),
+    pins: [(at: (0.0, 0.0), uy: 0.0)],
+    fracture: Some((strength: 1e6)),
+    time: (end: Static(tol: 1e-10)),
+)"#;
+
+fn relaxed() -> Simulation {
+    let sc = Scenario::parse(PLATE, "plate.ron").unwrap();
+    // Relax without the criterion: the transient overshoots the static stress.
+    let mut sim = Simulation::new(sc, &["fracture_criterion".into()]).unwrap();
+    assert_eq!(sim.run(|_| {}).unwrap(), Finish::Converged);
+    sim
+}
+
+#[test]
+fn marks_exactly_the_edges_at_or_above_the_strength() {
+    let (nx, ny) = (20, 10);
+    let vertical = (nx - 1) * ny;
+    let diagonal = nx * ny;
+    for (strength, expect) in [(6e6, 0), (4e6, vertical), (2e6, vertical + diagonal)] {
+        let mut sim = relaxed();
+        assert_eq!(
+            sim.view.edge_entity.len(),
+            vertical + diagonal + nx * (ny - 1)
+        );
+        let n = fracture_criterion(&mut sim.view, strength);
+        assert_eq!(n, expect, "strength {strength:e}");
+        for k in 0..sim.view.edge_entity.len() {
+            let nrm = sim.view.edge_normal[k];
+            let expected_sn = 5e6 * nrm[0] * nrm[0];
+            let err = (sim.view.edge_sigma_n[k] - expected_sn).abs();
+            assert!(
+                err < 1e-6 * 5e6,
+                "edge {k}: sigma_n off by {err} Pa (relaxation tolerance 1e-6)"
+            );
+        }
+    }
+}
+
+#[test]
+fn criterion_runs_every_step_and_marks_persist_in_the_components() {
+    let sc = Scenario::parse(PLATE, "plate.ron").unwrap();
+    let mut sim = Simulation::new(sc, &[]).unwrap();
+    sim.run(|_| {}).unwrap();
+    assert!(
+        sim.schedule
+            .is_enabled(hydrofrac::systems::SystemId::FractureCriterion)
+    );
+    assert!(sim.ready_edges > 0);
+    let marked = sim
+        .model
+        .world
+        .query::<&hydrofrac::components::EdgeState>()
+        .iter()
+        .filter(|s| s.fracture_ready)
+        .count();
+    assert_eq!(marked, sim.ready_edges);
+    // Without `fracture` the system has no data and is not scheduled.
+    let sc = Scenario::parse(
+        &PLATE.replace("fracture: Some((strength: 1e6)),", ""),
+        "plate.ron",
+    )
+    .unwrap();
+    let sim = Simulation::new(sc, &[]).unwrap();
+    assert!(
+        !sim.schedule
+            .is_enabled(hydrofrac::systems::SystemId::FractureCriterion)
+    );
+}
