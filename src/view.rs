@@ -156,7 +156,9 @@ impl SolidView {
         for (k, e) in v.elem_entity.iter().enumerate() {
             elem_dense[e.id() as usize] = k as u32;
         }
-        let mut edges: Vec<(u64, Entity, [u32; 2], [f64; 2], EdgeState)> = world
+        // (stable id, entity, its two elements, unit normal, state)
+        type EdgeRow = (u64, Entity, [u32; 2], [f64; 2], EdgeState);
+        let mut edges: Vec<EdgeRow> = world
             .query::<(Entity, &StableId, &EdgeNodes, &EdgeElems, &EdgeState)>()
             .iter()
             .filter_map(|(e, id, en, ee, st)| {
