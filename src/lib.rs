@@ -27,6 +27,7 @@ pub mod reference;
 pub mod scenario;
 pub mod schedule;
 pub mod sim;
+pub mod snap;
 pub mod timing;
 pub mod verify;
 pub mod view;
