@@ -39,3 +39,72 @@ fn one_and_two_threads_give_identical_bits() {
     assert_eq!(a.2.to_bits(), b.2.to_bits());
     assert!(a.2 > 0.0);
 }
+
+/// The flow kernel on a 1e4-cell lattice (three 4096-cell chunks) gives the same bits with 1
+/// and 2 threads.
+#[test]
+fn flow_one_and_two_threads_give_identical_bits() {
+    use hydrofrac::network::Fracture;
+    use hydrofrac::scenario::{End, FlowBcKind, FlowTarget, InitialFluid};
+    use hydrofrac::verify::flow_cases::{WATER, bc, flow_scenario, net};
+    let run = |threads: usize| {
+        let n = 71;
+        let len = (n - 1) as f64;
+        let mut fr = Vec::new();
+        for k in 0..n {
+            let x = k as f64;
+            let a = 1e-4 * (1.0 + (k % 5) as f64 / 5.0);
+            fr.push(Fracture {
+                from: [0.0, x],
+                to: [len, x],
+                aperture: a,
+            });
+            fr.push(Fracture {
+                from: [x, 0.0],
+                to: [x, len],
+                aperture: a,
+            });
+        }
+        let mut sc = flow_scenario(
+            "det",
+            net(fr, None, 1.0),
+            vec![
+                bc(
+                    "pump",
+                    FlowTarget::Node([0.0, 0.0]),
+                    FlowBcKind::Pump {
+                        p_max: 18e6,
+                        q_half: 1e-3,
+                    },
+                ),
+                bc(
+                    "out",
+                    FlowTarget::Node([len, len]),
+                    FlowBcKind::Pressure(0.0),
+                ),
+            ],
+            InitialFluid::Empty,
+            End::Time(1.0),
+            WATER,
+        );
+        sc.time.max_steps = 20;
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| {
+            let mut sim = Simulation::new(sc, &[]).unwrap();
+            sim.run(|_| {}).unwrap();
+            let f = sim.flow.unwrap();
+            (f.view.excess, f.view.flow_rate, f.view.bcs[0].volume_in)
+        })
+    };
+    let (a, b) = (run(1), run(2));
+    assert!(a.0.len() > 8192);
+    assert!(
+        a.0 == b.0 && a.1 == b.1,
+        "flow state differs between 1 and 2 threads"
+    );
+    assert_eq!(a.2.to_bits(), b.2.to_bits());
+    assert!(a.2 > 0.0);
+}
