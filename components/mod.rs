@@ -131,12 +131,15 @@ impl EdgeElems {
 }
 
 /// Per-edge state: the domain side for external boundary edges, the normal stress across the
-/// edge (Pa, tension positive) and the fracture-ready mark set by the fracture criterion.
+/// edge (Pa, tension positive), the fracture-ready mark set by the fracture criterion, and
+/// `opened`: the edge has been split into two daughter edges and left the solid (it is then a
+/// mother edge, the geometry of a flow cell).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct EdgeState {
     pub side: Option<Side>,
     pub sigma_n: f64,
     pub fracture_ready: bool,
+    pub opened: bool,
 }
 
 /// Edge bundle: the one archetype of every edge entity.
@@ -198,6 +201,18 @@ pub struct FlowBc {
     pub volume_in: f64,
     pub volume_out: f64,
 }
+
+/// A joint: the two sister daughter edges of an opened mother edge, the mother edge and the flow
+/// cell made from it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Joint {
+    pub edges: [Entity; 2],
+    pub mother_edge: Entity,
+    pub cell: Entity,
+}
+
+/// Joint bundle.
+pub type JointBundle = (StableId, Joint);
 
 /// Flow boundary bundle.
 pub type FlowBcBundle = (StableId, FlowBc);

@@ -28,6 +28,7 @@ pub mod scenario;
 pub mod schedule;
 pub mod sim;
 pub mod snap;
+pub mod split;
 pub mod timing;
 pub mod verify;
 pub mod view;

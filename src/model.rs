@@ -25,6 +25,7 @@ pub struct Model {
     pub next_elem_id: u64,
     pub next_edge_id: u64,
     pub next_cell_id: u64,
+    pub next_joint_id: u64,
 }
 
 /// Geometry of a constant-strain triangle with nodes p (counter-clockwise).
@@ -174,6 +175,7 @@ impl Model {
             next_elem_id: mesh.triangles.len() as u64,
             next_edge_id: edge_id,
             next_cell_id: 0,
+            next_joint_id: 0,
         })
     }
 
@@ -194,6 +196,7 @@ impl Model {
             next_elem_id: 0,
             next_edge_id: 0,
             next_cell_id: 0,
+            next_joint_id: 0,
         }
     }
 
@@ -531,8 +534,13 @@ impl Model {
     pub fn element_count(&self) -> usize {
         self.world.query::<&ElemNodes>().iter().count()
     }
+    /// Edges of the solid (opened mother edges excluded).
     pub fn edge_count(&self) -> usize {
-        self.world.query::<&EdgeNodes>().iter().count()
+        self.world
+            .query::<&EdgeState>()
+            .iter()
+            .filter(|s| !s.opened)
+            .count()
     }
 }
 
