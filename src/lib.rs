@@ -17,6 +17,7 @@ pub mod systems;
 pub mod driver;
 pub mod error;
 pub mod flow;
+pub mod fractures;
 pub mod gmsh;
 pub mod mesh;
 pub mod model;

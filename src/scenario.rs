@@ -76,6 +76,17 @@ pub enum MeshSpec {
         fraction: f64,
         seed: u64,
     },
+    /// Square cells of size `h` inside the box `fine` = (x0, y0, x1, y1), m, growing by `ratio`
+    /// (> 1) per cell towards the domain edges: fine where the action is, coarse far away.
+    Graded {
+        width: f64,
+        height: f64,
+        #[serde(default)]
+        origin: [f64; 2],
+        h: f64,
+        fine: [f64; 4],
+        ratio: f64,
+    },
     /// A 2D triangle mesh from a Gmsh `.msh` file (ASCII 2.2 or 4.1, first-order triangles),
     /// path relative to the scenario file. The domain sides are the bounding box's edges.
     Gmsh { file: String },
@@ -85,16 +96,18 @@ impl MeshSpec {
     /// Nominal cell size, m (`None` for an imported mesh).
     pub fn h(&self) -> Option<f64> {
         match self {
-            MeshSpec::Regular { h, .. } | MeshSpec::Perturbed { h, .. } => Some(*h),
+            MeshSpec::Regular { h, .. }
+            | MeshSpec::Perturbed { h, .. }
+            | MeshSpec::Graded { h, .. } => Some(*h),
             MeshSpec::Gmsh { .. } => None,
         }
     }
     /// Domain size, m (`None` for an imported mesh).
     pub fn size(&self) -> Option<(f64, f64)> {
         match self {
-            MeshSpec::Regular { width, height, .. } | MeshSpec::Perturbed { width, height, .. } => {
-                Some((*width, *height))
-            }
+            MeshSpec::Regular { width, height, .. }
+            | MeshSpec::Perturbed { width, height, .. }
+            | MeshSpec::Graded { width, height, .. } => Some((*width, *height)),
             MeshSpec::Gmsh { .. } => None,
         }
     }
@@ -186,12 +199,36 @@ pub enum SideBc {
 }
 
 /// Fracture criterion parameters.
-#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq)]
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct FractureSpec {
     /// lambda * T0, Pa: an internal edge is fracture-ready when the normal stress across it
     /// (tension positive) reaches this (seed equation (7); the seed uses 1 MPa at h = 1 m).
-    pub strength: f64,
+    /// `None`: no criterion, only the pre-existing fractures.
+    #[serde(default)]
+    pub strength: Option<f64>,
+    /// Residual hydraulic aperture a_r, m (seed: 0.5 mm).
+    #[serde(default = "default_residual_aperture")]
+    pub residual_aperture: f64,
+    /// Fractures present at the start, snapped to mesh edges and opened by node splitting.
+    #[serde(default)]
+    pub preexisting: Vec<PreFracture>,
+    /// A uniform pressure on the faces of every fracture, Pa (prescribed; the coupling issue
+    /// feeds it from the flow solver instead).
+    #[serde(default)]
+    pub pressure: Option<f64>,
+}
+
+fn default_residual_aperture() -> f64 {
+    5e-4
+}
+
+/// A pre-existing fracture: a straight segment, m.
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct PreFracture {
+    pub from: [f64; 2],
+    pub to: [f64; 2],
 }
 
 /// Fluid properties (defaults: water at 25 C, the seed's values).
@@ -744,7 +781,22 @@ impl Scenario {
             Damping::None => {}
         }
         if let Some(f) = &self.fracture {
-            positive("fracture.strength", f.strength, "lambda*T0")?;
+            if let Some(st) = f.strength {
+                positive("fracture.strength", st, "lambda*T0")?;
+            }
+            positive(
+                "fracture.residual_aperture",
+                f.residual_aperture,
+                "the residual aperture",
+            )?;
+            if let Some(p) = f.pressure {
+                finite("fracture.pressure", p)?;
+            }
+            for (i, pf) in f.preexisting.iter().enumerate() {
+                for v in [pf.from[0], pf.from[1], pf.to[0], pf.to[1]] {
+                    finite(&format!("fracture.preexisting[{i}]"), v)?;
+                }
+            }
             if self.mesh.is_none() {
                 return Err(SetupError::invalid(
                     "fracture",

@@ -74,6 +74,8 @@ pub struct Simulation {
     pub output: Option<Outputs>,
     /// Internal edges marked fracture-ready so far.
     pub ready_edges: usize,
+    /// Pre-existing fractures as placed on the mesh.
+    pub placed: Vec<crate::fractures::Placed>,
     /// Steps to run for an `End::Time` scenario.
     steps_to_end: Option<u64>,
 }
@@ -95,6 +97,14 @@ pub fn build_mesh(spec: &MeshSpec) -> Result<TriMesh, SetupError> {
             fraction,
             seed,
         } => TriMesh::perturbed(width, height, h, origin, fraction, seed),
+        MeshSpec::Graded {
+            width,
+            height,
+            origin,
+            h,
+            fine,
+            ratio,
+        } => TriMesh::graded(width, height, origin, h, fine, ratio),
         MeshSpec::Gmsh { ref file } => {
             let g = crate::gmsh::read_msh(std::path::Path::new(file))
                 .map_err(|e| SetupError::invalid("mesh.file", e.to_string()))?;
@@ -117,12 +127,19 @@ impl Simulation {
     /// Set up a validated scenario; `extra_disable` adds system names to switch off.
     pub fn new(scenario: Scenario, extra_disable: &[String]) -> Result<Self, SetupError> {
         scenario.validate()?;
+        let mut placed = Vec::new();
         let mut model = match (&scenario.mesh, &scenario.material) {
             (Some(spec), Some(mat)) => {
                 let mesh = build_mesh(spec)?;
                 let mut m = Model::from_mesh(&mesh, *mat)?;
+                if let Some(f) = &scenario.fracture {
+                    placed = crate::fractures::open_preexisting(&mut m, &mesh, f)?;
+                }
                 m.apply_boundary(&scenario.boundary);
                 m.apply_pins(&scenario.pins)?;
+                if let Some(p) = scenario.fracture.as_ref().and_then(|f| f.pressure) {
+                    crate::fractures::apply_face_pressure(&mut m, p);
+                }
                 m
             }
             _ => Model::empty(),
@@ -196,7 +213,11 @@ impl Simulation {
         let has_load = view.load.iter().any(|l| l[0] != 0.0 || l[1] != 0.0);
         let damping_on = scenario.damping != Damping::None;
         let has_flow = flow.is_some();
-        let has_fracture = has_solid && scenario.fracture.is_some();
+        let has_fracture = has_solid
+            && scenario
+                .fracture
+                .as_ref()
+                .is_some_and(|f| f.strength.is_some());
         let schedule = Schedule::new(&disabled, |s| match s {
             SystemId::InternalForce | SystemId::Integrate => has_solid,
             SystemId::ExternalLoad => has_load,
@@ -221,6 +242,7 @@ impl Simulation {
             finish: None,
             output: None,
             ready_edges: 0,
+            placed,
             steps_to_end,
         })
     }
@@ -284,7 +306,12 @@ impl Simulation {
                 SystemId::Integrate => self.stats = solid::integrate(&mut self.view, &self.params),
                 SystemId::FlowSubsteps => self.flow_substeps(t0),
                 SystemId::FractureCriterion => {
-                    let strength = self.scenario.fracture.map_or(f64::INFINITY, |f| f.strength);
+                    let strength = self
+                        .scenario
+                        .fracture
+                        .as_ref()
+                        .and_then(|f| f.strength)
+                        .unwrap_or(f64::INFINITY);
                     self.ready_edges = fracture::fracture_criterion(&mut self.view, strength);
                 }
                 SystemId::Monitor => {

@@ -4,6 +4,7 @@
 //! Cases (verification.md items 1-4): `patch`, `insitu`, `mms`, `stability`.
 
 pub mod flow_cases;
+pub mod fracture_cases;
 pub mod solid_cases;
 
 use crate::plot::{Series, loglog};
@@ -152,6 +153,11 @@ pub fn cases() -> Vec<Case> {
             name: "flow_stability",
             about: "automatic flow step stable for a = 1e-6..1e-2 m, K = 1e8..1e10 Pa; over-limit caught",
             run: flow_cases::flow_stability,
+        },
+        Case {
+            name: "sneddon",
+            about: "pressurised pre-existing crack on a graded mesh against Sneddon's opening",
+            run: fracture_cases::sneddon,
         },
     ]
 }

@@ -1,0 +1,152 @@
+//! Fractures in the rock at setup: pre-existing fractures snapped to mesh edges and opened by
+//! node splitting, a prescribed pressure on fracture faces (as nodal loads), and joint openings
+//! measured from the sister edges (seed equation (8)).
+
+use crate::components::*;
+use crate::error::SetupError;
+use crate::mesh::TriMesh;
+use crate::model::Model;
+use crate::scenario::FractureSpec;
+use crate::snap::{adjacency, snap_segment};
+use crate::split::open_edges;
+use hecs::Entity;
+use std::collections::HashMap;
+
+/// How a pre-existing fracture was placed: the requested segment, the largest distance of the
+/// snapped path from it (m), and the number of mesh edges opened.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Placed {
+    pub from: [f64; 2],
+    pub to: [f64; 2],
+    pub snap_error: f64,
+    pub edges: usize,
+}
+
+/// Snap and open the scenario's pre-existing fractures on a fresh model built from `mesh`
+/// (node stable ids are mesh node indices).
+pub fn open_preexisting(
+    model: &mut Model,
+    mesh: &TriMesh,
+    spec: &FractureSpec,
+) -> Result<Vec<Placed>, SetupError> {
+    if spec.preexisting.is_empty() {
+        return Ok(Vec::new());
+    }
+    let adj = adjacency(mesh);
+    let mut by_pair: HashMap<(u64, u64), Entity> = HashMap::new();
+    for (e, en, st) in model
+        .world
+        .query::<(Entity, &EdgeNodes, &EdgeState)>()
+        .iter()
+    {
+        if st.opened {
+            continue;
+        }
+        let ids = en.0.map(|n| {
+            model
+                .world
+                .get::<&StableId>(n)
+                .map(|s| s.0)
+                .unwrap_or(u64::MAX)
+        });
+        by_pair.insert((ids[0].min(ids[1]), ids[0].max(ids[1])), e);
+    }
+    let mut placed = Vec::new();
+    let mut ready = Vec::new();
+    for (i, pf) in spec.preexisting.iter().enumerate() {
+        let path = snap_segment(mesh, &adj, pf.from, pf.to).ok_or_else(|| {
+            SetupError::invalid(
+                &format!("fracture.preexisting[{i}]"),
+                "is shorter than one mesh edge (both ends snap to the same node)",
+            )
+        })?;
+        let edges: Vec<Entity> = path
+            .nodes
+            .windows(2)
+            .filter_map(|w| {
+                let (a, b) = (w[0] as u64, w[1] as u64);
+                by_pair.get(&(a.min(b), a.max(b))).copied()
+            })
+            .collect();
+        placed.push(Placed {
+            from: pf.from,
+            to: pf.to,
+            snap_error: path.max_error,
+            edges: edges.len(),
+        });
+        ready.extend(edges);
+    }
+    // Boundary edges of a fracture on the domain edge cannot open; open_edges ignores them.
+    open_edges(model, &ready, spec.residual_aperture, 0.0);
+    Ok(placed)
+}
+
+/// Outward unit normal of an external edge (away from its element), reference configuration.
+pub fn outward_normal(model: &Model, edge: Entity) -> [f64; 2] {
+    let w = &model.world;
+    let en = w.get::<&EdgeNodes>(edge).expect("edge").0;
+    let el = w.get::<&EdgeElems>(edge).expect("edge").0[0].expect("element");
+    let tri = w.get::<&ElemNodes>(el).expect("element").0;
+    let third = tri
+        .iter()
+        .find(|n| !en.contains(n))
+        .copied()
+        .expect("third node");
+    let [a, b] = en.map(|n| w.get::<&NodeRef>(n).expect("node").0);
+    let c = w.get::<&NodeRef>(third).expect("node").0;
+    let len = (b[0] - a[0]).hypot(b[1] - a[1]);
+    let mut n = [(b[1] - a[1]) / len, -(b[0] - a[0]) / len];
+    let mid = [0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1])];
+    if (c[0] - mid[0]) * n[0] + (c[1] - mid[1]) * n[1] > 0.0 {
+        n = [-n[0], -n[1]];
+    }
+    n
+}
+
+/// Add the nodal loads of a uniform pressure p (Pa) on both faces of every joint: each face
+/// node gets -p n_out L/2 (the fluid pushes the faces apart).
+pub fn apply_face_pressure(model: &mut Model, p: f64) {
+    let joints: Vec<Joint> = model.world.query::<&Joint>().iter().copied().collect();
+    let mut loads: Vec<(Entity, [f64; 2])> = Vec::new();
+    for j in joints {
+        for e in j.edges {
+            let n = outward_normal(model, e);
+            let en = model.world.get::<&EdgeNodes>(e).expect("edge").0;
+            let [a, b] = en.map(|x| model.world.get::<&NodeRef>(x).expect("node").0);
+            let len = (b[0] - a[0]).hypot(b[1] - a[1]);
+            for node in en {
+                loads.push((node, [-p * n[0] * 0.5 * len, -p * n[1] * 0.5 * len]));
+            }
+        }
+    }
+    for (node, f) in loads {
+        let mut bc = model.world.get::<&mut NodeBc>(node).expect("node");
+        bc.load[0] += f[0];
+        bc.load[1] += f[1];
+    }
+    model.topology_generation += 1;
+}
+
+/// Opening of a joint, m: (x_q - x_p) . n_p with x the current edge centres and n_p the outward
+/// normal of face p (seed (8)); positive when the faces separate. Also the centre (m) and length.
+pub fn joint_opening(model: &Model, j: &Joint) -> ([f64; 2], f64, f64) {
+    let w = &model.world;
+    let centre = |e: Entity| {
+        let en = w.get::<&EdgeNodes>(e).expect("edge").0;
+        let p = en.map(|n| {
+            let x = w.get::<&NodeRef>(n).expect("node").0;
+            let u = w.get::<&NodeState>(n).expect("node").u;
+            [x[0] + u[0], x[1] + u[1]]
+        });
+        let r = en.map(|n| w.get::<&NodeRef>(n).expect("node").0);
+        (
+            [0.5 * (p[0][0] + p[1][0]), 0.5 * (p[0][1] + p[1][1])],
+            [0.5 * (r[0][0] + r[1][0]), 0.5 * (r[0][1] + r[1][1])],
+            (r[1][0] - r[0][0]).hypot(r[1][1] - r[0][1]),
+        )
+    };
+    let (xp, rp, len) = centre(j.edges[0]);
+    let (xq, _, _) = centre(j.edges[1]);
+    let n = outward_normal(model, j.edges[0]);
+    (rp, (xq[0] - xp[0]) * n[0] + (xq[1] - xp[1]) * n[1], len)
+}
