@@ -211,8 +211,20 @@ pub struct Joint {
     pub cell: Entity,
 }
 
+/// Contact state of a joint (seed (8)-(11)): normal force F_n (N/m, compression positive),
+/// tangential force F_t (N/m, on face q along face p's tangent), the last tangential offset
+/// (m, for the incremental update), whether it slid at the last step, and the opening (m).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct JointState {
+    pub normal_force: f64,
+    pub shear_force: f64,
+    pub last_shear_offset: f64,
+    pub sliding: bool,
+    pub opening: f64,
+}
+
 /// Joint bundle.
-pub type JointBundle = (StableId, Joint);
+pub type JointBundle = (StableId, Joint, JointState);
 
 /// Flow boundary bundle.
 pub type FlowBcBundle = (StableId, FlowBc);

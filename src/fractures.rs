@@ -150,3 +150,30 @@ pub fn joint_opening(model: &Model, j: &Joint) -> ([f64; 2], f64, f64) {
     let n = outward_normal(model, j.edges[0]);
     (rp, (xq[0] - xp[0]) * n[0] + (xq[1] - xp[1]) * n[1], len)
 }
+
+/// Critical solid step with joint contact, s: the elements' `dt_crit` combined with the
+/// Gershgorin bound of the contact stiffness. Each joint couples its four nodes with
+/// coefficients +-K/2, a row sum of K per joint at a node, so
+/// dt = 2 / sqrt((2/dt_crit)^2 + max_i (K n_i / m_i)), with n_i the joints at node i and
+/// K = max(K_n, K_t).
+pub fn step_with_joints(model: &Model, dt_crit: f64, k: f64) -> f64 {
+    let mut count: HashMap<Entity, usize> = HashMap::new();
+    for j in model.world.query::<&Joint>().iter() {
+        for e in j.edges {
+            for n in model.world.get::<&EdgeNodes>(e).expect("edge").0 {
+                *count.entry(n).or_default() += 1;
+            }
+        }
+    }
+    let worst = count
+        .iter()
+        .map(|(&n, &c)| {
+            let m = model.world.get::<&NodeMass>(n).map(|m| m.0).unwrap_or(0.0);
+            if m > 0.0 { k * c as f64 / m } else { 0.0 }
+        })
+        .fold(0.0, f64::max);
+    if worst == 0.0 {
+        return dt_crit;
+    }
+    2.0 / ((2.0 / dt_crit).powi(2) + worst).sqrt()
+}

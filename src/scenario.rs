@@ -217,6 +217,19 @@ pub struct FractureSpec {
     /// feeds it from the flow solver instead).
     #[serde(default)]
     pub pressure: Option<f64>,
+    /// Joint friction angle phi, degrees (Coulomb: |F_t| <= F_n tan phi). Default 30.
+    #[serde(default = "default_friction")]
+    pub friction_deg: f64,
+    /// Joint normal and shear penalty stiffness K_n, K_t, Pa (force per unit thickness per unit
+    /// offset). Default: the rock's E and G, as in the seed.
+    #[serde(default)]
+    pub normal_stiffness: Option<f64>,
+    #[serde(default)]
+    pub shear_stiffness: Option<f64>,
+}
+
+fn default_friction() -> f64 {
+    30.0
 }
 
 fn default_residual_aperture() -> f64 {

@@ -10,7 +10,7 @@ use crate::scenario::{Damping, End, Material, MeshSpec, Scenario};
 use crate::schedule::{Schedule, Status};
 use crate::systems::SystemId;
 use crate::systems::flow::{self as flowsys, FlowStats};
-use crate::systems::fracture;
+use crate::systems::fracture::{self, JointParams};
 use crate::systems::solid::{self, SolidParams, StepStats};
 use crate::view::SolidView;
 
@@ -76,6 +76,8 @@ pub struct Simulation {
     pub ready_edges: usize,
     /// Pre-existing fractures as placed on the mesh.
     pub placed: Vec<crate::fractures::Placed>,
+    /// Joint contact constants.
+    pub joint: JointParams,
     /// Steps to run for an `End::Time` scenario.
     steps_to_end: Option<u64>,
 }
@@ -145,9 +147,30 @@ impl Simulation {
             _ => Model::empty(),
         };
         let has_solid = scenario.mesh.is_some();
+        let mat = model.material;
+        let joint = JointParams {
+            kn: scenario
+                .fracture
+                .as_ref()
+                .and_then(|f| f.normal_stiffness)
+                .unwrap_or(mat.young),
+            kt: scenario
+                .fracture
+                .as_ref()
+                .and_then(|f| f.shear_stiffness)
+                .unwrap_or(mat.shear()),
+            mu: scenario
+                .fracture
+                .as_ref()
+                .map_or(0.0, |f| f.friction_deg.to_radians().tan()),
+        };
         let (c_p, dt_crit) = if has_solid {
             let c = model.material.p_wave_speed();
-            (c, model.min_altitude / c)
+            let dt = model.min_altitude / c;
+            (
+                c,
+                crate::fractures::step_with_joints(&model, dt, joint.kn.max(joint.kt)),
+            )
         } else {
             (0.0, f64::INFINITY)
         };
@@ -205,7 +228,6 @@ impl Simulation {
             f.substeps = ((dt / target) * (1.0 - 1e-12)).ceil().max(1.0) as u64;
             f.dt = dt / f.substeps as f64;
         }
-        let mat = model.material;
         let params = solid_params(&mat, dt, scenario.damping);
         let mut disabled = scenario.systems.disable.clone();
         disabled.extend(extra_disable.iter().cloned());
@@ -218,7 +240,9 @@ impl Simulation {
                 .fracture
                 .as_ref()
                 .is_some_and(|f| f.strength.is_some());
+        let has_joints = !view.joint_nodes.is_empty();
         let schedule = Schedule::new(&disabled, |s| match s {
+            SystemId::Contact => has_joints,
             SystemId::InternalForce | SystemId::Integrate => has_solid,
             SystemId::ExternalLoad => has_load,
             SystemId::Damping => has_solid && damping_on,
@@ -243,6 +267,7 @@ impl Simulation {
             output: None,
             ready_edges: 0,
             placed,
+            joint,
             steps_to_end,
         })
     }
@@ -302,6 +327,7 @@ impl Simulation {
             match sys {
                 SystemId::InternalForce => solid::internal_force(&mut self.view, &self.params),
                 SystemId::ExternalLoad => solid::external_load(&mut self.view),
+                SystemId::Contact => fracture::contact(&mut self.view, &self.joint),
                 SystemId::Damping => solid::damping(&mut self.view, &self.params),
                 SystemId::Integrate => self.stats = solid::integrate(&mut self.view, &self.params),
                 SystemId::FlowSubsteps => self.flow_substeps(t0),

@@ -296,6 +296,7 @@ pub fn open_edges(model: &mut Model, ready: &[Entity], aperture: f64, t: f64) ->
                 mother_edge: e,
                 cell,
             },
+            JointState::default(),
         );
         report.joints.push(model.world.spawn(joint_bundle));
         report.cells.push(cell);

@@ -57,6 +57,13 @@ pub struct SolidView {
     /// Normal stress across the edge, Pa (tension positive), and the fracture-ready mark.
     pub edge_sigma_n: Vec<f64>,
     pub edge_ready: Vec<bool>,
+    /// Joints, ordered by stable id: nodes [p_a, p_b, q_a, q_b] (dense; the sister edges list
+    /// their ends in the same order), the sign that makes (t_y, -t_x) face p's outward normal,
+    /// and the contact state.
+    pub joint_entity: Vec<Entity>,
+    pub joint_nodes: Vec<[u32; 4]>,
+    pub joint_sign: Vec<f64>,
+    pub joint_state: Vec<JointState>,
 }
 
 impl SolidView {
@@ -185,6 +192,32 @@ impl SolidView {
             v.edge_sigma_n.push(st.sigma_n);
             v.edge_ready.push(st.fracture_ready);
         }
+        // Joints.
+        let mut joints: Vec<(u64, Entity, Joint, JointState)> = world
+            .query::<(Entity, &StableId, &Joint, &JointState)>()
+            .iter()
+            .map(|(e, id, j, s)| (id.0, e, *j, *s))
+            .collect();
+        joints.sort_unstable_by_key(|r| r.0);
+        for (_, e, j, st) in joints {
+            let [p, q] = j.edges.map(|x| world.get::<&EdgeNodes>(x).expect("edge").0);
+            let nodes = [p[0], p[1], q[0], q[1]].map(|n| dense[n.id() as usize]);
+            if nodes.contains(&NONE) {
+                continue;
+            }
+            let [a, b] = p.map(|n| world.get::<&NodeRef>(n).expect("node").0);
+            let t = [b[0] - a[0], b[1] - a[1]];
+            let out = crate::fractures::outward_normal(model, j.edges[0]);
+            let sign = if t[1] * out[0] - t[0] * out[1] >= 0.0 {
+                1.0
+            } else {
+                -1.0
+            };
+            v.joint_entity.push(e);
+            v.joint_nodes.push(nodes);
+            v.joint_sign.push(sign);
+            v.joint_state.push(st);
+        }
         v
     }
 
@@ -208,6 +241,12 @@ impl SolidView {
         for (k, &e) in self.elem_entity.iter().enumerate() {
             if let Some(s) = view.get_mut(e) {
                 s.0 = self.stress[k];
+            }
+        }
+        let mut view = model.world.view_mut::<&mut JointState>();
+        for (k, &e) in self.joint_entity.iter().enumerate() {
+            if let Some(s) = view.get_mut(e) {
+                *s = self.joint_state[k];
             }
         }
         let mut view = model.world.view_mut::<&mut EdgeState>();

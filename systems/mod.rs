@@ -17,6 +17,7 @@ pub mod solid;
 pub enum SystemId {
     InternalForce,
     ExternalLoad,
+    Contact,
     Damping,
     Integrate,
     FlowSubsteps,
@@ -27,9 +28,10 @@ pub enum SystemId {
 
 impl SystemId {
     /// The step, in order.
-    pub const ORDER: [SystemId; 8] = [
+    pub const ORDER: [SystemId; 9] = [
         SystemId::InternalForce,
         SystemId::ExternalLoad,
+        SystemId::Contact,
         SystemId::Damping,
         SystemId::Integrate,
         SystemId::FlowSubsteps,
@@ -42,6 +44,7 @@ impl SystemId {
         match self {
             SystemId::InternalForce => "internal_force",
             SystemId::ExternalLoad => "external_load",
+            SystemId::Contact => "contact",
             SystemId::Damping => "damping",
             SystemId::Integrate => "integrate",
             SystemId::FlowSubsteps => "flow_substeps",
@@ -56,6 +59,9 @@ impl SystemId {
         match self {
             SystemId::InternalForce => "CST stresses and nodal internal forces, gathered by node",
             SystemId::ExternalLoad => "adds constant boundary tractions and body forces",
+            SystemId::Contact => {
+                "joint contact: penalty normal and shear forces between sister faces, Coulomb friction"
+            }
             SystemId::Damping => {
                 "local (Cundall) or viscous damping force for pseudo-static response"
             }
@@ -95,6 +101,7 @@ impl SystemId {
             SystemId::ExternalLoad => {
                 tracing::info_span!(target: "hydrofrac::system", "external_load")
             }
+            SystemId::Contact => tracing::info_span!(target: "hydrofrac::system", "contact"),
             SystemId::Damping => tracing::info_span!(target: "hydrofrac::system", "damping"),
             SystemId::Integrate => tracing::info_span!(target: "hydrofrac::system", "integrate"),
             SystemId::FlowSubsteps => {

@@ -49,6 +49,9 @@ pub fn pressurised_crack(
             to: [a, 0.0],
         }],
         pressure: Some(p),
+        friction_deg: 30.0,
+        normal_stiffness: None,
+        shear_stiffness: None,
     });
     let t0 = Instant::now();
     let mut sim = Simulation::new(sc, &[])?;

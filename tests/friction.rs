@@ -1,0 +1,88 @@
+//! Joint contact with Coulomb friction (seed (8)-(11), verification.md item 8): a block cut by a
+//! horizontal fracture across its whole width, pressed by sigma = 10 MPa and sheared by tau.
+//! Below the friction limit (tau = 0.8 sigma tan phi) the joint sticks: the run reaches static
+//! equilibrium, no joint slides, every joint carries |F_t| < F_n tan phi and about sigma per
+//! metre in compression. Above it (tau = 1.2 sigma tan phi) the joint slides: the sliding joints
+//! carry exactly F_t = F_n tan phi and the upper block runs away along the fracture.
+
+use hydrofrac::scenario::Scenario;
+use hydrofrac::sim::{Finish, Simulation};
+
+fn block(tau: f64, end: &str) -> Simulation {
+    let text = format!(
+        r#"(
+        name: "friction",
+        mesh: Regular(width: 8.0, height: 4.0, h: 1.0),
+        material: (young: 20e9, poisson: 0.2, density: 2700.0),
+        boundary: Sides(
+            bottom: Fixed,
+            top: Traction(normal: -10e6, shear: -{tau}),
+            left: Traction(normal: 0.0, shear: {tau}),
+            right: Traction(normal: 0.0, shear: {tau}),
+        ),
+        fracture: Some((preexisting: [(from: (0.0, 2.0), to: (8.0, 2.0))], friction_deg: 30.0)),
+        time: (end: {end}, max_steps: 400000),
+    )"#
+    );
+    let sc = Scenario::parse(&text, "friction.ron").unwrap();
+    Simulation::new(sc, &[]).unwrap()
+}
+
+const SIGMA: f64 = 10e6;
+
+#[test]
+fn joint_sticks_below_the_coulomb_limit() {
+    let mu = 30f64.to_radians().tan();
+    let mut sim = block(0.8 * SIGMA * mu, "Static(tol: 1e-9)");
+    assert_eq!(sim.view.joint_nodes.len(), 8);
+    assert!(
+        sim.schedule
+            .is_enabled(hydrofrac::systems::SystemId::Contact)
+    );
+    assert_eq!(sim.run(|_| {}).unwrap(), Finish::Converged);
+    for (k, st) in sim.view.joint_state.iter().enumerate() {
+        assert!(!st.sliding, "joint {k} slides");
+        assert!(
+            st.shear_force.abs() < mu * st.normal_force,
+            "joint {k}: {st:?}"
+        );
+        // Compression of about sigma per metre of joint (the fixed base disturbs the ends).
+        assert!(
+            (st.normal_force - SIGMA).abs() < 0.35 * SIGMA,
+            "joint {k}: F_n = {}",
+            st.normal_force
+        );
+        assert!(st.opening < 0.0, "joint {k} should be closed");
+    }
+    let fn_total: f64 = sim.view.joint_state.iter().map(|s| s.normal_force).sum();
+    assert!(
+        (fn_total - 8.0 * SIGMA).abs() < 1e-3 * 8.0 * SIGMA,
+        "total normal force {fn_total}"
+    );
+}
+
+#[test]
+fn joint_slides_above_the_coulomb_limit() {
+    let mu = 30f64.to_radians().tan();
+    let mut sim = block(1.2 * SIGMA * mu, "Time(0.2)");
+    sim.run(|_| {}).unwrap();
+    let sliding: Vec<_> = sim.view.joint_state.iter().filter(|s| s.sliding).collect();
+    assert!(
+        sliding.len() >= 6,
+        "only {} of 8 joints slide",
+        sliding.len()
+    );
+    for st in &sliding {
+        assert!((st.shear_force.abs() - mu * st.normal_force).abs() <= 1e-9 * st.normal_force);
+    }
+    // The upper block has moved along the fracture far beyond elastic shear (tau/G * 2 m ~ 1 mm).
+    let top = sim
+        .view
+        .x0
+        .iter()
+        .zip(&sim.view.u)
+        .filter(|(x, _)| x[1] == 4.0)
+        .map(|(_, u)| u[0].abs())
+        .fold(0.0, f64::max);
+    assert!(top > 0.05, "upper block moved only {top} m");
+}
