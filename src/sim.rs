@@ -74,6 +74,9 @@ pub struct Simulation {
     pub output: Option<Outputs>,
     /// Internal edges marked fracture-ready so far.
     pub ready_edges: usize,
+    /// Nodes split and edges opened by the split system so far.
+    pub splits: usize,
+    pub opened_edges: usize,
     /// Pre-existing fractures as placed on the mesh.
     pub placed: Vec<crate::fractures::Placed>,
     /// Joint contact constants.
@@ -247,7 +250,7 @@ impl Simulation {
             SystemId::ExternalLoad => has_load,
             SystemId::Damping => has_solid && damping_on,
             SystemId::FlowSubsteps => has_flow,
-            SystemId::FractureCriterion => has_fracture,
+            SystemId::FractureCriterion | SystemId::Split => has_fracture,
             SystemId::Monitor | SystemId::Output => true,
         })?;
         Ok(Simulation {
@@ -266,6 +269,8 @@ impl Simulation {
             finish: None,
             output: None,
             ready_edges: 0,
+            splits: 0,
+            opened_edges: 0,
             placed,
             joint,
             steps_to_end,
@@ -331,6 +336,7 @@ impl Simulation {
                 SystemId::Damping => solid::damping(&mut self.view, &self.params),
                 SystemId::Integrate => self.stats = solid::integrate(&mut self.view, &self.params),
                 SystemId::FlowSubsteps => self.flow_substeps(t0),
+                SystemId::Split => self.split_ready(t0 + self.params.dt),
                 SystemId::FractureCriterion => {
                     let strength = self
                         .scenario
@@ -355,6 +361,44 @@ impl Simulation {
             }
         }
         Ok(())
+    }
+
+    /// `split`: open the fracture-ready edges by node splitting (all in one batch), then rebuild
+    /// the views and, because joints add contact stiffness, shorten the step if the new bound
+    /// requires it.
+    fn split_ready(&mut self, t: f64) {
+        let ready: Vec<hecs::Entity> = (0..self.view.edge_entity.len())
+            .filter(|&k| self.view.edge_ready[k])
+            .map(|k| self.view.edge_entity[k])
+            .collect();
+        if ready.is_empty() {
+            return;
+        }
+        let aperture = self
+            .scenario
+            .fracture
+            .as_ref()
+            .map_or(5e-4, |f| f.residual_aperture);
+        self.sync();
+        let r = crate::split::open_edges(&mut self.model, &ready, aperture, t);
+        self.splits += r.split_nodes;
+        self.opened_edges += r.opened_edges;
+        if r.split_nodes == 0 {
+            return;
+        }
+        self.rebuild_views_if_needed();
+        let base = self.model.min_altitude / self.c_p;
+        let bound =
+            crate::fractures::step_with_joints(&self.model, base, self.joint.kn.max(self.joint.kt));
+        self.dt_crit = bound;
+        let safe = self.scenario.time.safety * bound;
+        if self.scenario.time.dt.is_none() && safe < self.params.dt {
+            self.params.dt = safe;
+            if let End::Time(te) = self.scenario.time.end {
+                let left = ((te - t) / safe - 1e-9).ceil().max(0.0) as u64;
+                self.steps_to_end = Some(self.step + 1 + left);
+            }
+        }
     }
 
     /// `flow_substeps`: N explicit flow steps covering the solid step, stopping at the first

@@ -22,13 +22,14 @@ pub enum SystemId {
     Integrate,
     FlowSubsteps,
     FractureCriterion,
+    Split,
     Monitor,
     Output,
 }
 
 impl SystemId {
     /// The step, in order.
-    pub const ORDER: [SystemId; 9] = [
+    pub const ORDER: [SystemId; 10] = [
         SystemId::InternalForce,
         SystemId::ExternalLoad,
         SystemId::Contact,
@@ -36,6 +37,7 @@ impl SystemId {
         SystemId::Integrate,
         SystemId::FlowSubsteps,
         SystemId::FractureCriterion,
+        SystemId::Split,
         SystemId::Monitor,
         SystemId::Output,
     ];
@@ -49,6 +51,7 @@ impl SystemId {
             SystemId::Integrate => "integrate",
             SystemId::FlowSubsteps => "flow_substeps",
             SystemId::FractureCriterion => "fracture_criterion",
+            SystemId::Split => "split",
             SystemId::Monitor => "monitor",
             SystemId::Output => "output",
         }
@@ -73,6 +76,9 @@ impl SystemId {
             }
             SystemId::FractureCriterion => {
                 "marks internal edges whose normal stress reaches lambda*T0 (never changes topology)"
+            }
+            SystemId::Split => {
+                "node splitting at fracture-ready edges: daughters, sister edges, cells, joints (the only topology change)"
             }
             SystemId::Monitor => {
                 "advances the clock; blow-up detection (solid speed, cell mass, flow step bound); residual and end"
@@ -110,6 +116,7 @@ impl SystemId {
             SystemId::FractureCriterion => {
                 tracing::info_span!(target: "hydrofrac::system", "fracture_criterion")
             }
+            SystemId::Split => tracing::info_span!(target: "hydrofrac::system", "split"),
             SystemId::Monitor => tracing::info_span!(target: "hydrofrac::system", "monitor"),
             SystemId::Output => tracing::info_span!(target: "hydrofrac::system", "output"),
         }

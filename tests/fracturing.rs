@@ -1,0 +1,69 @@
+//! Fracturing during a run: criterion -> split in the schedule. A plate with an edge notch
+//! (pre-existing fracture from the left side to x = 4 m at y = 5 m) pulled apart by a vertical
+//! traction. With lambda*T0 above the stress at the notch tip nothing splits; with lambda*T0
+//! below it, the crack starts at the notch tip and runs straight along y = 5 (mode I), every new
+//! cell within one cell of the notch line, and the topology stays valid.
+
+use hydrofrac::components::{CellKind, CellNodes, CellOrigin, NodeRef};
+use hydrofrac::scenario::Scenario;
+use hydrofrac::sim::Simulation;
+
+fn plate(strength: f64) -> Simulation {
+    let text = format!(
+        r#"(
+        name: "notch",
+        mesh: Regular(width: 20.0, height: 10.0, h: 0.5),
+        material: (young: 20e9, poisson: 0.2, density: 2700.0),
+        boundary: Sides(top: Traction(normal: 2e6, shear: 0.0), bottom: Traction(normal: 2e6, shear: 0.0)),
+        pins: [(at: (20.0, 0.0), ux: 0.0, uy: 0.0), (at: (20.0, 10.0), ux: 0.0)],
+        fracture: Some((strength: {strength}, preexisting: [(from: (0.0, 5.0), to: (4.0, 5.0))])),
+        time: (end: Time(0.02)),
+    )"#
+    );
+    let sc = Scenario::parse(&text, "notch.ron").unwrap();
+    let mut sim = Simulation::new(sc, &[]).unwrap();
+    sim.run(|_| {}).unwrap();
+    sim
+}
+
+#[test]
+fn strong_rock_does_not_split() {
+    let sim = plate(200e6);
+    assert_eq!(sim.splits, 0);
+    assert_eq!(sim.view.joint_nodes.len(), 8, "only the notch's joints");
+}
+
+#[test]
+fn weak_rock_cracks_from_the_notch_tip_along_the_notch_line() {
+    let sim = plate(4e6);
+    assert!(sim.splits > 0 && sim.opened_edges > 0);
+    hydrofrac::split::check_invariants(&sim.model).unwrap();
+    let w = &sim.model.world;
+    let mut new_cells: Vec<(f64, [f64; 2])> = w
+        .query::<(&CellNodes, &CellOrigin)>()
+        .iter()
+        .filter(|(_, o)| o.kind == CellKind::New && o.created_t > 0.0)
+        .map(|(c, o)| {
+            let p = c.0.map(|n| w.get::<&NodeRef>(n).unwrap().0);
+            (
+                o.created_t,
+                [0.5 * (p[0][0] + p[1][0]), 0.5 * (p[0][1] + p[1][1])],
+            )
+        })
+        .collect();
+    assert!(!new_cells.is_empty());
+    new_cells.sort_by(|a, b| a.0.total_cmp(&b.0));
+    // The first new cells touch the notch tip (4, 5).
+    let first = new_cells[0].1;
+    assert!(
+        (first[0] - 4.0).abs() <= 0.75 && (first[1] - 5.0).abs() <= 0.5,
+        "first crack at {first:?}"
+    );
+    // All new cells lie along the notch line, ahead of the tip.
+    for (t, c) in &new_cells {
+        assert!(
+            (c[1] - 5.0).abs() <= 0.5 && c[0] > 3.5,
+            "cell at {c:?} (t = {t})"
+        );
+    }
+}
