@@ -108,6 +108,12 @@ pub fn run_scenario(scenario: Scenario, opts: &RunOptions) -> Result<RunReport, 
         .collect();
     let timing_table = format_table(&rows);
     let mut summary = summary_json(&sim, &result, wall, &rows);
+    if let (Some(v), Some(o)) = (sim.fracture_view(), &sim.output) {
+        o.write_network_csv(&v).map_err(DriverError::Output)?;
+        let length: f64 = v.length.iter().sum();
+        summary["fractures"] = json!({"cells": v.n_cells(), "total_length": length,
+            "new_cells": v.kind.iter().filter(|k| **k == crate::components::CellKind::New).count()});
+    }
     if let (Some(f), Some(o)) = (&sim.flow, &sim.output) {
         o.write_network_csv(&f.view).map_err(DriverError::Output)?;
         if let Err(e) = crate::output::plots::flow_figures(&sim, &o.dir) {

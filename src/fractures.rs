@@ -77,7 +77,12 @@ pub fn open_preexisting(
         ready.extend(edges);
     }
     // Boundary edges of a fracture on the domain edge cannot open; open_edges ignores them.
-    open_edges(model, &ready, spec.residual_aperture, 0.0);
+    let report = open_edges(model, &ready, spec.residual_aperture, 0.0);
+    for c in report.cells {
+        if let Ok(mut o) = model.world.get::<&mut CellOrigin>(c) {
+            o.kind = CellKind::Preexisting;
+        }
+    }
     Ok(placed)
 }
 
@@ -176,4 +181,35 @@ pub fn step_with_joints(model: &Model, dt_crit: f64, k: f64) -> f64 {
         return dt_crit;
     }
     2.0 / ((2.0 / dt_crit).powi(2) + worst).sqrt()
+}
+
+/// Bring the fracture geometry in the components up to date: every mother node (left the solid)
+/// moves with the mean displacement of its daughters, and every joint's cell gets the hydraulic
+/// aperture max(delta_n, a_r) (seed (12)) from the joint's current opening.
+pub fn sync_fracture_geometry(model: &mut Model, residual_aperture: f64) {
+    let mut sum: HashMap<Entity, ([f64; 2], usize)> = HashMap::new();
+    for (link, st) in model.world.query::<(&NodeLink, &NodeState)>().iter() {
+        if let (true, Some(m)) = (link.in_solid, link.mother) {
+            let e = sum.entry(m).or_insert(([0.0; 2], 0));
+            e.0[0] += st.u[0];
+            e.0[1] += st.u[1];
+            e.1 += 1;
+        }
+    }
+    for (m, (u, n)) in sum {
+        if let Ok(mut st) = model.world.get::<&mut NodeState>(m) {
+            st.u = [u[0] / n as f64, u[1] / n as f64];
+        }
+    }
+    let joints: Vec<(Joint, f64)> = model
+        .world
+        .query::<(&Joint, &JointState)>()
+        .iter()
+        .map(|(j, s)| (*j, s.opening))
+        .collect();
+    for (j, opening) in joints {
+        if let Ok(mut c) = model.world.get::<&mut CellFluid>(j.cell) {
+            c.aperture = opening.max(residual_aperture);
+        }
+    }
 }

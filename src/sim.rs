@@ -284,6 +284,26 @@ impl Simulation {
         if let Some(f) = &self.flow {
             f.view.write_back(&mut self.model, &f.params);
         }
+        if !self.view.joint_entity.is_empty() {
+            let a_r = self
+                .scenario
+                .fracture
+                .as_ref()
+                .map_or(5e-4, |f| f.residual_aperture);
+            crate::fractures::sync_fracture_geometry(&mut self.model, a_r);
+        }
+    }
+
+    /// The rock's fractures (cells made by splitting) as a network view for output, when the
+    /// scene has joints but no flow network of its own.
+    pub fn fracture_view(&self) -> Option<FlowView> {
+        if self.flow.is_some() || self.view.joint_entity.is_empty() {
+            return None;
+        }
+        Some(FlowView::build(
+            &self.model,
+            &FlowParams::from(self.scenario.fluid),
+        ))
     }
 
     /// Change the model (boundary conditions, loads, topology) between steps: the state is
@@ -632,6 +652,12 @@ impl Simulation {
             }
             if let Some(f) = &self.flow {
                 out.write_network_frame(&f.view, time)?;
+            }
+        }
+        if frame && self.flow.is_none() && !self.view.joint_entity.is_empty() {
+            self.sync();
+            if let (Some(v), Some(out)) = (self.fracture_view(), self.output.as_mut()) {
+                out.write_network_frame(&v, time)?;
             }
         }
         Ok(())
