@@ -41,6 +41,11 @@ pub struct Scenario {
     /// Flow boundary conditions (pump, rate, pressure) at network nodes or cells.
     #[serde(default)]
     pub flow_boundaries: Vec<FlowBoundary>,
+    /// Piecewise-linear multiplier of every boundary load and prescribed displacement against
+    /// time, [(t s, factor)], constant beyond the ends (a slow ramp from 0 gives quasi-static
+    /// loading). Empty: 1.
+    #[serde(default)]
+    pub boundary_schedule: Vec<(f64, f64)>,
     /// Single nodes with prescribed displacement components (e.g. to remove rigid-body motion
     /// under pure traction loading).
     #[serde(default)]
@@ -328,24 +333,28 @@ pub struct FlowBoundary {
     pub schedule: Vec<(f64, f64)>,
 }
 
+/// A piecewise-linear schedule [(t, factor)] at time t (1 when empty, constant beyond the ends).
+pub fn schedule_factor(s: &[(f64, f64)], t: f64) -> f64 {
+    match s.len() {
+        0 => 1.0,
+        _ if t <= s[0].0 => s[0].1,
+        _ if t >= s[s.len() - 1].0 => s[s.len() - 1].1,
+        _ => {
+            let k = s.partition_point(|p| p.0 <= t);
+            let ((t0, f0), (t1, f1)) = (s[k - 1], s[k]);
+            if t1 > t0 {
+                f0 + (f1 - f0) * (t - t0) / (t1 - t0)
+            } else {
+                f1
+            }
+        }
+    }
+}
+
 impl FlowBoundary {
     /// The schedule factor at time t (1 without a schedule).
     pub fn factor(&self, t: f64) -> f64 {
-        let s = &self.schedule;
-        match s.len() {
-            0 => 1.0,
-            _ if t <= s[0].0 => s[0].1,
-            _ if t >= s[s.len() - 1].0 => s[s.len() - 1].1,
-            _ => {
-                let k = s.partition_point(|p| p.0 <= t);
-                let ((t0, f0), (t1, f1)) = (s[k - 1], s[k]);
-                if t1 > t0 {
-                    f0 + (f1 - f0) * (t - t0) / (t1 - t0)
-                } else {
-                    f1
-                }
-            }
-        }
+        schedule_factor(&self.schedule, t)
     }
 }
 
@@ -792,6 +801,18 @@ impl Scenario {
                 }
             }
             Damping::None => {}
+        }
+        for (k, w) in self.boundary_schedule.windows(2).enumerate() {
+            if w[1].0 < w[0].0 || w[1].0.is_nan() {
+                return Err(SetupError::invalid(
+                    &format!("boundary_schedule[{}]", k + 1),
+                    "times must not decrease",
+                ));
+            }
+        }
+        for (t, f) in &self.boundary_schedule {
+            finite("boundary_schedule", *t)?;
+            finite("boundary_schedule", *f)?;
         }
         if let Some(f) = &self.fracture {
             if let Some(st) = f.strength {

@@ -125,6 +125,7 @@ fn solid_params(mat: &Material, dt: f64, damping: Damping) -> SolidParams {
         g: mat.shear(),
         dt,
         damping,
+        load_factor: 1.0,
     }
 }
 
@@ -346,12 +347,14 @@ impl Simulation {
     pub fn step_once(&mut self) -> Result<(), RunError> {
         self.rebuild_views_if_needed();
         let t0 = self.time;
+        self.params.load_factor =
+            crate::scenario::schedule_factor(&self.scenario.boundary_schedule, t0 + self.params.dt);
         let systems: Vec<SystemId> = self.schedule.enabled().collect();
         for sys in systems {
             let _span = sys.span().entered();
             match sys {
                 SystemId::InternalForce => solid::internal_force(&mut self.view, &self.params),
-                SystemId::ExternalLoad => solid::external_load(&mut self.view),
+                SystemId::ExternalLoad => solid::external_load(&mut self.view, &self.params),
                 SystemId::Contact => fracture::contact(&mut self.view, &self.joint),
                 SystemId::Damping => solid::damping(&mut self.view, &self.params),
                 SystemId::Integrate => self.stats = solid::integrate(&mut self.view, &self.params),

@@ -21,6 +21,9 @@ pub struct SolidParams {
     /// Time step, s.
     pub dt: f64,
     pub damping: Damping,
+    /// Multiplier of all boundary loads and prescribed displacements this step (the scenario's
+    /// `boundary_schedule`; 1 without one).
+    pub load_factor: f64,
 }
 
 /// Elements per rayon task in element loops, nodes per task / reduction chunk in node loops.
@@ -112,15 +115,16 @@ pub fn update_stress(v: &mut SolidView, p: &SolidParams) {
         .for_each(|(s, (c, g))| *s = cst_stress(g, c.map(|a| u[a as usize]), p));
 }
 
-/// `external_load`: add the constant external loads (tractions, body forces) to `force`.
-pub fn external_load(v: &mut SolidView) {
+/// `external_load`: add the external loads (tractions, body forces) times the load factor.
+pub fn external_load(v: &mut SolidView, p: &SolidParams) {
+    let lf = p.load_factor;
     v.force
         .par_iter_mut()
         .zip(v.load.par_iter())
         .with_min_len(NODE_CHUNK)
         .for_each(|(f, l)| {
-            f[0] += l[0];
-            f[1] += l[1];
+            f[0] += lf * l[0];
+            f[1] += lf * l[1];
         });
 }
 
@@ -229,7 +233,7 @@ impl StepStats {
 /// `integrate`: central difference, v += dt (F + F_damp)/m, u += dt v; prescribed components
 /// are held at their value with zero velocity. Returns the step statistics.
 pub fn integrate(v: &mut SolidView, p: &SolidParams) -> StepStats {
-    let dt = p.dt;
+    let (dt, lf) = (p.dt, p.load_factor);
     let (force, fdamp, inv_m, mass, fixed, presc, load) = (
         &v.force,
         &v.f_damp,
@@ -251,11 +255,12 @@ pub fn integrate(v: &mut SolidView, p: &SolidParams) -> StepStats {
                     let v_old = *vel;
                     for d in 0..2 {
                         let f = force[i][d];
-                        st.strain -= 0.5 * u[d] * (f - load[i][d]);
-                        st.ref2 += load[i][d] * load[i][d];
+                        let l = lf * load[i][d];
+                        st.strain -= 0.5 * u[d] * (f - l);
+                        st.ref2 += l * l;
                         if fixed[i] & (1 << d) != 0 {
                             st.ref2 += f * f;
-                            u[d] = presc[i][d];
+                            u[d] = lf * presc[i][d];
                             vel[d] = 0.0;
                         } else {
                             st.res2 += f * f;
