@@ -113,6 +113,9 @@ pub fn run_scenario(scenario: Scenario, opts: &RunOptions) -> Result<RunReport, 
         let length: f64 = v.length.iter().sum();
         summary["fractures"] = json!({"cells": v.n_cells(), "total_length": length,
             "new_cells": v.kind.iter().filter(|k| **k == crate::components::CellKind::New).count()});
+        if let Err(e) = crate::output::plots::fracture_figure(&sim, &v, &o.dir) {
+            summary["warnings"] = json!([format!("figures not written: {e}")]);
+        }
     }
     if let (Some(f), Some(o)) = (&sim.flow, &sim.output) {
         o.write_network_csv(&f.view).map_err(DriverError::Output)?;
