@@ -149,3 +149,46 @@ fn splits_when_the_applied_stress_reaches_the_strength() {
     );
     assert!(joints > 0);
 }
+
+/// A rock scene with fractures writes the fracture outputs: network frames, network.csv with
+/// pre-existing and new cells, fractures.png, and the counts in summary.json.
+#[test]
+fn fracture_outputs_are_written() {
+    let text = r#"(
+        name: "notch_outputs",
+        mesh: Regular(width: 20.0, height: 10.0, h: 0.5),
+        material: (young: 20e9, poisson: 0.2, density: 2700.0),
+        boundary: Sides(top: Traction(normal: 2e6, shear: 0.0), bottom: Traction(normal: 2e6, shear: 0.0)),
+        pins: [(at: (20.0, 0.0), ux: 0.0, uy: 0.0), (at: (20.0, 10.0), ux: 0.0)],
+        fracture: Some((strength: 4e6, preexisting: [(from: (0.0, 5.0), to: (4.0, 5.0))])),
+        time: (end: Time(0.02)),
+        output: (frame_every: 50),
+    )"#;
+    let out = std::env::temp_dir().join(format!("hydrofrac-fracout-{}", std::process::id()));
+    let sc = Scenario::parse(text, "notch.ron").unwrap();
+    let opts = hydrofrac::driver::RunOptions {
+        out: Some(out.clone()),
+        quiet: true,
+        ..Default::default()
+    };
+    let report = hydrofrac::driver::run_scenario(sc, &opts).unwrap();
+    let s = &report.summary;
+    assert_eq!(
+        s["fractures"]["cells"].as_u64().unwrap(),
+        s["joints"].as_u64().unwrap()
+    );
+    assert!(s["fractures"]["new_cells"].as_u64().unwrap() > 0);
+    assert!(s["splits"].as_u64().unwrap() > 0);
+    let csv = std::fs::read_to_string(out.join("network.csv")).unwrap();
+    assert_eq!(
+        csv.lines().filter(|l| l.contains(",preexisting,")).count(),
+        8
+    );
+    assert!(csv.lines().any(|l| l.contains(",new,")));
+    assert_eq!(
+        &std::fs::read(out.join("fractures.png")).unwrap()[..4],
+        b"\x89PNG"
+    );
+    let frames = hydrofrac::output::vtk::read_pvd(&out.join("network.pvd")).unwrap();
+    assert!(frames.len() >= 2);
+}
