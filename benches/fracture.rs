@@ -1,0 +1,121 @@
+//! Fracture costs on the 20,000-element mesh (100 m x 100 m, h = 1 m): opening a 100-edge crack
+//! by node splitting (per split node), rebuilding the dense view after it, and the whole solid
+//! step with 1,000 joints in contact against the same mesh without fractures.
+//!
+//! Run: `cargo bench --bench fracture`.
+
+use criterion::{BatchSize, Criterion, criterion_group, criterion_main};
+use hydrofrac::mesh::TriMesh;
+use hydrofrac::model::Model;
+use hydrofrac::scenario::{Boundary, Damping, End, FractureSpec, Material, MeshSpec, PreFracture};
+use hydrofrac::sim::Simulation;
+use hydrofrac::snap::{adjacency, snap_segment};
+use hydrofrac::split::open_edges;
+use hydrofrac::verify::solid_cases::scenario;
+use hydrofrac::view::SolidView;
+use std::time::Duration;
+
+const ROCK: Material = Material {
+    young: 20e9,
+    poisson: 0.2,
+    density: 2700.0,
+};
+
+fn crack_edges(model: &Model, mesh: &TriMesh) -> Vec<hecs::Entity> {
+    use hydrofrac::components::{EdgeNodes, StableId};
+    let path = snap_segment(mesh, &adjacency(mesh), [0.0, 50.0], [100.0, 50.0]).unwrap();
+    let ids: Vec<u64> = path.nodes.iter().map(|&n| n as u64).collect();
+    model
+        .world
+        .query::<(hecs::Entity, &EdgeNodes)>()
+        .iter()
+        .filter(|(_, en)| {
+            let r = en.0.map(|n| model.world.get::<&StableId>(n).unwrap().0);
+            ids.windows(2)
+                .any(|p| (p[0] == r[0] && p[1] == r[1]) || (p[0] == r[1] && p[1] == r[0]))
+        })
+        .map(|(e, _)| e)
+        .collect()
+}
+
+fn bench(c: &mut Criterion) {
+    let mut g = c.benchmark_group("fracture");
+    g.sample_size(10)
+        .warm_up_time(Duration::from_millis(300))
+        .measurement_time(Duration::from_secs(3));
+    let mesh = TriMesh::regular(100.0, 100.0, 1.0, [0.0, 0.0]).unwrap();
+    // Split: a straight crack across the mesh, 100 edges, 101 nodes split.
+    g.bench_function("open_100_edge_crack", |b| {
+        b.iter_batched(
+            || {
+                let m = Model::from_mesh(&mesh, ROCK).unwrap();
+                let e = crack_edges(&m, &mesh);
+                (m, e)
+            },
+            |(mut m, e)| open_edges(&mut m, &e, 5e-4, 0.0),
+            BatchSize::LargeInput,
+        )
+    });
+    let mut cracked = Model::from_mesh(&mesh, ROCK).unwrap();
+    let e = crack_edges(&cracked, &mesh);
+    open_edges(&mut cracked, &e, 5e-4, 0.0);
+    g.bench_function("view_rebuild_20k", |b| {
+        b.iter(|| SolidView::build(&cracked))
+    });
+    // Step with and without 1,000 joints (10 horizontal fractures across the block, closed by
+    // the in-situ compression).
+    let mk = |fractures: bool| {
+        let mut sc = scenario(
+            "bench",
+            MeshSpec::Regular {
+                width: 100.0,
+                height: 100.0,
+                h: 1.0,
+                origin: [0.0, 0.0],
+            },
+            ROCK,
+            Boundary::InSitu {
+                sxx: -20e6,
+                syy: -10e6,
+            },
+            End::Time(1e9),
+            Damping::Local(0.8),
+        );
+        if fractures {
+            sc.fracture = Some(FractureSpec {
+                strength: None,
+                residual_aperture: 5e-4,
+                preexisting: (1..=10)
+                    .map(|k| PreFracture {
+                        from: [0.0, 9.0 * k as f64],
+                        to: [100.0, 9.0 * k as f64],
+                    })
+                    .collect(),
+                pressure: None,
+                friction_deg: 30.0,
+                normal_stiffness: None,
+                shear_stiffness: None,
+            });
+        }
+        Simulation::new(sc, &[]).unwrap()
+    };
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap();
+    for (name, with) in [("step_no_joints_1t", false), ("step_1000_joints_1t", true)] {
+        let mut sim = mk(with);
+        eprintln!("{name}: {} joints", sim.view.joint_nodes.len());
+        g.bench_function(name, |b| {
+            pool.install(|| b.iter(|| sim.step_once().unwrap()))
+        });
+    }
+    g.finish();
+}
+
+criterion_group! {
+    name = benches;
+    config = Criterion::default().without_plots();
+    targets = bench
+}
+criterion_main!(benches);
