@@ -390,17 +390,26 @@ impl Model {
         let side_index = |s: Side| Side::ALL.iter().position(|&t| t == s).expect("side");
         // Prescribed displacements.
         let mut updates = Vec::new();
-        for (e, (x, link)) in self
-            .world
-            .query::<(Entity, &NodeRef, &NodeLink)>()
-            .iter()
-            .map(|(e, x, l)| (e, (x, l)))
-        {
+        // A node is on a side when one of its solid boundary edges is (after splitting, the
+        // daughters of a corner node each keep only the sides of their own elements).
+        let mut node_sides: std::collections::HashMap<Entity, Vec<Side>> =
+            std::collections::HashMap::new();
+        for (en, st) in self.world.query::<(&EdgeNodes, &EdgeState)>().iter() {
+            if let (Some(side), false) = (st.side, st.opened) {
+                for n in en.0 {
+                    let v = node_sides.entry(n).or_default();
+                    if !v.contains(&side) {
+                        v.push(side);
+                    }
+                }
+            }
+        }
+        for (e, link) in self.world.query::<(Entity, &NodeLink)>().iter() {
             if !link.in_solid {
                 continue;
             }
             let mut bc = NodeBc::default();
-            for s in self.sides_of(x.0) {
+            for &s in node_sides.get(&e).map_or(&[][..], |v| &v[..]) {
                 let n = s.normal();
                 match bc_of_side[side_index(s)] {
                     SideBc::Normal(d) => {

@@ -41,6 +41,9 @@ pub struct Scenario {
     /// Flow boundary conditions (pump, rate, pressure) at network nodes or cells.
     #[serde(default)]
     pub flow_boundaries: Vec<FlowBoundary>,
+    /// Gravity, m/s^2 (e.g. (0.0, -9.81)): a body force rho g on the rock.
+    #[serde(default)]
+    pub gravity: Option<[f64; 2]>,
     /// Piecewise-linear multiplier of every boundary load and prescribed displacement against
     /// time, [(t s, factor)], constant beyond the ends (a slow ramp from 0 gives quasi-static
     /// loading). Empty: 1.
@@ -801,6 +804,10 @@ impl Scenario {
                 }
             }
             Damping::None => {}
+        }
+        if let Some(g) = self.gravity {
+            finite("gravity", g[0])?;
+            finite("gravity", g[1])?;
         }
         for (k, w) in self.boundary_schedule.windows(2).enumerate() {
             if w[1].0 < w[0].0 || w[1].0.is_nan() {

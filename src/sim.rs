@@ -143,6 +143,10 @@ impl Simulation {
                 }
                 m.apply_boundary(&scenario.boundary);
                 m.apply_pins(&scenario.pins)?;
+                if let Some(g) = scenario.gravity {
+                    let rho = mat.density;
+                    m.add_body_force(|_| [rho * g[0], rho * g[1]]);
+                }
                 if let Some(p) = scenario.fracture.as_ref().and_then(|f| f.pressure) {
                     crate::fractures::apply_face_pressure(&mut m, p);
                 }

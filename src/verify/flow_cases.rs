@@ -38,6 +38,7 @@ pub fn flow_scenario(
         fluid,
         initial_fluid: initial,
         flow_boundaries: bcs,
+        gravity: None,
         boundary_schedule: Vec::new(),
         pins: Vec::new(),
         time: TimeControl {

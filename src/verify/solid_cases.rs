@@ -33,6 +33,7 @@ pub fn scenario(
         fluid: Default::default(),
         initial_fluid: Default::default(),
         flow_boundaries: Vec::new(),
+        gravity: None,
         boundary_schedule: Vec::new(),
         pins: Vec::new(),
         time: TimeControl {
