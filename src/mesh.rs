@@ -42,32 +42,13 @@ impl TriMesh {
     pub fn regular(width: f64, height: f64, h: f64, origin: [f64; 2]) -> Result<Self, SetupError> {
         let nx = cells_along(width, h, "width")?;
         let ny = cells_along(height, h, "height")?;
-        let mut nodes = Vec::with_capacity((nx + 1) * (ny + 1));
-        for j in 0..=ny {
-            for i in 0..=nx {
-                nodes.push([origin[0] + i as f64 * h, origin[1] + j as f64 * h]);
-            }
-        }
-        let id = |i: usize, j: usize| (j * (nx + 1) + i) as u32;
-        let mut triangles = Vec::with_capacity(2 * nx * ny);
-        for j in 0..ny {
-            for i in 0..nx {
-                let (a, b, c, d) = (id(i, j), id(i + 1, j), id(i + 1, j + 1), id(i, j + 1));
-                if (i + j) % 2 == 0 {
-                    triangles.push([a, b, c]);
-                    triangles.push([a, c, d]);
-                } else {
-                    triangles.push([a, b, d]);
-                    triangles.push([b, c, d]);
-                }
-            }
-        }
-        Ok(TriMesh {
-            nodes,
-            triangles,
-            bbox: [origin[0], origin[1], origin[0] + width, origin[1] + height],
-            h,
-        })
+        let xs: Vec<f64> = (0..=nx).map(|i| origin[0] + i as f64 * h).collect();
+        let ys: Vec<f64> = (0..=ny).map(|j| origin[1] + j as f64 * h).collect();
+        let mut m = Self::tensor(&xs, &ys);
+        // The nominal size and the exact domain, free of the last grid line's rounding.
+        m.h = h;
+        m.bbox = [origin[0], origin[1], origin[0] + width, origin[1] + height];
+        Ok(m)
     }
 
     /// Tensor-product mesh on the grid lines `xs` x `ys` (ascending, m): each rectangle split into
