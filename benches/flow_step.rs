@@ -6,7 +6,7 @@
 //! Run: `cargo bench --bench flow_step`. HYDROFRAC_BENCH_FLOW=10,32 picks lattice sizes.
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
-use hydrofrac::network::Fracture;
+use hydrofrac::network;
 use hydrofrac::reference::FlatFlow;
 use hydrofrac::scenario::{End, FlowBcKind, FlowTarget, InitialFluid};
 use hydrofrac::sim::Simulation;
@@ -17,21 +17,7 @@ use std::time::Duration;
 /// A square lattice of n x n fracture lines, 1 m apart: about 2 n^2 cells.
 fn lattice(n: usize) -> Simulation {
     let len = (n - 1) as f64;
-    let mut fr = Vec::new();
-    for k in 0..n {
-        let x = k as f64;
-        let a = 1e-4 * (1.0 + 0.5 * ((k * 7919) % 13) as f64 / 13.0);
-        fr.push(Fracture {
-            from: [0.0, x],
-            to: [len, x],
-            aperture: a,
-        });
-        fr.push(Fracture {
-            from: [x, 0.0],
-            to: [x, len],
-            aperture: a,
-        });
-    }
+    let fr = network::lattice(n, |k| 1e-4 * (1.0 + 0.5 * ((k * 7919) % 13) as f64 / 13.0));
     let sc = flow_scenario(
         "bench",
         net(fr, None, 1.0),

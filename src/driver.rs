@@ -79,7 +79,7 @@ pub fn run_scenario(scenario: Scenario, opts: &RunOptions) -> Result<RunReport, 
     };
     let subscriber = tracing_subscriber::registry().with(timing).with(chrome);
 
-    let bar = progress_bar(&sim, opts.quiet);
+    let bar = progress_bar(opts.quiet);
     let t0 = Instant::now();
     let result = tracing::subscriber::with_default(subscriber, || {
         sim.run(|s| {
@@ -143,7 +143,7 @@ pub fn run_scenario(scenario: Scenario, opts: &RunOptions) -> Result<RunReport, 
     })
 }
 
-fn progress_bar(sim: &Simulation, quiet: bool) -> ProgressBar {
+fn progress_bar(quiet: bool) -> ProgressBar {
     if quiet {
         return ProgressBar::hidden();
     }
@@ -152,7 +152,6 @@ fn progress_bar(sim: &Simulation, quiet: bool) -> ProgressBar {
         ProgressStyle::with_template("{spinner} [{elapsed_precise}] {bar:40} {percent:>3}% {msg}")
             .expect("template"),
     );
-    let _ = sim;
     bar
 }
 

@@ -117,6 +117,28 @@ impl RandomNetwork {
     }
 }
 
+/// A square lattice of n horizontal and n vertical fractures 1 m apart on [0, n-1]^2 m, line k
+/// in each direction with aperture `aperture(k)` (m): about 2 n^2 cells of 1 m, four at every
+/// interior node (benchmarks and determinism tests).
+pub fn lattice(n: usize, aperture: impl Fn(usize) -> f64) -> Vec<Fracture> {
+    let len = (n - 1) as f64;
+    let mut fr = Vec::with_capacity(2 * n);
+    for k in 0..n {
+        let (x, a) = (k as f64, aperture(k));
+        fr.push(Fracture {
+            from: [0.0, x],
+            to: [len, x],
+            aperture: a,
+        });
+        fr.push(Fracture {
+            from: [x, 0.0],
+            to: [x, len],
+            aperture: a,
+        });
+    }
+    fr
+}
+
 /// Clip segment a-b to a box [xmin, ymin, xmax, ymax]; false when nothing is left.
 fn clip(a: &mut [f64; 2], b: &mut [f64; 2], bx: [f64; 4]) -> bool {
     let d = [b[0] - a[0], b[1] - a[1]];

@@ -68,23 +68,7 @@ impl FlatSolid {
                 }
             }
         }
-        let mut ptr = vec![0u32; n + 1];
-        for t in &mesh.triangles {
-            for &a in t {
-                ptr[a as usize + 1] += 1;
-            }
-        }
-        for i in 0..n {
-            ptr[i + 1] += ptr[i];
-        }
-        let mut fill = ptr.clone();
-        let mut inc = vec![0u32; ptr[n] as usize];
-        for (e, t) in mesh.triangles.iter().enumerate() {
-            for (k, &a) in t.iter().enumerate() {
-                inc[fill[a as usize] as usize] = (6 * e + 2 * k) as u32;
-                fill[a as usize] += 1;
-            }
-        }
+        let (ptr, inc) = crate::view::incidence(n, &mesh.triangles, |e, k| (6 * e + 2 * k) as u32);
         FlatSolid {
             conn: mesh.triangles.clone(),
             elem_force: vec![[0.0; 6]; geom.len()],

@@ -353,8 +353,13 @@ impl Simulation {
         let t0 = self.time;
         self.params.load_factor =
             crate::scenario::schedule_factor(&self.scenario.boundary_schedule, t0 + self.params.dt);
-        let systems: Vec<SystemId> = self.schedule.enabled().collect();
-        for sys in systems {
+        // By index, not through an iterator over the schedule: the systems borrow `self`
+        // mutably, and a collected list would allocate every step.
+        for k in 0..self.schedule.entries.len() {
+            let (sys, status) = self.schedule.entries[k];
+            if status != Status::Enabled {
+                continue;
+            }
             let _span = sys.span().entered();
             match sys {
                 SystemId::InternalForce => solid::internal_force(&mut self.view, &self.params),

@@ -66,6 +66,34 @@ pub struct SolidView {
     pub joint_state: Vec<JointState>,
 }
 
+/// CSR incidence of `n` targets from items that each name `K` targets: for target i,
+/// `inc[ptr[i]..ptr[i + 1]]` lists `code(item, slot)` in ascending item order. Gathers over it
+/// sum in a fixed order, so results do not depend on the number of threads.
+pub fn incidence<const K: usize>(
+    n: usize,
+    items: &[[u32; K]],
+    code: impl Fn(usize, usize) -> u32,
+) -> (Vec<u32>, Vec<u32>) {
+    let mut ptr = vec![0u32; n + 1];
+    for it in items {
+        for &a in it {
+            ptr[a as usize + 1] += 1;
+        }
+    }
+    for i in 0..n {
+        ptr[i + 1] += ptr[i];
+    }
+    let mut fill = ptr.clone();
+    let mut inc = vec![0u32; ptr[n] as usize];
+    for (e, it) in items.iter().enumerate() {
+        for (k, &a) in it.iter().enumerate() {
+            inc[fill[a as usize] as usize] = code(e, k);
+            fill[a as usize] += 1;
+        }
+    }
+    (ptr, inc)
+}
+
 impl SolidView {
     /// Build the view from the model (nodes in the solid only), ordered by stable id.
     pub fn build(model: &Model) -> Self {
@@ -140,24 +168,7 @@ impl SolidView {
         }
         v.elem_force = vec![[0.0; 6]; ne];
         // Node incidence (CSR) for the deterministic gather of element forces.
-        let mut count = vec![0u32; n + 1];
-        for c in &v.conn {
-            for &a in c {
-                count[a as usize + 1] += 1;
-            }
-        }
-        for i in 0..n {
-            count[i + 1] += count[i];
-        }
-        let mut fill = count.clone();
-        v.inc = vec![0; count[n] as usize];
-        for (e, c) in v.conn.iter().enumerate() {
-            for (k, &a) in c.iter().enumerate() {
-                v.inc[fill[a as usize] as usize] = (e * 6 + 2 * k) as u32;
-                fill[a as usize] += 1;
-            }
-        }
-        v.inc_ptr = count;
+        (v.inc_ptr, v.inc) = incidence(n, &v.conn, |e, k| (6 * e + 2 * k) as u32);
         // Internal edges for the fracture criterion.
         let mut elem_dense = vec![NONE; max_index];
         for (k, e) in v.elem_entity.iter().enumerate() {

@@ -70,9 +70,12 @@ pub fn boundary_flows(v: &mut FlowView, specs: &[FlowBoundary], t: f64) {
     }
     for b in &mut v.bcs {
         let f = specs[b.index].factor(t);
-        let pc: Vec<f64> = b.cells.iter().map(|&c| v.pressure[c as usize]).collect();
+        for (p, &c) in b.p_cells.iter_mut().zip(&b.cells) {
+            *p = v.pressure[c as usize];
+        }
+        let pc = &b.p_cells;
         let s: f64 = b.kappa.iter().sum();
-        let sp: f64 = b.kappa.iter().zip(&pc).map(|(k, p)| k * p).sum();
+        let sp: f64 = b.kappa.iter().zip(pc.iter()).map(|(k, p)| k * p).sum();
         let pb = match b.kind {
             FlowBcKind::Pressure(p) => f * p,
             FlowBcKind::Rate(q) => {
@@ -83,7 +86,7 @@ pub fn boundary_flows(v: &mut FlowView, specs: &[FlowBoundary], t: f64) {
                 }
             }
             FlowBcKind::Pump { p_max, q_half } => {
-                pump_operating_point(f * p_max, q_half, &b.kappa, &pc, b.rate).1
+                pump_operating_point(f * p_max, q_half, &b.kappa, pc, b.rate).1
             }
         };
         let mut total = 0.0;

@@ -44,27 +44,12 @@ fn one_and_two_threads_give_identical_bits() {
 /// and 2 threads.
 #[test]
 fn flow_one_and_two_threads_give_identical_bits() {
-    use hydrofrac::network::Fracture;
     use hydrofrac::scenario::{End, FlowBcKind, FlowTarget, InitialFluid};
     use hydrofrac::verify::flow_cases::{WATER, bc, flow_scenario, net};
     let run = |threads: usize| {
         let n = 71;
         let len = (n - 1) as f64;
-        let mut fr = Vec::new();
-        for k in 0..n {
-            let x = k as f64;
-            let a = 1e-4 * (1.0 + (k % 5) as f64 / 5.0);
-            fr.push(Fracture {
-                from: [0.0, x],
-                to: [len, x],
-                aperture: a,
-            });
-            fr.push(Fracture {
-                from: [x, 0.0],
-                to: [x, len],
-                aperture: a,
-            });
-        }
+        let fr = hydrofrac::network::lattice(n, |k| 1e-4 * (1.0 + (k % 5) as f64 / 5.0));
         let mut sc = flow_scenario(
             "det",
             net(fr, None, 1.0),

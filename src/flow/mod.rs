@@ -76,6 +76,8 @@ pub struct BcView {
     pub cells: Vec<u32>,
     pub kappa: Vec<f64>,
     pub q_cells: Vec<f64>,
+    /// Scratch: the connected cells' pressures at the current step (no allocation per step).
+    pub p_cells: Vec<f64>,
     /// Boundary pressure (Pa), total rate into the network (m^2/s), cumulative volumes (m^2).
     pub pressure: f64,
     pub rate: f64,
@@ -208,24 +210,7 @@ impl FlowView {
                 }
             }
         }
-        let mut count = vec![0u32; nc + 1];
-        for pr in &v.pairs {
-            count[pr[0] as usize + 1] += 1;
-            count[pr[1] as usize + 1] += 1;
-        }
-        for i in 0..nc {
-            count[i + 1] += count[i];
-        }
-        let mut fill = count.clone();
-        v.inc = vec![0; count[nc] as usize];
-        for (k, pr) in v.pairs.iter().enumerate() {
-            for side in 0..2 {
-                let c = pr[side] as usize;
-                v.inc[fill[c] as usize] = (2 * k + side) as u32;
-                fill[c] += 1;
-            }
-        }
-        v.inc_ptr = count;
+        (v.inc_ptr, v.inc) = crate::view::incidence(nc, &v.pairs, |k, side| (2 * k + side) as u32);
         v.pair_q = vec![0.0; v.pairs.len()];
         // Boundaries, ordered by stable id.
         let mut bcs: Vec<(u64, Entity, FlowBc)> = world
@@ -251,6 +236,7 @@ impl FlowView {
                 index: b.index,
                 kind: FlowBcKind::Pressure(0.0),
                 q_cells: vec![0.0; cells.len()],
+                p_cells: vec![0.0; cells.len()],
                 kappa: vec![0.0; cells.len()],
                 cells,
                 pressure: b.pressure,
