@@ -86,6 +86,23 @@ pub fn open_preexisting(
     Ok(placed)
 }
 
+/// Fill every cell with fluid of density `rho` (kg/m^3): mass rho a L (reference length).
+pub fn fill_cells(model: &mut Model, rho: f64) {
+    let cells: Vec<(Entity, [Entity; 2])> = model
+        .world
+        .query::<(Entity, &CellNodes)>()
+        .iter()
+        .map(|(e, n)| (e, n.0))
+        .collect();
+    for (c, ends) in cells {
+        let [a, b] = ends.map(|n| model.world.get::<&NodeRef>(n).expect("node").0);
+        let len = (b[0] - a[0]).hypot(b[1] - a[1]);
+        if let Ok(mut f) = model.world.get::<&mut CellFluid>(c) {
+            f.mass = rho * f.aperture * len;
+        }
+    }
+}
+
 /// Outward unit normal of an external edge (away from its element), reference configuration.
 pub fn outward_normal(model: &Model, edge: Entity) -> [f64; 2] {
     let w = &model.world;
@@ -159,22 +176,30 @@ pub fn joint_opening(model: &Model, j: &Joint) -> ([f64; 2], f64, f64) {
 /// Critical solid step with joint contact, s: the elements' `dt_crit` combined with the
 /// Gershgorin bound of the contact stiffness. Each joint couples its four nodes with
 /// coefficients +-K/2, a row sum of K per joint at a node, so
-/// dt = 2 / sqrt((2/dt_crit)^2 + max_i (K n_i / m_i)), with n_i the joints at node i and
+/// dt = 2 / sqrt((2/dt_crit)^2 + max_i (sum of K over the joints at node i) / m_i), with
 /// K = max(K_n, K_t).
 pub fn step_with_joints(model: &Model, dt_crit: f64, k: f64) -> f64 {
-    let mut count: HashMap<Entity, usize> = HashMap::new();
+    step_with_joint_stiffness(model, dt_crit, |_| k)
+}
+
+/// [`step_with_joints`] with a stiffness per joint from its reference length (m), Pa.
+pub fn step_with_joint_stiffness(model: &Model, dt_crit: f64, k: impl Fn(f64) -> f64) -> f64 {
+    let mut sum: HashMap<Entity, f64> = HashMap::new();
     for j in model.world.query::<&Joint>().iter() {
+        let en = model.world.get::<&EdgeNodes>(j.edges[0]).expect("edge").0;
+        let [a, b] = en.map(|n| model.world.get::<&NodeRef>(n).expect("node").0);
+        let kj = k((b[0] - a[0]).hypot(b[1] - a[1]));
         for e in j.edges {
             for n in model.world.get::<&EdgeNodes>(e).expect("edge").0 {
-                *count.entry(n).or_default() += 1;
+                *sum.entry(n).or_default() += kj;
             }
         }
     }
-    let worst = count
+    let worst = sum
         .iter()
-        .map(|(&n, &c)| {
+        .map(|(&n, &ks)| {
             let m = model.world.get::<&NodeMass>(n).map(|m| m.0).unwrap_or(0.0);
-            if m > 0.0 { k * c as f64 / m } else { 0.0 }
+            if m > 0.0 { ks / m } else { 0.0 }
         })
         .fold(0.0, f64::max);
     if worst == 0.0 {
@@ -184,9 +209,10 @@ pub fn step_with_joints(model: &Model, dt_crit: f64, k: f64) -> f64 {
 }
 
 /// Bring the fracture geometry in the components up to date: every mother node (left the solid)
-/// moves with the mean displacement of its daughters, and every joint's cell gets the hydraulic
-/// aperture max(delta_n, a_r) (seed (12)) from the joint's current opening.
-pub fn sync_fracture_geometry(model: &mut Model, residual_aperture: f64) {
+/// moves with the mean displacement of its daughters, and, with `residual_aperture` given,
+/// every joint's cell gets the hydraulic aperture max(delta_n, a_r) (seed (12)) from the
+/// joint's current opening (coupled runs pass `None`: their flow view owns the apertures).
+pub fn sync_fracture_geometry(model: &mut Model, residual_aperture: Option<f64>) {
     let mut sum: HashMap<Entity, ([f64; 2], usize)> = HashMap::new();
     for (link, st) in model.world.query::<(&NodeLink, &NodeState)>().iter() {
         if let (true, Some(m)) = (link.in_solid, link.mother) {
@@ -201,6 +227,9 @@ pub fn sync_fracture_geometry(model: &mut Model, residual_aperture: f64) {
             st.u = [u[0] / n as f64, u[1] / n as f64];
         }
     }
+    let Some(residual_aperture) = residual_aperture else {
+        return;
+    };
     let joints: Vec<(Joint, f64)> = model
         .world
         .query::<(&Joint, &JointState)>()

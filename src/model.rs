@@ -364,6 +364,19 @@ impl Model {
         })
     }
 
+    /// Put every solid node at the homogeneous plane-strain displacement of the in-situ stress
+    /// (sxx, syy), Pa: u = (exx (x - xc), eyy (y - yc)) about the domain centre, at rest. With
+    /// `Boundary::InSitu` the unfractured body then starts in equilibrium.
+    pub fn set_insitu_displacement(&mut self, sxx: f64, syy: f64) {
+        let (exx, eyy) = self.material.plane_strain_strain(sxx, syy);
+        let [x0, y0, x1, y1] = self.bbox;
+        let (xc, yc) = (0.5 * (x0 + x1), 0.5 * (y0 + y1));
+        for (x, st) in self.world.query_mut::<(&NodeRef, &mut NodeState)>() {
+            st.u = [exx * (x.0[0] - xc), eyy * (x.0[1] - yc)];
+            st.v = [0.0; 2];
+        }
+    }
+
     /// Store the scenario's boundary conditions on the nodes (prescribed displacements and
     /// traction loads; previous conditions are replaced).
     pub fn apply_boundary(&mut self, boundary: &Boundary) {

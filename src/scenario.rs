@@ -26,6 +26,11 @@ pub struct Scenario {
     pub material: Option<Material>,
     #[serde(default)]
     pub boundary: Boundary,
+    /// The solid's state at t = 0: at rest and undeformed (default), or `InSitu`: every node at
+    /// the homogeneous displacement of the `boundary: InSitu` stress, so the unfractured rock
+    /// starts in equilibrium instead of relaxing into it.
+    #[serde(default)]
+    pub initial_state: InitialState,
     /// Fracturing of the rock (the criterion; node splitting comes with the fracture issue).
     #[serde(default)]
     pub fracture: Option<FractureSpec>,
@@ -189,6 +194,17 @@ impl Default for Boundary {
     }
 }
 
+/// The solid's state at t = 0.
+#[derive(Clone, Copy, Debug, Default, Serialize, Deserialize, PartialEq, Eq)]
+pub enum InitialState {
+    /// Undeformed, at rest.
+    #[default]
+    Rest,
+    /// The homogeneous plane-strain displacement of the in-situ stress, u = (exx (x - xc),
+    /// eyy (y - yc)) about the domain centre, at rest.
+    InSitu,
+}
+
 /// Condition on one side.
 #[derive(Clone, Copy, Debug, Default, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
@@ -215,6 +231,11 @@ pub struct FractureSpec {
     /// `None`: no criterion, only the pre-existing fractures.
     #[serde(default)]
     pub strength: Option<f64>,
+    /// Which stress the criterion reads on a face: `Patch` (default), the area-weighted mean of
+    /// the elements touching the edge's ends that lie alongside it, or `Elements`, the mean of
+    /// the two elements beside the edge. See `systems::fracture::fracture_criterion`.
+    #[serde(default)]
+    pub face_stress: FaceStress,
     /// Residual hydraulic aperture a_r, m (seed: 0.5 mm).
     #[serde(default = "default_residual_aperture")]
     pub residual_aperture: f64,
@@ -234,6 +255,14 @@ pub struct FractureSpec {
     pub normal_stiffness: Option<f64>,
     #[serde(default)]
     pub shear_stiffness: Option<f64>,
+}
+
+/// The stress the fracture criterion reads on a face.
+#[derive(Clone, Copy, Debug, Default, Serialize, Deserialize, PartialEq, Eq)]
+pub enum FaceStress {
+    #[default]
+    Patch,
+    Elements,
 }
 
 fn default_friction() -> f64 {
@@ -396,6 +425,15 @@ pub struct TimeControl {
     /// Hard cap on the number of steps.
     #[serde(default = "default_max_steps")]
     pub max_steps: u64,
+    /// Coupled runs: the most explicit flow sub-steps allowed in one solid step. The flow step
+    /// shrinks with the square of the largest aperture; past this cap the run stops with a
+    /// message instead of crawling.
+    #[serde(default = "default_max_substeps")]
+    pub max_substeps: u64,
+}
+
+fn default_max_substeps() -> u64 {
+    100_000
 }
 
 fn default_safety() -> f64 {
@@ -862,11 +900,35 @@ impl Scenario {
                 ));
             }
         }
-        if !self.flow_boundaries.is_empty() && self.network.is_none() {
+        let rock_fractures = self.mesh.is_some()
+            && self
+                .fracture
+                .as_ref()
+                .is_some_and(|f| !f.preexisting.is_empty());
+        if !self.flow_boundaries.is_empty() && self.network.is_none() && !rock_fractures {
             return Err(SetupError::invalid(
                 "flow_boundaries",
-                "there is no fracture network to act on",
+                "there is no fracture network to act on (give a `network`, or a mesh with \
+                 `fracture.preexisting` fractures for a coupled run)",
             ));
+        }
+        if self.mesh.is_some() && self.network.is_some() {
+            return Err(SetupError::invalid(
+                "network",
+                "a rigid network cannot be combined with a mesh: in a coupled run the network is \
+                 the rock's fractures (`fracture.preexisting` and those the run opens)",
+            ));
+        }
+        if self.initial_state == InitialState::InSitu
+            && !matches!(self.boundary, Boundary::InSitu { .. })
+        {
+            return Err(SetupError::invalid(
+                "initial_state",
+                "InSitu starts from the homogeneous in-situ field: it needs `boundary: InSitu(..)`",
+            ));
+        }
+        if self.time.max_substeps == 0 {
+            return Err(SetupError::invalid("time.max_substeps", "must be >= 1"));
         }
         for (i, b) in self.flow_boundaries.iter().enumerate() {
             let field = format!("flow_boundaries[{i}]");

@@ -48,8 +48,14 @@ pub struct FlowPart {
     pub initial_excess: f64,
     /// Steady residual ||net inflow per cell|| / sum |boundary rates|.
     pub residual: f64,
-    /// The fractures the network was cut from (written to the output).
+    /// Network volume sum a L at the start, m^2 (volumes change in coupled runs).
+    pub initial_volume: f64,
+    /// The fractures the network was cut from (written to the output; empty in coupled runs).
     pub network: CellNetwork,
+    /// Coupled runs (the network is the rock's fractures): maps and exchange state.
+    pub coupling: Option<crate::coupling::Coupling>,
+    /// Coupled runs: a sub-step count above `time.max_substeps` the last step needed.
+    pub too_many: Option<crate::coupling::TooManySubsteps>,
 }
 
 pub struct Simulation {
@@ -83,6 +89,8 @@ pub struct Simulation {
     pub joint: JointParams,
     /// Steps to run for an `End::Time` scenario.
     steps_to_end: Option<u64>,
+    /// (ready edges, topology generation) of the last split attempt that split nothing.
+    last_idle_split: Option<(usize, u64)>,
 }
 
 /// Build the mesh a scenario describes.
@@ -143,6 +151,11 @@ impl Simulation {
                 }
                 m.apply_boundary(&scenario.boundary);
                 m.apply_pins(&scenario.pins)?;
+                if let (crate::scenario::InitialState::InSitu, crate::scenario::Boundary::InSitu { sxx, syy }) =
+                    (scenario.initial_state, &scenario.boundary)
+                {
+                    m.set_insitu_displacement(*sxx, *syy);
+                }
                 if let Some(g) = scenario.gravity {
                     let rho = mat.density;
                     m.add_body_force(|_| [rho * g[0], rho * g[1]]);
@@ -172,19 +185,34 @@ impl Simulation {
                 .as_ref()
                 .map_or(0.0, |f| f.friction_deg.to_radians().tan()),
         };
+        let coupled = has_solid && !scenario.flow_boundaries.is_empty();
+        let a_r = scenario
+            .fracture
+            .as_ref()
+            .map_or(5e-4, |f| f.residual_aperture);
         let (c_p, dt_crit) = if has_solid {
             let c = model.material.p_wave_speed();
             let dt = model.min_altitude / c;
+            let k_fluid = if coupled {
+                scenario.fluid.bulk_modulus
+            } else {
+                0.0
+            };
             (
                 c,
-                crate::fractures::step_with_joints(&model, dt, joint.kn.max(joint.kt)),
+                crate::coupling::coupled_step_bound(
+                    &model,
+                    dt,
+                    joint.kn.max(joint.kt),
+                    k_fluid,
+                    a_r,
+                ),
             )
         } else {
             (0.0, f64::INFINITY)
         };
         // Flow.
         let flow = match &scenario.network {
-            None => None,
             Some(spec) => {
                 let fp = FlowParams::from(scenario.fluid);
                 let net = spec.discretise();
@@ -194,6 +222,7 @@ impl Simulation {
                 view.set_bc_kinds(&scenario.flow_boundaries);
                 let crit = view.critical_step(&fp);
                 let initial_excess = view.excess.iter().sum();
+                let initial_volume = view.volume.iter().sum();
                 Some(FlowPart {
                     view,
                     params: fp,
@@ -202,10 +231,40 @@ impl Simulation {
                     dt_crit: crit,
                     stats: FlowStats::default(),
                     initial_excess,
+                    initial_volume,
                     residual: f64::INFINITY,
                     network: net,
+                    coupling: None,
+                    too_many: None,
                 })
             }
+            None if coupled => {
+                let fp = FlowParams::from(scenario.fluid);
+                if let crate::scenario::InitialFluid::Full(p0) = scenario.initial_fluid {
+                    crate::fractures::fill_cells(&mut model, fp.rho_r * (1.0 + p0 / fp.k));
+                }
+                model.add_flow_boundaries(&scenario.flow_boundaries)?;
+                let mut view = FlowView::build(&model, &fp);
+                view.set_bc_kinds(&scenario.flow_boundaries);
+                let crit = view.critical_step(&fp);
+                let initial_excess = view.excess.iter().sum();
+                let initial_volume = view.volume.iter().sum();
+                Some(FlowPart {
+                    view,
+                    params: fp,
+                    dt: 0.0,
+                    substeps: 1,
+                    dt_crit: crit,
+                    stats: FlowStats::default(),
+                    initial_excess,
+                    initial_volume,
+                    residual: f64::INFINITY,
+                    network: CellNetwork::default(),
+                    coupling: Some(crate::coupling::Coupling::default()),
+                    too_many: None,
+                })
+            }
+            None => None,
         };
         // Steps: the solid sets the step when there is one; flow sub-steps fill it.
         let t = &scenario.time;
@@ -249,8 +308,16 @@ impl Simulation {
                 .as_ref()
                 .is_some_and(|f| f.strength.is_some());
         let has_joints = !view.joint_nodes.is_empty();
+        if let Some(f) = flow.as_mut()
+            && f.coupling.is_some()
+        {
+            f.coupling = Some(crate::coupling::Coupling::build(
+                &model, &view, &f.view, &f.params, a_r,
+            ));
+        }
         let schedule = Schedule::new(&disabled, |s| match s {
             SystemId::Contact => has_joints,
+            SystemId::FluidPressure => coupled,
             SystemId::InternalForce | SystemId::Integrate => has_solid,
             SystemId::ExternalLoad => has_load,
             SystemId::Damping => has_solid && damping_on,
@@ -279,6 +346,7 @@ impl Simulation {
             placed,
             joint,
             steps_to_end,
+            last_idle_split: None,
         })
     }
 
@@ -295,7 +363,11 @@ impl Simulation {
                 .fracture
                 .as_ref()
                 .map_or(5e-4, |f| f.residual_aperture);
-            crate::fractures::sync_fracture_geometry(&mut self.model, a_r);
+            let coupled = self.flow.as_ref().is_some_and(|f| f.coupling.is_some());
+            crate::fractures::sync_fracture_geometry(
+                &mut self.model,
+                (!coupled).then_some(a_r),
+            );
         }
     }
 
@@ -339,6 +411,15 @@ impl Simulation {
             f.view = FlowView::build(&self.model, &f.params);
             f.view.set_bc_kinds(&self.scenario.flow_boundaries);
             f.dt_crit = f.view.critical_step(&f.params);
+            if let Some(c) = f.coupling.as_mut() {
+                *c = crate::coupling::Coupling::build(
+                    &self.model,
+                    &self.view,
+                    &f.view,
+                    &f.params,
+                    c.a_r,
+                );
+            }
         }
     }
 
@@ -365,6 +446,11 @@ impl Simulation {
                 SystemId::InternalForce => solid::internal_force(&mut self.view, &self.params),
                 SystemId::ExternalLoad => solid::external_load(&mut self.view, &self.params),
                 SystemId::Contact => fracture::contact(&mut self.view, &self.joint),
+                SystemId::FluidPressure => {
+                    if let Some(c) = self.flow.as_ref().and_then(|f| f.coupling.as_ref()) {
+                        fracture::fluid_pressure(&mut self.view, &c.joint_cell, &c.p_mean);
+                    }
+                }
                 SystemId::Damping => solid::damping(&mut self.view, &self.params),
                 SystemId::Integrate => self.stats = solid::integrate(&mut self.view, &self.params),
                 SystemId::FlowSubsteps => self.flow_substeps(t0),
@@ -376,7 +462,11 @@ impl Simulation {
                         .as_ref()
                         .and_then(|f| f.strength)
                         .unwrap_or(f64::INFINITY);
-                    self.ready_edges = fracture::fracture_criterion(&mut self.view, strength);
+                    let by_elements = self.scenario.fracture.as_ref().is_some_and(|f| {
+                        f.face_stress == crate::scenario::FaceStress::Elements
+                    });
+                    self.ready_edges =
+                        fracture::fracture_criterion(&mut self.view, strength, by_elements);
                 }
                 SystemId::Monitor => {
                     self.step += 1;
@@ -403,7 +493,10 @@ impl Simulation {
             .filter(|&k| self.view.edge_ready[k])
             .map(|k| self.view.edge_entity[k])
             .collect();
-        if ready.is_empty() {
+        // A ready edge with both ends interior waits for the fracture to reach it: retry only
+        // when the ready set or the topology changed since the last attempt that split nothing.
+        let key = (ready.len(), self.model.topology_generation);
+        if ready.is_empty() || self.last_idle_split == Some(key) {
             return;
         }
         let aperture = self
@@ -416,12 +509,24 @@ impl Simulation {
         self.splits += r.split_nodes;
         self.opened_edges += r.opened_edges;
         if r.split_nodes == 0 {
+            self.last_idle_split = Some(key);
             return;
         }
         self.rebuild_views_if_needed();
         let base = self.model.min_altitude / self.c_p;
-        let bound =
-            crate::fractures::step_with_joints(&self.model, base, self.joint.kn.max(self.joint.kt));
+        let coupled = self.flow.as_ref().is_some_and(|f| f.coupling.is_some());
+        let k_fluid = if coupled {
+            self.scenario.fluid.bulk_modulus
+        } else {
+            0.0
+        };
+        let bound = crate::coupling::coupled_step_bound(
+            &self.model,
+            base,
+            self.joint.kn.max(self.joint.kt),
+            k_fluid,
+            aperture,
+        );
         self.dt_crit = bound;
         let safe = self.scenario.time.safety * bound;
         if self.scenario.time.dt.is_none() && safe < self.params.dt {
@@ -438,10 +543,34 @@ impl Simulation {
     fn flow_substeps(&mut self, t0: f64) {
         let specs = &self.scenario.flow_boundaries;
         let Some(f) = self.flow.as_mut() else { return };
-        for k in 0..f.substeps {
-            f.stats = flowsys::flow_step(&mut f.view, &f.params, specs, f.dt, t0 + k as f64 * f.dt);
-            if f.stats.bad_cell.is_some() {
-                break;
+        if let Some(c) = f.coupling.as_mut() {
+            let tc = &self.scenario.time;
+            match c.step(
+                &self.view,
+                &mut f.view,
+                &f.params,
+                specs,
+                t0,
+                self.params.dt,
+                tc.safety,
+                tc.max_substeps,
+            ) {
+                Ok(r) => {
+                    f.stats = r.stats;
+                    f.substeps = r.substeps;
+                    f.dt = r.dt;
+                    f.dt_crit = r.dt_crit;
+                    f.too_many = None;
+                }
+                Err(e) => f.too_many = Some(e),
+            }
+        } else {
+            for k in 0..f.substeps {
+                f.stats =
+                    flowsys::flow_step(&mut f.view, &f.params, specs, f.dt, t0 + k as f64 * f.dt);
+                if f.stats.bad_cell.is_some() {
+                    break;
+                }
             }
         }
         let bc: f64 = f.view.bcs.iter().map(|b| b.rate.abs()).sum();
@@ -506,6 +635,21 @@ impl Simulation {
         } else {
             0.0
         };
+        if let Some(f) = &self.flow
+            && let Some(e) = f.too_many
+        {
+            return Err(blow(
+                f.view.cell_label(e.cell),
+                "flow sub-steps per solid step",
+                e.needed as f64,
+                format!(
+                    "above time.max_substeps = {}: the apertures make the explicit flow step {:.3e} s \
+                     against a solid step of {:.3e} s (raise time.max_substeps, or use a smaller solid step)",
+                    self.scenario.time.max_substeps, e.dt_crit, self.params.dt
+                ),
+                self.params.dt,
+            ));
+        }
         if let Some(f) = &self.flow {
             // The explicit flow step must respect the stability bound (a forced `time.flow_dt`
             // may not): above it the scheme oscillates, and the P = 0 floor of unfilled cells can
@@ -634,7 +778,10 @@ impl Simulation {
         let f = self.flow.as_ref()?;
         let inj: f64 = f.view.bcs.iter().map(|b| b.volume_in).sum();
         let prod: f64 = f.view.bcs.iter().map(|b| b.volume_out).sum();
-        let stored = (f.view.excess.iter().sum::<f64>() - f.initial_excess) / f.params.rho_r;
+        // Mass = excess + rho_r V: the stored volume is the change of both (volumes change in
+        // coupled runs, and cells created by splits arrive empty: e = -rho_r V).
+        let stored = (f.view.excess.iter().sum::<f64>() - f.initial_excess) / f.params.rho_r
+            + (f.view.volume.iter().sum::<f64>() - f.initial_volume);
         let scale = inj
             .max(prod)
             .max(stored.abs())

@@ -53,7 +53,14 @@ pub struct SolidView {
     /// elements, the unit normal in the reference configuration, and the criterion state.
     pub edge_entity: Vec<Entity>,
     pub edge_elems: Vec<[u32; 2]>,
+    /// Dense indices of the edge's two nodes.
+    pub edge_nodes: Vec<[u32; 2]>,
     pub edge_normal: Vec<[f64; 2]>,
+    /// Edge patches, CSR over edges: the elements touching either end of the edge whose
+    /// centroid projects onto the edge (those alongside it), with their area weights
+    /// normalised to 1 per edge. The fracture criterion's face stress is their weighted mean.
+    pub patch_ptr: Vec<u32>,
+    pub patch: Vec<(u32, f64)>,
     /// Normal stress across the edge, Pa (tension positive), and the fracture-ready mark.
     pub edge_sigma_n: Vec<f64>,
     pub edge_ready: Vec<bool>,
@@ -175,12 +182,13 @@ impl SolidView {
             elem_dense[e.id() as usize] = k as u32;
         }
         // (stable id, entity, its two elements, unit normal, state)
-        type EdgeRow = (u64, Entity, [u32; 2], [f64; 2], EdgeState);
+        type EdgeRow = (u64, Entity, [u32; 2], [u32; 2], [f64; 2], EdgeState);
         let mut edges: Vec<EdgeRow> = world
             .query::<(Entity, &StableId, &EdgeNodes, &EdgeElems, &EdgeState)>()
             .iter()
             .filter_map(|(e, id, en, ee, st)| {
-                let [Some(a), Some(b)] = ee.0 else {
+                // Opened (mother) edges left the solid: their sister daughters are joints.
+                let ([Some(a), Some(b)], false) = (ee.0, st.opened) else {
                     return None;
                 };
                 let [p, q] = en.0.map(|n| world.get::<&NodeRef>(n).expect("node").0);
@@ -190,15 +198,49 @@ impl SolidView {
                     id.0,
                     e,
                     [elem_dense[a.id() as usize], elem_dense[b.id() as usize]],
+                    en.0.map(|x| dense[x.id() as usize]),
                     [dy / len, -dx / len],
                     *st,
                 ))
             })
             .collect();
         edges.sort_unstable_by_key(|r| r.0);
-        for (_, e, el, n, st) in edges {
+        v.patch_ptr.push(0);
+        let mut cand: Vec<u32> = Vec::new();
+        for &(_, _, _, nodes, _, _) in &edges {
+            let [a, b] = nodes.map(|x| v.x0[x as usize]);
+            let t = [b[0] - a[0], b[1] - a[1]];
+            let l2 = t[0] * t[0] + t[1] * t[1];
+            cand.clear();
+            for x in nodes {
+                for &k in &v.inc[v.inc_ptr[x as usize] as usize..v.inc_ptr[x as usize + 1] as usize] {
+                    cand.push(k / 6);
+                }
+            }
+            cand.sort_unstable();
+            cand.dedup();
+            let start = v.patch.len();
+            let mut w = 0.0;
+            for &e in &cand {
+                let c = v.conn[e as usize].map(|x| v.x0[x as usize]);
+                let cx = (c[0][0] + c[1][0] + c[2][0]) / 3.0;
+                let cy = (c[0][1] + c[1][1] + c[2][1]) / 3.0;
+                let s = ((cx - a[0]) * t[0] + (cy - a[1]) * t[1]) / l2;
+                if s > 1e-9 && s < 1.0 - 1e-9 {
+                    let area = v.geom[e as usize][0];
+                    v.patch.push((e, area));
+                    w += area;
+                }
+            }
+            for p in &mut v.patch[start..] {
+                p.1 /= w;
+            }
+            v.patch_ptr.push(v.patch.len() as u32);
+        }
+        for (_, e, el, nodes, n, st) in edges {
             v.edge_entity.push(e);
             v.edge_elems.push(el);
+            v.edge_nodes.push(nodes);
             v.edge_normal.push(n);
             v.edge_sigma_n.push(st.sigma_n);
             v.edge_ready.push(st.fracture_ready);

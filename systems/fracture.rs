@@ -1,7 +1,8 @@
 //! Fracture systems. `fracture_criterion` (seed equation (7)): an internal edge is
 //! fracture-ready when the normal stress across it, from the mean stress of its two elements,
 //! reaches lambda*T0 (tension positive). It only marks edges; topology changes belong to the
-//! split system (issue "Fractures in the rock").
+//! split system. `contact` (joint penalty forces with Coulomb friction) and `fluid_pressure`
+//! (the fracture fluid's pressure on the faces) add to the nodal forces.
 
 use crate::view::SolidView;
 use rayon::prelude::*;
@@ -12,23 +13,48 @@ pub fn normal_stress(s: [f64; 3], n: [f64; 2]) -> f64 {
     s[0] * n[0] * n[0] + s[1] * n[1] * n[1] + 2.0 * s[2] * n[0] * n[1]
 }
 
-/// `fracture_criterion`: sigma_n of every internal edge from the mean of its two elements'
-/// stresses; mark edges with sigma_n >= `strength` (lambda*T0, Pa). Marks stay once set.
-/// Returns the number of fracture-ready edges.
-pub fn fracture_criterion(v: &mut SolidView, strength: f64) -> usize {
-    let (stress, elems, normals) = (&v.stress, &v.edge_elems, &v.edge_normal);
+/// `fracture_criterion`: sigma_n of every internal edge, marking edges with sigma_n >= `strength`
+/// (lambda*T0, Pa). Marks stay once set. Returns the number of fracture-ready edges.
+///
+/// The face stress (`by_elements = false`, the default) is the area-weighted mean stress of the
+/// edge's patch: the elements touching either end of the edge whose centroid lies alongside it
+/// (projects onto the edge). In a uniform field it is exact, like any mean. At a crack tip it
+/// also sees the tip's fan: on the seed's regular mesh the two elements beside the edge straight
+/// ahead of a pressurised crack stay in compression while the element below/above the tip (where
+/// the singular sigma_yy peaks, about 60 degrees off the crack line) turns tensile, so with the
+/// mean of only the two elements beside the edge (`by_elements = true`) fractures branch off one
+/// row beside the crack instead of running ahead (seen on Example I).
+pub fn fracture_criterion(v: &mut SolidView, strength: f64, by_elements: bool) -> usize {
+    let (stress, elems, normals, ptr, patch) = (
+        &v.stress,
+        &v.edge_elems,
+        &v.edge_normal,
+        &v.patch_ptr,
+        &v.patch,
+    );
     v.edge_sigma_n
         .par_iter_mut()
         .zip(v.edge_ready.par_iter_mut())
         .enumerate()
         .with_min_len(4096)
         .for_each(|(k, (sn, ready))| {
-            let [a, b] = elems[k].map(|e| stress[e as usize]);
-            let mean = [
-                0.5 * (a[0] + b[0]),
-                0.5 * (a[1] + b[1]),
-                0.5 * (a[2] + b[2]),
-            ];
+            let mean = if by_elements {
+                let [a, b] = elems[k].map(|e| stress[e as usize]);
+                [
+                    0.5 * (a[0] + b[0]),
+                    0.5 * (a[1] + b[1]),
+                    0.5 * (a[2] + b[2]),
+                ]
+            } else {
+                let mut m = [0.0; 3];
+                for &(e, w) in &patch[ptr[k] as usize..ptr[k + 1] as usize] {
+                    let s = stress[e as usize];
+                    m[0] += w * s[0];
+                    m[1] += w * s[1];
+                    m[2] += w * s[2];
+                }
+                m
+            };
             *sn = normal_stress(mean, normals[k]);
             *ready |= *sn >= strength;
         });
@@ -43,6 +69,65 @@ pub struct JointParams {
     pub mu: f64,
 }
 
+/// Current geometry of joint `k`: face p's unit tangent t (from its first node to its second),
+/// its outward unit normal n (towards face q), its length (m), and the offsets of face q's centre
+/// from face p's along n (opening delta_n, m, positive when the faces separate) and along t
+/// (delta_t, m) (seed (8)).
+#[derive(Clone, Copy, Debug)]
+pub struct JointFrame {
+    pub n: [f64; 2],
+    pub t: [f64; 2],
+    pub len: f64,
+    pub dn: f64,
+    pub dt: f64,
+}
+
+#[inline]
+pub fn joint_frame(v: &SolidView, k: usize) -> JointFrame {
+    let nodes = v.joint_nodes[k];
+    let x = nodes.map(|i| v.position(i as usize));
+    let t = [x[1][0] - x[0][0], x[1][1] - x[0][1]];
+    let len = t[0].hypot(t[1]);
+    let t = [t[0] / len, t[1] / len];
+    let s = v.joint_sign[k];
+    let n = [s * t[1], -s * t[0]];
+    let cp = [0.5 * (x[0][0] + x[1][0]), 0.5 * (x[0][1] + x[1][1])];
+    let cq = [0.5 * (x[2][0] + x[3][0]), 0.5 * (x[2][1] + x[3][1])];
+    let d = [cq[0] - cp[0], cq[1] - cp[1]];
+    JointFrame {
+        n,
+        t,
+        len,
+        dn: d[0] * n[0] + d[1] * n[1],
+        dt: d[0] * t[0] + d[1] * t[1],
+    }
+}
+
+/// `fluid_pressure`: the fluid in each fracture cell pushes its two faces apart. Joint k carries
+/// cell `joint_cell[k]` (u32::MAX: none) at pressure `pressure[cell]` (Pa, the mean over the last
+/// step's flow sub-steps): face q gets p L n (N/m, current normal and length of face p), face p
+/// the opposite, half to each node. Adds to `force`. Serial, fixed scatter order.
+pub fn fluid_pressure(v: &mut SolidView, joint_cell: &[u32], pressure: &[f64]) {
+    for k in 0..v.joint_nodes.len() {
+        let c = joint_cell[k];
+        if c == u32::MAX {
+            continue;
+        }
+        let p = pressure[c as usize];
+        if p == 0.0 {
+            continue;
+        }
+        let JointFrame { n, len, .. } = joint_frame(v, k);
+        let fq = [p * len * n[0], p * len * n[1]];
+        let nodes = v.joint_nodes[k];
+        for (j, sgn) in [(0, -0.5), (1, -0.5), (2, 0.5), (3, 0.5)] {
+            let i = nodes[j] as usize;
+            v.force[i][0] += sgn * fq[0];
+            v.force[i][1] += sgn * fq[1];
+        }
+    }
+}
+
 /// `contact` (seed (8)-(11)): for each joint, the offsets of face q's centre from face p's in
 /// p's outward normal and tangent, delta_n and delta_t (current geometry). In contact
 /// (delta_n < 0): F_n = -K_n delta_n; F_t += -K_t (change of delta_t), capped at mu F_n
@@ -52,16 +137,7 @@ pub struct JointParams {
 pub fn contact(v: &mut SolidView, p: &JointParams) {
     for k in 0..v.joint_nodes.len() {
         let nodes = v.joint_nodes[k];
-        let x = nodes.map(|i| v.position(i as usize));
-        let t = [x[1][0] - x[0][0], x[1][1] - x[0][1]];
-        let len = t[0].hypot(t[1]);
-        let t = [t[0] / len, t[1] / len];
-        let s = v.joint_sign[k];
-        let n = [s * t[1], -s * t[0]];
-        let cp = [0.5 * (x[0][0] + x[1][0]), 0.5 * (x[0][1] + x[1][1])];
-        let cq = [0.5 * (x[2][0] + x[3][0]), 0.5 * (x[2][1] + x[3][1])];
-        let d = [cq[0] - cp[0], cq[1] - cp[1]];
-        let (dn, dt) = (d[0] * n[0] + d[1] * n[1], d[0] * t[0] + d[1] * t[1]);
+        let JointFrame { n, t, dn, dt, .. } = joint_frame(v, k);
         let st = &mut v.joint_state[k];
         st.opening = dn;
         if dn < 0.0 {

@@ -4,8 +4,11 @@
 //! `tracing` span named after it (opened on the scheduler thread; rayon work inside a system is
 //! counted in that system's span). Order is load-bearing:
 //! - `internal_force` overwrites the force array, so it runs first;
-//! - `external_load` adds to it, and `damping` reads the complete unbalanced force;
+//! - `external_load`, `contact` and `fluid_pressure` add to it, and `damping` reads the complete unbalanced force;
 //! - `integrate` consumes forces and produces the step statistics that `monitor` checks;
+//! - `flow_substeps` runs after `integrate`: it knows the apertures at both ends of the step and
+//!   interpolates them over its sub-steps; the mean pressure it leaves is the load of the next
+//!   step's `fluid_pressure` (the seed's staggered sub-stepping);
 //! - `monitor` must run before `output` so that no frame with non-finite values is written.
 
 pub mod flow;
@@ -18,6 +21,7 @@ pub enum SystemId {
     InternalForce,
     ExternalLoad,
     Contact,
+    FluidPressure,
     Damping,
     Integrate,
     FlowSubsteps,
@@ -29,10 +33,11 @@ pub enum SystemId {
 
 impl SystemId {
     /// The step, in order.
-    pub const ORDER: [SystemId; 10] = [
+    pub const ORDER: [SystemId; 11] = [
         SystemId::InternalForce,
         SystemId::ExternalLoad,
         SystemId::Contact,
+        SystemId::FluidPressure,
         SystemId::Damping,
         SystemId::Integrate,
         SystemId::FlowSubsteps,
@@ -47,6 +52,7 @@ impl SystemId {
             SystemId::InternalForce => "internal_force",
             SystemId::ExternalLoad => "external_load",
             SystemId::Contact => "contact",
+            SystemId::FluidPressure => "fluid_pressure",
             SystemId::Damping => "damping",
             SystemId::Integrate => "integrate",
             SystemId::FlowSubsteps => "flow_substeps",
@@ -64,6 +70,9 @@ impl SystemId {
             SystemId::ExternalLoad => "adds constant boundary tractions and body forces",
             SystemId::Contact => {
                 "joint contact: penalty normal and shear forces between sister faces, Coulomb friction"
+            }
+            SystemId::FluidPressure => {
+                "fluid pressure (mean of the last step's flow sub-steps) as traction on both faces of every fracture cell"
             }
             SystemId::Damping => {
                 "local (Cundall) or viscous damping force for pseudo-static response"
@@ -108,6 +117,9 @@ impl SystemId {
                 tracing::info_span!(target: "hydrofrac::system", "external_load")
             }
             SystemId::Contact => tracing::info_span!(target: "hydrofrac::system", "contact"),
+            SystemId::FluidPressure => {
+                tracing::info_span!(target: "hydrofrac::system", "fluid_pressure")
+            }
             SystemId::Damping => tracing::info_span!(target: "hydrofrac::system", "damping"),
             SystemId::Integrate => tracing::info_span!(target: "hydrofrac::system", "integrate"),
             SystemId::FlowSubsteps => {

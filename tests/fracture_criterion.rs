@@ -30,13 +30,16 @@ fn marks_exactly_the_edges_at_or_above_the_strength() {
     let (nx, ny) = (20, 10);
     let vertical = (nx - 1) * ny;
     let diagonal = nx * ny;
-    for (strength, expect) in [(6e6, 0), (4e6, vertical), (2e6, vertical + diagonal)] {
+    for (strength, expect, by_elements) in [(6e6, 0), (4e6, vertical), (2e6, vertical + diagonal)]
+        .into_iter()
+        .flat_map(|(s, e)| [(s, e, false), (s, e, true)])
+    {
         let mut sim = relaxed();
         assert_eq!(
             sim.view.edge_entity.len(),
             vertical + diagonal + nx * (ny - 1)
         );
-        let n = fracture_criterion(&mut sim.view, strength);
+        let n = fracture_criterion(&mut sim.view, strength, by_elements);
         assert_eq!(n, expect, "strength {strength:e}");
         for k in 0..sim.view.edge_entity.len() {
             let nrm = sim.view.edge_normal[k];

@@ -106,8 +106,12 @@ pub struct FlowView {
     /// Dense node indices of each cell's ends.
     pub cell_nodes: Vec<[u32; 2]>,
     pub node_entity: Vec<Entity>,
-    /// Current node positions, m.
+    /// Current node positions, m (for output).
     pub node_pos: Vec<[f64; 2]>,
+    /// Reference node positions, m: cell lengths come from these, so a cell's volume changes
+    /// only with its aperture (with K = 2.2 GPa, a length strain of 1e-3 would move the
+    /// pressure of a full cell by 2 MPa).
+    pub node_ref: Vec<[f64; 2]>,
     /// Length L (m), aperture a (m), volume a L (m^2), pressure (Pa), throughput (m^2/s).
     pub length: Vec<f64>,
     pub aperture: Vec<f64>,
@@ -146,14 +150,14 @@ impl FlowView {
             .collect();
         cells.sort_unstable_by_key(|c| c.0);
         // Nodes used by cells, ordered by stable id.
-        let mut nodes: Vec<(u64, Entity, [f64; 2])> = cells
+        let mut nodes: Vec<(u64, Entity, [f64; 2], [f64; 2])> = cells
             .iter()
             .flat_map(|c| c.2.0)
             .map(|n| {
                 let id = world.get::<&StableId>(n).expect("node").0;
                 let x = world.get::<&NodeRef>(n).expect("node").0;
                 let u = world.get::<&NodeState>(n).expect("node").u;
-                (id, n, [x[0] + u[0], x[1] + u[1]])
+                (id, n, [x[0] + u[0], x[1] + u[1]], x)
             })
             .collect();
         nodes.sort_unstable_by_key(|n| n.0);
@@ -168,10 +172,11 @@ impl FlowView {
             generation: model.topology_generation,
             ..Default::default()
         };
-        for (i, (_, e, x)) in nodes.iter().enumerate() {
+        for (i, (_, e, x, r)) in nodes.iter().enumerate() {
             dense[e.id() as usize] = i as u32;
             v.node_entity.push(*e);
             v.node_pos.push(*x);
+            v.node_ref.push(*r);
         }
         let mut cell_dense = vec![u32::MAX; max_index];
         for (i, (id, e, n, f, o)) in cells.iter().enumerate() {
@@ -262,10 +267,10 @@ impl FlowView {
         self.cell_entity.len()
     }
 
-    /// Lengths and volumes from the node positions and apertures.
+    /// Lengths (reference positions) and volumes from the apertures.
     pub fn update_geometry(&mut self) {
         for c in 0..self.cell_nodes.len() {
-            let [a, b] = self.cell_nodes[c].map(|n| self.node_pos[n as usize]);
+            let [a, b] = self.cell_nodes[c].map(|n| self.node_ref[n as usize]);
             self.length[c] = (b[0] - a[0]).hypot(b[1] - a[1]);
             self.volume[c] = self.aperture[c] * self.length[c];
         }
@@ -273,20 +278,17 @@ impl FlowView {
 
     /// Transmissibilities of pairs and boundary connections from the current apertures.
     pub fn update_kappa(&mut self, p: &FlowParams) {
-        self.kappa = self
-            .pairs
-            .iter()
-            .map(|pr| {
-                let (i, j) = (pr[0] as usize, pr[1] as usize);
-                pair_kappa(
-                    self.length[i],
-                    self.aperture[i],
-                    self.length[j],
-                    self.aperture[j],
-                    p.mu,
-                )
-            })
-            .collect();
+        self.kappa.resize(self.pairs.len(), 0.0);
+        for (k, pr) in self.pairs.iter().enumerate() {
+            let (i, j) = (pr[0] as usize, pr[1] as usize);
+            self.kappa[k] = pair_kappa(
+                self.length[i],
+                self.aperture[i],
+                self.length[j],
+                self.aperture[j],
+                p.mu,
+            );
+        }
         for b in &mut self.bcs {
             for (k, &c) in b.cells.iter().enumerate() {
                 b.kappa[k] =
@@ -350,6 +352,15 @@ impl FlowView {
             }
         }
         seen
+    }
+
+    /// Set cell c's volume to `volume` (m^2) keeping its fluid mass: the excess mass
+    /// e = m - rho_r V moves by rho_r (V_old - V_new) (Kahan-compensated).
+    #[inline]
+    pub fn set_volume_keep_mass(&mut self, c: usize, volume: f64, p: &FlowParams) {
+        let d = p.rho_r * (self.volume[c] - volume);
+        kahan_add(&mut self.excess[c], &mut self.excess_comp[c], d);
+        self.volume[c] = volume;
     }
 
     /// Fluid volume at reference density, m^2.

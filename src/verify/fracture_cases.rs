@@ -43,6 +43,7 @@ pub fn pressurised_crack(
     );
     sc.fracture = Some(FractureSpec {
         strength: None,
+        face_stress: Default::default(),
         residual_aperture: 5e-4,
         preexisting: vec![PreFracture {
             from: [-a, 0.0],
