@@ -1,0 +1,117 @@
+//! Hydro-mechanical coupling (issue 5): a pump drives water into a pre-existing fracture in
+//! rock under the seed's in-situ stress (sigma_xx = -20 MPa, sigma_yy = -10 MPa); the fracture
+//! opens and grows by node splitting, and the new cells join the flow network.
+//!
+//! 40 m x 30 m, h = 1 m (2,400 triangles), a 10 m fracture from the left side at y = 15 m, pump
+//! P_max = 30 MPa (higher than the seed's 18 MPa so that the small, stiff domain fractures
+//! within 0.1 s of simulated time).
+
+use hydrofrac::error::RunError;
+use hydrofrac::scenario::Scenario;
+use hydrofrac::sim::{Finish, Simulation};
+use hydrofrac::systems::SystemId;
+
+fn scene(end: f64, extra: &str) -> Scenario {
+    let text = format!(
+        r#"(
+        name: "coupled",
+        mesh: Regular(width: 40.0, height: 30.0, h: 1.0),
+        material: (young: 20e9, poisson: 0.2, density: 2700.0),
+        boundary: InSitu(sxx: -20e6, syy: -10e6),
+        initial_state: InSitu,
+        fracture: Some((strength: Some(1e6), preexisting: [(from: (0.0, 15.0), to: (10.0, 15.0))],
+            friction_deg: 45.0, normal_stiffness: Some(20e9), shear_stiffness: Some(8.3e9))),
+        flow_boundaries: [(name: "pump", at: Node((0.0, 15.0)), kind: Pump(p_max: 30e6, q_half: 2.0))],
+        time: (end: Time({end}) {extra}),
+    )"#
+    );
+    Scenario::parse(&text, "coupled.ron").unwrap()
+}
+
+/// Mass balance over the whole coupled run (verification.md item 12): injected volume = change
+/// of stored fluid, counting cells created mid-run (they arrive empty) and the volume changes of
+/// every cell as its faces move, checked after every step. Tolerance 1e-9 relative (the issue's
+/// target); the scheme conserves to round-off (about 1e-16 measured), so this fails on any real
+/// leak, e.g. a volume change without rebasing the excess mass or a new cell created full.
+#[test]
+fn coupled_run_conserves_mass_and_grows_the_fracture() {
+    let mut sim = Simulation::new(scene(0.11, ""), &[]).unwrap();
+    assert!(sim.schedule.is_enabled(SystemId::FluidPressure));
+    let cells0 = sim.flow.as_ref().unwrap().view.n_cells();
+    assert_eq!(cells0, 10);
+    let mut worst: f64 = 0.0;
+    let mut substeps_seen = (u64::MAX, 0u64);
+    while sim.finish.is_none() {
+        sim.step_once().unwrap();
+        let (inj, _, stored, err) = sim.flow_balance().unwrap();
+        assert!(err.is_finite() && inj >= 0.0 && stored.is_finite());
+        worst = worst.max(err);
+        let n = sim.flow.as_ref().unwrap().substeps;
+        substeps_seen = (substeps_seen.0.min(n), substeps_seen.1.max(n));
+    }
+    assert!(worst < 1e-9, "mass balance error {worst:e}");
+    let f = sim.flow.as_ref().unwrap();
+    let (inj, _, _, _) = sim.flow_balance().unwrap();
+    assert!(inj > 1e-3, "pump injected only {inj} m^2");
+    // The fracture grew along y = 15 from its tip at x = 10 (the criterion and split ran), and
+    // the new cells took fluid.
+    assert!(sim.splits >= 1, "no split");
+    let new: Vec<usize> = (0..f.view.n_cells())
+        .filter(|&c| f.view.created_t[c] > 0.0)
+        .collect();
+    assert!(!new.is_empty());
+    for &c in &new {
+        let [a, b] = f.view.cell_nodes[c].map(|n| f.view.node_ref[n as usize]);
+        assert!(
+            (a[1] - 15.0).abs() < 1e-9 && (b[1] - 15.0).abs() < 1e-9 && a[0].min(b[0]) >= 10.0 - 1e-9,
+            "new cell off the fracture line: {a:?} {b:?}"
+        );
+    }
+    assert!(
+        new.iter().any(|&c| f.view.pressure[c] > 10e6),
+        "no new cell was filled and pressurised"
+    );
+    // The automatic sub-step count follows the apertures as they open.
+    assert!(
+        substeps_seen.1 > 2 * substeps_seen.0,
+        "sub-steps per solid step stayed at {substeps_seen:?}"
+    );
+}
+
+/// Ablation (issue 5): with the contact system or the criterion switched off the coupled run
+/// completes; the schedule reports what was off; without the criterion nothing splits.
+#[test]
+fn ablation_runs_complete() {
+    let mut sim = Simulation::new(scene(0.02, ""), &["contact".to_string()]).unwrap();
+    assert!(!sim.schedule.is_enabled(SystemId::Contact));
+    assert_eq!(sim.run(|_| {}).unwrap(), Finish::EndTime);
+    let mut sim = Simulation::new(scene(0.11, ""), &["fracture_criterion".to_string()]).unwrap();
+    assert!(!sim.schedule.is_enabled(SystemId::FractureCriterion));
+    assert_eq!(sim.run(|_| {}).unwrap(), Finish::EndTime);
+    assert_eq!(sim.splits, 0);
+}
+
+/// Stability: when the apertures need more flow sub-steps per solid step than allowed, the run
+/// stops with the step, the critical cell and the quantity, never with NaN.
+#[test]
+fn substep_cap_stops_with_a_clear_message() {
+    let mut sim = Simulation::new(scene(0.05, ", max_substeps: 200"), &[]).unwrap();
+    match sim.run(|_| {}) {
+        Err(RunError::BlowUp {
+            quantity,
+            entity,
+            value,
+            why,
+            ..
+        }) => {
+            assert_eq!(quantity, "flow sub-steps per solid step");
+            assert!(entity.starts_with("cell "), "{entity}");
+            assert!(value > 200.0, "{value}");
+            assert!(why.contains("max_substeps"), "{why}");
+        }
+        other => panic!("expected a blow-up report, got {other:?}"),
+    }
+    let f = sim.flow.as_ref().unwrap();
+    assert!(f.view.excess.iter().all(|e| e.is_finite()));
+    assert!(sim.view.u.iter().all(|u| u[0].is_finite() && u[1].is_finite()));
+}
