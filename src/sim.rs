@@ -759,6 +759,9 @@ impl Simulation {
                 self.stats.vmax,
             ]);
         }
+        if self.scenario.fracture.is_some() {
+            v.push(self.ready_edges as f64);
+        }
         if let Some(f) = &self.flow {
             for b in &f.view.bcs {
                 v.push(b.pressure);

@@ -39,6 +39,8 @@ fn coupled_run_conserves_mass_and_grows_the_fracture() {
     assert!(sim.schedule.is_enabled(SystemId::FluidPressure));
     let cells0 = sim.flow.as_ref().unwrap().view.n_cells();
     assert_eq!(cells0, 10);
+    // Every time-series column has its value (a missing one shifts every later column).
+    assert_eq!(sim.series_columns().len(), sim.series_values().len());
     let mut worst: f64 = 0.0;
     let mut substeps_seen = (u64::MAX, 0u64);
     while sim.finish.is_none() {
