@@ -9,7 +9,9 @@
 //!
 //! Network maps ([`network`]) draw each segment as an anti-aliased line
 //! coloured by a hand-made viridis colormap, with equal x/y scales and a
-//! colour bar.
+//! colour bar. Fracture maps ([`fracture_map`]) share their layout and draw
+//! filled, anti-aliased polygons (fracture cells with magnified apertures)
+//! over a light-grey mesh.
 //!
 //! All text is drawn by this module glyph by glyph (`Pen`), not by
 //! plotters' text path, to work around its letter-spacing bug.
@@ -174,7 +176,73 @@ pub fn network(
         width_px,
         markers,
     };
-    write_atomically(path, |tmp| draw_network(tmp, path, &net))
+    write_atomically(path, |tmp| {
+        draw_map_file(tmp, path, |root| draw_network(root, &net))
+    })
+}
+
+/// Draw fracture cells as filled polygons over a rock mesh, like the seed
+/// paper's Fig. 7: each of `quads` (corners in order around the polygon, m;
+/// e.g. a fracture cell as wide as its magnified aperture) filled with the
+/// viridis colour of `values[k]` (linear scale) and edged with a 1.5 px line
+/// of the same colour, so quads thinner than a pixel still show; the
+/// `mesh_edges` as thin light-grey lines below them; equal x/y scales in
+/// metres, a vertical colour bar labelled `value_label`, and `title` on top;
+/// 1100x900 px PNG, written atomically.
+///
+/// `window` (`[xmin, xmax, ymin, ymax]`, m) is the region shown (widened to
+/// the plot's aspect ratio); by default the bounding box of the quads and
+/// markers plus 10 % of its larger side on each side (of the mesh when there
+/// are neither). As in [`network`], non-finite values are drawn grey (below
+/// the coloured quads, which are drawn in increasing value order); quads with
+/// a non-finite corner and mesh edges with a non-finite end are left out; all
+/// three are counted in a note. `markers` are labelled points (e.g. a pump)
+/// drawn as filled circles when inside the window. No quads, or none with a
+/// colourable value, still gives a PNG, with a note. `values` must have one
+/// entry per quad, and `window`, when given, finite bounds with xmin < xmax
+/// and ymin < ymax, else [`PlotError::Input`].
+#[allow(clippy::too_many_arguments)]
+pub fn fracture_map(
+    path: &Path,
+    title: &str,
+    mesh_edges: &[Segment],
+    quads: &[[[f64; 2]; 4]],
+    values: &[f64],
+    value_label: &str,
+    window: Option<[f64; 4]>,
+    markers: &[([f64; 2], &str)],
+) -> Result<(), PlotError> {
+    let input_err = |message: String| PlotError::Input {
+        path: path.to_path_buf(),
+        message,
+    };
+    if values.len() != quads.len() {
+        return Err(input_err(format!(
+            "{} values given for {} quads (need one value per quad)",
+            values.len(),
+            quads.len()
+        )));
+    }
+    if let Some(w @ [x0, x1, y0, y1]) = window
+        && !(w.iter().all(|v| v.is_finite()) && x0 < x1 && y0 < y1)
+    {
+        return Err(input_err(format!(
+            "window {w:?} is not [xmin, xmax, ymin, ymax] with finite xmin < xmax and ymin < ymax"
+        )));
+    }
+    ensure_font()?;
+    let map = QuadMap {
+        title,
+        mesh_edges,
+        quads,
+        values,
+        value_label,
+        window,
+        markers,
+    };
+    write_atomically(path, |tmp| {
+        draw_map_file(tmp, path, |root| draw_fracture_map(root, &map).map(drop))
+    })
 }
 
 // ---------------------------------------------------------------------------
@@ -1044,6 +1112,17 @@ const MARKER_FILL: RGBColor = RGBColor(214, 39, 40);
 const BAR_GAP: i32 = 28;
 const BAR_W: i32 = 24;
 const BAR_TICK: i32 = 6;
+/// Margin around a network's data box, fraction of its larger side.
+const NET_PAD: f64 = 0.04;
+/// Margin around a fracture map's quads (default window), fraction of the
+/// larger side of their box.
+const QUAD_PAD: f64 = 0.1;
+/// Width of the line edging each quad of a fracture map, px (quads thinner
+/// than this still show as a line of this width).
+const QUAD_EDGE_PX: f64 = 1.5;
+/// Colour and width (px) of a fracture map's mesh edges.
+const MESH_GREY: RGBColor = RGBColor(200, 200, 200);
+const MESH_LINE_PX: f64 = 0.8;
 
 /// Viridis (matplotlib) at t = 0, 1/8, ..., 1.
 const VIRIDIS: [(u8, u8, u8); 9] = [
@@ -1144,13 +1223,13 @@ fn colour_fraction(axis: &Axis, v: f64) -> f64 {
 }
 
 /// Axes with equal metres per pixel for the data box `[xmin, xmax, ymin,
-/// ymax]` (plus a margin), filling `w` x `h` px (the axes' pixel lengths);
-/// both get the same tick step.
-fn equal_axes(bbox: [f64; 4], w: f64, h: f64) -> (Axis, Axis) {
+/// ymax]` plus a margin of `pad` times its larger side, filling `w` x `h` px
+/// (the axes' pixel lengths); both get the same tick step.
+fn equal_axes(bbox: [f64; 4], w: f64, h: f64, pad: f64) -> (Axis, Axis) {
     let try_box = |[xmin, xmax, ymin, ymax]: [f64; 4]| -> Option<(Axis, Axis)> {
         let span = (xmax - xmin).max(ymax - ymin);
         let pad = if span > 0.0 {
-            0.04 * span
+            pad * span
         } else {
             let m = xmin.abs().max(ymin.abs());
             if m > 0.0 { 0.1 * m } else { 1.0 }
@@ -1277,13 +1356,400 @@ fn boxed_text(
     pen.draw(area, s, (x0, pos.1), (HPos::Left, VPos::Center), false)
 }
 
-fn draw_network(tmp: &Path, path: &Path, net: &Network) -> Result<(), PlotError> {
+/// Pens of the map figures.
+struct MapPens {
+    title: Pen,
+    desc: Pen,
+    tick: Pen,
+    label: Pen,
+}
+
+/// Layout of a map ([`network`], [`fracture_map`]), computed before
+/// drawing: equal x/y axes in metres, title on top, axis descriptions, a
+/// vertical colour bar on the right; `NET_WIDTH` x `NET_HEIGHT` px.
+struct MapLayout<'a> {
+    title: &'a str,
+    value_label: &'a str,
+    pens: MapPens,
+    /// Colour-bar axis (`None`: nothing to colour, the bar is left blank).
+    bar: Option<Axis>,
+    bar_labels: Vec<(f64, String)>,
+    bar_mult: Option<String>,
+    bar_tick_w: i32,
+    desc_h: i32,
+    top: i32,
+    bottom: i32,
+    left: i32,
+    right: i32,
+    y_tick_w: i32,
+    x_axis: Axis,
+    y_axis: Axis,
+    x_labels: Vec<(f64, String)>,
+    y_labels: Vec<(f64, String)>,
+}
+
+/// Where a map's plotting area landed, from [`MapLayout::draw_base`].
+struct MapFrame {
+    /// Pixel ranges of the plotting area.
+    px: std::ops::Range<i32>,
+    py: std::ops::Range<i32>,
+    /// Pixel column of each major x tick, pixel row of each major y tick.
+    x_ticks: Vec<i32>,
+    y_ticks: Vec<i32>,
+    /// Axis ranges (m) and the pixels of their (lo, lo) and (hi, hi) corners.
+    x: (f64, f64),
+    y: (f64, f64),
+    lo_px: (i32, i32),
+    hi_px: (i32, i32),
+}
+
+impl MapFrame {
+    /// Metres to continuous pixel coordinates (pixel `(i, j)` covers
+    /// `[i, i+1) x [j, j+1)`).
+    fn to_px(&self, p: [f64; 2]) -> (f64, f64) {
+        let fx = (p[0] - self.x.0) / (self.x.1 - self.x.0);
+        let fy = (p[1] - self.y.0) / (self.y.1 - self.y.0);
+        (
+            self.lo_px.0 as f64 + fx * (self.hi_px.0 - self.lo_px.0) as f64,
+            self.lo_px.1 as f64 + fy * (self.hi_px.1 - self.lo_px.1) as f64,
+        )
+    }
+
+    fn clip(&self) -> (std::ops::Range<i32>, std::ops::Range<i32>) {
+        (self.px.clone(), self.py.clone())
+    }
+
+    /// Whether the point `p` (m) lies within the axes.
+    fn shows(&self, p: [f64; 2]) -> bool {
+        (self.x.0..=self.x.1).contains(&p[0]) && (self.y.0..=self.y.1).contains(&p[1])
+    }
+}
+
+impl<'a> MapLayout<'a> {
+    /// Lay out a map of the data box `bbox` (`[xmin, xmax, ymin, ymax]`, m)
+    /// with a margin of `pad` times its larger side, widened to the plotting
+    /// area's aspect ratio.
+    fn new(
+        title: &'a str,
+        value_label: &'a str,
+        bar: Option<Axis>,
+        bbox: [f64; 4],
+        pad: f64,
+    ) -> Self {
+        let black = RGBColor(0, 0, 0);
+        let pens = MapPens {
+            title: Pen::new(TITLE_SIZE, black),
+            desc: Pen::new(DESC_SIZE, black),
+            tick: Pen::new(TICK_SIZE, RGBColor(30, 30, 30)),
+            label: Pen::new(LEGEND_SIZE, black),
+        };
+        let bar_labels: Vec<(f64, String)> = bar
+            .iter()
+            .flat_map(|a| a.major.iter().map(|&t| (t, a.label(t))))
+            .collect();
+        let bar_mult = bar.as_ref().and_then(Axis::multiplier);
+        let bar_tick_w = bar_labels
+            .iter()
+            .map(|(_, l)| pens.tick.width(l))
+            .max()
+            .unwrap_or(0);
+
+        // Layout in pixels (margins around the plotting area).
+        let desc_h = pens.desc.cap() + 6;
+        let top = if title.is_empty() {
+            24
+        } else {
+            18 + pens.title.cap() + 26
+        };
+        let bottom = TICK_GAP + pens.tick.cap() + 8 + 18 + desc_h + 14;
+        let bar_desc_w = if value_label.is_empty() {
+            0
+        } else {
+            16 + desc_h
+        };
+        let right = (BAR_GAP + BAR_W + BAR_TICK + 6 + bar_tick_w + bar_desc_w + 20)
+            .max(BAR_GAP + bar_mult.as_deref().map_or(0, |m| pens.tick.width(m)) + 16);
+        let (w_px, h_px) = (NET_WIDTH as i32, NET_HEIGHT as i32);
+        let mut y_tick_w = 0;
+        let (mut left, mut axes);
+        let mut tries = 0;
+        loop {
+            left = 16 + desc_h + 18 + y_tick_w + TICK_GAP;
+            // Pixel lengths of the axes as plotters maps them.
+            let ax_w = (w_px - right - 1 - left).max(10) as f64;
+            let ax_h = (h_px - bottom - 1 - top).max(10) as f64;
+            axes = equal_axes(bbox, ax_w, ax_h, pad);
+            let need = axes
+                .1
+                .major
+                .iter()
+                .map(|&t| pens.tick.width(&axes.1.label(t)))
+                .max()
+                .unwrap_or(0);
+            tries += 1;
+            if need <= y_tick_w || tries == 5 {
+                break;
+            }
+            y_tick_w = need;
+        }
+        let (x_axis, y_axis) = axes;
+        let x_labels = x_axis.major.iter().map(|&t| (t, x_axis.label(t))).collect();
+        let y_labels = y_axis.major.iter().map(|&t| (t, y_axis.label(t))).collect();
+        MapLayout {
+            title,
+            value_label,
+            pens,
+            bar,
+            bar_labels,
+            bar_mult,
+            bar_tick_w,
+            desc_h,
+            top,
+            bottom,
+            left,
+            right,
+            y_tick_w,
+            x_axis,
+            y_axis,
+            x_labels,
+            y_labels,
+        }
+    }
+
+    /// Fill the image white and draw the axes with their tick marks (and a
+    /// grid when `grid`); returns where the plotting area landed.
+    fn draw_base(
+        &self,
+        root: &DrawingArea<BitMapBackend, Shift>,
+        grid: bool,
+    ) -> Result<MapFrame, String> {
+        root.fill(&WHITE).map_err(|e| e.to_string())?;
+        let no_label = |_: &f64| String::new();
+        let mut chart = ChartBuilder::on(root)
+            .margin_top(self.top)
+            .margin_right(self.right)
+            .x_label_area_size(self.bottom)
+            .y_label_area_size(self.left)
+            .build_cartesian_2d(self.x_axis.clone(), self.y_axis.clone())
+            .map_err(|e| e.to_string())?;
+        let mut mesh = chart.configure_mesh();
+        mesh.x_label_formatter(&no_label)
+            .y_label_formatter(&no_label)
+            .bold_line_style(BLACK.mix(0.12))
+            .light_line_style(BLACK.mix(0.04))
+            .axis_style(BLACK.stroke_width(1))
+            .set_all_tick_mark_size(6);
+        if !grid {
+            mesh.disable_mesh();
+        }
+        mesh.draw().map_err(|e| e.to_string())?;
+        let (px, py) = chart.plotting_area().get_pixel_range();
+        let (xa, ya) = (&self.x_axis, &self.y_axis);
+        Ok(MapFrame {
+            px,
+            py,
+            x_ticks: (self.x_labels.iter())
+                .map(|(t, _)| chart.backend_coord(&(*t, ya.lo)).0)
+                .collect(),
+            y_ticks: (self.y_labels.iter())
+                .map(|(t, _)| chart.backend_coord(&(xa.lo, *t)).1)
+                .collect(),
+            x: (xa.lo, xa.hi),
+            y: (ya.lo, ya.hi),
+            lo_px: chart.backend_coord(&(xa.lo, ya.lo)),
+            hi_px: chart.backend_coord(&(xa.hi, ya.hi)),
+        })
+    }
+
+    /// Draw over the map's content: the frame's top and right sides, tick
+    /// labels, axis descriptions, title, colour bar, a big note (`(text,
+    /// centred)`: centred in the plot, else boxed near its top) and small
+    /// notes in the lower left corner.
+    fn draw_overlay(
+        &self,
+        root: &DrawingArea<BitMapBackend, Shift>,
+        frame: &MapFrame,
+        big_note: Option<(&str, bool)>,
+        notes: &[String],
+    ) -> Result<(), String> {
+        let (px, py) = (&frame.px, &frame.py);
+        let pens = &self.pens;
+        // Close the frame on the top and right (over the content).
+        root.draw(&PathElement::new(
+            vec![
+                (px.start, py.start),
+                (px.end - 1, py.start),
+                (px.end - 1, py.end - 1),
+            ],
+            BLACK.stroke_width(1),
+        ))
+        .map_err(|e| e.to_string())?;
+
+        // Axis tick labels, descriptions, title.
+        for ((_, l), &x) in self.x_labels.iter().zip(&frame.x_ticks) {
+            let at = (x, py.end + TICK_GAP);
+            pens.tick
+                .draw(root, l, at, (HPos::Center, VPos::Top), false)?;
+        }
+        for ((_, l), &y) in self.y_labels.iter().zip(&frame.y_ticks) {
+            let at = (px.start - TICK_GAP, y);
+            pens.tick
+                .draw(root, l, at, (HPos::Right, VPos::Center), false)?;
+        }
+        let cx = (px.start + px.end) / 2;
+        let cy = (py.start + py.end) / 2;
+        let center = (HPos::Center, VPos::Center);
+        let center_top = (HPos::Center, VPos::Top);
+        let y = py.end + TICK_GAP + pens.tick.cap() + 8 + 18;
+        pens.desc.draw(root, "x [m]", (cx, y), center_top, false)?;
+        let x = px.start - TICK_GAP - self.y_tick_w - 18 - self.desc_h / 2;
+        pens.desc.draw(root, "y [m]", (x, cy), center, true)?;
+        if !self.title.is_empty() {
+            pens.title
+                .draw(root, self.title, (cx, 18), center_top, false)?;
+        }
+        if let Some(m) = self.x_axis.multiplier() {
+            let at = (px.end, py.end + TICK_GAP + pens.tick.cap() + 8 + 18);
+            pens.tick
+                .draw(root, &m, at, (HPos::Right, VPos::Top), false)?;
+        }
+        if let Some(m) = self.y_axis.multiplier() {
+            let at = (px.start, py.start - 8);
+            pens.tick
+                .draw(root, &m, at, (HPos::Left, VPos::Bottom), false)?;
+        }
+
+        // Colour bar, as tall as the plotting area.
+        let bx0 = px.end - 1 + BAR_GAP;
+        let bx1 = bx0 + BAR_W;
+        let (b_top, b_bot) = (py.start, py.end - 1);
+        let bar_y = |f: f64| b_bot - (f * (b_bot - b_top) as f64).round() as i32;
+        for yy in b_top..=b_bot {
+            let color = if self.bar.is_some() {
+                viridis((b_bot - yy) as f64 / (b_bot - b_top).max(1) as f64)
+            } else {
+                RGBColor(240, 240, 240)
+            };
+            root.draw(&PathElement::new(vec![(bx0, yy), (bx1, yy)], color))
+                .map_err(|e| e.to_string())?;
+        }
+        root.draw(&Rectangle::new(
+            [(bx0, b_top), (bx1, b_bot)],
+            BLACK.stroke_width(1),
+        ))
+        .map_err(|e| e.to_string())?;
+        if let Some(a) = &self.bar {
+            for &t in &a.minor {
+                let y = bar_y(colour_fraction(a, t));
+                root.draw(&PathElement::new(vec![(bx1, y), (bx1 + 3, y)], BLACK))
+                    .map_err(|e| e.to_string())?;
+            }
+            for (t, l) in &self.bar_labels {
+                let y = bar_y(colour_fraction(a, *t));
+                root.draw(&PathElement::new(
+                    vec![(bx1, y), (bx1 + BAR_TICK, y)],
+                    BLACK,
+                ))
+                .map_err(|e| e.to_string())?;
+                let at = (bx1 + BAR_TICK + 6, y);
+                pens.tick
+                    .draw(root, l, at, (HPos::Left, VPos::Center), false)?;
+            }
+        }
+        if let Some(m) = &self.bar_mult {
+            let at = (bx0, b_top - 8);
+            pens.tick
+                .draw(root, m, at, (HPos::Left, VPos::Bottom), false)?;
+        }
+        if !self.value_label.is_empty() {
+            let x = bx1 + BAR_TICK + 6 + self.bar_tick_w + 16 + self.desc_h / 2;
+            let at = (x, (b_top + b_bot) / 2);
+            pens.desc.draw(root, self.value_label, at, center, true)?;
+        }
+
+        // Notes.
+        if let Some((msg, centred)) = big_note {
+            let pen = Pen::new(22.0, RGBColor(90, 90, 90));
+            if centred {
+                pen.draw(root, msg, (cx, cy), center, false)?;
+            } else {
+                // Near the top, to hide little of the drawing.
+                let at = (cx, py.start + 24 + pen.cap() / 2);
+                boxed_text(root, &pen, msg, at, HPos::Center)?;
+            }
+        }
+        if !notes.is_empty() {
+            let pen = Pen::new(15.0, RGBColor(110, 110, 110));
+            let at = (12, NET_HEIGHT as i32 - 12);
+            pen.draw(
+                root,
+                &notes.join("; "),
+                at,
+                (HPos::Left, VPos::Bottom),
+                false,
+            )?;
+        }
+        Ok(())
+    }
+}
+
+/// Labelled points as red discs with a dark rim on a white halo, each label
+/// on a white box beside its point (left of it near the right edge).
+fn draw_map_markers(
+    root: &DrawingArea<BitMapBackend, Shift>,
+    frame: &MapFrame,
+    pen: &Pen,
+    markers: &[([f64; 2], &str)],
+) -> Result<(), String> {
+    let clip = frame.clip();
+    let (px, py) = (&frame.px, &frame.py);
+    for &(p, _) in markers {
+        let c = frame.to_px(p);
+        draw_aa_segment(root, c, c, 17.0, WHITE, &clip)?;
+        draw_aa_segment(root, c, c, 14.0, RGBColor(40, 40, 40), &clip)?;
+        draw_aa_segment(root, c, c, 11.0, MARKER_FILL, &clip)?;
+    }
+    for &(p, label) in markers {
+        if label.is_empty() {
+            continue;
+        }
+        let (cx, cy) = frame.to_px(p);
+        let (cx, cy) = (cx.floor() as i32, cy.floor() as i32);
+        let w = pen.width(label);
+        let half = pen.cap() / 2 + 10;
+        let y = cy.clamp(py.start + half, (py.end - half).max(py.start + half));
+        if cx + 16 + w + 10 <= px.end {
+            boxed_text(root, pen, label, (cx + 16, y), HPos::Left)?;
+        } else {
+            boxed_text(root, pen, label, (cx - 16, y), HPos::Right)?;
+        }
+    }
+    Ok(())
+}
+
+/// Draw a `NET_WIDTH` x `NET_HEIGHT` px map with `draw` into the PNG file
+/// `tmp`; errors name `path`.
+fn draw_map_file(
+    tmp: &Path,
+    path: &Path,
+    draw: impl FnOnce(&DrawingArea<BitMapBackend, Shift>) -> Result<(), String>,
+) -> Result<(), PlotError> {
+    let root = BitMapBackend::new(tmp, (NET_WIDTH, NET_HEIGHT)).into_drawing_area();
+    let r = draw(&root).and_then(|()| root.present().map_err(|e| e.to_string()));
+    drop(root);
+    r.map_err(|m| draw_err(path, m))
+}
+
+fn draw_network(root: &DrawingArea<BitMapBackend, Shift>, net: &Network) -> Result<(), String> {
     let finite = |p: &[f64; 2]| p[0].is_finite() && p[1].is_finite();
     let drawable: Vec<usize> = (0..net.segments.len())
         .filter(|&k| finite(&net.segments[k].a) && finite(&net.segments[k].b))
         .collect();
     let no_coords = net.segments.len() - drawable.len();
-    let markers: Vec<&([f64; 2], &str)> = net.markers.iter().filter(|m| finite(&m.0)).collect();
+    let markers: Vec<([f64; 2], &str)> = (net.markers.iter())
+        .filter(|m| finite(&m.0))
+        .copied()
+        .collect();
 
     // Data box of the drawable segments and markers.
     let mut bbox = [f64::MAX, f64::MIN, f64::MAX, f64::MIN];
@@ -1291,13 +1757,8 @@ fn draw_network(tmp: &Path, path: &Path, net: &Network) -> Result<(), PlotError>
         .iter()
         .flat_map(|&k| [net.segments[k].a, net.segments[k].b])
         .chain(markers.iter().map(|m| m.0));
-    for [x, y] in points {
-        bbox = [
-            bbox[0].min(x),
-            bbox[1].max(x),
-            bbox[2].min(y),
-            bbox[3].max(y),
-        ];
+    for p in points {
+        bbox = grow_box(bbox, p);
     }
     if bbox[0] > bbox[1] {
         bbox = [0.0, 1.0, 0.0, 1.0];
@@ -1317,289 +1778,276 @@ fn draw_network(tmp: &Path, path: &Path, net: &Network) -> Result<(), PlotError>
         .iter()
         .filter(|&&k| !net.usable(net.values[k]))
         .count();
-
-    let black = RGBColor(0, 0, 0);
-    let title_pen = Pen::new(TITLE_SIZE, black);
-    let desc_pen = Pen::new(DESC_SIZE, black);
-    let tick_pen = Pen::new(TICK_SIZE, RGBColor(30, 30, 30));
-    let label_pen = Pen::new(LEGEND_SIZE, black);
-
-    let bar_labels: Vec<(f64, String)> = bar
-        .iter()
-        .flat_map(|a| a.major.iter().map(|&t| (t, a.label(t))))
-        .collect();
-    let bar_mult = bar.as_ref().and_then(Axis::multiplier);
-    let bar_tick_w = bar_labels
-        .iter()
-        .map(|(_, l)| tick_pen.width(l))
-        .max()
-        .unwrap_or(0);
-
-    // Layout in pixels (margins around the plotting area).
-    let desc_h = desc_pen.cap() + 6;
-    let top = if net.title.is_empty() {
-        24
-    } else {
-        18 + title_pen.cap() + 26
-    };
-    let bottom = TICK_GAP + tick_pen.cap() + 8 + 18 + desc_h + 14;
-    let bar_desc_w = if net.value_label.is_empty() {
-        0
-    } else {
-        16 + desc_h
-    };
-    let right = (BAR_GAP + BAR_W + BAR_TICK + 6 + bar_tick_w + bar_desc_w + 20)
-        .max(BAR_GAP + bar_mult.as_deref().map_or(0, |m| tick_pen.width(m)) + 16);
-    let (w_px, h_px) = (NET_WIDTH as i32, NET_HEIGHT as i32);
-    let mut y_tick_w = 0;
-    let (mut left, mut axes);
-    let mut tries = 0;
-    loop {
-        left = 16 + desc_h + 18 + y_tick_w + TICK_GAP;
-        // Pixel lengths of the axes as plotters maps them.
-        let ax_w = (w_px - right - 1 - left).max(10) as f64;
-        let ax_h = (h_px - bottom - 1 - top).max(10) as f64;
-        axes = equal_axes(bbox, ax_w, ax_h);
-        let need = axes
-            .1
-            .major
-            .iter()
-            .map(|&t| tick_pen.width(&axes.1.label(t)))
-            .max()
-            .unwrap_or(0);
-        tries += 1;
-        if need <= y_tick_w || tries == 5 {
-            break;
-        }
-        y_tick_w = need;
-    }
-    let (x_axis, y_axis) = axes;
-    let x_labels: Vec<(f64, String)> = x_axis.major.iter().map(|&t| (t, x_axis.label(t))).collect();
-    let y_labels: Vec<(f64, String)> = y_axis.major.iter().map(|&t| (t, y_axis.label(t))).collect();
+    let layout = MapLayout::new(net.title, net.value_label, bar, bbox, NET_PAD);
 
     // Drawing order: grey segments first, then by increasing value.
     let mut order: Vec<(Option<f64>, usize)> = drawable
         .iter()
         .map(|&k| {
             let v = net.values[k];
-            let t = match &bar {
+            let t = match &layout.bar {
                 Some(a) if net.usable(v) => Some(colour_fraction(a, net.bar_value(v))),
                 _ => None,
             };
             (t, k)
         })
         .collect();
+    sort_for_drawing(&mut order);
+
+    let frame = layout.draw_base(root, true)?;
+    let clip = frame.clip();
+    for &(t, k) in &order {
+        let color = t.map_or(NO_VALUE_GREY, viridis);
+        let s = &net.segments[k];
+        let w = net.line_width(k);
+        draw_aa_segment(root, frame.to_px(s.a), frame.to_px(s.b), w, color, &clip)?;
+    }
+    draw_map_markers(root, &frame, &layout.pens.label, &markers)?;
+
+    let big_note = if net.segments.is_empty() {
+        Some("no segments to plot")
+    } else if drawable.is_empty() {
+        Some("no segments with finite end points to plot")
+    } else if layout.bar.is_none() {
+        Some(match net.scale {
+            ColourScale::Linear => "no finite values to colour (all segments grey)",
+            ColourScale::Log => "no finite, positive values to colour (all segments grey)",
+        })
+    } else {
+        None
+    };
+    let centred = drawable.is_empty() && markers.is_empty();
+    let mut notes = Vec::new();
+    if greyed > 0 && layout.bar.is_some() {
+        let what = match net.scale {
+            ColourScale::Linear => "a non-finite value",
+            ColourScale::Log => "a non-positive or non-finite value",
+        };
+        let s = if greyed == 1 { "" } else { "s" };
+        notes.push(format!("{greyed} segment{s} with {what} drawn grey"));
+    }
+    if no_coords > 0 {
+        let s = if no_coords == 1 { "" } else { "s" };
+        notes.push(format!(
+            "{no_coords} segment{s} with non-finite end points omitted"
+        ));
+    }
+    layout.draw_overlay(root, &frame, big_note.map(|m| (m, centred)), &notes)
+}
+
+/// `bbox` (`[xmin, xmax, ymin, ymax]`) grown to hold `p`.
+fn grow_box(bbox: [f64; 4], [x, y]: [f64; 2]) -> [f64; 4] {
+    [
+        bbox[0].min(x),
+        bbox[1].max(x),
+        bbox[2].min(y),
+        bbox[3].max(y),
+    ]
+}
+
+/// Sort `(colour fraction, item)` pairs for drawing: items without a colour
+/// (grey) first, then by increasing fraction.
+fn sort_for_drawing(order: &mut [(Option<f64>, usize)]) {
     order.sort_by(|p, q| match (p.0, q.0) {
         (Some(a), Some(b)) => a.total_cmp(&b),
         (p, q) => p.is_some().cmp(&q.is_some()),
     });
+}
 
-    let root = BitMapBackend::new(tmp, (NET_WIDTH, NET_HEIGHT)).into_drawing_area();
-    let inner = || -> Result<(), String> {
-        root.fill(&WHITE).map_err(|e| e.to_string())?;
-        let no_label = |_: &f64| String::new();
-        let mut chart = ChartBuilder::on(&root)
-            .margin_top(top)
-            .margin_right(right)
-            .x_label_area_size(bottom)
-            .y_label_area_size(left)
-            .build_cartesian_2d(x_axis.clone(), y_axis.clone())
-            .map_err(|e| e.to_string())?;
-        chart
-            .configure_mesh()
-            .x_label_formatter(&no_label)
-            .y_label_formatter(&no_label)
-            .bold_line_style(BLACK.mix(0.12))
-            .light_line_style(BLACK.mix(0.04))
-            .axis_style(BLACK.stroke_width(1))
-            .set_all_tick_mark_size(6)
-            .draw()
-            .map_err(|e| e.to_string())?;
-        let (px, py) = chart.plotting_area().get_pixel_range();
-        let clip = (px.clone(), py.clone());
+// ---------------------------------------------------------------------------
+// Fracture maps
+// ---------------------------------------------------------------------------
 
-        // Metres to continuous pixel coordinates.
-        let (x0, y0) = chart.backend_coord(&(x_axis.lo, y_axis.lo));
-        let (x1, y1) = chart.backend_coord(&(x_axis.hi, y_axis.hi));
-        let to_px = |p: [f64; 2]| -> (f64, f64) {
-            let fx = (p[0] - x_axis.lo) / (x_axis.hi - x_axis.lo);
-            let fy = (p[1] - y_axis.lo) / (y_axis.hi - y_axis.lo);
-            (
-                x0 as f64 + fx * (x1 - x0) as f64,
-                y0 as f64 + fy * (y1 - y0) as f64,
-            )
-        };
+/// Arguments of [`fracture_map`], validated.
+struct QuadMap<'a> {
+    title: &'a str,
+    mesh_edges: &'a [Segment],
+    quads: &'a [[[f64; 2]; 4]],
+    values: &'a [f64],
+    value_label: &'a str,
+    window: Option<[f64; 4]>,
+    markers: &'a [([f64; 2], &'a str)],
+}
 
-        // Segments and markers.
-        for &(t, k) in &order {
-            let color = t.map_or(NO_VALUE_GREY, viridis);
-            let s = &net.segments[k];
-            let w = net.line_width(k);
-            draw_aa_segment(&root, to_px(s.a), to_px(s.b), w, color, &clip)?;
-        }
-        for &&(p, _) in &markers {
-            let c = to_px(p);
-            draw_aa_segment(&root, c, c, 17.0, WHITE, &clip)?;
-            draw_aa_segment(&root, c, c, 14.0, RGBColor(40, 40, 40), &clip)?;
-            draw_aa_segment(&root, c, c, 11.0, MARKER_FILL, &clip)?;
-        }
-        for &&(p, label) in &markers {
-            if label.is_empty() {
-                continue;
+/// Anti-aliased filled polygon `pts` (continuous pixel coordinates, as in
+/// [`draw_aa_segment`]; even-odd rule, 4 x 4 samples per pixel), clipped to
+/// the pixel ranges `clip`.
+fn fill_aa_polygon(
+    area: &DrawingArea<BitMapBackend, Shift>,
+    pts: &[(f64, f64)],
+    color: RGBColor,
+    clip: &(std::ops::Range<i32>, std::ops::Range<i32>),
+) -> Result<(), String> {
+    const N: i64 = 4;
+    let n = pts.len();
+    if n < 3 {
+        return Ok(());
+    }
+    let (mut x_lo, mut x_hi, mut y_lo, mut y_hi) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
+    for &(x, y) in pts {
+        (x_lo, x_hi) = (x_lo.min(x), x_hi.max(x));
+        (y_lo, y_hi) = (y_lo.min(y), y_hi.max(y));
+    }
+    let i_lo = x_lo.floor().max(clip.0.start as f64);
+    let i_hi = x_hi.floor().min((clip.0.end - 1) as f64);
+    let j_lo = y_lo.floor().max(clip.1.start as f64);
+    let j_hi = y_hi.floor().min((clip.1.end - 1) as f64);
+    // Also false for NaN.
+    if !(i_lo <= i_hi && j_lo <= j_hi) {
+        return Ok(());
+    }
+    let (i0, i1, j0, j1) = (i_lo as i32, i_hi as i32, j_lo as i32, j_hi as i32);
+    let cols = (i1 - i0 + 1) as usize;
+    let samples = cols as i64 * N;
+    let mut cover = vec![0u16; cols];
+    let mut xs: Vec<f64> = Vec::with_capacity(n);
+    for j in j0..=j1 {
+        cover.fill(0);
+        for r in 0..N {
+            let sy = j as f64 + (r as f64 + 0.5) / N as f64;
+            xs.clear();
+            for k in 0..n {
+                let (p, q) = (pts[k], pts[(k + 1) % n]);
+                if (p.1 <= sy) != (q.1 <= sy) {
+                    xs.push(p.0 + (sy - p.1) * (q.0 - p.0) / (q.1 - p.1));
+                }
             }
-            let (cx, cy) = to_px(p);
-            let (cx, cy) = (cx.floor() as i32, cy.floor() as i32);
-            let w = label_pen.width(label);
-            let half = label_pen.cap() / 2 + 10;
-            let y = cy.clamp(py.start + half, (py.end - half).max(py.start + half));
-            if cx + 16 + w + 10 <= px.end {
-                boxed_text(&root, &label_pen, label, (cx + 16, y), HPos::Left)?;
-            } else {
-                boxed_text(&root, &label_pen, label, (cx - 16, y), HPos::Right)?;
+            xs.sort_by(f64::total_cmp);
+            for span in xs.chunks_exact(2) {
+                // Sample columns s at x = i0 + (s + 1/2) / N with span[0] <= x < span[1].
+                let first =
+                    |x: f64| (((x - i0 as f64) * N as f64 - 0.5).ceil() as i64).clamp(0, samples);
+                for s in first(span[0])..first(span[1]) {
+                    cover[(s / N) as usize] += 1;
+                }
             }
         }
-        // Close the frame on the top and right (over the segments).
-        root.draw(&PathElement::new(
-            vec![
-                (px.start, py.start),
-                (px.end - 1, py.start),
-                (px.end - 1, py.end - 1),
-            ],
-            BLACK.stroke_width(1),
-        ))
-        .map_err(|e| e.to_string())?;
-
-        // Axis tick labels, descriptions, title.
-        for (t, l) in &x_labels {
-            let (x, _) = chart.backend_coord(&(*t, y_axis.lo));
-            let at = (x, py.end + TICK_GAP);
-            tick_pen.draw(&root, l, at, (HPos::Center, VPos::Top), false)?;
-        }
-        for (t, l) in &y_labels {
-            let (_, y) = chart.backend_coord(&(x_axis.lo, *t));
-            let at = (px.start - TICK_GAP, y);
-            tick_pen.draw(&root, l, at, (HPos::Right, VPos::Center), false)?;
-        }
-        let cx = (px.start + px.end) / 2;
-        let cy = (py.start + py.end) / 2;
-        let center = (HPos::Center, VPos::Center);
-        let center_top = (HPos::Center, VPos::Top);
-        let y = py.end + TICK_GAP + tick_pen.cap() + 8 + 18;
-        desc_pen.draw(&root, "x [m]", (cx, y), center_top, false)?;
-        let x = px.start - TICK_GAP - y_tick_w - 18 - desc_h / 2;
-        desc_pen.draw(&root, "y [m]", (x, cy), center, true)?;
-        if !net.title.is_empty() {
-            title_pen.draw(&root, net.title, (cx, 18), center_top, false)?;
-        }
-        if let Some(m) = x_axis.multiplier() {
-            let at = (px.end, py.end + TICK_GAP + tick_pen.cap() + 8 + 18);
-            tick_pen.draw(&root, &m, at, (HPos::Right, VPos::Top), false)?;
-        }
-        if let Some(m) = y_axis.multiplier() {
-            let at = (px.start, py.start - 8);
-            tick_pen.draw(&root, &m, at, (HPos::Left, VPos::Bottom), false)?;
-        }
-
-        // Colour bar, as tall as the plotting area.
-        let bx0 = px.end - 1 + BAR_GAP;
-        let bx1 = bx0 + BAR_W;
-        let (b_top, b_bot) = (py.start, py.end - 1);
-        let bar_y = |f: f64| b_bot - (f * (b_bot - b_top) as f64).round() as i32;
-        for yy in b_top..=b_bot {
-            let color = if bar.is_some() {
-                viridis((b_bot - yy) as f64 / (b_bot - b_top).max(1) as f64)
-            } else {
-                RGBColor(240, 240, 240)
-            };
-            root.draw(&PathElement::new(vec![(bx0, yy), (bx1, yy)], color))
-                .map_err(|e| e.to_string())?;
-        }
-        root.draw(&Rectangle::new(
-            [(bx0, b_top), (bx1, b_bot)],
-            BLACK.stroke_width(1),
-        ))
-        .map_err(|e| e.to_string())?;
-        if let Some(a) = &bar {
-            for &t in &a.minor {
-                let y = bar_y(colour_fraction(a, t));
-                root.draw(&PathElement::new(vec![(bx1, y), (bx1 + 3, y)], BLACK))
+        for (c, &hits) in cover.iter().enumerate() {
+            if hits > 0 {
+                let a = hits as f64 / (N * N) as f64;
+                area.draw_pixel((i0 + c as i32, j), &color.mix(a))
                     .map_err(|e| e.to_string())?;
             }
-            for (t, l) in &bar_labels {
-                let y = bar_y(colour_fraction(a, *t));
-                root.draw(&PathElement::new(
-                    vec![(bx1, y), (bx1 + BAR_TICK, y)],
-                    BLACK,
-                ))
-                .map_err(|e| e.to_string())?;
-                let at = (bx1 + BAR_TICK + 6, y);
-                tick_pen.draw(&root, l, at, (HPos::Left, VPos::Center), false)?;
-            }
         }
-        if let Some(m) = &bar_mult {
-            let at = (bx0, b_top - 8);
-            tick_pen.draw(&root, m, at, (HPos::Left, VPos::Bottom), false)?;
-        }
-        if !net.value_label.is_empty() {
-            let x = bx1 + BAR_TICK + 6 + bar_tick_w + 16 + desc_h / 2;
-            let at = (x, (b_top + b_bot) / 2);
-            desc_pen.draw(&root, net.value_label, at, center, true)?;
-        }
+    }
+    Ok(())
+}
 
-        // Notes.
-        let big_note = if net.segments.is_empty() {
-            Some("no segments to plot")
-        } else if drawable.is_empty() {
-            Some("no segments with finite end points to plot")
-        } else if bar.is_none() {
-            Some(match net.scale {
-                ColourScale::Linear => "no finite values to colour (all segments grey)",
-                ColourScale::Log => "no finite, positive values to colour (all segments grey)",
-            })
-        } else {
-            None
-        };
-        if let Some(msg) = big_note {
-            let pen = Pen::new(22.0, RGBColor(90, 90, 90));
-            if drawable.is_empty() && markers.is_empty() {
-                pen.draw(&root, msg, (cx, cy), center, false)?;
-            } else {
-                // Near the top, to hide little of the drawing.
-                let at = (cx, py.start + 24 + pen.cap() / 2);
-                boxed_text(&root, &pen, msg, at, HPos::Center)?;
+fn draw_fracture_map(
+    root: &DrawingArea<BitMapBackend, Shift>,
+    map: &QuadMap,
+) -> Result<MapFrame, String> {
+    let finite = |p: &[f64; 2]| p[0].is_finite() && p[1].is_finite();
+    let drawable: Vec<usize> = (0..map.quads.len())
+        .filter(|&k| map.quads[k].iter().all(finite))
+        .collect();
+    let no_coords = map.quads.len() - drawable.len();
+    let edges: Vec<&Segment> = (map.mesh_edges.iter())
+        .filter(|s| finite(&s.a) && finite(&s.b))
+        .collect();
+    let bad_edges = map.mesh_edges.len() - edges.len();
+
+    // Region shown: the window, else the quads and markers, else the mesh.
+    let mut bbox = [f64::MAX, f64::MIN, f64::MAX, f64::MIN];
+    let (bbox, pad) = if let Some([x0, x1, y0, y1]) = map.window {
+        ([x0, x1, y0, y1], 0.0)
+    } else {
+        let corners = drawable.iter().flat_map(|&k| map.quads[k]);
+        for p in corners.chain(map.markers.iter().map(|m| m.0).filter(finite)) {
+            bbox = grow_box(bbox, p);
+        }
+        if bbox[0] > bbox[1] {
+            for p in edges.iter().flat_map(|s| [s.a, s.b]) {
+                bbox = grow_box(bbox, p);
             }
         }
-        let mut notes = Vec::new();
-        if greyed > 0 && bar.is_some() {
-            let what = match net.scale {
-                ColourScale::Linear => "a non-finite value",
-                ColourScale::Log => "a non-positive or non-finite value",
-            };
-            let s = if greyed == 1 { "" } else { "s" };
-            notes.push(format!("{greyed} segment{s} with {what} drawn grey"));
+        if bbox[0] > bbox[1] {
+            bbox = [0.0, 1.0, 0.0, 1.0];
         }
-        if no_coords > 0 {
-            let s = if no_coords == 1 { "" } else { "s" };
-            notes.push(format!(
-                "{no_coords} segment{s} with non-finite end points omitted"
-            ));
-        }
-        if !notes.is_empty() {
-            let pen = Pen::new(15.0, RGBColor(110, 110, 110));
-            let at = (12, h_px - 12);
-            pen.draw(
-                &root,
-                &notes.join("; "),
-                at,
-                (HPos::Left, VPos::Bottom),
-                false,
-            )?;
-        }
-        root.present().map_err(|e| e.to_string())
+        (bbox, QUAD_PAD)
     };
-    let r = inner();
-    drop(root);
-    r.map_err(|m| draw_err(path, m))
+
+    // Colour range of the finite values of drawable quads.
+    let (mut vmin, mut vmax) = (f64::MAX, f64::MIN);
+    for &k in &drawable {
+        let v = map.values[k];
+        if v.is_finite() {
+            vmin = vmin.min(v);
+            vmax = vmax.max(v);
+        }
+    }
+    let bar = (vmin <= vmax).then(|| colour_axis(vmin, vmax, ColourScale::Linear));
+    let greyed = drawable
+        .iter()
+        .filter(|&&k| !map.values[k].is_finite())
+        .count();
+    let layout = MapLayout::new(map.title, map.value_label, bar, bbox, pad);
+
+    // Drawing order: grey quads first, then by increasing value.
+    let mut order: Vec<(Option<f64>, usize)> = drawable
+        .iter()
+        .map(|&k| {
+            let v = map.values[k];
+            let t = match &layout.bar {
+                Some(a) if v.is_finite() => Some(colour_fraction(a, v)),
+                _ => None,
+            };
+            (t, k)
+        })
+        .collect();
+    sort_for_drawing(&mut order);
+
+    let frame = layout.draw_base(root, false)?;
+    let clip = frame.clip();
+    for s in &edges {
+        let (a, b) = (frame.to_px(s.a), frame.to_px(s.b));
+        draw_aa_segment(root, a, b, MESH_LINE_PX, MESH_GREY, &clip)?;
+    }
+    for &(t, k) in &order {
+        let color = t.map_or(NO_VALUE_GREY, viridis);
+        let pts = map.quads[k].map(|p| frame.to_px(p));
+        fill_aa_polygon(root, &pts, color, &clip)?;
+        for e in 0..4 {
+            draw_aa_segment(root, pts[e], pts[(e + 1) % 4], QUAD_EDGE_PX, color, &clip)?;
+        }
+    }
+    let markers: Vec<([f64; 2], &str)> = (map.markers.iter())
+        .filter(|m| frame.shows(m.0))
+        .copied()
+        .collect();
+    draw_map_markers(root, &frame, &layout.pens.label, &markers)?;
+
+    let big_note = if map.quads.is_empty() {
+        Some("no fracture cells to plot")
+    } else if drawable.is_empty() {
+        Some("no fracture cells with finite corners to plot")
+    } else if layout.bar.is_none() {
+        Some("no finite values to colour (all cells grey)")
+    } else {
+        None
+    };
+    let centred = drawable.is_empty() && markers.is_empty() && edges.is_empty();
+    let mut notes = Vec::new();
+    if greyed > 0 && layout.bar.is_some() {
+        let s = if greyed == 1 { "" } else { "s" };
+        notes.push(format!(
+            "{greyed} cell{s} with a non-finite value drawn grey"
+        ));
+    }
+    if no_coords > 0 {
+        let s = if no_coords == 1 { "" } else { "s" };
+        notes.push(format!(
+            "{no_coords} cell{s} with non-finite corners omitted"
+        ));
+    }
+    if bad_edges > 0 {
+        let s = if bad_edges == 1 { "" } else { "s" };
+        notes.push(format!(
+            "{bad_edges} mesh edge{s} with non-finite end points omitted"
+        ));
+    }
+    layout.draw_overlay(root, &frame, big_note.map(|m| (m, centred)), &notes)?;
+    Ok(frame)
 }
 
 #[cfg(test)]
@@ -2002,6 +2450,234 @@ mod tests {
         }
     }
 
+    /// Width and height from a PNG's IHDR chunk.
+    fn png_size(path: &Path) -> (u32, u32) {
+        let b = fs::read(path).unwrap();
+        assert_eq!(&b[..8], b"\x89PNG\r\n\x1a\n");
+        assert_eq!(&b[12..16], b"IHDR");
+        let be = |i: usize| u32::from_be_bytes([b[i], b[i + 1], b[i + 2], b[i + 3]]);
+        (be(16), be(20))
+    }
+
+    /// Edges of a grid of `nx` x `ny` squares of 1 m from the origin.
+    fn grid_edges(nx: usize, ny: usize) -> Vec<Segment> {
+        let mut e = Vec::new();
+        for j in 0..=ny {
+            for i in 0..=nx {
+                let p = [i as f64, j as f64];
+                if i < nx {
+                    e.push(Segment {
+                        a: p,
+                        b: [p[0] + 1.0, p[1]],
+                    });
+                }
+                if j < ny {
+                    e.push(Segment {
+                        a: p,
+                        b: [p[0], p[1] + 1.0],
+                    });
+                }
+            }
+        }
+        e
+    }
+
+    /// Axis-aligned quad `[x0, x1] x [y0, y1]`.
+    fn rect(x0: f64, x1: f64, y0: f64, y1: f64) -> [[f64; 2]; 4] {
+        [[x0, y0], [x1, y0], [x1, y1], [x0, y1]]
+    }
+
+    /// A big quad (value 5), a 1 mm thin one (value 1) and one without a
+    /// value over a 10 m x 4 m grid.
+    fn small_fracture_map() -> (Vec<Segment>, Vec<[[f64; 2]; 4]>, Vec<f64>) {
+        let quads = vec![
+            rect(1.0, 9.0, 1.0, 3.0),
+            rect(2.0, 5.0, 3.5495, 3.5505),
+            rect(6.0, 8.0, 3.3, 3.9),
+        ];
+        (grid_edges(10, 4), quads, vec![5.0, 1.0, f64::NAN])
+    }
+
+    /// Render a fracture map into memory: RGB pixels and the frame.
+    fn render_fracture_map(map: &QuadMap) -> (Vec<u8>, MapFrame) {
+        ensure_font().unwrap();
+        let mut buf = vec![0u8; (NET_WIDTH * NET_HEIGHT * 3) as usize];
+        let frame = {
+            let root =
+                BitMapBackend::with_buffer(&mut buf, (NET_WIDTH, NET_HEIGHT)).into_drawing_area();
+            let frame = draw_fracture_map(&root, map).unwrap();
+            root.present().unwrap();
+            frame
+        };
+        (buf, frame)
+    }
+
+    /// RGB of the pixel holding the point `p` (m).
+    fn pixel_at(buf: &[u8], frame: &MapFrame, p: [f64; 2]) -> [u8; 3] {
+        let (x, y) = frame.to_px(p);
+        let (x, y) = (x.floor() as usize, y.floor() as usize);
+        let i = 3 * (y * NET_WIDTH as usize + x);
+        [buf[i], buf[i + 1], buf[i + 2]]
+    }
+
+    #[test]
+    fn fracture_map_writes_png_of_expected_size() {
+        let dir = tmp_dir("fracture_map");
+        let (edges, quads, values) = small_fracture_map();
+        let p = dir.join("fractures.png");
+        let markers = [([1.0, 2.0], "pump"), ([500.0, 2.0], "far away")];
+        let label = "pressure [MPa]";
+        fracture_map(&p, "Fig. 7", &edges, &quads, &values, label, None, &markers).unwrap();
+        assert_png(&p);
+        assert_eq!(png_size(&p), (NET_WIDTH, NET_HEIGHT));
+        only_file(&dir, "fractures.png");
+        fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn fracture_map_pixels() {
+        let (edges, quads, values) = small_fracture_map();
+        let mut map = QuadMap {
+            title: "t",
+            mesh_edges: &edges,
+            quads: &quads,
+            values: &values,
+            value_label: "v",
+            window: None,
+            markers: &[],
+        };
+        let (buf, frame) = render_fracture_map(&map);
+        // Inside the big quad: the top of the colour bar.
+        let top = viridis(1.0);
+        assert_eq!(pixel_at(&buf, &frame, [5.5, 2.5]), [top.0, top.1, top.2]);
+        assert_eq!(pixel_at(&buf, &frame, [1.5, 1.5]), [top.0, top.1, top.2]);
+        // The quad without a value: grey.
+        let g = NO_VALUE_GREY;
+        assert_eq!(pixel_at(&buf, &frame, [7.5, 3.6]), [g.0, g.1, g.2]);
+        // The 1 mm quad (0.1 px) still shows, dark (bottom of the bar).
+        let [r, gr, b] = pixel_at(&buf, &frame, [3.5, 3.55]);
+        assert!(gr < 128 && r < 160 && b < 180, "{r} {gr} {b}");
+        // Between mesh lines outside the quads: white; on a mesh line: grey.
+        assert_eq!(pixel_at(&buf, &frame, [5.5, 0.5]), [255, 255, 255]);
+        let [r, gr, b] = pixel_at(&buf, &frame, [5.5, 4.0]);
+        assert!(r == gr && gr == b && r < 250, "{r} {gr} {b}");
+        // Default window: the quads' box plus 10 %, widened to the aspect ratio.
+        assert!(frame.x.0 < 0.3 && frame.x.1 > 9.7, "{:?}", frame.x);
+        assert!(frame.x.1 - frame.x.0 < 11.0, "{:?}", frame.x);
+        assert!(frame.y.0 < 1.0 && frame.y.1 > 3.9, "{:?}", frame.y);
+
+        // A window shows just that region; the quads outside it are clipped.
+        map.window = Some([5.0, 6.0, 2.0, 2.5]);
+        let (buf, frame) = render_fracture_map(&map);
+        assert!(frame.x.0 <= 5.0 && frame.x.1 >= 6.0, "{:?}", frame.x);
+        assert!(frame.x.1 - frame.x.0 < 1.5, "{:?}", frame.x);
+        assert_eq!(pixel_at(&buf, &frame, [5.5, 2.25]), [top.0, top.1, top.2]);
+
+        // The default window follows the quads, not the mesh.
+        let big = grid_edges(100, 100);
+        let q = [rect(40.0, 45.0, 50.0, 50.2)];
+        map.mesh_edges = &big;
+        map.quads = &q;
+        map.values = &[2.0];
+        map.window = None;
+        let (buf, frame) = render_fracture_map(&map);
+        assert!(frame.x.0 > 35.0 && frame.x.1 < 50.0, "{:?}", frame.x);
+        let one = viridis(0.5);
+        assert_eq!(pixel_at(&buf, &frame, [42.5, 50.1]), [one.0, one.1, one.2]);
+    }
+
+    #[test]
+    fn fracture_map_bad_input_is_err() {
+        let dir = tmp_dir("fracture_map_bad");
+        let (edges, quads, values) = small_fracture_map();
+        let p = dir.join("x.png");
+        let e = fracture_map(&p, "t", &edges, &quads, &values[..2], "v", None, &[]).unwrap_err();
+        assert!(matches!(e, PlotError::Input { .. }), "{e:?}");
+        assert!(e.to_string().contains("2 values given for 3 quads"), "{e}");
+        for w in [
+            [0.0, 1.0, 2.0, 2.0],
+            [1.0, 0.0, 0.0, 1.0],
+            [f64::NAN, 1.0, 0.0, 1.0],
+            [0.0, f64::INFINITY, 0.0, 1.0],
+        ] {
+            let e = fracture_map(&p, "t", &edges, &quads, &values, "v", Some(w), &[]).unwrap_err();
+            assert!(matches!(e, PlotError::Input { .. }), "{e:?}");
+            assert!(e.to_string().contains("window"), "{e}");
+        }
+        assert_eq!(fs::read_dir(&dir).unwrap().count(), 0);
+        fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn fracture_map_degenerate_input_does_not_panic() {
+        let dir = tmp_dir("fracture_map_degenerate");
+        let edges = grid_edges(3, 3);
+        let none: &[([f64; 2], &str)] = &[];
+        fracture_map(&dir.join("a.png"), "", &[], &[], &[], "", None, none).unwrap();
+        fracture_map(
+            &dir.join("b.png"),
+            "mesh",
+            &edges,
+            &[],
+            &[],
+            "v",
+            None,
+            none,
+        )
+        .unwrap();
+        let quads = [rect(0.0, 1.0, 0.0, 0.1), rect(1.0, 2.0, 0.0, 0.1)];
+        let nan = [f64::NAN; 2];
+        fracture_map(
+            &dir.join("c.png"),
+            "nan",
+            &edges,
+            &quads,
+            &nan,
+            "v",
+            None,
+            none,
+        )
+        .unwrap();
+        let odd = [
+            [[f64::NAN, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]],
+            [[2.0, 2.0]; 4],
+            rect(-f64::MAX, f64::MAX, 0.0, 1e-300),
+        ];
+        let bad_edges = [Segment {
+            a: [0.0, f64::INFINITY],
+            b: [1.0, 1.0],
+        }];
+        let v = [1.0, 2.0, 3.0];
+        let m = [([2.0, 2.0], "point")];
+        fracture_map(
+            &dir.join("d.png"),
+            "odd",
+            &bad_edges,
+            &odd,
+            &v,
+            "v",
+            None,
+            &m,
+        )
+        .unwrap();
+        let w = Some([0.0, 1e-9, 0.0, 1e-9]);
+        fracture_map(
+            &dir.join("e.png"),
+            "tiny",
+            &edges,
+            &quads,
+            &v[..2],
+            "v",
+            w,
+            &m,
+        )
+        .unwrap();
+        for f in ["a.png", "b.png", "c.png", "d.png", "e.png"] {
+            assert_png(&dir.join(f));
+        }
+        fs::remove_dir_all(&dir).unwrap();
+    }
+
     #[test]
     fn network_colours_and_axes() {
         assert_eq!(viridis(0.0), RGBColor(68, 1, 84));
@@ -2010,7 +2686,7 @@ mod tests {
         assert_eq!(viridis(f64::NAN), viridis(0.0));
         assert_eq!(viridis(7.0), viridis(1.0));
         // Equal metres per pixel on both axes, same tick step.
-        let (x, y) = equal_axes([0.0, 200.0, 0.0, 50.0], 800.0, 700.0);
+        let (x, y) = equal_axes([0.0, 200.0, 0.0, 50.0], 800.0, 700.0, NET_PAD);
         let (mx, my) = ((x.hi - x.lo) / 800.0, (y.hi - y.lo) / 700.0);
         assert!((mx / my - 1.0).abs() < 1e-12, "{mx} {my}");
         assert_eq!(x.step, y.step);
