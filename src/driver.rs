@@ -117,6 +117,14 @@ pub fn run_scenario(scenario: Scenario, opts: &RunOptions) -> Result<RunReport, 
             summary["warnings"] = json!([format!("figures not written: {e}")]);
         }
     }
+    if sim.flow.as_ref().is_some_and(|f| f.coupling.is_some()) {
+        sim.fracture_pressure_figure("fractures_pressure.png");
+        let f = sim.flow.as_ref().expect("coupled");
+        let length: f64 = f.view.length.iter().sum();
+        summary["fractures"] = json!({"cells": f.view.n_cells(), "total_length": length,
+            "new_cells": f.view.kind.iter().filter(|k| **k == crate::components::CellKind::New).count(),
+            "max_aperture": f.view.aperture.iter().fold(0.0f64, |a, &b| a.max(b))});
+    }
     if let (Some(f), Some(o)) = (&sim.flow, &sim.output) {
         o.write_network_csv(&f.view).map_err(DriverError::Output)?;
         if let Err(e) = crate::output::plots::flow_figures(&sim, &o.dir) {

@@ -479,6 +479,16 @@ impl Simulation {
                     if frame || row {
                         self.write_outputs(frame, row)?;
                     }
+                    let t1 = self.time;
+                    if let Some(&tf) = self
+                        .scenario
+                        .output
+                        .figure_times
+                        .iter()
+                        .find(|&&tf| tf > t0 && tf <= t1)
+                    {
+                        self.fracture_pressure_figure(&format!("fractures_pressure_t{tf}s.png"));
+                    }
                 }
             }
         }
@@ -823,6 +833,35 @@ impl Simulation {
             }
         }
         Ok(())
+    }
+
+    /// Coupled runs with an output folder: write the Fig. 7-like figure (mesh, fractures with
+    /// apertures magnified 20x, coloured by pressure) as `name` there. A figure that cannot be
+    /// drawn is a warning, not a failed run.
+    pub fn fracture_pressure_figure(&mut self, name: &str) {
+        let coupled = self.flow.as_ref().is_some_and(|f| f.coupling.is_some());
+        if !coupled || self.output.is_none() {
+            return;
+        }
+        self.sync();
+        let (Some(f), Some(out)) = (self.flow.as_mut(), self.output.as_ref()) else {
+            return;
+        };
+        f.view.refresh_positions(&self.model);
+        let title = format!(
+            "{}: fluid pressure, apertures x20, t = {:.4} s",
+            self.scenario.name, self.time
+        );
+        if let Err(e) = crate::output::plots::fracture_pressure_figure(
+            &out.dir.join(name),
+            &title,
+            &self.view,
+            &f.view,
+            20.0,
+            None,
+        ) {
+            tracing::warn!("figure {name} not written: {e}");
+        }
     }
 
     /// Solve the network's steady state directly and store it as the current state (cell

@@ -354,6 +354,18 @@ impl FlowView {
         seen
     }
 
+    /// Current node positions (reference + displacement) from the components, m.
+    pub fn refresh_positions(&mut self, model: &Model) {
+        for (i, &n) in self.node_entity.iter().enumerate() {
+            if let (Ok(x), Ok(st)) = (
+                model.world.get::<&NodeRef>(n),
+                model.world.get::<&NodeState>(n),
+            ) {
+                self.node_pos[i] = [x.0[0] + st.u[0], x.0[1] + st.u[1]];
+            }
+        }
+    }
+
     /// Set cell c's volume to `volume` (m^2) keeping its fluid mass: the excess mass
     /// e = m - rho_r V moves by rho_r (V_old - V_new) (Kahan-compensated).
     #[inline]
