@@ -47,6 +47,7 @@ pub fn flow_scenario(
             dt: None,
             flow_dt: None,
             max_steps: 5_000_000,
+            mass_scaling: false,
         },
         damping: Damping::None,
         systems: SystemsSpec::default(),

@@ -8,16 +8,66 @@ use crate::sim::{Finish, Simulation};
 use crate::verify::solid_cases::scenario;
 use std::time::Instant;
 
-/// Opened area (m^2 per m), largest opening (m), wall time and unknowns of a pressurised straight crack of
-/// half-length `a` (m) on a graded mesh of fine size `h` in a square domain of half-width `r`
-/// with fixed edges, relaxed to a residual of 1e-8.
+/// How the pressurised crack relaxes to its static state.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Relax {
+    /// True masses, local damping alpha = 0.8 (slow on graded meshes: the large outer elements
+    /// are heavy and their modes slow).
+    Local,
+    /// Mass scaling (`time.mass_scaling`) and viscous damping c = k / (N dt), 1/s, with N the
+    /// number of cells across the mesh and dt the step: after scaling every node has about the
+    /// same mass, so the lowest mode is about (1/N) (2/dt) and c = 2/(N dt) damps it about
+    /// critically (k = 2 was the fastest of k = 1, 2, 4 at a/h = 10 and 20).
+    Scaled(f64),
+}
+
+/// One pressurised-crack run.
+#[derive(Clone, Copy, Debug)]
+pub struct CrackRun {
+    /// Opened area (sum of joint opening x length), m^2 per m.
+    pub area: f64,
+    /// Largest joint opening, m.
+    pub wmax: f64,
+    pub wall_s: f64,
+    /// Degrees of freedom (2 per node).
+    pub unknowns: usize,
+    pub steps: u64,
+}
+
+/// Parity of the diagonal pattern of the graded mesh at the crack: the regular and graded
+/// meshes alternate the quad diagonal with (i + j) mod 2, so the pattern around the crack
+/// depends on how many graded cells lie to the left of and below the fine box. The two
+/// patterns differ by up to 1.3 % in area at a/h = 10 (measured), so a domain-size study must
+/// compare meshes of the same parity.
+pub fn crack_parity(a: f64, h: f64, r: f64) -> anyhow::Result<usize> {
+    let m = crate::mesh::TriMesh::graded(
+        2.0 * r,
+        2.0 * r,
+        [-r, -r],
+        h,
+        [-1.2 * a, -0.2 * a, 1.2 * a, 0.2 * a],
+        1.15,
+    )?;
+    let row = m.nodes.iter().take_while(|x| x[1] == m.nodes[0][1]).count();
+    let k = m
+        .nodes
+        .iter()
+        .position(|x| (x[0] + 1.2 * a).abs() < 1e-9 * a && (x[1] + 0.2 * a).abs() < 1e-9 * a)
+        .ok_or_else(|| anyhow::anyhow!("no node at the fine box corner"))?;
+    Ok((k % row + k / row) % 2)
+}
+
+/// Opened area, largest opening, wall time and unknowns of a pressurised straight crack of
+/// half-length `a` (m) under pressure `p` (Pa) on a graded mesh of fine size `h` (m) in a
+/// square domain of half-width `r` (m) with fixed edges, relaxed to a residual of 1e-8.
 pub fn pressurised_crack(
     a: f64,
     h: f64,
     r: f64,
     p: f64,
     mat: Material,
-) -> anyhow::Result<(f64, f64, f64, usize)> {
+    relax: Relax,
+) -> anyhow::Result<CrackRun> {
     let mut sc = scenario(
         "sneddon",
         MeshSpec::Graded {
@@ -39,8 +89,13 @@ pub fn pressurised_crack(
             tol: 1e-8,
             min_steps: 10,
         },
-        Damping::Local(0.8),
+        match relax {
+            Relax::Local => Damping::Local(0.8),
+            Relax::Scaled(_) => Damping::Viscous(1.0),
+        },
     );
+    sc.time.mass_scaling = matches!(relax, Relax::Scaled(_));
+    sc.time.max_steps = 20_000_000;
     sc.fracture = Some(FractureSpec {
         strength: None,
         residual_aperture: 5e-4,
@@ -55,6 +110,16 @@ pub fn pressurised_crack(
     });
     let t0 = Instant::now();
     let mut sim = Simulation::new(sc, &[])?;
+    if let Relax::Scaled(k) = relax {
+        let across = |d: usize| {
+            let mut c: Vec<f64> = sim.view.x0.iter().map(|x| x[d]).collect();
+            c.sort_by(f64::total_cmp);
+            c.dedup();
+            c.len() - 1
+        };
+        let n = across(0).max(across(1)) as f64;
+        sim.params.damping = Damping::Viscous(k / (n * sim.dt()));
+    }
     let finish = sim.run(|_| {})?;
     anyhow::ensure!(
         finish == Finish::Converged,
@@ -67,24 +132,73 @@ pub fn pressurised_crack(
         area += w * len;
         wmax = wmax.max(w);
     }
-    Ok((
+    Ok(CrackRun {
         area,
         wmax,
-        t0.elapsed().as_secs_f64(),
-        2 * sim.view.n_nodes(),
+        wall_s: t0.elapsed().as_secs_f64(),
+        unknowns: 2 * sim.view.n_nodes(),
+        steps: sim.step,
+    })
+}
+
+/// Domain effect of the fixed-edge square of half-width 20a at one mesh size: runs at
+/// r1 ~ 40a and r2 ~ 80a (the first of r(1 + 0.05k) with the crack's diagonal parity, see
+/// [`crack_parity`]), extrapolated to r -> infinity with the 1/r^2 law of a fixed far boundary
+/// (Richardson: X_inf = X2 + (X2 - X1) / ((r2/r1)^2 - 1)). Returns (area, w_max) at r -> infinity
+/// divided by those at 20a, minus 1 (positive: the finite domain stiffens the crack), and the
+/// extra wall time (s).
+pub fn domain_effect(
+    a: f64,
+    h: f64,
+    p: f64,
+    mat: Material,
+    at_20a: &CrackRun,
+) -> anyhow::Result<(f64, f64, f64)> {
+    let parity = crack_parity(a, h, 20.0 * a)?;
+    let same = |base: f64| -> anyhow::Result<f64> {
+        for k in 0..20 {
+            let r = base * (1.0 + 0.05 * k as f64);
+            if crack_parity(a, h, r)? == parity {
+                return Ok(r);
+            }
+        }
+        anyhow::bail!("no domain near {base} m with the crack's diagonal parity")
+    };
+    let (r1, r2) = (same(40.0 * a)?, same(80.0 * a)?);
+    let c1 = pressurised_crack(a, h, r1, p, mat, Relax::Scaled(2.0))?;
+    let c2 = pressurised_crack(a, h, r2, p, mat, Relax::Scaled(2.0))?;
+    let q = (r2 / r1).powi(2) - 1.0;
+    let area_inf = c2.area + (c2.area - c1.area) / q;
+    let wmax_inf = c2.wmax + (c2.wmax - c1.wmax) / q;
+    Ok((
+        area_inf / at_20a.area - 1.0,
+        wmax_inf / at_20a.wmax - 1.0,
+        c1.wall_s + c2.wall_s,
     ))
 }
 
 /// Sneddon's pressurised crack (plane strain, uniform pressure p on a crack of half-length a):
 /// w(x) = (4p/E') sqrt(a^2 - x^2), opened area 2 pi p a^2 / E', w_max = 4 p a / E'. Graded mesh
-/// refined around the crack, domain 40a x 40a with fixed edges. Errors: relative error of the
-/// opened area and of the largest opening (at the centre; the sampled maximum is the joint
-/// nearest x = 0). Targets: area within 5 % at a/h = 20 and 1.5 % at a/h = 80.
+/// refined around the crack, domain 40a x 40a with fixed edges, relaxed with mass scaling
+/// ([`Relax::Scaled`]; the static answer is that of the true masses, `tests/sneddon.rs`).
+/// Errors: relative error of the opened area and of the largest opening (at the centre; the
+/// sampled maximum is the joint nearest x = 0), raw (against the infinite-medium formula) and
+/// corrected for the domain: the fixed edges at 20a stiffen the crack by a factor measured at
+/// each level with [`domain_effect`], and the corrected error is
+/// (1 + raw) (1 + domain effect) - 1, i.e. against the formula reduced to the finite domain.
+/// Rows: `area`, `area_corrected`, `max_opening`, `max_opening_corrected` (wall time: the 20a
+/// run), and `domain_effect_area` (the correction, wall time: both extra runs).
+/// Targets (the issue): corrected area error within 5 % at a/h = 20 and 1.5 % at a/h = 80
+/// (measured -3.9 % and -1.1 %); the raw error is also required within 5 % at a/h = 20 and
+/// reported at 80 (measured -1.48 %, too close to 1.5 % to be a robust check);
+/// observed order of the corrected area error about 1 (linear elements, crack-tip
+/// singularity), required in [0.7, 1.5]; the domain effect at 20a below 1 %
+/// (verification.md: keep the domain >= 20a or correct for it).
 pub fn sneddon(quick: bool) -> anyhow::Result<CaseResult> {
     let ratios: &[f64] = if quick {
         &[10.0, 20.0]
     } else {
-        &[10.0, 20.0, 40.0]
+        &[10.0, 20.0, 40.0, 80.0]
     };
     let (a, p) = (1.0, 1e6);
     let mat = Material {
@@ -98,31 +212,55 @@ pub fn sneddon(quick: bool) -> anyhow::Result<CaseResult> {
     let mut res = CaseResult::default();
     for (level, &ah) in ratios.iter().enumerate() {
         let h = a / ah;
-        let (area, wmax, wall, unknowns) = pressurised_crack(a, h, 20.0 * a, p, mat)?;
-        for (metric, err) in [
-            ("area", (area - area_exact) / area_exact),
-            ("max_opening", (wmax - wmax_exact) / wmax_exact),
+        let c = pressurised_crack(a, h, 20.0 * a, p, mat, Relax::Scaled(2.0))?;
+        let (d_area, d_wmax, d_wall) = domain_effect(a, h, p, mat, &c)?;
+        let area_raw = (c.area - area_exact) / area_exact;
+        let wmax_raw = (c.wmax - wmax_exact) / wmax_exact;
+        let area_cor = (1.0 + area_raw) * (1.0 + d_area) - 1.0;
+        let wmax_cor = (1.0 + wmax_raw) * (1.0 + d_wmax) - 1.0;
+        for (metric, err, wall) in [
+            ("area", area_raw, c.wall_s),
+            ("area_corrected", area_cor, c.wall_s),
+            ("max_opening", wmax_raw, c.wall_s),
+            ("max_opening_corrected", wmax_cor, c.wall_s),
+            ("domain_effect_area", d_area, d_wall),
         ] {
             res.rows.push(Row {
                 case: "sneddon",
                 level,
                 h,
-                unknowns,
+                unknowns: c.unknowns,
                 metric: metric.into(),
                 error: err.abs(),
                 wall_s: wall,
             });
         }
-        if (ah - 20.0).abs() < 1e-9 {
+        res.check_range(
+            format!("domain effect on the area at 20a, a/h = {ah}"),
+            d_area,
+            0.0,
+            0.01,
+        );
+        let target = if (ah - 20.0).abs() < 1e-9 {
+            Some(0.05)
+        } else if (ah - 80.0).abs() < 1e-9 {
+            Some(0.015)
+        } else {
+            None
+        };
+        if let Some(t) = target {
             res.check_max(
-                "area error at a/h = 20",
-                ((area - area_exact) / area_exact).abs(),
-                0.05,
+                format!("corrected area error at a/h = {ah}"),
+                area_cor.abs(),
+                t,
             );
         }
+        if (ah - 20.0).abs() < 1e-9 {
+            res.check_max("raw area error at a/h = 20", area_raw.abs(), 0.05);
+        }
     }
-    let order = observed_order(&res.errors("area"));
-    res.check_range("area observed order", order, 0.7, 1.5);
+    let order = observed_order(&res.errors("area_corrected"));
+    res.check_range("corrected area observed order", order, 0.7, 1.5);
     Ok(res)
 }
 

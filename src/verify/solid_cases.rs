@@ -42,6 +42,7 @@ pub fn scenario(
             dt: None,
             flow_dt: None,
             max_steps: 2_000_000,
+            mass_scaling: false,
         },
         damping,
         systems: SystemsSpec::default(),
