@@ -158,3 +158,12 @@ fn inclined_block_slides_with_the_coulomb_acceleration_or_sticks() {
         }
     }
 }
+
+/// `hydrofrac verify friction --quick` passes its own checks (2 % on the sliding acceleration at
+/// h = 0.5 and 0.25 m, no sliding and < 1e-4 m displacement when sticking).
+#[test]
+fn verify_friction_case_passes() {
+    let res = hydrofrac::verify::fracture_cases::friction(true).unwrap();
+    let failed = res.failures();
+    assert!(failed.is_empty(), "friction failed:\n{}", failed.join("\n"));
+}
