@@ -453,8 +453,8 @@ pub fn inclined_block(psi_deg: f64, phi_deg: f64, h: f64) -> anyhow::Result<Incl
 /// answer is exact for the discrete momentum balance once every joint slides, and what is left
 /// is the ~1 % residual vibration from the ramp averaged over 40 periods). Sticking, psi = 20
 /// deg < phi = 30 deg: no joint ever slides, and the block's centre of mass moves by at most
-/// 1e-4 m (elastic: measured ~1e-5 m; sliding at the smallest acceleration that a 2 % error
-/// could hide, 0.02 * 1.81 m/s^2, would move it 1e-3 m over the same 0.2 s).
+/// 1e-4 m (elastic: measured 1e-5 to 3e-5 m; a block sliding at even 1 % of the psi = 30 deg
+/// acceleration, 0.018 m/s^2, from the end of the ramp would move 3.6e-4 m in 0.2 s).
 pub fn friction(quick: bool) -> anyhow::Result<CaseResult> {
     let hs: &[f64] = if quick {
         &[0.5, 0.25]
