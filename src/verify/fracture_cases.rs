@@ -454,7 +454,7 @@ pub fn inclined_block(psi_deg: f64, phi_deg: f64, h: f64) -> anyhow::Result<Incl
 /// is the ~1 % residual vibration from the ramp averaged over 40 periods). Sticking, psi = 20
 /// deg < phi = 30 deg: no joint ever slides, and the block's centre of mass moves by at most
 /// 1e-4 m (elastic: measured 1e-5 to 3e-5 m; a block sliding at even 1 % of the psi = 30 deg
-/// acceleration, 0.018 m/s^2, from the end of the ramp would move 3.6e-4 m in 0.2 s).
+/// acceleration, 0.018 m/s^2, would move 2e-4 m in the 0.15 s after the ramp).
 pub fn friction(quick: bool) -> anyhow::Result<CaseResult> {
     let hs: &[f64] = if quick {
         &[0.5, 0.25]
