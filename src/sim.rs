@@ -298,7 +298,10 @@ impl Simulation {
         let params = solid_params(&mat, dt, scenario.damping);
         let mut disabled = scenario.systems.disable.clone();
         disabled.extend(extra_disable.iter().cloned());
-        let view = SolidView::build(&model);
+        let mut view = SolidView::build(&model);
+        if scenario.time.mass_scaling {
+            solid::scale_masses(&mut view, &params, joint.kn.max(joint.kt), dt_crit);
+        }
         let has_load = view.load.iter().any(|l| l[0] != 0.0 || l[1] != 0.0);
         let damping_on = scenario.damping != Damping::None;
         let has_flow = flow.is_some();
@@ -394,6 +397,10 @@ impl Simulation {
     fn rebuild_views_if_needed(&mut self) {
         if self.view.generation != self.model.topology_generation {
             self.view = SolidView::build(&self.model);
+            if self.scenario.time.mass_scaling {
+                let k = self.joint.kn.max(self.joint.kt);
+                solid::scale_masses(&mut self.view, &self.params, k, self.dt_crit);
+            }
             let has_load = self.view.load.iter().any(|l| l[0] != 0.0 || l[1] != 0.0);
             for (s, st) in &mut self.schedule.entries {
                 if *s == SystemId::ExternalLoad && *st != Status::DisabledByUser {

@@ -49,6 +49,7 @@ pub fn flow_scenario(
             flow_dt: None,
             max_steps: 5_000_000,
             max_substeps: 100_000,
+            mass_scaling: false,
         },
         damping: Damping::None,
         systems: SystemsSpec::default(),

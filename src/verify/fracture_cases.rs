@@ -1,4 +1,4 @@
-//! Fracture verification cases (verification.md item 5): `sneddon`.
+//! Fracture verification cases (verification.md items 5 and 8): `sneddon`, `friction`.
 
 use super::{CaseResult, Row, observed_order};
 use crate::scenario::{
@@ -8,16 +8,66 @@ use crate::sim::{Finish, Simulation};
 use crate::verify::solid_cases::scenario;
 use std::time::Instant;
 
-/// Opened area (m^2 per m), largest opening (m), wall time and unknowns of a pressurised straight crack of
-/// half-length `a` (m) on a graded mesh of fine size `h` in a square domain of half-width `r`
-/// with fixed edges, relaxed to a residual of 1e-8.
+/// How the pressurised crack relaxes to its static state.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Relax {
+    /// True masses, local damping alpha = 0.8 (slow on graded meshes: the large outer elements
+    /// are heavy and their modes slow).
+    Local,
+    /// Mass scaling (`time.mass_scaling`) and viscous damping c = k / (N dt), 1/s, with N the
+    /// number of cells across the mesh and dt the step: after scaling every node has about the
+    /// same mass, so the lowest mode is about (1/N) (2/dt) and c = 2/(N dt) damps it about
+    /// critically (k = 2 was the fastest of k = 1, 2, 4 at a/h = 10 and 20).
+    Scaled(f64),
+}
+
+/// One pressurised-crack run.
+#[derive(Clone, Copy, Debug)]
+pub struct CrackRun {
+    /// Opened area (sum of joint opening x length), m^2 per m.
+    pub area: f64,
+    /// Largest joint opening, m.
+    pub wmax: f64,
+    pub wall_s: f64,
+    /// Degrees of freedom (2 per node).
+    pub unknowns: usize,
+    pub steps: u64,
+}
+
+/// Parity of the diagonal pattern of the graded mesh at the crack: the regular and graded
+/// meshes alternate the quad diagonal with (i + j) mod 2, so the pattern around the crack
+/// depends on how many graded cells lie to the left of and below the fine box. The two
+/// patterns differ by up to 1.3 % in area at a/h = 10 (measured), so a domain-size study must
+/// compare meshes of the same parity.
+pub fn crack_parity(a: f64, h: f64, r: f64) -> anyhow::Result<usize> {
+    let m = crate::mesh::TriMesh::graded(
+        2.0 * r,
+        2.0 * r,
+        [-r, -r],
+        h,
+        [-1.2 * a, -0.2 * a, 1.2 * a, 0.2 * a],
+        1.15,
+    )?;
+    let row = m.nodes.iter().take_while(|x| x[1] == m.nodes[0][1]).count();
+    let k = m
+        .nodes
+        .iter()
+        .position(|x| (x[0] + 1.2 * a).abs() < 1e-9 * a && (x[1] + 0.2 * a).abs() < 1e-9 * a)
+        .ok_or_else(|| anyhow::anyhow!("no node at the fine box corner"))?;
+    Ok((k % row + k / row) % 2)
+}
+
+/// Opened area, largest opening, wall time and unknowns of a pressurised straight crack of
+/// half-length `a` (m) under pressure `p` (Pa) on a graded mesh of fine size `h` (m) in a
+/// square domain of half-width `r` (m) with fixed edges, relaxed to a residual of 1e-8.
 pub fn pressurised_crack(
     a: f64,
     h: f64,
     r: f64,
     p: f64,
     mat: Material,
-) -> anyhow::Result<(f64, f64, f64, usize)> {
+    relax: Relax,
+) -> anyhow::Result<CrackRun> {
     let mut sc = scenario(
         "sneddon",
         MeshSpec::Graded {
@@ -39,8 +89,13 @@ pub fn pressurised_crack(
             tol: 1e-8,
             min_steps: 10,
         },
-        Damping::Local(0.8),
+        match relax {
+            Relax::Local => Damping::Local(0.8),
+            Relax::Scaled(_) => Damping::Viscous(1.0),
+        },
     );
+    sc.time.mass_scaling = matches!(relax, Relax::Scaled(_));
+    sc.time.max_steps = 20_000_000;
     sc.fracture = Some(FractureSpec {
         strength: None,
         face_stress: Default::default(),
@@ -56,6 +111,16 @@ pub fn pressurised_crack(
     });
     let t0 = Instant::now();
     let mut sim = Simulation::new(sc, &[])?;
+    if let Relax::Scaled(k) = relax {
+        let across = |d: usize| {
+            let mut c: Vec<f64> = sim.view.x0.iter().map(|x| x[d]).collect();
+            c.sort_by(f64::total_cmp);
+            c.dedup();
+            c.len() - 1
+        };
+        let n = across(0).max(across(1)) as f64;
+        sim.params.damping = Damping::Viscous(k / (n * sim.dt()));
+    }
     let finish = sim.run(|_| {})?;
     anyhow::ensure!(
         finish == Finish::Converged,
@@ -68,24 +133,73 @@ pub fn pressurised_crack(
         area += w * len;
         wmax = wmax.max(w);
     }
-    Ok((
+    Ok(CrackRun {
         area,
         wmax,
-        t0.elapsed().as_secs_f64(),
-        2 * sim.view.n_nodes(),
+        wall_s: t0.elapsed().as_secs_f64(),
+        unknowns: 2 * sim.view.n_nodes(),
+        steps: sim.step,
+    })
+}
+
+/// Domain effect of the fixed-edge square of half-width 20a at one mesh size: runs at
+/// r1 ~ 40a and r2 ~ 80a (the first of r(1 + 0.05k) with the crack's diagonal parity, see
+/// [`crack_parity`]), extrapolated to r -> infinity with the 1/r^2 law of a fixed far boundary
+/// (Richardson: X_inf = X2 + (X2 - X1) / ((r2/r1)^2 - 1)). Returns (area, w_max) at r -> infinity
+/// divided by those at 20a, minus 1 (positive: the finite domain stiffens the crack), and the
+/// extra wall time (s).
+pub fn domain_effect(
+    a: f64,
+    h: f64,
+    p: f64,
+    mat: Material,
+    at_20a: &CrackRun,
+) -> anyhow::Result<(f64, f64, f64)> {
+    let parity = crack_parity(a, h, 20.0 * a)?;
+    let same = |base: f64| -> anyhow::Result<f64> {
+        for k in 0..20 {
+            let r = base * (1.0 + 0.05 * k as f64);
+            if crack_parity(a, h, r)? == parity {
+                return Ok(r);
+            }
+        }
+        anyhow::bail!("no domain near {base} m with the crack's diagonal parity")
+    };
+    let (r1, r2) = (same(40.0 * a)?, same(80.0 * a)?);
+    let c1 = pressurised_crack(a, h, r1, p, mat, Relax::Scaled(2.0))?;
+    let c2 = pressurised_crack(a, h, r2, p, mat, Relax::Scaled(2.0))?;
+    let q = (r2 / r1).powi(2) - 1.0;
+    let area_inf = c2.area + (c2.area - c1.area) / q;
+    let wmax_inf = c2.wmax + (c2.wmax - c1.wmax) / q;
+    Ok((
+        area_inf / at_20a.area - 1.0,
+        wmax_inf / at_20a.wmax - 1.0,
+        c1.wall_s + c2.wall_s,
     ))
 }
 
 /// Sneddon's pressurised crack (plane strain, uniform pressure p on a crack of half-length a):
 /// w(x) = (4p/E') sqrt(a^2 - x^2), opened area 2 pi p a^2 / E', w_max = 4 p a / E'. Graded mesh
-/// refined around the crack, domain 40a x 40a with fixed edges. Errors: relative error of the
-/// opened area and of the largest opening (at the centre; the sampled maximum is the joint
-/// nearest x = 0). Targets: area within 5 % at a/h = 20 and 1.5 % at a/h = 80.
+/// refined around the crack, domain 40a x 40a with fixed edges, relaxed with mass scaling
+/// ([`Relax::Scaled`]; the static answer is that of the true masses, `tests/sneddon.rs`).
+/// Errors: relative error of the opened area and of the largest opening (at the centre; the
+/// sampled maximum is the joint nearest x = 0), raw (against the infinite-medium formula) and
+/// corrected for the domain: the fixed edges at 20a stiffen the crack by a factor measured at
+/// each level with [`domain_effect`], and the corrected error is
+/// (1 + raw) (1 + domain effect) - 1, i.e. against the formula reduced to the finite domain.
+/// Rows: `area`, `area_corrected`, `max_opening`, `max_opening_corrected` (wall time: the 20a
+/// run), and `domain_effect_area` (the correction, wall time: both extra runs).
+/// Targets (the issue): corrected area error within 5 % at a/h = 20 and 1.5 % at a/h = 80
+/// (measured -3.9 % and -1.1 %); the raw error is also required within 5 % at a/h = 20 and
+/// reported at 80 (measured -1.48 %, too close to 1.5 % to be a robust check);
+/// observed order of the corrected area error about 1 (linear elements, crack-tip
+/// singularity), required in [0.7, 1.5]; the domain effect at 20a below 1 %
+/// (verification.md: keep the domain >= 20a or correct for it).
 pub fn sneddon(quick: bool) -> anyhow::Result<CaseResult> {
     let ratios: &[f64] = if quick {
         &[10.0, 20.0]
     } else {
-        &[10.0, 20.0, 40.0]
+        &[10.0, 20.0, 40.0, 80.0]
     };
     let (a, p) = (1.0, 1e6);
     let mat = Material {
@@ -99,30 +213,290 @@ pub fn sneddon(quick: bool) -> anyhow::Result<CaseResult> {
     let mut res = CaseResult::default();
     for (level, &ah) in ratios.iter().enumerate() {
         let h = a / ah;
-        let (area, wmax, wall, unknowns) = pressurised_crack(a, h, 20.0 * a, p, mat)?;
-        for (metric, err) in [
-            ("area", (area - area_exact) / area_exact),
-            ("max_opening", (wmax - wmax_exact) / wmax_exact),
+        let c = pressurised_crack(a, h, 20.0 * a, p, mat, Relax::Scaled(2.0))?;
+        let (d_area, d_wmax, d_wall) = domain_effect(a, h, p, mat, &c)?;
+        let area_raw = (c.area - area_exact) / area_exact;
+        let wmax_raw = (c.wmax - wmax_exact) / wmax_exact;
+        let area_cor = (1.0 + area_raw) * (1.0 + d_area) - 1.0;
+        let wmax_cor = (1.0 + wmax_raw) * (1.0 + d_wmax) - 1.0;
+        for (metric, err, wall) in [
+            ("area", area_raw, c.wall_s),
+            ("area_corrected", area_cor, c.wall_s),
+            ("max_opening", wmax_raw, c.wall_s),
+            ("max_opening_corrected", wmax_cor, c.wall_s),
+            ("domain_effect_area", d_area, d_wall),
         ] {
             res.rows.push(Row {
                 case: "sneddon",
                 level,
                 h,
-                unknowns,
+                unknowns: c.unknowns,
                 metric: metric.into(),
                 error: err.abs(),
                 wall_s: wall,
             });
         }
-        if (ah - 20.0).abs() < 1e-9 {
+        res.check_range(
+            format!("domain effect on the area at 20a, a/h = {ah}"),
+            d_area,
+            0.0,
+            0.01,
+        );
+        let target = if (ah - 20.0).abs() < 1e-9 {
+            Some(0.05)
+        } else if (ah - 80.0).abs() < 1e-9 {
+            Some(0.015)
+        } else {
+            None
+        };
+        if let Some(t) = target {
             res.check_max(
-                "area error at a/h = 20",
-                ((area - area_exact) / area_exact).abs(),
-                0.05,
+                format!("corrected area error at a/h = {ah}"),
+                area_cor.abs(),
+                t,
             );
         }
+        if (ah - 20.0).abs() < 1e-9 {
+            res.check_max("raw area error at a/h = 20", area_raw.abs(), 0.05);
+        }
     }
-    let order = observed_order(&res.errors("area"));
-    res.check_range("area observed order", order, 0.7, 1.5);
+    let order = observed_order(&res.errors("area_corrected"));
+    res.check_range("corrected area observed order", order, 0.7, 1.5);
+    Ok(res)
+}
+
+/// One inclined-block run (see [`inclined_block`]).
+#[derive(Clone, Copy, Debug)]
+pub struct InclinedBlock {
+    /// Mean rigid acceleration of the upper block along the joint over the measuring window:
+    /// the change of its centre-of-mass velocity over the window's duration, m/s^2.
+    pub accel: f64,
+    /// g (sin psi - cos psi tan phi) when positive (the block slides), else 0, m/s^2.
+    pub expected: f64,
+    /// Displacement of the upper block's centre of mass along the joint from the end of the
+    /// relaxation to the end of the run, m.
+    pub slip: f64,
+    /// Fewest and most joints sliding at one step of the measuring window, and the most sliding
+    /// at any step after the relaxation (ramp, delay and window).
+    pub sliding_min: usize,
+    pub sliding_max: usize,
+    pub sliding_ever: usize,
+    pub joints: usize,
+    /// Degrees of freedom (2 per node).
+    pub unknowns: usize,
+    /// Over the measuring window: the mean summed joint normal force over the block's normal
+    /// weight M g cos psi, and the mean summed joint shear force over tan phi times the mean
+    /// summed normal force (1 when every joint slides all the time).
+    pub normal_ratio: f64,
+    pub shear_ratio: f64,
+    pub wall_s: f64,
+}
+
+/// Gravity g, m/s^2.
+pub const G: f64 = 9.81;
+
+/// Joint stiffness K_n = K_t of the inclined-block case, Pa: E/100. The rigid-block answer does
+/// not depend on it. With the seed's K_n = E the block's weight presses each joint by only
+/// sigma h / K_n ~ 0.3 um, less than the elastic vibration the load change excites in the block
+/// (~1 um), so the contacts chatter and the mean friction drops (measured: up to +130 % error
+/// in the acceleration at psi = 30, phi = 27 deg, and a block at psi = 29 < phi = 30 deg that
+/// crept). E/100 makes the static closure ~30 um and the contacts stay closed.
+pub const BLOCK_JOINT_STIFFNESS: f64 = 2e8;
+
+/// A block on a joint inclined at `psi_deg` with friction angle `phi_deg` under gravity
+/// (verification.md item 8). Instead of tilting the mesh, gravity is rotated:
+/// g = 9.81 (sin psi, -cos psi) m/s^2 on a 4 m x 2 m rectangle (cell size `h`, m) cut by a
+/// pre-existing fracture along y = 1 m across its whole width into two 4 m x 1 m blocks; the
+/// lower block's base is fixed, everything else is free; E = 20 GPa, nu = 0.2,
+/// rho = 2700 kg/m^3, K_n = K_t = [`BLOCK_JOINT_STIFFNESS`].
+///
+/// 1. Relax with the normal component only (-g cos psi along y) under local damping
+///    (alpha = 0.8) to a residual of 1e-9: the joints close under the block's weight with no
+///    shear load and start at rest (an undamped drop onto penalty contacts rattles).
+/// 2. Switch damping off and ramp the tangential component g sin psi along x linearly over
+///    0.05 s (about 20 periods of the block's lowest shear mode, ~2.5 ms, so the dynamic
+///    overshoot of the shear load is ~1 %), then run 0.05 s more at the full load.
+/// 3. Measure over the next 0.1 s the mean acceleration of the upper block's centre of mass,
+///    (V(t_end) - V(t_start)) / 0.1 s. Central difference conserves momentum exactly, so this
+///    is (gravity + summed joint forces) / mass averaged over the window: elastic vibration
+///    inside the block does not enter it, only the joint forces do.
+pub fn inclined_block(psi_deg: f64, phi_deg: f64, h: f64) -> anyhow::Result<InclinedBlock> {
+    let (psi, phi) = (psi_deg.to_radians(), phi_deg.to_radians());
+    let (ramp, delay, window) = (0.05, 0.05, 0.1);
+    let mut sc = scenario(
+        "inclined_block",
+        MeshSpec::Regular {
+            width: 4.0,
+            height: 2.0,
+            h,
+            origin: [0.0, 0.0],
+        },
+        Material {
+            young: 20e9,
+            poisson: 0.2,
+            density: 2700.0,
+        },
+        Boundary::Sides {
+            left: SideBc::Free,
+            right: SideBc::Free,
+            bottom: SideBc::Fixed,
+            top: SideBc::Free,
+        },
+        End::Static {
+            tol: 1e-9,
+            min_steps: 10,
+        },
+        Damping::Local(0.8),
+    );
+    sc.gravity = Some([0.0, -G * psi.cos()]);
+    sc.fracture = Some(FractureSpec {
+        strength: None,
+        face_stress: Default::default(),
+        residual_aperture: 5e-4,
+        preexisting: vec![PreFracture {
+            from: [0.0, 1.0],
+            to: [4.0, 1.0],
+        }],
+        pressure: None,
+        friction_deg: phi_deg,
+        normal_stiffness: Some(BLOCK_JOINT_STIFFNESS),
+        shear_stiffness: Some(BLOCK_JOINT_STIFFNESS),
+    });
+    let t0 = Instant::now();
+    let mut sim = Simulation::new(sc, &[])?;
+    let finish = sim.run(|_| {})?;
+    anyhow::ensure!(
+        finish == Finish::Converged,
+        "inclined block: no static state under the normal load (residual {:.3e})",
+        sim.residual
+    );
+    // The upper block: nodes of elements whose centroid lies above the fracture.
+    let v = &sim.view;
+    let mut upper = vec![false; v.n_nodes()];
+    for c in &v.conn {
+        let yc = c.iter().map(|&a| v.x0[a as usize][1]).sum::<f64>() / 3.0;
+        if yc > 1.0 {
+            c.iter().for_each(|&a| upper[a as usize] = true);
+        }
+    }
+    let mass: f64 = (0..v.n_nodes())
+        .filter(|&i| upper[i])
+        .map(|i| v.mass[i])
+        .sum();
+    let com = |sim: &Simulation| -> (f64, f64) {
+        let v = &sim.view;
+        let (mut x, mut vel) = (0.0, 0.0);
+        for i in (0..v.n_nodes()).filter(|&i| upper[i]) {
+            x += v.mass[i] * v.u[i][0];
+            vel += v.mass[i] * v.v[i][0];
+        }
+        (x / mass, vel / mass)
+    };
+    let sliding = |sim: &Simulation| sim.view.joint_state.iter().filter(|s| s.sliding).count();
+    let base = sim.view.load.clone();
+    let gt = G * psi.sin();
+    sim.params.damping = Damping::None;
+    let (x_start, t_start) = (com(&sim).0, sim.time);
+    let mut sliding_ever = 0;
+    // Ramp, then hold: the tangential body force m_i g sin psi (the body force is lumped like
+    // the mass, rho g A / 3 per element node) grows linearly to its full value.
+    while sim.time - t_start < ramp + delay {
+        let f = ((sim.time + sim.dt() - t_start) / ramp).min(1.0);
+        for (i, l) in sim.view.load.iter_mut().enumerate() {
+            l[0] = base[i][0] + f * sim.view.mass[i] * gt;
+        }
+        sim.step_once()?;
+        sliding_ever = sliding_ever.max(sliding(&sim));
+    }
+    let (v1, t1) = (com(&sim).1, sim.time);
+    let (mut smin, mut smax) = (usize::MAX, 0);
+    let (mut sum_n, mut sum_t, mut n_steps) = (0.0, 0.0, 0usize);
+    while sim.time - t1 < window {
+        sim.step_once()?;
+        let s = sliding(&sim);
+        smin = smin.min(s);
+        smax = smax.max(s);
+        sum_n += sim
+            .view
+            .joint_state
+            .iter()
+            .map(|s| s.normal_force)
+            .sum::<f64>();
+        sum_t += sim
+            .view
+            .joint_state
+            .iter()
+            .map(|s| s.shear_force)
+            .sum::<f64>();
+        n_steps += 1;
+    }
+    sliding_ever = sliding_ever.max(smax);
+    let (mean_n, mean_t) = (sum_n / n_steps as f64, sum_t / n_steps as f64);
+    let (x_end, v2) = com(&sim);
+    Ok(InclinedBlock {
+        accel: (v2 - v1) / (sim.time - t1),
+        expected: (G * (psi.sin() - psi.cos() * phi.tan())).max(0.0),
+        slip: x_end - x_start,
+        sliding_min: smin,
+        sliding_max: smax,
+        sliding_ever,
+        joints: sim.view.joint_nodes.len(),
+        unknowns: 2 * sim.view.n_nodes(),
+        normal_ratio: mean_n / (mass * G * psi.cos()),
+        shear_ratio: mean_t.abs() / (phi.tan() * mean_n),
+        wall_s: t0.elapsed().as_secs_f64(),
+    })
+}
+
+/// Frictional sliding (verification.md item 8) with [`inclined_block`] at cell sizes 0.5,
+/// 0.25, 0.125 m (0.5, 0.25 with `quick`). Sliding, psi = 30 deg > phi = 20 deg: the relative
+/// error of the mean acceleration against g (sin psi - cos psi tan phi) = 1.8128 m/s^2 is at
+/// most 2 % at every level (the issue's tolerance; measured below 1e-3: the rigid-block
+/// answer is exact for the discrete momentum balance once every joint slides, and what is left
+/// is the ~1 % residual vibration from the ramp averaged over 40 periods). Sticking, psi = 20
+/// deg < phi = 30 deg: no joint ever slides, and the block's centre of mass moves by at most
+/// 1e-4 m (elastic: measured 1e-5 to 3e-5 m; a block sliding at even 1 % of the psi = 30 deg
+/// acceleration, 0.018 m/s^2, would move 2e-4 m in the 0.15 s after the ramp).
+pub fn friction(quick: bool) -> anyhow::Result<CaseResult> {
+    let hs: &[f64] = if quick {
+        &[0.5, 0.25]
+    } else {
+        &[0.5, 0.25, 0.125]
+    };
+    let mut res = CaseResult::default();
+    for (level, &h) in hs.iter().enumerate() {
+        let s = inclined_block(30.0, 20.0, h)?;
+        let rel = (s.accel - s.expected) / s.expected;
+        let k = inclined_block(20.0, 30.0, h)?;
+        for (metric, err, wall) in [
+            ("slide_acceleration", rel.abs(), s.wall_s),
+            ("stick_displacement_m", k.slip.abs(), k.wall_s),
+        ] {
+            res.rows.push(Row {
+                case: "friction",
+                level,
+                h,
+                unknowns: s.unknowns,
+                metric: metric.into(),
+                error: err,
+                wall_s: wall,
+            });
+        }
+        res.check_max(
+            format!("slide acceleration error, h = {h} m"),
+            rel.abs(),
+            0.02,
+        );
+        res.check_max(
+            format!("stick: joints ever sliding, h = {h} m"),
+            k.sliding_ever as f64,
+            0.0,
+        );
+        res.check_max(
+            format!("stick: block displacement (m), h = {h} m"),
+            k.slip.abs(),
+            1e-4,
+        );
+    }
     Ok(res)
 }

@@ -1,7 +1,9 @@
 //! `hydrofrac verify`: verification cases run at several resolutions, each reporting error and
 //! wall time side by side (`DIR/<case>.csv`, `DIR/<case>.png`), with stated tolerances.
 //!
-//! Cases (verification.md items 1-4): `patch`, `insitu`, `mms`, `stability`.
+//! Cases: solid (verification.md items 1-4) `patch`, `insitu`, `mms`, `stability`; flow
+//! `cubic_law`, `diffusion`, `mass_balance`, `pump_curve`, `steady`, `flow_stability`; fracture
+//! (items 5 and 8) `sneddon`, `friction`.
 
 pub mod flow_cases;
 pub mod fracture_cases;
@@ -158,6 +160,11 @@ pub fn cases() -> Vec<Case> {
             name: "sneddon",
             about: "pressurised pre-existing crack on a graded mesh against Sneddon's opening",
             run: fracture_cases::sneddon,
+        },
+        Case {
+            name: "friction",
+            about: "block on a joint inclined at psi under gravity: slides at g (sin psi - cos psi tan phi) or sticks",
+            run: fracture_cases::friction,
         },
     ]
 }

@@ -44,6 +44,7 @@ pub fn scenario(
             flow_dt: None,
             max_steps: 2_000_000,
             max_substeps: 100_000,
+            mass_scaling: false,
         },
         damping,
         systems: SystemsSpec::default(),
