@@ -1,0 +1,96 @@
+//! The seed's Example I (verification.md item 9), the shipped scenarios shortened to 0.6 s of
+//! simulated time (the outcome is decided by then: the fracture reaches the vertical fracture
+//! at x = 16 m at about 0.41 s). Full runs: `hydrofrac run scenarios/example1_cross.ron` and
+//! `example1_offset.ron` (1.5 s).
+//!
+//! - friction 45 deg (cross): the horizontal fracture continues past the vertical one at
+//!   y = 50 m (new cells beyond x = 17 m) and the vertical fracture stays closed (hydraulic
+//!   aperture at the residual a_r in most of its cells);
+//! - friction 3 deg (offset): no fracture starts on the far side at y = 50 m; fluid enters the
+//!   vertical fracture (all its cells fill, above 10 MPa) and new fractures start near its
+//!   tips (y about 46-48 and 52-54 m) and run horizontally.
+//!
+//! Both runs also check the mass balance (1e-9). About 60 s each in release mode.
+
+use hydrofrac::flow::FlowView;
+use hydrofrac::scenario::Scenario;
+use hydrofrac::sim::{Finish, Simulation};
+use std::path::Path;
+
+fn run(name: &str) -> Simulation {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios").join(name);
+    let sc = Scenario::load(&path, &["time.end=Time(0.6)".to_string()]).unwrap();
+    let mut sim = Simulation::new(sc, &[]).unwrap();
+    assert_eq!(sim.run(|_| {}).unwrap(), Finish::EndTime);
+    let (_, _, _, err) = sim.flow_balance().unwrap();
+    assert!(err < 1e-9, "{name}: mass balance error {err:e}");
+    sim
+}
+
+/// (x range, y range, aperture m, pressure Pa, created s) of every cell, reference geometry.
+fn cells(v: &FlowView) -> Vec<([f64; 2], [f64; 2], f64, f64, f64)> {
+    (0..v.n_cells())
+        .map(|c| {
+            let [a, b] = v.cell_nodes[c].map(|n| v.node_ref[n as usize]);
+            (
+                [a[0].min(b[0]), a[0].max(b[0])],
+                [a[1].min(b[1]), a[1].max(b[1])],
+                v.aperture[c],
+                v.pressure[c],
+                v.created_t[c],
+            )
+        })
+        .collect()
+}
+
+fn vertical(c: &([f64; 2], [f64; 2], f64, f64, f64)) -> bool {
+    (c.0[0] - 16.0).abs() < 1e-6 && (c.0[1] - 16.0).abs() < 1e-6
+}
+
+#[test]
+fn friction_45_degrees_crosses() {
+    let sim = run("example1_cross.ron");
+    let f = sim.flow.as_ref().unwrap();
+    let cs = cells(&f.view);
+    let beyond = cs
+        .iter()
+        .filter(|c| c.4 > 0.0 && c.0[0] >= 17.0 - 1e-6 && (c.1[0] - 50.0).abs() < 0.5)
+        .count();
+    assert!(beyond >= 1, "no new fracture past x = 17 m at y = 50 m");
+    let vert: Vec<_> = cs.iter().filter(|c| vertical(c)).collect();
+    assert_eq!(vert.len(), 8);
+    let closed = vert.iter().filter(|c| c.2 <= 5e-4 * (1.0 + 1e-9)).count();
+    assert!(closed >= 6, "vertical fracture open: {closed} of 8 cells closed");
+    // No branch along the vertical fracture's tips.
+    assert!(
+        !cs.iter()
+            .any(|c| c.4 > 0.0 && (c.1[0] - 50.0).abs() > 1.5 && c.0[0] >= 15.0),
+        "a fracture left the y = 50 m line"
+    );
+}
+
+#[test]
+fn friction_3_degrees_offsets() {
+    let sim = run("example1_offset.ron");
+    let f = sim.flow.as_ref().unwrap();
+    let cs = cells(&f.view);
+    assert!(
+        !cs.iter()
+            .any(|c| c.4 > 0.0 && c.0[0] >= 16.0 - 1e-6 && (c.1[0] - 50.0).abs() < 0.5),
+        "a fracture started on the far side at y = 50 m"
+    );
+    let vert: Vec<_> = cs.iter().filter(|c| vertical(c)).collect();
+    assert!(
+        vert.iter().all(|c| c.3 > 10e6),
+        "fluid did not fill the vertical fracture"
+    );
+    for (lo, hi) in [(45.5, 48.5), (51.5, 54.5)] {
+        assert!(
+            cs.iter().any(|c| c.4 > 0.0
+                && c.0[0] >= 16.0 - 1e-6
+                && (c.1[1] - c.1[0]).abs() < 1e-6
+                && (lo..=hi).contains(&c.1[0])),
+            "no horizontal fracture from the vertical fracture's tip region y in [{lo}, {hi}]"
+        );
+    }
+}
