@@ -70,7 +70,13 @@ pub struct TooManySubsteps {
 
 impl Coupling {
     /// Maps for freshly built views; the mean pressures restart from the cells' pressures.
-    pub fn build(model: &Model, solid: &SolidView, flow: &FlowView, p: &FlowParams, a_r: f64) -> Self {
+    pub fn build(
+        model: &Model,
+        solid: &SolidView,
+        flow: &FlowView,
+        p: &FlowParams,
+        a_r: f64,
+    ) -> Self {
         let cell_index: HashMap<Entity, u32> = flow
             .cell_entity
             .iter()
@@ -219,7 +225,13 @@ impl Coupling {
 /// Critical solid step of a coupled run, s: [`crate::fractures::step_with_joints`] with each
 /// joint's stiffness raised by the fluid's, K_f L / a_r (the stiffest a full cell of length L
 /// at the residual aperture pushes back on an opening change).
-pub fn coupled_step_bound(model: &Model, dt_elements: f64, k_joint: f64, k_fluid: f64, a_r: f64) -> f64 {
+pub fn coupled_step_bound(
+    model: &Model,
+    dt_elements: f64,
+    k_joint: f64,
+    k_fluid: f64,
+    a_r: f64,
+) -> f64 {
     crate::fractures::step_with_joint_stiffness(model, dt_elements, |len| {
         k_joint + k_fluid * len / a_r
     })

@@ -151,8 +151,10 @@ impl Simulation {
                 }
                 m.apply_boundary(&scenario.boundary);
                 m.apply_pins(&scenario.pins)?;
-                if let (crate::scenario::InitialState::InSitu, crate::scenario::Boundary::InSitu { sxx, syy }) =
-                    (scenario.initial_state, &scenario.boundary)
+                if let (
+                    crate::scenario::InitialState::InSitu,
+                    crate::scenario::Boundary::InSitu { sxx, syy },
+                ) = (scenario.initial_state, &scenario.boundary)
                 {
                     m.set_insitu_displacement(*sxx, *syy);
                 }
@@ -367,10 +369,7 @@ impl Simulation {
                 .as_ref()
                 .map_or(5e-4, |f| f.residual_aperture);
             let coupled = self.flow.as_ref().is_some_and(|f| f.coupling.is_some());
-            crate::fractures::sync_fracture_geometry(
-                &mut self.model,
-                (!coupled).then_some(a_r),
-            );
+            crate::fractures::sync_fracture_geometry(&mut self.model, (!coupled).then_some(a_r));
         }
     }
 
@@ -469,9 +468,10 @@ impl Simulation {
                         .as_ref()
                         .and_then(|f| f.strength)
                         .unwrap_or(f64::INFINITY);
-                    let by_elements = self.scenario.fracture.as_ref().is_some_and(|f| {
-                        f.face_stress == crate::scenario::FaceStress::Elements
-                    });
+                    let by_elements =
+                        self.scenario.fracture.as_ref().is_some_and(|f| {
+                            f.face_stress == crate::scenario::FaceStress::Elements
+                        });
                     self.ready_edges =
                         fracture::fracture_criterion(&mut self.view, strength, by_elements);
                 }

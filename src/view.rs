@@ -213,7 +213,8 @@ impl SolidView {
             let l2 = t[0] * t[0] + t[1] * t[1];
             cand.clear();
             for x in nodes {
-                for &k in &v.inc[v.inc_ptr[x as usize] as usize..v.inc_ptr[x as usize + 1] as usize] {
+                for &k in &v.inc[v.inc_ptr[x as usize] as usize..v.inc_ptr[x as usize + 1] as usize]
+                {
                     cand.push(k / 6);
                 }
             }

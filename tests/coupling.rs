@@ -65,7 +65,9 @@ fn coupled_run_conserves_mass_and_grows_the_fracture() {
     for &c in &new {
         let [a, b] = f.view.cell_nodes[c].map(|n| f.view.node_ref[n as usize]);
         assert!(
-            (a[1] - 15.0).abs() < 1e-9 && (b[1] - 15.0).abs() < 1e-9 && a[0].min(b[0]) >= 10.0 - 1e-9,
+            (a[1] - 15.0).abs() < 1e-9
+                && (b[1] - 15.0).abs() < 1e-9
+                && a[0].min(b[0]) >= 10.0 - 1e-9,
             "new cell off the fracture line: {a:?} {b:?}"
         );
     }
@@ -115,5 +117,10 @@ fn substep_cap_stops_with_a_clear_message() {
     }
     let f = sim.flow.as_ref().unwrap();
     assert!(f.view.excess.iter().all(|e| e.is_finite()));
-    assert!(sim.view.u.iter().all(|u| u[0].is_finite() && u[1].is_finite()));
+    assert!(
+        sim.view
+            .u
+            .iter()
+            .all(|u| u[0].is_finite() && u[1].is_finite())
+    );
 }

@@ -18,7 +18,9 @@ use hydrofrac::sim::{Finish, Simulation};
 use std::path::Path;
 
 fn run(name: &str) -> Simulation {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios").join(name);
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("scenarios")
+        .join(name);
     let sc = Scenario::load(&path, &["time.end=Time(0.6)".to_string()]).unwrap();
     let mut sim = Simulation::new(sc, &[]).unwrap();
     assert_eq!(sim.run(|_| {}).unwrap(), Finish::EndTime);
@@ -27,8 +29,10 @@ fn run(name: &str) -> Simulation {
     sim
 }
 
-/// (x range, y range, aperture m, pressure Pa, created s) of every cell, reference geometry.
-fn cells(v: &FlowView) -> Vec<([f64; 2], [f64; 2], f64, f64, f64)> {
+/// (x range, y range, aperture m, pressure Pa, created s) of a cell, reference geometry.
+type CellRow = ([f64; 2], [f64; 2], f64, f64, f64);
+
+fn cells(v: &FlowView) -> Vec<CellRow> {
     (0..v.n_cells())
         .map(|c| {
             let [a, b] = v.cell_nodes[c].map(|n| v.node_ref[n as usize]);
@@ -43,7 +47,7 @@ fn cells(v: &FlowView) -> Vec<([f64; 2], [f64; 2], f64, f64, f64)> {
         .collect()
 }
 
-fn vertical(c: &([f64; 2], [f64; 2], f64, f64, f64)) -> bool {
+fn vertical(c: &CellRow) -> bool {
     (c.0[0] - 16.0).abs() < 1e-6 && (c.0[1] - 16.0).abs() < 1e-6
 }
 
@@ -60,7 +64,10 @@ fn friction_45_degrees_crosses() {
     let vert: Vec<_> = cs.iter().filter(|c| vertical(c)).collect();
     assert_eq!(vert.len(), 8);
     let closed = vert.iter().filter(|c| c.2 <= 5e-4 * (1.0 + 1e-9)).count();
-    assert!(closed >= 6, "vertical fracture open: {closed} of 8 cells closed");
+    assert!(
+        closed >= 6,
+        "vertical fracture open: {closed} of 8 cells closed"
+    );
     // No branch along the vertical fracture's tips.
     assert!(
         !cs.iter()
