@@ -1,12 +1,13 @@
 //! A simulation: the model, its dense views, the schedule, and the step loop.
 
 use crate::error::{RunError, SetupError};
+use crate::flow::implicit::{ImplicitError, ImplicitSolver, implicit_step};
 use crate::flow::{FlowParams, FlowView};
 use crate::mesh::TriMesh;
 use crate::model::Model;
 use crate::network::CellNetwork;
 use crate::output::Outputs;
-use crate::scenario::{Damping, End, Material, MeshSpec, Scenario};
+use crate::scenario::{Damping, End, FlowScheme, Material, MeshSpec, Scenario};
 use crate::schedule::{Schedule, Status};
 use crate::systems::SystemId;
 use crate::systems::flow::{self as flowsys, FlowStats};
@@ -50,6 +51,10 @@ pub struct FlowPart {
     pub residual: f64,
     /// The fractures the network was cut from (written to the output).
     pub network: CellNetwork,
+    /// `time.flow_scheme: Implicit`: the backward-Euler solver (one flow step per step).
+    pub implicit: Option<ImplicitSolver>,
+    /// A failed implicit step, reported by `monitor`.
+    pub implicit_error: Option<ImplicitError>,
 }
 
 pub struct Simulation {
@@ -204,16 +209,24 @@ impl Simulation {
                     initial_excess,
                     residual: f64::INFINITY,
                     network: net,
+                    implicit: (scenario.time.flow_scheme == FlowScheme::Implicit)
+                        .then(ImplicitSolver::new),
+                    implicit_error: None,
                 })
             }
         };
         // Steps: the solid sets the step when there is one; flow sub-steps fill it.
         let t = &scenario.time;
         let flow_auto = flow.as_ref().map(|f| t.safety * f.dt_crit);
+        // Implicit flow-only scenes take `time.flow_dt` as their (single) flow step.
+        let per_flow_dt = match t.flow_scheme {
+            FlowScheme::Explicit => FLOW_ONLY_SUBSTEPS as f64,
+            FlowScheme::Implicit => 1.0,
+        };
         let mut dt = match (t.dt, has_solid, flow_auto, t.flow_dt) {
             (Some(dt), _, _, _) => dt,
             (None, true, _, _) => t.safety * dt_crit,
-            (None, false, _, Some(fdt)) => FLOW_ONLY_SUBSTEPS as f64 * fdt,
+            (None, false, _, Some(fdt)) => per_flow_dt * fdt,
             (None, false, Some(fa), None) => FLOW_ONLY_SUBSTEPS as f64 * fa,
             (None, false, None, None) => unreachable!("validated: a mesh or a network"),
         };
@@ -233,7 +246,10 @@ impl Simulation {
         let mut flow = flow;
         if let Some(f) = flow.as_mut() {
             let target = t.flow_dt.unwrap_or(t.safety * f.dt_crit);
-            f.substeps = ((dt / target) * (1.0 - 1e-12)).ceil().max(1.0) as u64;
+            f.substeps = match f.implicit {
+                Some(_) => 1,
+                None => ((dt / target) * (1.0 - 1e-12)).ceil().max(1.0) as u64,
+            };
             f.dt = dt / f.substeps as f64;
         }
         let params = solid_params(&mat, dt, scenario.damping);
@@ -437,8 +453,17 @@ impl Simulation {
     /// cell with negative or non-finite mass (reported by `monitor`).
     fn flow_substeps(&mut self, t0: f64) {
         let specs = &self.scenario.flow_boundaries;
+        let dt = self.params.dt;
         let Some(f) = self.flow.as_mut() else { return };
-        for k in 0..f.substeps {
+        if let Some(solver) = f.implicit.as_mut() {
+            // One backward-Euler step over the whole step (failures reported by `monitor`).
+            f.dt = dt;
+            match implicit_step(&mut f.view, &f.params, specs, dt, t0, solver) {
+                Ok(st) => f.stats = st,
+                Err(e) => f.implicit_error = Some(e),
+            }
+        }
+        for k in 0..f.substeps * u64::from(f.implicit.is_none()) {
             f.stats = flowsys::flow_step(&mut f.view, &f.params, specs, f.dt, t0 + k as f64 * f.dt);
             if f.stats.bad_cell.is_some() {
                 break;
@@ -506,11 +531,19 @@ impl Simulation {
         } else {
             0.0
         };
+        if let Some(source) = self.flow.as_mut().and_then(|f| f.implicit_error.take()) {
+            return Err(RunError::ImplicitFlow {
+                step: self.step,
+                time: self.time,
+                source,
+            });
+        }
         if let Some(f) = &self.flow {
             // The explicit flow step must respect the stability bound (a forced `time.flow_dt`
             // may not): above it the scheme oscillates, and the P = 0 floor of unfilled cells can
             // hold the oscillation bounded, so it would not show up as a blow-up by itself.
-            if f.dt > f.dt_crit * (1.0 + 1e-9)
+            if f.implicit.is_none()
+                && f.dt > f.dt_crit * (1.0 + 1e-9)
                 && let Some((c, bound)) = f.view.critical_cell(&f.params)
             {
                 return Err(blow(
@@ -528,10 +561,14 @@ impl Simulation {
                     f.view.cell_label(c),
                     "fluid mass",
                     f.view.excess[c] + f.params.rho_r * f.view.volume[c],
-                    format!(
-                        "negative or non-finite: the flow step exceeds its stability limit {:.3e} s",
-                        f.dt_crit
-                    ),
+                    match f.implicit {
+                        None => format!(
+                            "negative or non-finite: the flow step exceeds its stability limit {:.3e} s",
+                            f.dt_crit
+                        ),
+                        Some(_) => "negative or non-finite: more fluid withdrawn than the cell holds"
+                            .into(),
+                    },
                     f.dt,
                 ));
             }

@@ -5,8 +5,8 @@ use super::{CaseResult, Row, observed_order};
 use crate::error::RunError;
 use crate::network::{Fracture, NetworkSpec, RandomNetwork};
 use crate::scenario::{
-    Boundary, Damping, End, FlowBcKind, FlowBoundary, FlowTarget, Fluid, InitialFluid, OutputSpec,
-    Scenario, SystemsSpec, TimeControl,
+    Boundary, Damping, End, FlowBcKind, FlowBoundary, FlowScheme, FlowTarget, Fluid, InitialFluid,
+    OutputSpec, Scenario, SystemsSpec, TimeControl,
 };
 use crate::sim::{Finish, Simulation};
 use std::time::Instant;
@@ -46,6 +46,7 @@ pub fn flow_scenario(
             safety: 0.9,
             dt: None,
             flow_dt: None,
+            flow_scheme: Default::default(),
             max_steps: 5_000_000,
         },
         damping: Damping::None,
@@ -104,6 +105,20 @@ pub fn wells_network(seed: u64, count: usize, cell_length: f64) -> NetworkSpec {
         }),
         cell_length,
     )
+}
+
+/// The same scenario with the backward-Euler flow scheme and step `dt` (s).
+pub fn implicit(mut sc: Scenario, dt: f64) -> Scenario {
+    sc.time.flow_scheme = FlowScheme::Implicit;
+    sc.time.dt = Some(dt);
+    sc.time.flow_dt = None;
+    sc
+}
+
+/// A step (s) long against the network's slowest diffusion: ten diffusion times L^2 / D of a
+/// 10 m fracture of aperture `a` (m): an implicit run reaches steady state in a few steps.
+pub fn long_step(a: f64, len: f64) -> f64 {
+    10.0 * len * len / diffusivity(a, &WATER)
 }
 
 /// Run to the end; returns the simulation and its wall time.
@@ -340,77 +355,134 @@ pub fn erfc(x: f64) -> f64 {
     if x >= 0.0 { r } else { 2.0 - r }
 }
 
+/// The diffusion set-up of [`diffusion`]: L = 10 m, a = 0.1 mm, closed far end, full at
+/// p_i = 1 MPa, a step to p0 = 2 MPa at x = 0, run to D t / L^2 = 0.01 with `n` cells and the
+/// flow step `dt` (s) under `scheme`. Returns the run, its wall time (s), the cell pressures
+/// (Pa, from the masses: the explicit view's pressure lags one sub-step) and the largest errors
+/// against the closed-end series and erfc over (p0 - p_i).
+pub fn diffusion_run(
+    n: usize,
+    dt: f64,
+    scheme: FlowScheme,
+) -> anyhow::Result<(Simulation, f64, Vec<f64>, f64, f64)> {
+    let (a, len, pi, p0) = (1e-4, 10.0, 1e6, 2e6);
+    let d = diffusivity(a, &WATER);
+    let t_end = 0.01 * len * len / d;
+    let mut sc = flow_scenario(
+        "diffusion",
+        net(vec![frac([0.0, 0.0], [len, 0.0], a)], None, len / n as f64),
+        vec![bc(
+            "step",
+            FlowTarget::Node([0.0, 0.0]),
+            FlowBcKind::Pressure(p0),
+        )],
+        InitialFluid::Full(pi),
+        End::Time(t_end),
+        WATER,
+    );
+    sc.time.dt = Some(dt);
+    match scheme {
+        FlowScheme::Explicit => sc.time.flow_dt = Some(dt),
+        FlowScheme::Implicit => sc = implicit(sc, dt),
+    }
+    let (sim, wall) = run(sc)?;
+    let f = sim.flow.as_ref().expect("flow");
+    let (mut e_series, mut e_erfc) = (0.0f64, 0.0f64);
+    let mut p = Vec::with_capacity(f.view.n_cells());
+    for c in 0..f.view.n_cells() {
+        let [pa, pb] = f.view.cell_nodes[c].map(|k| f.view.node_pos[k as usize]);
+        let x = 0.5 * (pa[0] + pb[0]);
+        let pc = crate::flow::pressure_of(f.view.excess[c], f.view.volume[c], &f.params);
+        let s = pi + (p0 - pi) * closed_end_series(x, sim.time, len, d);
+        let e = pi + (p0 - pi) * erfc(x / (2.0 * (d * sim.time).sqrt()));
+        e_series = e_series.max((pc - s).abs() / (p0 - pi));
+        e_erfc = e_erfc.max((pc - e).abs() / (p0 - pi));
+        p.push(pc);
+    }
+    Ok((sim, wall, p, e_series, e_erfc))
+}
+
 /// Pressure diffusion in a rigid fracture (L = 10 m, a = 0.1 mm, closed far end, full at
 /// p_i = 1 MPa, a step to 2 MPa at x = 0) at D t / L^2 = 0.01, against the closed-end series and
-/// the semi-infinite erfc solution (identical there to 1e-12). One fixed flow step, a tenth of
-/// the finest level's critical step, for every level so only the space error changes.
-/// Error: max over cells of |p - p_exact| / (p0 - p_i). Expected order 2 (cell-centred finite
-/// volumes); accepted [1.7, 2.3] between the two finest levels.
+/// the semi-infinite erfc solution (identical there to 1e-12).
+/// Error: max over cells of |p - p_exact| / (p0 - p_i).
+/// - Explicit (`*_explicit`): one fixed flow step, a tenth of the finest level's critical step,
+///   for every level so only the space error changes. Expected order 2 (cell-centred finite
+///   volumes); accepted [1.7, 2.3] between the two finest levels, and <= 1e-3 at the finest.
+/// - Implicit, same levels (`*_implicit`): backward Euler with 20 steps over the run (each
+///   step 50 to 800 times the explicit bound): the error is dominated by the O(dt) time error,
+///   so it levels off instead of falling as h^2; reported beside the explicit error and wall.
+/// - Implicit, step refinement on the finest mesh (`closed_end_series_implicit_dt`, the h
+///   column holds the step dt in s, and `time_error_implicit_dt`: against the explicit run on
+///   the same mesh, so the space error cancels and only the time error remains): 10 to 160
+///   steps. Backward Euler is first order: the time error must fall at order in [0.9, 1.1],
+///   and with 160 steps the closed-form error must be below 5e-3 (the step is then 5x the
+///   explicit bound of that mesh).
 pub fn diffusion(quick: bool) -> anyhow::Result<CaseResult> {
     let ns: &[usize] = if quick {
         &[10, 20, 40, 80]
     } else {
         &[20, 40, 80, 160]
     };
-    let (a, len, pi, p0) = (1e-4, 10.0, 1e6, 2e6);
+    let (a, len) = (1e-4, 10.0);
     let d = diffusivity(a, &WATER);
     let t_end = 0.01 * len * len / d;
-    let h_fine = len / *ns.last().expect("levels") as f64;
+    let n_fine = *ns.last().expect("levels");
+    let h_fine = len / n_fine as f64;
     // End cells carry a boundary link: their bound is 2/3 of the chain's 6 mu/K (h/a)^2.
     let crit_fine = 4.0 * WATER.viscosity / WATER.bulk_modulus * (h_fine / a).powi(2);
     let n_steps = (t_end / (0.1 * crit_fine)).ceil();
     let dt = t_end / n_steps;
     let mut res = CaseResult::default();
+    let mut p_explicit_fine = Vec::new();
     for (level, &n) in ns.iter().enumerate() {
         let h = len / n as f64;
-        let mut sc = flow_scenario(
-            "diffusion",
-            net(vec![frac([0.0, 0.0], [len, 0.0], a)], None, h),
-            vec![bc(
-                "step",
-                FlowTarget::Node([0.0, 0.0]),
-                FlowBcKind::Pressure(p0),
-            )],
-            InitialFluid::Full(pi),
-            End::Time(t_end),
-            WATER,
-        );
-        sc.time.dt = Some(dt);
-        sc.time.flow_dt = Some(dt);
-        let (sim, wall) = run(sc)?;
-        let f = sim.flow.as_ref().expect("flow");
-        let (mut e_series, mut e_erfc) = (0.0f64, 0.0f64);
-        for c in 0..f.view.n_cells() {
-            let [pa, pb] = f.view.cell_nodes[c].map(|k| f.view.node_pos[k as usize]);
-            let x = 0.5 * (pa[0] + pb[0]);
-            // The cell pressure from its mass (the view's pressure lags one step).
-            let p = crate::flow::pressure_of(f.view.excess[c], f.view.volume[c], &f.params);
-            let s = pi + (p0 - pi) * closed_end_series(x, sim.time, len, d);
-            let e = pi + (p0 - pi) * erfc(x / (2.0 * (d * sim.time).sqrt()));
-            e_series = e_series.max((p - s).abs() / (p0 - pi));
-            e_erfc = e_erfc.max((p - e).abs() / (p0 - pi));
+        let (sim, wall, p, e_series, e_erfc) = diffusion_run(n, dt, FlowScheme::Explicit)?;
+        let at = ("diffusion", level, h);
+        push(&mut res, at, &sim, "closed_end_series_explicit", e_series, wall);
+        push(&mut res, at, &sim, "erfc_explicit", e_erfc, wall);
+        let (sim, wall, _, e_series, e_erfc) =
+            diffusion_run(n, t_end / 20.0, FlowScheme::Implicit)?;
+        push(&mut res, at, &sim, "closed_end_series_implicit", e_series, wall);
+        push(&mut res, at, &sim, "erfc_implicit", e_erfc, wall);
+        if n == n_fine {
+            p_explicit_fine = p;
         }
-        push(
-            &mut res,
-            ("diffusion", level, h),
-            &sim,
-            "closed_end_series",
-            e_series,
-            wall,
-        );
-        push(
-            &mut res,
-            ("diffusion", level, h),
-            &sim,
-            "erfc",
-            e_erfc,
-            wall,
-        );
     }
-    let p = observed_order(&res.errors("closed_end_series"));
-    res.check_range("closed_end_series observed order", p, 1.7, 2.3);
-    let last = res.errors("closed_end_series").last().map_or(1.0, |e| e.1);
-    res.check_max("closed_end_series error at the finest level", last, 1e-3);
+    let p = observed_order(&res.errors("closed_end_series_explicit"));
+    res.check_range("explicit: closed_end_series observed order", p, 1.7, 2.3);
+    let last = res
+        .errors("closed_end_series_explicit")
+        .last()
+        .map_or(1.0, |e| e.1);
+    res.check_max(
+        "explicit: closed_end_series error at the finest level",
+        last,
+        1e-3,
+    );
+    for (level, steps) in [10usize, 20, 40, 80, 160].into_iter().enumerate() {
+        let dt_i = t_end / steps as f64;
+        let (sim, wall, p, e_series, _) = diffusion_run(n_fine, dt_i, FlowScheme::Implicit)?;
+        let e_time = p
+            .iter()
+            .zip(&p_explicit_fine)
+            .map(|(a, b)| (a - b).abs() / 1e6)
+            .fold(0.0, f64::max);
+        let at = ("diffusion", level, dt_i);
+        push(&mut res, at, &sim, "closed_end_series_implicit_dt", e_series, wall);
+        push(&mut res, at, &sim, "time_error_implicit_dt", e_time, wall);
+    }
+    let p = observed_order(&res.errors("time_error_implicit_dt"));
+    res.check_range("implicit: time error observed order in dt", p, 0.9, 1.1);
+    let last = res
+        .errors("closed_end_series_implicit_dt")
+        .last()
+        .map_or(1.0, |e| e.1);
+    res.check_max(
+        "implicit: closed_end_series error with 160 steps, finest mesh",
+        last,
+        5e-3,
+    );
     Ok(res)
 }
 
