@@ -566,8 +566,10 @@ impl Simulation {
                             "negative or non-finite: the flow step exceeds its stability limit {:.3e} s",
                             f.dt_crit
                         ),
-                        Some(_) => "negative or non-finite: more fluid withdrawn than the cell holds"
-                            .into(),
+                        Some(_) => {
+                            "negative or non-finite: more fluid withdrawn than the cell holds"
+                                .into()
+                        }
                     },
                     f.dt,
                 ));

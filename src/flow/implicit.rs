@@ -27,10 +27,12 @@
 //! factorisation is kept while the sparsity pattern (cells, pairs, boundary cells) is unchanged,
 //! i.e. until a split adds cells. A backtracking (Armijo) line search on the scaled residual
 //! norm keeps the kink at e = 0 from making Newton cycle. Convergence: for every cell
-//! |R_i| <= tol * S_i with the cell mass scale
-//! S_i = rho_r V_i + dt rho_r (sum_j kappa_ij (P_i + P_j) + sum_b kappa_b (|P_b| + P_i)) (kg/m):
-//! the reference mass of the cell plus the mass the step's pressures could move through it, so
-//! that the test stays above the round-off floor of the flux sums for any dt. Default tol 1e-12.
+//! |R_i| <= tol rho_r V_i + 64 eps F_i, a relative mass residual of `tol` (default 1e-12) of
+//! the cell's reference mass, or the round-off floor of the flux sum when that is larger:
+//! F_i = dt rho_r (sum_j kappa_ij (P_i + P_j) + sum_b kappa_b (|P_b| + P_i)) (kg/m) is the
+//! mass the step's pressures could move through the cell, and a change of one ulp in the
+//! pressures changes R_i by about eps F_i, so below that no iterate can be told from the
+//! solution (it matters only for steps thousands of times the diffusion time).
 //!
 //! Mass balance: after convergence the state is updated exactly as the explicit step does it,
 //! e_i += dt rho_r (net inflow), Kahan-compensated, with the pair fluxes and boundary flows of
@@ -51,7 +53,7 @@ use faer::sparse::linalg::lu::{NumericLu, SymbolicLu, factorize_symbolic_lu};
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{Conj, MatMut, Par};
 
-/// Default convergence tolerance on |R_i| / S_i (see the module documentation).
+/// Default convergence tolerance on |R_i| / (rho_r V_i) (see the module documentation).
 pub const DEFAULT_TOL: f64 = 1e-12;
 /// Default cap on Newton iterations per step.
 pub const DEFAULT_MAX_ITER: usize = 100;
@@ -63,7 +65,8 @@ const MIN_ALPHA: f64 = 1.0 / (1u64 << 30) as f64;
 pub enum ImplicitError {
     #[error(
         "implicit flow step to t = {t:.6e} s (dt = {dt:.3e} s): Newton {why} after {iterations} \
-         iterations; {cell} has relative mass residual |R|/S = {residual:.3e} (tolerance {tol:.1e})"
+         iterations; {cell} has relative mass residual |R|/(rho_r V) = {residual:.3e} \
+         (allowed {allowed:.3e})"
     )]
     NotConverged {
         /// End time of the step, s.
@@ -73,8 +76,9 @@ pub enum ImplicitError {
         /// Dense index and label of the cell with the largest scaled residual.
         cell_index: usize,
         cell: String,
+        /// |R_i| / (rho_r V_i) of that cell and the value accepted as converged there.
         residual: f64,
-        tol: f64,
+        allowed: f64,
         why: &'static str,
     },
     #[error(
@@ -195,12 +199,11 @@ impl Pattern {
             })
             .collect();
         let sym = SymbolicSparseColMatRef::new_checked(n, n, &col_ptr, None, &row_idx);
-        let symbolic =
-            factorize_symbolic_lu(sym, Default::default()).map_err(|e| {
-                ImplicitError::Factorisation {
-                    detail: format!("symbolic analysis: {e:?}"),
-                }
-            })?;
+        let symbolic = factorize_symbolic_lu(sym, Default::default()).map_err(|e| {
+            ImplicitError::Factorisation {
+                detail: format!("symbolic analysis: {e:?}"),
+            }
+        })?;
         let req = StackReq::any_of(&[
             symbolic.factorize_numeric_lu_scratch::<f64>(Par::Seq, Default::default()),
             symbolic.solve_in_place_scratch::<f64>(1, Par::Seq),
@@ -226,7 +229,8 @@ impl Pattern {
 /// Reusable backward-Euler solver: the symbolic LU of the Jacobian's pattern, the numeric
 /// factors and the work arrays (no allocation per step while the topology is unchanged).
 pub struct ImplicitSolver {
-    /// Convergence tolerance on max_i |R_i| / S_i (dimensionless), default [`DEFAULT_TOL`].
+    /// Convergence tolerance on the relative mass residual |R_i| / (rho_r V_i) (see the module
+    /// documentation for the round-off allowance), default [`DEFAULT_TOL`].
     pub tol: f64,
     /// Newton iteration cap per step, default [`DEFAULT_MAX_ITER`].
     pub max_iter: usize,
@@ -248,7 +252,7 @@ pub struct ImplicitSolver {
     /// Newton iterations and steps so far.
     pub total_iterations: u64,
     pub steps: u64,
-    /// Relative mass residual max |R_i|/S_i at which the last step stopped.
+    /// Relative mass residual max_i |R_i| / (rho_r V_i) at which the last step stopped.
     pub last_residual: f64,
 }
 
@@ -332,9 +336,12 @@ fn residual(
     }
 }
 
-/// Per-cell residual scale S_i K/(rho_r V_i) (Pa) at the view's current pressures (see the
-/// module documentation).
-fn residual_scale(v: &FlowView, k: f64, w: &[f64], scale: &mut [f64]) {
+/// Round-off multiple of the flux-sum scale accepted as converged (see the module doc).
+const ROUND_OFF: f64 = 64.0 * f64::EPSILON;
+
+/// Per-cell allowed residual (Pa): tol K + 64 eps F_i K / (rho_r V_i) at the view's current
+/// pressures (see the module documentation).
+fn residual_scale(v: &FlowView, k: f64, tol: f64, w: &[f64], scale: &mut [f64]) {
     for i in 0..scale.len() {
         let pi = v.pressure[i];
         let mut s = 0.0;
@@ -353,11 +360,11 @@ fn residual_scale(v: &FlowView, k: f64, w: &[f64], scale: &mut [f64]) {
         }
     }
     for (s, wi) in scale.iter_mut().zip(w) {
-        *s = k + wi * *s;
+        *s = tol * k + ROUND_OFF * wi * *s;
     }
 }
 
-/// Largest |r_i| / scale_i, its cell, and sum (r_i / scale_i)^2.
+/// Largest |r_i| / scale_i (converged when <= 1), its cell, and sum (r_i / scale_i)^2.
 fn measure(r: &[f64], scale: &[f64]) -> (f64, usize, f64) {
     let (mut worst, mut cell, mut sum) = (0.0f64, 0usize, 0.0f64);
     for (i, (ri, si)) in r.iter().zip(scale).enumerate() {
@@ -516,13 +523,15 @@ pub fn implicit_step(
     let mut it = 0;
     loop {
         residual(v, specs, t1, &s.y, &s.y0, &s.w, &mut s.net, &mut s.r);
-        residual_scale(v, k, &s.w, &mut s.scale);
+        residual_scale(v, k, s.tol, &s.w, &mut s.scale);
         let (worst, cell, phi0) = measure(&s.r, &s.scale);
         if !worst.is_finite() {
             return Err(not_finite(v, it, cell, "residual"));
         }
-        if worst <= s.tol {
-            s.last_residual = worst;
+        // Relative mass residual |R_i| / (rho_r V_i) = |r_i| / K of the worst cell.
+        let rel = s.r[cell].abs() / k;
+        if worst <= 1.0 {
+            s.last_residual = s.r.iter().fold(0.0f64, |a, r| a.max(r.abs())) / k;
             break;
         }
         if it >= s.max_iter {
@@ -532,8 +541,8 @@ pub fn implicit_step(
                 iterations: it,
                 cell_index: cell,
                 cell: v.cell_label(cell),
-                residual: worst,
-                tol: s.tol,
+                residual: rel,
+                allowed: s.scale[cell] / k,
                 why: "reached the iteration cap",
             });
         }
@@ -578,7 +587,7 @@ pub fn implicit_step(
             }
             residual(v, specs, t1, &s.y_try, &s.y0, &s.w, &mut s.net, &mut s.grad);
             let (w_try, _, phi) = measure(&s.grad, &s.scale);
-            if phi <= (1.0 - 1e-4 * alpha) * phi0 || w_try <= s.tol {
+            if phi <= (1.0 - 1e-4 * alpha) * phi0 || w_try <= 1.0 {
                 break;
             }
             alpha *= 0.5;
@@ -589,8 +598,8 @@ pub fn implicit_step(
                     iterations: it,
                     cell_index: cell,
                     cell: v.cell_label(cell),
-                    residual: worst,
-                    tol: s.tol,
+                    residual: rel,
+                    allowed: s.scale[cell] / k,
                     why: "stalled (the line search found no decrease)",
                 });
             }

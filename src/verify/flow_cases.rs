@@ -179,6 +179,9 @@ fn push(
 ///   continuum is a star, an O(h/L) difference: checked to shrink at order 1 and to be below 2 %
 ///   at the finest level. The explicit and direct solutions of the same discrete network must
 ///   agree to 1e-8 (the discrete system is solved exactly by both).
+/// - The implicit (backward-Euler) scheme run to the same steady residual with a step of ten
+///   diffusion times (`*_implicit_vs_direct`): the same 1e-8 against the direct solve (its
+///   steady state satisfies the same linear equations).
 pub fn cubic_law(quick: bool) -> anyhow::Result<CaseResult> {
     let ns: &[usize] = if quick {
         &[10, 20, 40]
@@ -263,6 +266,27 @@ pub fn cubic_law(quick: bool) -> anyhow::Result<CaseResult> {
                 min_steps: 10,
             }))?;
             let (di, wall_di) = run(mk(End::SteadyDirect))?;
+            let (im, wall_im) = run(implicit(
+                mk(End::Static {
+                    tol: 1e-11,
+                    min_steps: 10,
+                }),
+                long_step(a, len),
+            ))?;
+            let e_implicit = (rate(&im, "in") - rate(&di, "in")).abs() / rate(&di, "in");
+            push(
+                &mut res,
+                ("cubic_law", level, h),
+                &im,
+                &format!("{what}_implicit_vs_direct"),
+                e_implicit,
+                wall_im,
+            );
+            res.check_max(
+                format!("{what}: implicit vs direct at h = {h} m"),
+                e_implicit,
+                1e-8,
+            );
             let (qe, qd) = (rate(&ex, "in"), rate(&di, "in"));
             let e_discrete = (qe - qd).abs() / qd;
             let e_cubic = (qd - q_exact).abs() / q_exact;
@@ -439,11 +463,25 @@ pub fn diffusion(quick: bool) -> anyhow::Result<CaseResult> {
         let h = len / n as f64;
         let (sim, wall, p, e_series, e_erfc) = diffusion_run(n, dt, FlowScheme::Explicit)?;
         let at = ("diffusion", level, h);
-        push(&mut res, at, &sim, "closed_end_series_explicit", e_series, wall);
+        push(
+            &mut res,
+            at,
+            &sim,
+            "closed_end_series_explicit",
+            e_series,
+            wall,
+        );
         push(&mut res, at, &sim, "erfc_explicit", e_erfc, wall);
         let (sim, wall, _, e_series, e_erfc) =
             diffusion_run(n, t_end / 20.0, FlowScheme::Implicit)?;
-        push(&mut res, at, &sim, "closed_end_series_implicit", e_series, wall);
+        push(
+            &mut res,
+            at,
+            &sim,
+            "closed_end_series_implicit",
+            e_series,
+            wall,
+        );
         push(&mut res, at, &sim, "erfc_implicit", e_erfc, wall);
         if n == n_fine {
             p_explicit_fine = p;
@@ -469,7 +507,14 @@ pub fn diffusion(quick: bool) -> anyhow::Result<CaseResult> {
             .map(|(a, b)| (a - b).abs() / 1e6)
             .fold(0.0, f64::max);
         let at = ("diffusion", level, dt_i);
-        push(&mut res, at, &sim, "closed_end_series_implicit_dt", e_series, wall);
+        push(
+            &mut res,
+            at,
+            &sim,
+            "closed_end_series_implicit_dt",
+            e_series,
+            wall,
+        );
         push(&mut res, at, &sim, "time_error_implicit_dt", e_time, wall);
     }
     let p = observed_order(&res.errors("time_error_implicit_dt"));
@@ -486,80 +531,146 @@ pub fn diffusion(quick: bool) -> anyhow::Result<CaseResult> {
     Ok(res)
 }
 
+/// The mass-balance run of [`mass_balance`]: the seeded random network with cells of `cl` (m),
+/// empty at the start, pump on, off (1.0 to 1.5 s) and on again, production at 0 Pa, to
+/// t = 2 s. The pump fills its well fracture (2.5e-3 m^2) in about 0.6 s, then pressurises it
+/// while the fluid front enters the empty random fractures. `implicit_dt`: `None` runs the explicit scheme; `Some(None)` the implicit scheme
+/// with its default step; `Some(Some(dt))` the implicit scheme with step dt (s). Checks that
+/// nothing is injected while the pump is off. Returns the run, its wall time (s), the worst
+/// relative balance error over every step, and the largest number, over the steps, of
+/// min(cells still filling (negative excess, P = 0), cells full (P > 0)): positive when a
+/// filling front crossed the network, so both branches of the pressure law were in play.
+pub fn mass_balance_run(
+    cl: f64,
+    implicit_dt: Option<Option<f64>>,
+) -> anyhow::Result<(Simulation, f64, f64, usize)> {
+    let mut pump = bc(
+        "pump",
+        FlowTarget::Node([0.0, 10.0]),
+        FlowBcKind::Pump {
+            p_max: 18e6,
+            q_half: 1e-4,
+        },
+    );
+    pump.schedule = vec![
+        (0.0, 1.0),
+        (1.0, 1.0),
+        (1.0001, 0.0),
+        (1.5, 0.0),
+        (1.5001, 1.0),
+    ];
+    let mut sc = flow_scenario(
+        "mass_balance",
+        wells_network(7, 40, cl),
+        vec![
+            pump,
+            bc(
+                "production",
+                FlowTarget::Node([30.0, 10.0]),
+                FlowBcKind::Pressure(0.0),
+            ),
+        ],
+        InitialFluid::Empty,
+        End::Time(2.0),
+        WATER,
+    );
+    if let Some(dt) = implicit_dt {
+        sc.time.flow_scheme = FlowScheme::Implicit;
+        sc.time.dt = dt;
+    }
+    let t0 = Instant::now();
+    let mut sim = Simulation::new(sc, &[])?;
+    let mut worst = 0.0f64;
+    let mut filling = 0usize;
+    let mut injected_off = None;
+    while sim.finish.is_none() {
+        sim.step_once()?;
+        let (inj, _, _, err) = sim.flow_balance().expect("flow");
+        worst = worst.max(err);
+        let f = sim.flow.as_ref().expect("flow");
+        let empty = f.view.excess.iter().filter(|&&e| e < 0.0).count();
+        let full = f.view.excess.iter().filter(|&&e| e > 0.0).count();
+        filling = filling.max(empty.min(full));
+        if sim.time > 1.01 && sim.time < 1.49 {
+            injected_off.get_or_insert(inj);
+            // While the pump is off nothing may be injected.
+            anyhow::ensure!(
+                inj == injected_off.unwrap_or(inj),
+                "fluid injected while the pump was off"
+            );
+        }
+    }
+    let wall = t0.elapsed().as_secs_f64();
+    let (inj, prod, stored, _) = sim.flow_balance().expect("flow");
+    anyhow::ensure!(
+        inj > 0.0 && stored > 0.0,
+        "nothing injected ({inj}, {prod}, {stored})"
+    );
+    Ok((sim, wall, worst, filling))
+}
+
 /// Mass balance: a seeded random network, empty at the start, with a pump switched on, off and
 /// on again by its schedule, and a production boundary. injected - produced = stored change to
-/// 1e-12 relative at every time-series row (Kahan-compensated accumulation keeps round-off near
-/// 1e-15 over millions of steps).
+/// 1e-12 relative after every step (Kahan-compensated accumulation keeps round-off near
+/// 1e-15 over millions of steps), for the explicit scheme (`*_explicit`) and the implicit one
+/// (`*_implicit`, default step: the explicit flow-only step of 32 x 0.9 x the bound, taken as
+/// one backward-Euler step; `*_implicit_1ms`: steps of 1 ms). The implicit update uses the
+/// converged fluxes for both the cells and the boundary volumes, so it balances to round-off
+/// like the explicit one. Also reported: the injected volume of each implicit run against the
+/// explicit run (`injected_implicit*_vs_explicit`, relative; O(dt) time error, checked <= 5 %
+/// for the default step, where the difference is far smaller, and reported for 1 ms).
 pub fn mass_balance(quick: bool) -> anyhow::Result<CaseResult> {
     let cls: &[f64] = if quick { &[2.0, 1.0] } else { &[2.0, 1.0, 0.5] };
     let mut res = CaseResult::default();
     for (level, &cl) in cls.iter().enumerate() {
-        let mut pump = bc(
-            "pump",
-            FlowTarget::Node([0.0, 10.0]),
-            FlowBcKind::Pump {
-                p_max: 18e6,
-                q_half: 1e-4,
-            },
-        );
-        pump.schedule = vec![
-            (0.0, 1.0),
-            (0.05, 1.0),
-            (0.0501, 0.0),
-            (0.1, 0.0),
-            (0.1001, 1.0),
-        ];
-        let sc = flow_scenario(
-            "mass_balance",
-            wells_network(7, 40, cl),
-            vec![
-                pump,
-                bc(
-                    "production",
-                    FlowTarget::Node([30.0, 10.0]),
-                    FlowBcKind::Pressure(0.0),
-                ),
-            ],
-            InitialFluid::Empty,
-            End::Time(0.2),
-            WATER,
-        );
-        let t0 = Instant::now();
-        let mut sim = Simulation::new(sc, &[])?;
-        let mut worst = 0.0f64;
-        let mut injected_off = None;
-        while sim.finish.is_none() {
-            sim.step_once()?;
-            let (inj, _, _, err) = sim.flow_balance().expect("flow");
-            worst = worst.max(err);
-            if sim.time > 0.06 && sim.time < 0.095 {
-                injected_off.get_or_insert(inj);
-                // While the pump is off nothing may be injected.
-                anyhow::ensure!(
-                    inj == injected_off.unwrap_or(inj),
-                    "fluid injected while the pump was off"
-                );
-            }
-        }
-        let wall = t0.elapsed().as_secs_f64();
-        let (inj, prod, stored, _) = sim.flow_balance().expect("flow");
-        anyhow::ensure!(
-            inj > 0.0 && stored > 0.0,
-            "nothing injected ({inj}, {prod}, {stored})"
-        );
-        push(
-            &mut res,
-            ("mass_balance", level, cl),
-            &sim,
-            "max_balance_error",
-            worst,
-            wall,
-        );
+        let at = ("mass_balance", level, cl);
+        let (ex, wall, worst, _) = mass_balance_run(cl, None)?;
+        push(&mut res, at, &ex, "max_balance_error_explicit", worst, wall);
         res.check_max(
-            format!("mass balance, every step, cell length {cl} m"),
+            format!("explicit: mass balance, every step, cell length {cl} m"),
             worst,
             1e-12,
         );
+        let inj_ex = ex.flow_balance().expect("flow").0;
+        for (name, dt) in [("implicit", None), ("implicit_1ms", Some(1e-3))] {
+            let (im, wall, worst, filling) = mass_balance_run(cl, Some(dt))?;
+            push(
+                &mut res,
+                at,
+                &im,
+                &format!("max_balance_error_{name}"),
+                worst,
+                wall,
+            );
+            res.check_max(
+                format!("{name}: mass balance, every step, cell length {cl} m"),
+                worst,
+                1e-12,
+            );
+            res.check_range(
+                format!("{name}: filling and full cells side by side at some step"),
+                filling as f64,
+                1.0,
+                f64::INFINITY,
+            );
+            let inj = im.flow_balance().expect("flow").0;
+            let d = (inj - inj_ex).abs() / inj_ex;
+            push(
+                &mut res,
+                at,
+                &im,
+                &format!("injected_{name}_vs_explicit"),
+                d,
+                wall,
+            );
+            if dt.is_none() {
+                res.check_max(
+                    format!("{name}: injected volume against explicit, cell length {cl} m"),
+                    d,
+                    5e-2,
+                );
+            }
+        }
     }
     Ok(res)
 }
@@ -567,7 +678,9 @@ pub fn mass_balance(quick: bool) -> anyhow::Result<CaseResult> {
 /// Pump operating point: one fracture of known resistance R = 12 mu L / a^3 between the pump
 /// (p_max = 18 MPa, q_half = 1e-4 m^2/s, so the curve matters) and 0 Pa. At steady state
 /// q = P_pump(q) / R and P_pump = p_max (1 - (2/pi) atan(q/q_half)); the explicit run to a
-/// residual of 1e-10 must give both within 1e-6 relative.
+/// residual of 1e-10 must give both within 1e-6 relative (`*_explicit`). The implicit scheme
+/// (`*_implicit`, steps of ten diffusion times, to the same residual) solves the same curve
+/// with the network at every Newton iterate: the same 1e-6.
 pub fn pump_curve(quick: bool) -> anyhow::Result<CaseResult> {
     let ns: &[usize] = if quick { &[10, 20] } else { &[10, 20, 40] };
     let (a, len, p_max, q_half) = (1e-4, 10.0, 18e6, 1e-4);
@@ -609,38 +722,38 @@ pub fn pump_curve(quick: bool) -> anyhow::Result<CaseResult> {
             },
             WATER,
         );
-        let (sim, wall) = run(sc)?;
-        let f = sim.flow.as_ref().expect("flow");
-        let pump = &f.view.bcs[0];
-        let (ep, eq) = (
-            (pump.pressure - p_exact).abs() / p_exact,
-            (pump.rate - q_exact).abs() / q_exact,
-        );
-        push(
-            &mut res,
-            ("pump_curve", level, h),
-            &sim,
-            "pump_pressure",
-            ep,
-            wall,
-        );
-        push(
-            &mut res,
-            ("pump_curve", level, h),
-            &sim,
-            "pump_rate",
-            eq,
-            wall,
-        );
-        res.check_max(format!("pump pressure at h = {h} m"), ep, 1e-6);
-        res.check_max(format!("pump rate at h = {h} m"), eq, 1e-6);
+        for (scheme, sc) in [
+            ("explicit", sc.clone()),
+            ("implicit", implicit(sc, long_step(a, len))),
+        ] {
+            let (sim, wall) = run(sc)?;
+            let f = sim.flow.as_ref().expect("flow");
+            let pump = &f.view.bcs[0];
+            let (ep, eq) = (
+                (pump.pressure - p_exact).abs() / p_exact,
+                (pump.rate - q_exact).abs() / q_exact,
+            );
+            let at = ("pump_curve", level, h);
+            push(
+                &mut res,
+                at,
+                &sim,
+                &format!("pump_pressure_{scheme}"),
+                ep,
+                wall,
+            );
+            push(&mut res, at, &sim, &format!("pump_rate_{scheme}"), eq, wall);
+            res.check_max(format!("{scheme}: pump pressure at h = {h} m"), ep, 1e-6);
+            res.check_max(format!("{scheme}: pump rate at h = {h} m"), eq, 1e-6);
+        }
     }
     Ok(res)
 }
 
 /// The explicit solver run to steady state (residual 1e-11) against the direct steady solve on
 /// a seeded random network of at least 200 cells with pressure boundaries: largest cell pressure
-/// difference over the pressure drop, and the production rate, within 1e-6.
+/// difference over the pressure drop, and the production rate, within 1e-6. The implicit scheme
+/// run to the same residual with long steps (`*_implicit_vs_direct`): the same 1e-6.
 pub fn steady(quick: bool) -> anyhow::Result<CaseResult> {
     let cls: &[f64] = if quick { &[2.0] } else { &[2.0, 1.0] };
     let mut res = CaseResult::default();
@@ -671,6 +784,60 @@ pub fn steady(quick: bool) -> anyhow::Result<CaseResult> {
             min_steps: 10,
         }))?;
         let (di, wall_di) = run(mk(End::SteadyDirect))?;
+        // Implicit: steps of ten diffusion times of the thinnest, longest fracture (0.05 mm, 30 m).
+        let (im, wall_im) = run(implicit(
+            mk(End::Static {
+                tol: 1e-11,
+                min_steps: 10,
+            }),
+            long_step(5e-5, 30.0),
+        ))?;
+        {
+            let (fi, fd) = (
+                im.flow.as_ref().expect("flow"),
+                di.flow.as_ref().expect("flow"),
+            );
+            let e_p = (0..fi.view.n_cells())
+                .map(|c| {
+                    let p =
+                        crate::flow::pressure_of(fi.view.excess[c], fi.view.volume[c], &fi.params);
+                    (p - fd.view.pressure[c]).abs()
+                })
+                .fold(0.0, f64::max)
+                / 12e6;
+            let (qi, qd) = (rate(&im, "production"), rate(&di, "production"));
+            let e_q = (qi - qd).abs() / qd.abs();
+            let at = ("steady", level, cl);
+            push(
+                &mut res,
+                at,
+                &im,
+                "pressure_implicit_vs_direct",
+                e_p,
+                wall_im,
+            );
+            push(
+                &mut res,
+                at,
+                &im,
+                "production_implicit_vs_direct",
+                e_q,
+                wall_im,
+            );
+            res.check_max(
+                format!("pressure, implicit vs direct, {} cells", fi.view.n_cells()),
+                e_p,
+                1e-6,
+            );
+            res.check_max(
+                format!(
+                    "production rate, implicit vs direct, {} cells",
+                    fi.view.n_cells()
+                ),
+                e_q,
+                1e-6,
+            );
+        }
         let (fe, fd) = (
             ex.flow.as_ref().expect("flow"),
             di.flow.as_ref().expect("flow"),
