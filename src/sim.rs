@@ -450,7 +450,8 @@ impl Simulation {
     }
 
     /// `flow_substeps`: N explicit flow steps covering the solid step, stopping at the first
-    /// cell with negative or non-finite mass (reported by `monitor`).
+    /// cell with negative or non-finite mass (reported by `monitor`); with the implicit scheme
+    /// one backward-Euler step of the whole step.
     fn flow_substeps(&mut self, t0: f64) {
         let specs = &self.scenario.flow_boundaries;
         let dt = self.params.dt;
