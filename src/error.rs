@@ -68,7 +68,7 @@ pub enum RunError {
     ImplicitFlow {
         step: u64,
         time: f64,
-        source: crate::flow::implicit::ImplicitError,
+        source: Box<crate::flow::implicit::ImplicitError>,
     },
     #[error("output: {0}")]
     Io(#[from] std::io::Error),

@@ -536,7 +536,7 @@ impl Simulation {
             return Err(RunError::ImplicitFlow {
                 step: self.step,
                 time: self.time,
-                source,
+                source: Box::new(source),
             });
         }
         if let Some(f) = &self.flow {

@@ -73,11 +73,12 @@ fn one_long_step_reaches_the_direct_steady_solution() {
     let solver = f.implicit.as_ref().unwrap();
     assert!(solver.last_iterations <= 2, "{solver:?}");
     assert!(solver.last_residual <= 1e-12, "{solver:?}");
-    for c in 0..f.view.n_cells() {
+    assert_eq!(pd.len(), f.view.n_cells());
+    for (c, &pdc) in pd.iter().enumerate() {
         let p = pressure_of(f.view.excess[c], f.view.volume[c], &f.params);
-        assert!((p - pd[c]).abs() < 1e-9 * 1e6, "cell {c}: {p} vs {}", pd[c]);
+        assert!((p - pdc).abs() < 1e-9 * 1e6, "cell {c}: {p} vs {pdc}");
         // The view's pressure is the end-of-step pressure used for the fluxes.
-        assert!((f.view.pressure[c] - pd[c]).abs() < 1e-9 * 1e6);
+        assert!((f.view.pressure[c] - pdc).abs() < 1e-9 * 1e6);
     }
     let q = fc::rate(&sim, "in");
     let exact = 1e-12 * 1e6 / (12.0 * fc::WATER.viscosity * 10.0);
@@ -191,18 +192,15 @@ fn newton_failure_names_step_cell_and_residual() {
         }
     };
     let msg = err.to_string();
-    match err {
-        RunError::ImplicitFlow {
-            step,
-            source: ImplicitError::NotConverged { residual, cell, .. },
-            ..
-        } => {
-            assert!(step >= 1);
-            assert!(residual.is_finite() && residual > 1e-12, "{residual}");
-            assert!(cell.starts_with("cell "), "{cell}");
-        }
-        e => panic!("unexpected error {e}"),
-    }
+    let RunError::ImplicitFlow { step, source, .. } = err else {
+        panic!("unexpected error {err}");
+    };
+    assert!(step >= 1);
+    let ImplicitError::NotConverged { residual, cell, .. } = *source else {
+        panic!("unexpected error {source}");
+    };
+    assert!(residual.is_finite() && residual > 1e-12, "{residual}");
+    assert!(cell.starts_with("cell "), "{cell}");
     assert!(
         msg.contains("step ") && msg.contains("cell ") && msg.contains("residual"),
         "{msg}"

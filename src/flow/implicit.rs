@@ -369,7 +369,7 @@ fn measure(r: &[f64], scale: &[f64]) -> (f64, usize, f64) {
     let (mut worst, mut cell, mut sum) = (0.0f64, 0usize, 0.0f64);
     for (i, (ri, si)) in r.iter().zip(scale).enumerate() {
         let x = ri / si;
-        if !(x.abs() <= worst) {
+        if x.abs() > worst || x.is_nan() {
             worst = x.abs();
             cell = i;
         }
