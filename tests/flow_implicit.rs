@@ -115,14 +115,23 @@ fn diffusion_time_error_is_first_order() {
 
 /// Item 12: injected - produced = stored change to 1e-12 relative after every step, over a pump
 /// on / off / on run that starts from empty cells (the filling branch P = 0 and the full
-/// branch both in play), for the implicit scheme at its default step and at 1 ms (about 100x
-/// the explicit bound). The injected volume agrees with the explicit run within 5e-3 (O(dt)).
+/// branch both in play), for the implicit scheme at its default step (29x the explicit bound)
+/// and at 1 ms, 10 ms and 0.1 s (56x to 5,600x the bound). With 10 ms the pump restart at
+/// 1.5 s lands on cells just at the kink e = 0, where plain backtracking stalled; the line
+/// search's kink candidate must get through. The injected volume agrees with the explicit run
+/// within 5e-3 for the two shorter steps (O(dt) time error; measured 6e-5 and 4e-5) and 5e-2
+/// for the longer ones.
 #[test]
 fn implicit_mass_balance_pump_on_off_on_from_empty() {
     let (ex, _, worst_ex, _) = fc::mass_balance_run(2.0, None).unwrap();
     assert!(worst_ex < 1e-12);
     let inj_ex = ex.flow_balance().unwrap().0;
-    for dt in [None, Some(1e-3)] {
+    for (dt, agree) in [
+        (None, 5e-3),
+        (Some(1e-3), 5e-3),
+        (Some(1e-2), 5e-2),
+        (Some(0.1), 5e-2),
+    ] {
         let (im, _, worst, mixed) = fc::mass_balance_run(2.0, Some(dt)).unwrap();
         assert!(worst < 1e-12, "dt {dt:?}: balance {worst}");
         assert!(mixed > 0, "no filling front");
@@ -132,7 +141,7 @@ fn implicit_mass_balance_pump_on_off_on_from_empty() {
         assert_eq!(s.symbolic_count(), 1, "one symbolic LU for the run");
         let inj = im.flow_balance().unwrap().0;
         assert!(
-            (inj - inj_ex).abs() < 5e-3 * inj_ex,
+            (inj - inj_ex).abs() < agree * inj_ex,
             "dt {dt:?}: injected {inj} vs explicit {inj_ex}"
         );
     }

@@ -25,8 +25,9 @@
 //! Newton: the linear system is factorised by faer's sparse LU (COLAMD ordering, partial
 //! pivoting, sequential, so the result is the same bits for any thread count); the symbolic
 //! factorisation is kept while the sparsity pattern (cells, pairs, boundary cells) is unchanged,
-//! i.e. until a split adds cells. A backtracking (Armijo) line search on the scaled residual
-//! norm keeps the kink at e = 0 from making Newton cycle. Convergence: for every cell
+//! i.e. until a split adds cells. A line search on the scaled residual norm (full step, else
+//! the first kink at e = 0 on the way, else Armijo backtracking) keeps the kink from making
+//! Newton cycle or creep towards it. Convergence: for every cell
 //! |R_i| <= tol rho_r V_i + 64 eps F_i, a relative mass residual of `tol` (default 1e-12) of
 //! the cell's reference mass, or the round-off floor of the flux sum when that is larger:
 //! F_i = dt rho_r (sum_j kappa_ij (P_i + P_j) + sum_b kappa_b (|P_b| + P_i)) (kg/m) is the
@@ -578,20 +579,53 @@ pub fn implicit_step(
         if let Some(c) = s.delta.iter().position(|d| !d.is_finite()) {
             return Err(not_finite(v, it, c, "Newton update"));
         }
-        // Backtracking line search on phi = sum (r_i / scale_i)^2 with the scales of this
-        // iterate (Armijo with c = 1e-4: the Newton direction's slope is -2 phi).
+        // Line search on phi = sum (r_i / scale_i)^2 with the scales of this iterate (Armijo
+        // with c = 1e-4: the Newton direction's slope is -2 phi). Candidates: the full step;
+        // then the first kink on the way, the smallest fraction at which a cell changes branch
+        // of the pressure law (landing on y = 0 when it fills, just below when it drains, so
+        // that the next Jacobian takes the branch the step was heading for): up to there the
+        // residual is smooth and the Newton model exact for the linear boundaries, so it
+        // decreases, where halving alone would creep towards the kink; then halving from 1/2.
+        let mut kink = f64::INFINITY;
+        let mut kink_cell = usize::MAX;
+        for i in 0..n {
+            let (yi, di) = (s.y[i], s.delta[i]);
+            let crosses = (yi < 0.0 && yi + di >= 0.0) || (yi > 0.0 && yi + di < 0.0);
+            if crosses {
+                let a = -yi / di;
+                if a > 0.0 && a < kink {
+                    kink = a;
+                    kink_cell = i;
+                }
+            }
+        }
         let mut alpha = 1.0;
+        let mut halving = 1.0;
+        let mut tried_kink = false;
         loop {
             for i in 0..n {
                 s.y_try[i] = s.y[i] + alpha * s.delta[i];
+            }
+            if alpha == kink {
+                s.y_try[kink_cell] = if s.delta[kink_cell] > 0.0 {
+                    0.0
+                } else {
+                    -f64::MIN_POSITIVE
+                };
             }
             residual(v, specs, t1, &s.y_try, &s.y0, &s.w, &mut s.net, &mut s.grad);
             let (w_try, _, phi) = measure(&s.grad, &s.scale);
             if phi <= (1.0 - 1e-4 * alpha) * phi0 || w_try <= 1.0 {
                 break;
             }
-            alpha *= 0.5;
-            if alpha < MIN_ALPHA {
+            if !tried_kink && kink < 1.0 {
+                tried_kink = true;
+                alpha = kink;
+            } else {
+                halving *= 0.5;
+                alpha = halving;
+            }
+            if halving < MIN_ALPHA {
                 return Err(ImplicitError::NotConverged {
                     t: t1,
                     dt,
