@@ -464,7 +464,9 @@ impl Simulation {
                 Err(e) => f.implicit_error = Some(e),
             }
         }
-        for k in 0..f.substeps * u64::from(f.implicit.is_none()) {
+        // Explicit: N sub-steps (none with the implicit scheme).
+        let explicit_substeps = if f.implicit.is_some() { 0 } else { f.substeps };
+        for k in 0..explicit_substeps {
             f.stats = flowsys::flow_step(&mut f.view, &f.params, specs, f.dt, t0 + k as f64 * f.dt);
             if f.stats.bad_cell.is_some() {
                 break;
