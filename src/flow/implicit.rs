@@ -246,7 +246,7 @@ pub struct ImplicitSolver {
     w: Vec<f64>,
     scale: Vec<f64>,
     net: Vec<f64>,
-    grad: Vec<f64>,
+    r_try: Vec<f64>,
     symbolic_count: usize,
     /// Newton iterations (linear solves) of the last step.
     pub last_iterations: usize,
@@ -291,7 +291,7 @@ impl ImplicitSolver {
             w: Vec::new(),
             scale: Vec::new(),
             net: Vec::new(),
-            grad: Vec::new(),
+            r_try: Vec::new(),
             symbolic_count: 0,
             last_iterations: 0,
             total_iterations: 0,
@@ -490,7 +490,7 @@ pub fn implicit_step(
         &mut s.w,
         &mut s.scale,
         &mut s.net,
-        &mut s.grad,
+        &mut s.r_try,
     ] {
         buf.clear();
         buf.resize(n, 0.0);
@@ -613,8 +613,17 @@ pub fn implicit_step(
                     -f64::MIN_POSITIVE
                 };
             }
-            residual(v, specs, t1, &s.y_try, &s.y0, &s.w, &mut s.net, &mut s.grad);
-            let (w_try, _, phi) = measure(&s.grad, &s.scale);
+            residual(
+                v,
+                specs,
+                t1,
+                &s.y_try,
+                &s.y0,
+                &s.w,
+                &mut s.net,
+                &mut s.r_try,
+            );
+            let (w_try, _, phi) = measure(&s.r_try, &s.scale);
             if phi <= (1.0 - 1e-4 * alpha) * phi0 || w_try <= 1.0 {
                 break;
             }
