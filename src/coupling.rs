@@ -222,6 +222,44 @@ impl Coupling {
     }
 }
 
+impl Coupling {
+    /// One solid step of flow with the implicit scheme (`time.flow_scheme: Implicit`): the
+    /// volumes move to the end-of-step apertures with the fluid mass kept, the
+    /// transmissibilities take the mid-step apertures, and one backward-Euler step of dt
+    /// follows. The end-of-step pressures are the next step's face load.
+    #[allow(clippy::too_many_arguments)]
+    pub fn step_implicit(
+        &mut self,
+        solid: &SolidView,
+        flow: &mut FlowView,
+        p: &FlowParams,
+        specs: &[FlowBoundary],
+        t0: f64,
+        dt: f64,
+        solver: &mut crate::flow::implicit::ImplicitSolver,
+    ) -> Result<CoupledStep, crate::flow::implicit::ImplicitError> {
+        let nc = flow.n_cells();
+        self.apertures_now(solid, flow);
+        for c in 0..nc {
+            flow.aperture[c] = 0.5 * (flow.aperture[c] + self.a_end[c]);
+        }
+        flow.update_kappa(p);
+        for c in 0..nc {
+            flow.aperture[c] = self.a_end[c];
+            flow.set_volume_keep_mass(c, flow.length[c] * self.a_end[c], p);
+        }
+        let stats = crate::flow::implicit::implicit_step(flow, p, specs, dt, t0, solver)?;
+        self.p_mean.copy_from_slice(&flow.pressure);
+        Ok(CoupledStep {
+            stats,
+            substeps: 1,
+            dt,
+            dt_crit: f64::INFINITY,
+            critical_cell: 0,
+        })
+    }
+}
+
 /// Critical solid step of a coupled run, s: [`crate::fractures::step_with_joints`] with each
 /// joint's stiffness raised by the fluid's, K_f L / a_r (the stiffest a full cell of length L
 /// at the residual aperture pushes back on an opening change).

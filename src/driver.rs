@@ -213,6 +213,8 @@ fn summary_json(
             "dt": f.dt,
             "dt_critical": f.dt_crit,
             "substeps": f.substeps,
+            "scheme": if f.implicit.is_some() { "implicit" } else { "explicit" },
+            "newton_iterations": f.implicit.as_ref().map(|s| s.total_iterations),
             "residual": f.residual,
             "boundaries": bcs,
             "injected_volume": inj,

@@ -63,6 +63,13 @@ pub enum RunError {
         why: String,
         dt: f64,
     },
+    /// The implicit (backward-Euler) flow step failed: its Newton iteration did not converge.
+    #[error("step {step} (t = {time:.6e} s): {source}")]
+    ImplicitFlow {
+        step: u64,
+        time: f64,
+        source: Box<crate::flow::implicit::ImplicitError>,
+    },
     #[error("output: {0}")]
     Io(#[from] std::io::Error),
     #[error(transparent)]

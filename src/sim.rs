@@ -1,12 +1,13 @@
 //! A simulation: the model, its dense views, the schedule, and the step loop.
 
 use crate::error::{RunError, SetupError};
+use crate::flow::implicit::{ImplicitError, ImplicitSolver, implicit_step};
 use crate::flow::{FlowParams, FlowView};
 use crate::mesh::TriMesh;
 use crate::model::Model;
 use crate::network::CellNetwork;
 use crate::output::Outputs;
-use crate::scenario::{Damping, End, Material, MeshSpec, Scenario};
+use crate::scenario::{Damping, End, FlowScheme, Material, MeshSpec, Scenario};
 use crate::schedule::{Schedule, Status};
 use crate::systems::SystemId;
 use crate::systems::flow::{self as flowsys, FlowStats};
@@ -56,6 +57,10 @@ pub struct FlowPart {
     pub coupling: Option<crate::coupling::Coupling>,
     /// Coupled runs: a sub-step count above `time.max_substeps` the last step needed.
     pub too_many: Option<crate::coupling::TooManySubsteps>,
+    /// `time.flow_scheme: Implicit`: the backward-Euler solver (one flow step per step).
+    pub implicit: Option<ImplicitSolver>,
+    /// A failed implicit step, reported by `monitor`.
+    pub implicit_error: Option<ImplicitError>,
 }
 
 pub struct Simulation {
@@ -238,6 +243,9 @@ impl Simulation {
                     network: net,
                     coupling: None,
                     too_many: None,
+                    implicit: (scenario.time.flow_scheme == FlowScheme::Implicit)
+                        .then(ImplicitSolver::new),
+                    implicit_error: None,
                 })
             }
             None if coupled => {
@@ -264,6 +272,9 @@ impl Simulation {
                     network: CellNetwork::default(),
                     coupling: Some(crate::coupling::Coupling::default()),
                     too_many: None,
+                    implicit: (scenario.time.flow_scheme == FlowScheme::Implicit)
+                        .then(ImplicitSolver::new),
+                    implicit_error: None,
                 })
             }
             None => None,
@@ -271,10 +282,15 @@ impl Simulation {
         // Steps: the solid sets the step when there is one; flow sub-steps fill it.
         let t = &scenario.time;
         let flow_auto = flow.as_ref().map(|f| t.safety * f.dt_crit);
+        // Implicit flow-only scenes take `time.flow_dt` as their (single) flow step.
+        let per_flow_dt = match t.flow_scheme {
+            FlowScheme::Explicit => FLOW_ONLY_SUBSTEPS as f64,
+            FlowScheme::Implicit => 1.0,
+        };
         let mut dt = match (t.dt, has_solid, flow_auto, t.flow_dt) {
             (Some(dt), _, _, _) => dt,
             (None, true, _, _) => t.safety * dt_crit,
-            (None, false, _, Some(fdt)) => FLOW_ONLY_SUBSTEPS as f64 * fdt,
+            (None, false, _, Some(fdt)) => per_flow_dt * fdt,
             (None, false, Some(fa), None) => FLOW_ONLY_SUBSTEPS as f64 * fa,
             (None, false, None, None) => unreachable!("validated: a mesh or a network"),
         };
@@ -294,7 +310,10 @@ impl Simulation {
         let mut flow = flow;
         if let Some(f) = flow.as_mut() {
             let target = t.flow_dt.unwrap_or(t.safety * f.dt_crit);
-            f.substeps = ((dt / target) * (1.0 - 1e-12)).ceil().max(1.0) as u64;
+            f.substeps = match f.implicit {
+                Some(_) => 1,
+                None => ((dt / target) * (1.0 - 1e-12)).ceil().max(1.0) as u64,
+            };
             f.dt = dt / f.substeps as f64;
         }
         let params = solid_params(&mat, dt, scenario.damping);
@@ -556,22 +575,35 @@ impl Simulation {
     }
 
     /// `flow_substeps`: N explicit flow steps covering the solid step, stopping at the first
-    /// cell with negative or non-finite mass (reported by `monitor`).
+    /// cell with negative or non-finite mass (reported by `monitor`); with the implicit scheme
+    /// one backward-Euler step of the whole step.
     fn flow_substeps(&mut self, t0: f64) {
         let specs = &self.scenario.flow_boundaries;
+        let dt = self.params.dt;
         let Some(f) = self.flow.as_mut() else { return };
         if let Some(c) = f.coupling.as_mut() {
             let tc = &self.scenario.time;
-            match c.step(
-                &self.view,
-                &mut f.view,
-                &f.params,
-                specs,
-                t0,
-                self.params.dt,
-                tc.safety,
-                tc.max_substeps,
-            ) {
+            let r = match f.implicit.as_mut() {
+                Some(solver) => c
+                    .step_implicit(&self.view, &mut f.view, &f.params, specs, t0, dt, solver)
+                    .map_err(Some),
+                None => c
+                    .step(
+                        &self.view,
+                        &mut f.view,
+                        &f.params,
+                        specs,
+                        t0,
+                        dt,
+                        tc.safety,
+                        tc.max_substeps,
+                    )
+                    .map_err(|e| {
+                        f.too_many = Some(e);
+                        None
+                    }),
+            };
+            match r {
                 Ok(r) => {
                     f.stats = r.stats;
                     f.substeps = r.substeps;
@@ -579,10 +611,21 @@ impl Simulation {
                     f.dt_crit = r.dt_crit;
                     f.too_many = None;
                 }
-                Err(e) => f.too_many = Some(e),
+                Err(Some(e)) => f.implicit_error = Some(e),
+                Err(None) => {}
             }
         } else {
-            for k in 0..f.substeps {
+            if let Some(solver) = f.implicit.as_mut() {
+                // One backward-Euler step over the whole step (failures reported by `monitor`).
+                f.dt = dt;
+                match implicit_step(&mut f.view, &f.params, specs, dt, t0, solver) {
+                    Ok(st) => f.stats = st,
+                    Err(e) => f.implicit_error = Some(e),
+                }
+            }
+            // Explicit: N sub-steps (none with the implicit scheme).
+            let explicit_substeps = if f.implicit.is_some() { 0 } else { f.substeps };
+            for k in 0..explicit_substeps {
                 f.stats =
                     flowsys::flow_step(&mut f.view, &f.params, specs, f.dt, t0 + k as f64 * f.dt);
                 if f.stats.bad_cell.is_some() {
@@ -661,17 +704,25 @@ impl Simulation {
                 e.needed as f64,
                 format!(
                     "above time.max_substeps = {}: the apertures make the explicit flow step {:.3e} s \
-                     against a solid step of {:.3e} s (raise time.max_substeps, or use a smaller solid step)",
+                     against a solid step of {:.3e} s (use time.flow_scheme: Implicit, or raise time.max_substeps)",
                     self.scenario.time.max_substeps, e.dt_crit, self.params.dt
                 ),
                 self.params.dt,
             ));
         }
+        if let Some(source) = self.flow.as_mut().and_then(|f| f.implicit_error.take()) {
+            return Err(RunError::ImplicitFlow {
+                step: self.step,
+                time: self.time,
+                source: Box::new(source),
+            });
+        }
         if let Some(f) = &self.flow {
             // The explicit flow step must respect the stability bound (a forced `time.flow_dt`
             // may not): above it the scheme oscillates, and the P = 0 floor of unfilled cells can
             // hold the oscillation bounded, so it would not show up as a blow-up by itself.
-            if f.dt > f.dt_crit * (1.0 + 1e-9)
+            if f.implicit.is_none()
+                && f.dt > f.dt_crit * (1.0 + 1e-9)
                 && let Some((c, bound)) = f.view.critical_cell(&f.params)
             {
                 return Err(blow(
@@ -689,10 +740,16 @@ impl Simulation {
                     f.view.cell_label(c),
                     "fluid mass",
                     f.view.excess[c] + f.params.rho_r * f.view.volume[c],
-                    format!(
-                        "negative or non-finite: the flow step exceeds its stability limit {:.3e} s",
-                        f.dt_crit
-                    ),
+                    match f.implicit {
+                        None => format!(
+                            "negative or non-finite: the flow step exceeds its stability limit {:.3e} s",
+                            f.dt_crit
+                        ),
+                        Some(_) => {
+                            "negative or non-finite: more fluid withdrawn than the cell holds"
+                                .into()
+                        }
+                    },
                     f.dt,
                 ));
             }

@@ -81,7 +81,7 @@ impl SystemId {
                 "central-difference update of velocity and displacement; prescribed displacements"
             }
             SystemId::FlowSubsteps => {
-                "N explicit finite-volume steps of the fracture network (pairs, pump, rate, pressure)"
+                "N explicit finite-volume steps of the fracture network (pairs, pump, rate, pressure), or one backward-Euler step"
             }
             SystemId::FractureCriterion => {
                 "marks internal edges whose normal stress reaches lambda*T0 (never changes topology)"

@@ -20,7 +20,9 @@ fn cubic_law_single_x_and_t_junctions() {
 fn pressure_diffusion_second_order() {
     let res = flow_cases::diffusion(true).unwrap();
     assert_case("diffusion", &res);
-    assert_eq!(res.errors("closed_end_series").len(), 4);
+    assert_eq!(res.errors("closed_end_series_explicit").len(), 4);
+    assert_eq!(res.errors("closed_end_series_implicit").len(), 4);
+    assert_eq!(res.errors("time_error_implicit_dt").len(), 5);
 }
 
 #[test]

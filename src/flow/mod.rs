@@ -12,6 +12,7 @@
 //! - a boundary at a node connects to every cell there, at a cell to that cell, through half
 //!   the cell's length: kappa_b = a^3 / (6 mu L).
 
+pub mod implicit;
 pub mod steady;
 
 use crate::components::*;

@@ -5,8 +5,8 @@ use super::{CaseResult, Row, observed_order};
 use crate::error::RunError;
 use crate::network::{Fracture, NetworkSpec, RandomNetwork};
 use crate::scenario::{
-    Boundary, Damping, End, FlowBcKind, FlowBoundary, FlowTarget, Fluid, InitialFluid, OutputSpec,
-    Scenario, SystemsSpec, TimeControl,
+    Boundary, Damping, End, FlowBcKind, FlowBoundary, FlowScheme, FlowTarget, Fluid, InitialFluid,
+    OutputSpec, Scenario, SystemsSpec, TimeControl,
 };
 use crate::sim::{Finish, Simulation};
 use std::time::Instant;
@@ -47,6 +47,7 @@ pub fn flow_scenario(
             safety: 0.9,
             dt: None,
             flow_dt: None,
+            flow_scheme: Default::default(),
             max_steps: 5_000_000,
             max_substeps: 100_000,
             mass_scaling: false,
@@ -109,6 +110,20 @@ pub fn wells_network(seed: u64, count: usize, cell_length: f64) -> NetworkSpec {
     )
 }
 
+/// The same scenario with the backward-Euler flow scheme and step `dt` (s).
+pub fn implicit(mut sc: Scenario, dt: f64) -> Scenario {
+    sc.time.flow_scheme = FlowScheme::Implicit;
+    sc.time.dt = Some(dt);
+    sc.time.flow_dt = None;
+    sc
+}
+
+/// A step (s) long against the network's slowest diffusion: ten diffusion times L^2 / D of a
+/// 10 m fracture of aperture `a` (m): an implicit run reaches steady state in a few steps.
+pub fn long_step(a: f64, len: f64) -> f64 {
+    10.0 * len * len / diffusivity(a, &WATER)
+}
+
 /// Run to the end; returns the simulation and its wall time.
 pub fn run(sc: Scenario) -> anyhow::Result<(Simulation, f64)> {
     let t0 = Instant::now();
@@ -167,6 +182,9 @@ fn push(
 ///   continuum is a star, an O(h/L) difference: checked to shrink at order 1 and to be below 2 %
 ///   at the finest level. The explicit and direct solutions of the same discrete network must
 ///   agree to 1e-8 (the discrete system is solved exactly by both).
+/// - The implicit (backward-Euler) scheme run to the same steady residual with a step of ten
+///   diffusion times (`*_implicit_vs_direct`): the same 1e-8 against the direct solve (its
+///   steady state satisfies the same linear equations).
 pub fn cubic_law(quick: bool) -> anyhow::Result<CaseResult> {
     let ns: &[usize] = if quick {
         &[10, 20, 40]
@@ -251,6 +269,27 @@ pub fn cubic_law(quick: bool) -> anyhow::Result<CaseResult> {
                 min_steps: 10,
             }))?;
             let (di, wall_di) = run(mk(End::SteadyDirect))?;
+            let (im, wall_im) = run(implicit(
+                mk(End::Static {
+                    tol: 1e-11,
+                    min_steps: 10,
+                }),
+                long_step(a, len),
+            ))?;
+            let e_implicit = (rate(&im, "in") - rate(&di, "in")).abs() / rate(&di, "in");
+            push(
+                &mut res,
+                ("cubic_law", level, h),
+                &im,
+                &format!("{what}_implicit_vs_direct"),
+                e_implicit,
+                wall_im,
+            );
+            res.check_max(
+                format!("{what}: implicit vs direct at h = {h} m"),
+                e_implicit,
+                1e-8,
+            );
             let (qe, qd) = (rate(&ex, "in"), rate(&di, "in"));
             let e_discrete = (qe - qd).abs() / qd;
             let e_cubic = (qd - q_exact).abs() / q_exact;
@@ -343,154 +382,299 @@ pub fn erfc(x: f64) -> f64 {
     if x >= 0.0 { r } else { 2.0 - r }
 }
 
+/// The diffusion set-up of [`diffusion`]: L = 10 m, a = 0.1 mm, closed far end, full at
+/// p_i = 1 MPa, a step to p0 = 2 MPa at x = 0, run to D t / L^2 = 0.01 with `n` cells and the
+/// flow step `dt` (s) under `scheme`. Returns the run, its wall time (s), the cell pressures
+/// (Pa, from the masses: the explicit view's pressure lags one sub-step) and the largest errors
+/// against the closed-end series and erfc over (p0 - p_i).
+pub fn diffusion_run(
+    n: usize,
+    dt: f64,
+    scheme: FlowScheme,
+) -> anyhow::Result<(Simulation, f64, Vec<f64>, f64, f64)> {
+    let (a, len, pi, p0) = (1e-4, 10.0, 1e6, 2e6);
+    let d = diffusivity(a, &WATER);
+    let t_end = 0.01 * len * len / d;
+    let mut sc = flow_scenario(
+        "diffusion",
+        net(vec![frac([0.0, 0.0], [len, 0.0], a)], None, len / n as f64),
+        vec![bc(
+            "step",
+            FlowTarget::Node([0.0, 0.0]),
+            FlowBcKind::Pressure(p0),
+        )],
+        InitialFluid::Full(pi),
+        End::Time(t_end),
+        WATER,
+    );
+    sc.time.dt = Some(dt);
+    match scheme {
+        FlowScheme::Explicit => sc.time.flow_dt = Some(dt),
+        FlowScheme::Implicit => sc = implicit(sc, dt),
+    }
+    let (sim, wall) = run(sc)?;
+    let f = sim.flow.as_ref().expect("flow");
+    let (mut e_series, mut e_erfc) = (0.0f64, 0.0f64);
+    let mut p = Vec::with_capacity(f.view.n_cells());
+    for c in 0..f.view.n_cells() {
+        let [pa, pb] = f.view.cell_nodes[c].map(|k| f.view.node_pos[k as usize]);
+        let x = 0.5 * (pa[0] + pb[0]);
+        let pc = crate::flow::pressure_of(f.view.excess[c], f.view.volume[c], &f.params);
+        let s = pi + (p0 - pi) * closed_end_series(x, sim.time, len, d);
+        let e = pi + (p0 - pi) * erfc(x / (2.0 * (d * sim.time).sqrt()));
+        e_series = e_series.max((pc - s).abs() / (p0 - pi));
+        e_erfc = e_erfc.max((pc - e).abs() / (p0 - pi));
+        p.push(pc);
+    }
+    Ok((sim, wall, p, e_series, e_erfc))
+}
+
 /// Pressure diffusion in a rigid fracture (L = 10 m, a = 0.1 mm, closed far end, full at
 /// p_i = 1 MPa, a step to 2 MPa at x = 0) at D t / L^2 = 0.01, against the closed-end series and
-/// the semi-infinite erfc solution (identical there to 1e-12). One fixed flow step, a tenth of
-/// the finest level's critical step, for every level so only the space error changes.
-/// Error: max over cells of |p - p_exact| / (p0 - p_i). Expected order 2 (cell-centred finite
-/// volumes); accepted [1.7, 2.3] between the two finest levels.
+/// the semi-infinite erfc solution (identical there to 1e-12).
+/// Error: max over cells of |p - p_exact| / (p0 - p_i).
+/// - Explicit (`*_explicit`): one fixed flow step, a tenth of the finest level's critical step,
+///   for every level so only the space error changes. Expected order 2 (cell-centred finite
+///   volumes); accepted [1.7, 2.3] between the two finest levels, and <= 1e-3 at the finest.
+/// - Implicit, same levels (`*_implicit`): backward Euler with 20 steps over the run (each
+///   step 0.6x the explicit bound at 20 cells up to 38x at 160 cells: the bound falls as h^2):
+///   the error is dominated by the O(dt) time error, so it levels off near 7e-3 instead of
+///   falling as h^2; reported beside the explicit error and wall.
+/// - Implicit, step refinement on the finest mesh (`closed_end_series_implicit_dt`, the h
+///   column holds the step dt in s, and `time_error_implicit_dt`: against the explicit run on
+///   the same mesh, so the space error cancels and only the time error remains): 10 to 160
+///   steps. Backward Euler is first order: the time error must fall at order in [0.9, 1.1],
+///   and with 160 steps the closed-form error must be below 5e-3 (the step is then 5x the
+///   explicit bound of that mesh).
 pub fn diffusion(quick: bool) -> anyhow::Result<CaseResult> {
     let ns: &[usize] = if quick {
         &[10, 20, 40, 80]
     } else {
         &[20, 40, 80, 160]
     };
-    let (a, len, pi, p0) = (1e-4, 10.0, 1e6, 2e6);
+    let (a, len) = (1e-4, 10.0);
     let d = diffusivity(a, &WATER);
     let t_end = 0.01 * len * len / d;
-    let h_fine = len / *ns.last().expect("levels") as f64;
+    let n_fine = *ns.last().expect("levels");
+    let h_fine = len / n_fine as f64;
     // End cells carry a boundary link: their bound is 2/3 of the chain's 6 mu/K (h/a)^2.
     let crit_fine = 4.0 * WATER.viscosity / WATER.bulk_modulus * (h_fine / a).powi(2);
     let n_steps = (t_end / (0.1 * crit_fine)).ceil();
     let dt = t_end / n_steps;
     let mut res = CaseResult::default();
+    let mut p_explicit_fine = Vec::new();
     for (level, &n) in ns.iter().enumerate() {
         let h = len / n as f64;
-        let mut sc = flow_scenario(
-            "diffusion",
-            net(vec![frac([0.0, 0.0], [len, 0.0], a)], None, h),
-            vec![bc(
-                "step",
-                FlowTarget::Node([0.0, 0.0]),
-                FlowBcKind::Pressure(p0),
-            )],
-            InitialFluid::Full(pi),
-            End::Time(t_end),
-            WATER,
-        );
-        sc.time.dt = Some(dt);
-        sc.time.flow_dt = Some(dt);
-        let (sim, wall) = run(sc)?;
-        let f = sim.flow.as_ref().expect("flow");
-        let (mut e_series, mut e_erfc) = (0.0f64, 0.0f64);
-        for c in 0..f.view.n_cells() {
-            let [pa, pb] = f.view.cell_nodes[c].map(|k| f.view.node_pos[k as usize]);
-            let x = 0.5 * (pa[0] + pb[0]);
-            // The cell pressure from its mass (the view's pressure lags one step).
-            let p = crate::flow::pressure_of(f.view.excess[c], f.view.volume[c], &f.params);
-            let s = pi + (p0 - pi) * closed_end_series(x, sim.time, len, d);
-            let e = pi + (p0 - pi) * erfc(x / (2.0 * (d * sim.time).sqrt()));
-            e_series = e_series.max((p - s).abs() / (p0 - pi));
-            e_erfc = e_erfc.max((p - e).abs() / (p0 - pi));
-        }
+        let (sim, wall, p, e_series, e_erfc) = diffusion_run(n, dt, FlowScheme::Explicit)?;
+        let at = ("diffusion", level, h);
         push(
             &mut res,
-            ("diffusion", level, h),
+            at,
             &sim,
-            "closed_end_series",
+            "closed_end_series_explicit",
             e_series,
             wall,
         );
+        push(&mut res, at, &sim, "erfc_explicit", e_erfc, wall);
+        let (sim, wall, _, e_series, e_erfc) =
+            diffusion_run(n, t_end / 20.0, FlowScheme::Implicit)?;
         push(
             &mut res,
-            ("diffusion", level, h),
+            at,
             &sim,
-            "erfc",
-            e_erfc,
+            "closed_end_series_implicit",
+            e_series,
             wall,
         );
+        push(&mut res, at, &sim, "erfc_implicit", e_erfc, wall);
+        if n == n_fine {
+            p_explicit_fine = p;
+        }
     }
-    let p = observed_order(&res.errors("closed_end_series"));
-    res.check_range("closed_end_series observed order", p, 1.7, 2.3);
-    let last = res.errors("closed_end_series").last().map_or(1.0, |e| e.1);
-    res.check_max("closed_end_series error at the finest level", last, 1e-3);
+    let p = observed_order(&res.errors("closed_end_series_explicit"));
+    res.check_range("explicit: closed_end_series observed order", p, 1.7, 2.3);
+    let last = res
+        .errors("closed_end_series_explicit")
+        .last()
+        .map_or(1.0, |e| e.1);
+    res.check_max(
+        "explicit: closed_end_series error at the finest level",
+        last,
+        1e-3,
+    );
+    for (level, steps) in [10usize, 20, 40, 80, 160].into_iter().enumerate() {
+        let dt_i = t_end / steps as f64;
+        let (sim, wall, p, e_series, _) = diffusion_run(n_fine, dt_i, FlowScheme::Implicit)?;
+        let e_time = p
+            .iter()
+            .zip(&p_explicit_fine)
+            .map(|(a, b)| (a - b).abs() / 1e6)
+            .fold(0.0, f64::max);
+        let at = ("diffusion", level, dt_i);
+        push(
+            &mut res,
+            at,
+            &sim,
+            "closed_end_series_implicit_dt",
+            e_series,
+            wall,
+        );
+        push(&mut res, at, &sim, "time_error_implicit_dt", e_time, wall);
+    }
+    let p = observed_order(&res.errors("time_error_implicit_dt"));
+    res.check_range("implicit: time error observed order in dt", p, 0.9, 1.1);
+    let last = res
+        .errors("closed_end_series_implicit_dt")
+        .last()
+        .map_or(1.0, |e| e.1);
+    res.check_max(
+        "implicit: closed_end_series error with 160 steps, finest mesh",
+        last,
+        5e-3,
+    );
     Ok(res)
+}
+
+/// The mass-balance run of [`mass_balance`]: the seeded random network with cells of `cl` (m),
+/// empty at the start, pump on, off (1.0 to 1.5 s) and on again, production at 0 Pa, to
+/// t = 2 s. The pump fills its well fracture (2.5e-3 m^2) in about 0.6 s, then pressurises it
+/// while the fluid front enters the empty random fractures. `implicit_dt`: `None` runs the explicit scheme; `Some(None)` the implicit scheme
+/// with its default step; `Some(Some(dt))` the implicit scheme with step dt (s). Checks that
+/// nothing is injected while the pump is off. Returns the run, its wall time (s), the worst
+/// relative balance error over every step, and the largest number, over the steps, of
+/// min(cells still filling (negative excess, P = 0), cells full (P > 0)): positive when a
+/// filling front crossed the network, so both branches of the pressure law were in play.
+pub fn mass_balance_run(
+    cl: f64,
+    implicit_dt: Option<Option<f64>>,
+) -> anyhow::Result<(Simulation, f64, f64, usize)> {
+    let mut pump = bc(
+        "pump",
+        FlowTarget::Node([0.0, 10.0]),
+        FlowBcKind::Pump {
+            p_max: 18e6,
+            q_half: 1e-4,
+        },
+    );
+    pump.schedule = vec![
+        (0.0, 1.0),
+        (1.0, 1.0),
+        (1.0001, 0.0),
+        (1.5, 0.0),
+        (1.5001, 1.0),
+    ];
+    let mut sc = flow_scenario(
+        "mass_balance",
+        wells_network(7, 40, cl),
+        vec![
+            pump,
+            bc(
+                "production",
+                FlowTarget::Node([30.0, 10.0]),
+                FlowBcKind::Pressure(0.0),
+            ),
+        ],
+        InitialFluid::Empty,
+        End::Time(2.0),
+        WATER,
+    );
+    if let Some(dt) = implicit_dt {
+        sc.time.flow_scheme = FlowScheme::Implicit;
+        sc.time.dt = dt;
+    }
+    let t0 = Instant::now();
+    let mut sim = Simulation::new(sc, &[])?;
+    let mut worst = 0.0f64;
+    let mut filling = 0usize;
+    let mut injected_off = None;
+    while sim.finish.is_none() {
+        sim.step_once()?;
+        let (inj, _, _, err) = sim.flow_balance().expect("flow");
+        worst = worst.max(err);
+        let f = sim.flow.as_ref().expect("flow");
+        let empty = f.view.excess.iter().filter(|&&e| e < 0.0).count();
+        let full = f.view.excess.iter().filter(|&&e| e > 0.0).count();
+        filling = filling.max(empty.min(full));
+        if sim.time > 1.01 && sim.time < 1.49 {
+            injected_off.get_or_insert(inj);
+            // While the pump is off nothing may be injected.
+            anyhow::ensure!(
+                inj == injected_off.unwrap_or(inj),
+                "fluid injected while the pump was off"
+            );
+        }
+    }
+    let wall = t0.elapsed().as_secs_f64();
+    let (inj, prod, stored, _) = sim.flow_balance().expect("flow");
+    anyhow::ensure!(
+        inj > 0.0 && stored > 0.0,
+        "nothing injected ({inj}, {prod}, {stored})"
+    );
+    Ok((sim, wall, worst, filling))
 }
 
 /// Mass balance: a seeded random network, empty at the start, with a pump switched on, off and
 /// on again by its schedule, and a production boundary. injected - produced = stored change to
-/// 1e-12 relative at every time-series row (Kahan-compensated accumulation keeps round-off near
-/// 1e-15 over millions of steps).
+/// 1e-12 relative after every step (Kahan-compensated accumulation keeps round-off near
+/// 1e-15 over millions of steps), for the explicit scheme (`*_explicit`) and the implicit one
+/// (`*_implicit`, default step: the explicit flow-only step of 32 x 0.9 x the bound, taken as
+/// one backward-Euler step; `*_implicit_1ms`: steps of 1 ms). The implicit update uses the
+/// converged fluxes for both the cells and the boundary volumes, so it balances to round-off
+/// like the explicit one. Also reported: the injected volume of each implicit run against the
+/// explicit run (`injected_implicit*_vs_explicit`, relative; O(dt) time error, checked <= 5 %
+/// for the default step, where the difference is far smaller, and reported for 1 ms).
 pub fn mass_balance(quick: bool) -> anyhow::Result<CaseResult> {
     let cls: &[f64] = if quick { &[2.0, 1.0] } else { &[2.0, 1.0, 0.5] };
     let mut res = CaseResult::default();
     for (level, &cl) in cls.iter().enumerate() {
-        let mut pump = bc(
-            "pump",
-            FlowTarget::Node([0.0, 10.0]),
-            FlowBcKind::Pump {
-                p_max: 18e6,
-                q_half: 1e-4,
-            },
-        );
-        pump.schedule = vec![
-            (0.0, 1.0),
-            (0.05, 1.0),
-            (0.0501, 0.0),
-            (0.1, 0.0),
-            (0.1001, 1.0),
-        ];
-        let sc = flow_scenario(
-            "mass_balance",
-            wells_network(7, 40, cl),
-            vec![
-                pump,
-                bc(
-                    "production",
-                    FlowTarget::Node([30.0, 10.0]),
-                    FlowBcKind::Pressure(0.0),
-                ),
-            ],
-            InitialFluid::Empty,
-            End::Time(0.2),
-            WATER,
-        );
-        let t0 = Instant::now();
-        let mut sim = Simulation::new(sc, &[])?;
-        let mut worst = 0.0f64;
-        let mut injected_off = None;
-        while sim.finish.is_none() {
-            sim.step_once()?;
-            let (inj, _, _, err) = sim.flow_balance().expect("flow");
-            worst = worst.max(err);
-            if sim.time > 0.06 && sim.time < 0.095 {
-                injected_off.get_or_insert(inj);
-                // While the pump is off nothing may be injected.
-                anyhow::ensure!(
-                    inj == injected_off.unwrap_or(inj),
-                    "fluid injected while the pump was off"
-                );
-            }
-        }
-        let wall = t0.elapsed().as_secs_f64();
-        let (inj, prod, stored, _) = sim.flow_balance().expect("flow");
-        anyhow::ensure!(
-            inj > 0.0 && stored > 0.0,
-            "nothing injected ({inj}, {prod}, {stored})"
-        );
-        push(
-            &mut res,
-            ("mass_balance", level, cl),
-            &sim,
-            "max_balance_error",
-            worst,
-            wall,
-        );
+        let at = ("mass_balance", level, cl);
+        let (ex, wall, worst, _) = mass_balance_run(cl, None)?;
+        push(&mut res, at, &ex, "max_balance_error_explicit", worst, wall);
         res.check_max(
-            format!("mass balance, every step, cell length {cl} m"),
+            format!("explicit: mass balance, every step, cell length {cl} m"),
             worst,
             1e-12,
         );
+        let inj_ex = ex.flow_balance().expect("flow").0;
+        for (name, dt) in [("implicit", None), ("implicit_1ms", Some(1e-3))] {
+            let (im, wall, worst, filling) = mass_balance_run(cl, Some(dt))?;
+            push(
+                &mut res,
+                at,
+                &im,
+                &format!("max_balance_error_{name}"),
+                worst,
+                wall,
+            );
+            res.check_max(
+                format!("{name}: mass balance, every step, cell length {cl} m"),
+                worst,
+                1e-12,
+            );
+            res.check_range(
+                format!("{name}: filling and full cells side by side at some step"),
+                filling as f64,
+                1.0,
+                f64::INFINITY,
+            );
+            let inj = im.flow_balance().expect("flow").0;
+            let d = (inj - inj_ex).abs() / inj_ex;
+            push(
+                &mut res,
+                at,
+                &im,
+                &format!("injected_{name}_vs_explicit"),
+                d,
+                wall,
+            );
+            if dt.is_none() {
+                res.check_max(
+                    format!("{name}: injected volume against explicit, cell length {cl} m"),
+                    d,
+                    5e-2,
+                );
+            }
+        }
     }
     Ok(res)
 }
@@ -498,7 +682,9 @@ pub fn mass_balance(quick: bool) -> anyhow::Result<CaseResult> {
 /// Pump operating point: one fracture of known resistance R = 12 mu L / a^3 between the pump
 /// (p_max = 18 MPa, q_half = 1e-4 m^2/s, so the curve matters) and 0 Pa. At steady state
 /// q = P_pump(q) / R and P_pump = p_max (1 - (2/pi) atan(q/q_half)); the explicit run to a
-/// residual of 1e-10 must give both within 1e-6 relative.
+/// residual of 1e-10 must give both within 1e-6 relative (`*_explicit`). The implicit scheme
+/// (`*_implicit`, steps of ten diffusion times, to the same residual) solves the same curve
+/// with the network at every Newton iterate: the same 1e-6.
 pub fn pump_curve(quick: bool) -> anyhow::Result<CaseResult> {
     let ns: &[usize] = if quick { &[10, 20] } else { &[10, 20, 40] };
     let (a, len, p_max, q_half) = (1e-4, 10.0, 18e6, 1e-4);
@@ -540,38 +726,38 @@ pub fn pump_curve(quick: bool) -> anyhow::Result<CaseResult> {
             },
             WATER,
         );
-        let (sim, wall) = run(sc)?;
-        let f = sim.flow.as_ref().expect("flow");
-        let pump = &f.view.bcs[0];
-        let (ep, eq) = (
-            (pump.pressure - p_exact).abs() / p_exact,
-            (pump.rate - q_exact).abs() / q_exact,
-        );
-        push(
-            &mut res,
-            ("pump_curve", level, h),
-            &sim,
-            "pump_pressure",
-            ep,
-            wall,
-        );
-        push(
-            &mut res,
-            ("pump_curve", level, h),
-            &sim,
-            "pump_rate",
-            eq,
-            wall,
-        );
-        res.check_max(format!("pump pressure at h = {h} m"), ep, 1e-6);
-        res.check_max(format!("pump rate at h = {h} m"), eq, 1e-6);
+        for (scheme, sc) in [
+            ("explicit", sc.clone()),
+            ("implicit", implicit(sc, long_step(a, len))),
+        ] {
+            let (sim, wall) = run(sc)?;
+            let f = sim.flow.as_ref().expect("flow");
+            let pump = &f.view.bcs[0];
+            let (ep, eq) = (
+                (pump.pressure - p_exact).abs() / p_exact,
+                (pump.rate - q_exact).abs() / q_exact,
+            );
+            let at = ("pump_curve", level, h);
+            push(
+                &mut res,
+                at,
+                &sim,
+                &format!("pump_pressure_{scheme}"),
+                ep,
+                wall,
+            );
+            push(&mut res, at, &sim, &format!("pump_rate_{scheme}"), eq, wall);
+            res.check_max(format!("{scheme}: pump pressure at h = {h} m"), ep, 1e-6);
+            res.check_max(format!("{scheme}: pump rate at h = {h} m"), eq, 1e-6);
+        }
     }
     Ok(res)
 }
 
 /// The explicit solver run to steady state (residual 1e-11) against the direct steady solve on
 /// a seeded random network of at least 200 cells with pressure boundaries: largest cell pressure
-/// difference over the pressure drop, and the production rate, within 1e-6.
+/// difference over the pressure drop, and the production rate, within 1e-6. The implicit scheme
+/// run to the same residual with long steps (`*_implicit_vs_direct`): the same 1e-6.
 pub fn steady(quick: bool) -> anyhow::Result<CaseResult> {
     let cls: &[f64] = if quick { &[2.0] } else { &[2.0, 1.0] };
     let mut res = CaseResult::default();
@@ -602,6 +788,60 @@ pub fn steady(quick: bool) -> anyhow::Result<CaseResult> {
             min_steps: 10,
         }))?;
         let (di, wall_di) = run(mk(End::SteadyDirect))?;
+        // Implicit: steps of ten diffusion times of the thinnest, longest fracture (0.05 mm, 30 m).
+        let (im, wall_im) = run(implicit(
+            mk(End::Static {
+                tol: 1e-11,
+                min_steps: 10,
+            }),
+            long_step(5e-5, 30.0),
+        ))?;
+        {
+            let (fi, fd) = (
+                im.flow.as_ref().expect("flow"),
+                di.flow.as_ref().expect("flow"),
+            );
+            let e_p = (0..fi.view.n_cells())
+                .map(|c| {
+                    let p =
+                        crate::flow::pressure_of(fi.view.excess[c], fi.view.volume[c], &fi.params);
+                    (p - fd.view.pressure[c]).abs()
+                })
+                .fold(0.0, f64::max)
+                / 12e6;
+            let (qi, qd) = (rate(&im, "production"), rate(&di, "production"));
+            let e_q = (qi - qd).abs() / qd.abs();
+            let at = ("steady", level, cl);
+            push(
+                &mut res,
+                at,
+                &im,
+                "pressure_implicit_vs_direct",
+                e_p,
+                wall_im,
+            );
+            push(
+                &mut res,
+                at,
+                &im,
+                "production_implicit_vs_direct",
+                e_q,
+                wall_im,
+            );
+            res.check_max(
+                format!("pressure, implicit vs direct, {} cells", fi.view.n_cells()),
+                e_p,
+                1e-6,
+            );
+            res.check_max(
+                format!(
+                    "production rate, implicit vs direct, {} cells",
+                    fi.view.n_cells()
+                ),
+                e_q,
+                1e-6,
+            );
+        }
         let (fe, fd) = (
             ex.flow.as_ref().expect("flow"),
             di.flow.as_ref().expect("flow"),

@@ -133,7 +133,7 @@ pub fn cases() -> Vec<Case> {
         },
         Case {
             name: "diffusion",
-            about: "pressure diffusion in a rigid fracture against the closed-end series and erfc",
+            about: "pressure diffusion in a rigid fracture against the closed-end series and erfc; explicit and implicit, h and dt refinement",
             run: flow_cases::diffusion,
         },
         Case {
@@ -148,7 +148,7 @@ pub fn cases() -> Vec<Case> {
         },
         Case {
             name: "steady",
-            about: "explicit run to steady state against the direct sparse solve, random network",
+            about: "explicit and implicit runs to steady state against the direct sparse solve, random network",
             run: flow_cases::steady,
         },
         Case {

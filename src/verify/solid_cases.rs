@@ -42,6 +42,7 @@ pub fn scenario(
             safety: 0.9,
             dt: None,
             flow_dt: None,
+            flow_scheme: Default::default(),
             max_steps: 2_000_000,
             max_substeps: 100_000,
             mass_scaling: false,
