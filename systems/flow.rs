@@ -6,6 +6,11 @@ use crate::flow::{FlowParams, FlowView, kahan_add, pressure_of};
 use crate::scenario::{FlowBcKind, FlowBoundary};
 use rayon::prelude::*;
 
+/// A cell's mass may dip below zero by this fraction of the mass it holds when full,
+/// rho_r V (round-off of an emptying cell, or of a converged implicit step at tolerance
+/// 1e-12); below that it is a failure (more fluid withdrawn than the cell holds).
+pub const MASS_ROUNDOFF: f64 = 1e-12;
+
 /// Cells per rayon task / reduction chunk.
 pub const CELL_CHUNK: usize = 4096;
 
@@ -155,7 +160,7 @@ pub fn flow_step(
                 kahan_add(m, comp, rho_dt * net);
                 *fr = 0.5 * through;
                 st.net2 += net * net;
-                if !(*m >= -p.rho_r * vol[i] && m.is_finite()) && st.bad_cell.is_none() {
+                if !(*m >= -p.rho_r * vol[i] * (1.0 + MASS_ROUNDOFF) && m.is_finite()) && st.bad_cell.is_none() {
                     st.bad_cell = Some(i);
                 }
             }
@@ -207,7 +212,7 @@ fn flow_step_serial(
         v.flow_rate[i] = 0.5 * through;
         st.net2 += net * net;
         let m = v.excess[i];
-        if !(m >= -p.rho_r * v.volume[i] && m.is_finite()) && st.bad_cell.is_none() {
+        if !(m >= -p.rho_r * v.volume[i] * (1.0 + MASS_ROUNDOFF) && m.is_finite()) && st.bad_cell.is_none() {
             st.bad_cell = Some(i);
         }
     }
