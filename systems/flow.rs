@@ -160,7 +160,9 @@ pub fn flow_step(
                 kahan_add(m, comp, rho_dt * net);
                 *fr = 0.5 * through;
                 st.net2 += net * net;
-                if !(*m >= -p.rho_r * vol[i] * (1.0 + MASS_ROUNDOFF) && m.is_finite()) && st.bad_cell.is_none() {
+                if !(*m >= -p.rho_r * vol[i] * (1.0 + MASS_ROUNDOFF) && m.is_finite())
+                    && st.bad_cell.is_none()
+                {
                     st.bad_cell = Some(i);
                 }
             }
@@ -212,7 +214,9 @@ fn flow_step_serial(
         v.flow_rate[i] = 0.5 * through;
         st.net2 += net * net;
         let m = v.excess[i];
-        if !(m >= -p.rho_r * v.volume[i] * (1.0 + MASS_ROUNDOFF) && m.is_finite()) && st.bad_cell.is_none() {
+        if !(m >= -p.rho_r * v.volume[i] * (1.0 + MASS_ROUNDOFF) && m.is_finite())
+            && st.bad_cell.is_none()
+        {
             st.bad_cell = Some(i);
         }
     }

@@ -663,7 +663,10 @@ pub fn implicit_step(
         v.flow_rate[i] = 0.5 * through;
         st.net2 += net * net;
         let m = v.excess[i];
-        if !(m >= -params.rho_r * v.volume[i] * (1.0 + crate::systems::flow::MASS_ROUNDOFF) && m.is_finite()) && st.bad_cell.is_none() {
+        if !(m >= -params.rho_r * v.volume[i] * (1.0 + crate::systems::flow::MASS_ROUNDOFF)
+            && m.is_finite())
+            && st.bad_cell.is_none()
+        {
             st.bad_cell = Some(i);
         }
     }
