@@ -398,10 +398,9 @@ impl Simulation {
         if self.flow.is_some() || self.view.joint_entity.is_empty() {
             return None;
         }
-        Some(FlowView::build(
-            &self.model,
-            &FlowParams::from(self.scenario.fluid),
-        ))
+        let mut v = FlowView::build(&self.model, &FlowParams::from(self.scenario.fluid));
+        v.attach_joints(&self.model);
+        Some(v)
     }
 
     /// Change the model (boundary conditions, loads, topology) between steps: the state is
@@ -886,7 +885,17 @@ impl Simulation {
             if self.view.n_elems() > 0 {
                 out.write_frame(&self.view, &self.params, poisson, time)?;
             }
-            if let Some(f) = &self.flow {
+            if self.flow.is_some() {
+                if !self.view.joint_entity.is_empty() {
+                    // Joint stresses and sliding flags for the frame (coupled runs).
+                    self.sync();
+                    let f = self.flow.as_mut().expect("checked");
+                    f.view.attach_joints(&self.model);
+                    f.view.refresh_positions(&self.model);
+                }
+                let (Some(f), Some(out)) = (self.flow.as_ref(), self.output.as_mut()) else {
+                    return Ok(());
+                };
                 out.write_network_frame(&f.view, time)?;
             }
         }

@@ -191,4 +191,25 @@ fn fracture_outputs_are_written() {
     );
     let frames = hydrofrac::output::vtk::read_pvd(&out.join("network.pvd")).unwrap();
     assert!(frames.len() >= 2);
+    // The last frame carries the joint state per cell: normal stress (tension positive),
+    // shear stress, sliding flag, and the creation time.
+    let last = hydrofrac::output::vtk::read_vtu(&out.join(&frames.last().unwrap().1)).unwrap();
+    let ncells = last.types.len();
+    let get = |name: &str| {
+        last.cell_data
+            .iter()
+            .find(|a| a.0 == name)
+            .unwrap_or_else(|| panic!("no cell array {name}"))
+            .2
+            .clone()
+    };
+    for name in ["joint_normal_stress", "joint_shear_stress", "sliding", "created_t", "kind"] {
+        assert_eq!(get(name).len(), ncells, "{name}");
+    }
+    assert!(get("sliding").iter().all(|&x| x == 0.0 || x == 1.0));
+    assert!(get("joint_normal_stress").iter().all(|x| x.is_finite()));
+    assert!(
+        get("created_t").iter().any(|&t| t > 0.0),
+        "no cell created during the run"
+    );
 }

@@ -138,6 +138,10 @@ pub struct FlowView {
     /// Boundary inflow per cell at the last step, m^2/s.
     pub bc_in: Vec<f64>,
     pub bcs: Vec<BcView>,
+    /// For output, per cell (empty until [`FlowView::attach_joints`]): the joint's normal
+    /// stress F_n/L (Pa, tension positive: contact compression is negative), shear stress
+    /// F_t/L (Pa) and sliding flag (1 sliding, 0 not; NaN for a cell without a joint).
+    pub joint_stress: Vec<[f64; 3]>,
 }
 
 impl FlowView {
@@ -353,6 +357,27 @@ impl FlowView {
             }
         }
         seen
+    }
+
+    /// Fill `joint_stress` from the joints' components (state as of the last sync).
+    pub fn attach_joints(&mut self, model: &Model) {
+        let index: std::collections::HashMap<Entity, usize> = self
+            .cell_entity
+            .iter()
+            .enumerate()
+            .map(|(i, &e)| (e, i))
+            .collect();
+        self.joint_stress = vec![[f64::NAN; 3]; self.n_cells()];
+        for (j, st) in model.world.query::<(&Joint, &JointState)>().iter() {
+            if let Some(&c) = index.get(&j.cell) {
+                let len = self.length[c].max(f64::MIN_POSITIVE);
+                self.joint_stress[c] = [
+                    -st.normal_force / len,
+                    st.shear_force / len,
+                    if st.sliding { 1.0 } else { 0.0 },
+                ];
+            }
+        }
     }
 
     /// Current node positions (reference + displacement) from the components, m.

@@ -113,6 +113,22 @@ impl Outputs {
             values,
         };
         let name = format!("network_{:05}.vtu", self.network_frames);
+        let joint: Vec<Vec<f64>> = (0..3)
+            .map(|k| f.joint_stress.iter().map(|j| j[k]).collect())
+            .collect();
+        let mut cell_data = vec![
+            arr("pressure", &f.pressure[..]),
+            arr("aperture", &f.aperture[..]),
+            arr("flow_rate", &f.flow_rate[..]),
+            arr("cell_id", &id[..]),
+            arr("kind", &kind[..]),
+            arr("created_t", &f.created_t[..]),
+        ];
+        if f.joint_stress.len() == f.n_cells() && f.n_cells() > 0 {
+            cell_data.push(arr("joint_normal_stress", &joint[0][..]));
+            cell_data.push(arr("joint_shear_stress", &joint[1][..]));
+            cell_data.push(arr("sliding", &joint[2][..]));
+        }
         vtk::write_vtu(
             &self.dir.join("frames").join(&name),
             &vtk::VtuPiece {
@@ -120,13 +136,7 @@ impl Outputs {
                 kind: vtk::CellKind::Line,
                 connectivity: &conn,
                 point_data: vec![],
-                cell_data: vec![
-                    arr("pressure", &f.pressure[..]),
-                    arr("aperture", &f.aperture[..]),
-                    arr("flow_rate", &f.flow_rate[..]),
-                    arr("cell_id", &id[..]),
-                    arr("kind", &kind[..]),
-                ],
+                cell_data,
             },
         )?;
         self.network_pvd.add(time, &format!("frames/{name}"))?;

@@ -1,0 +1,147 @@
+//! Coupled verification case (verification.md item 6): `kgd`, the shipped `scenarios/kgd.ron`
+//! at several mesh sizes with both flow schemes, against the viscosity-dominated KGD similarity
+//! solution:
+//!   l(t) = 0.61524 (E' Q0^3 t^4 / mu')^(1/6),  w0(t) = 1.1233 (mu' Q0^3 t^2 / E')^(1/6),
+//!   p0(t) = 0.5443 (mu' E'^2 / t)^(1/3),  mu' = 12 mu, Q0 = 2 x the half model's rate.
+//!
+//! Status: the engine does not yet reach the 5 % target (README, "KGD"): the strength
+//! criterion on h-sized elements acts like a toughness that falls with h, so the errors fall
+//! with refinement (measured at h = 2 and 1 m: length -28 % -> -12 %, opening +35 % -> +9 %,
+//! pressure +76 % -> +20 %). The checks are what holds today: every run conserves mass to
+//! 1e-9, every error falls from the coarsest to the finest mesh, and the two schemes give the
+//! same length to one cell. Metrics: `length_*`, `opening_*`, `pressure_*` (relative errors at
+//! the end time, suffixed by scheme).
+
+use super::{CaseResult, Row};
+use crate::scenario::{Boundary, Scenario};
+use crate::sim::{Finish, Simulation};
+use std::time::Instant;
+
+const KGD_RON: &str = include_str!("../../scenarios/kgd.ron");
+
+/// One KGD run: (half-length m, well opening m, net well pressure Pa, exact (l, w0, p0),
+/// mass-balance error, wall s, unknowns).
+struct KgdRun {
+    l: f64,
+    w0: f64,
+    p0: f64,
+    exact: [f64; 3],
+    balance: f64,
+    wall: f64,
+    unknowns: usize,
+}
+
+fn kgd_run(h: f64, scheme: &str) -> anyhow::Result<KgdRun> {
+    let sc = Scenario::parse(KGD_RON, "scenarios/kgd.ron")?
+        .with_overrides(&[format!("mesh.h={h}"), format!("time.flow_scheme={scheme}")])?;
+    let mat = sc.material.expect("kgd has a material");
+    let s0 = match sc.boundary {
+        Boundary::InSitu { syy, .. } => -syy,
+        _ => anyhow::bail!("kgd.ron: expected an InSitu boundary"),
+    };
+    let mu = sc.fluid.viscosity;
+    let q_half = match sc.flow_boundaries[0].kind {
+        crate::scenario::FlowBcKind::Rate(q) => q,
+        _ => anyhow::bail!("kgd.ron: expected a rate boundary"),
+    };
+    let t_end = match sc.time.end {
+        crate::scenario::End::Time(t) => t,
+        _ => anyhow::bail!("kgd.ron: expected an end time"),
+    };
+    let t0 = Instant::now();
+    let mut sim = Simulation::new(sc, &[])?;
+    let finish = sim.run(|_| {})?;
+    anyhow::ensure!(finish == Finish::EndTime, "kgd h = {h}: ended with {finish:?}");
+    let wall = t0.elapsed().as_secs_f64();
+    let (_, _, _, balance) = sim.flow_balance().expect("flow");
+    let f = sim.flow.as_ref().expect("flow");
+    let v = &f.view;
+    // Cells on the fracture line y = 0, by their position along it.
+    let mut on_line: Vec<(f64, f64, f64)> = (0..v.n_cells())
+        .filter_map(|c| {
+            let [a, b] = v.cell_nodes[c].map(|n| v.node_ref[n as usize]);
+            (a[1].abs() < 1e-6 * h && b[1].abs() < 1e-6 * h)
+                .then(|| (a[0].min(b[0]), a[0].max(b[0]), v.aperture[c]))
+        })
+        .collect();
+    on_line.sort_by(|p, q| p.0.total_cmp(&q.0));
+    anyhow::ensure!(on_line.len() >= 2, "kgd h = {h}: fewer than two cells");
+    let l = on_line.iter().map(|c| c.1).fold(0.0, f64::max);
+    // Well opening: the first two cells' apertures (at x = h/2, 3h/2) extrapolated to x = 0.
+    let w0 = on_line[0].2 + 0.5 * (on_line[0].2 - on_line[1].2);
+    let p0 = v.bcs[0].pressure - s0;
+    let e_prime = mat.young / (1.0 - mat.poisson * mat.poisson);
+    let mu_prime = 12.0 * mu;
+    let q0 = 2.0 * q_half;
+    let exact = [
+        0.61524 * (e_prime * q0.powi(3) * t_end.powi(4) / mu_prime).powf(1.0 / 6.0),
+        1.1233 * (mu_prime * q0.powi(3) * t_end.powi(2) / e_prime).powf(1.0 / 6.0),
+        0.5443 * (mu_prime * e_prime * e_prime / t_end).powf(1.0 / 3.0),
+    ];
+    Ok(KgdRun {
+        l,
+        w0,
+        p0,
+        exact,
+        balance,
+        wall,
+        unknowns: 2 * sim.view.n_nodes(),
+    })
+}
+
+pub fn kgd(quick: bool) -> anyhow::Result<CaseResult> {
+    let sizes: &[f64] = if quick { &[2.0, 1.0] } else { &[2.0, 1.0, 0.5] };
+    let mut res = CaseResult::default();
+    let mut lengths = Vec::new();
+    for scheme in ["Explicit", "Implicit"] {
+        let suffix = scheme.to_lowercase();
+        let mut errs: Vec<[f64; 3]> = Vec::new();
+        for (level, &h) in sizes.iter().enumerate() {
+            let r = kgd_run(h, scheme)?;
+            let e = [
+                (r.l - r.exact[0]) / r.exact[0],
+                (r.w0 - r.exact[1]) / r.exact[1],
+                (r.p0 - r.exact[2]) / r.exact[2],
+            ];
+            for (k, m) in ["length", "opening", "pressure"].iter().enumerate() {
+                res.rows.push(Row {
+                    case: "kgd",
+                    level,
+                    h,
+                    unknowns: r.unknowns,
+                    metric: format!("{m}_{suffix}"),
+                    error: e[k].abs(),
+                    wall_s: r.wall,
+                });
+            }
+            res.check_max(
+                format!("mass balance, {suffix}, h = {h} m"),
+                r.balance,
+                1e-9,
+            );
+            lengths.push((scheme, h, r.l));
+            errs.push(e);
+        }
+        let (first, last) = (errs[0], errs[errs.len() - 1]);
+        for (k, m) in ["length", "opening", "pressure"].iter().enumerate() {
+            res.check_max(
+                format!("{m} error finest / coarsest, {suffix}"),
+                last[k].abs() / first[k].abs(),
+                0.8,
+            );
+        }
+    }
+    for &h in sizes {
+        let l: Vec<f64> = lengths
+            .iter()
+            .filter(|x| x.1 == h)
+            .map(|x| x.2)
+            .collect();
+        res.check_max(
+            format!("length explicit - implicit, h = {h} m (cells)"),
+            (l[0] - l[1]).abs() / h,
+            1.0,
+        );
+    }
+    Ok(res)
+}
