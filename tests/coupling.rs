@@ -138,6 +138,12 @@ fn explicit_and_implicit_schemes_agree() {
         let (inj, _, _, err) = sim.flow_balance().unwrap();
         assert!(err < 1e-9, "{extra}: mass balance error {err:e}");
         let f = sim.flow.as_ref().unwrap();
+        if extra.contains("Implicit") {
+            assert_eq!(f.substeps, 1, "implicit: one flow step per solid step");
+            assert_eq!(f.dt, sim.dt());
+        } else {
+            assert!(f.substeps > 10, "explicit sub-steps {}", f.substeps);
+        }
         let mut cells: Vec<[i64; 4]> = (0..f.view.n_cells())
             .map(|c| {
                 let [a, b] = f.view.cell_nodes[c].map(|n| f.view.node_ref[n as usize]);

@@ -203,7 +203,13 @@ fn fracture_outputs_are_written() {
             .2
             .clone()
     };
-    for name in ["joint_normal_stress", "joint_shear_stress", "sliding", "created_t", "kind"] {
+    for name in [
+        "joint_normal_stress",
+        "joint_shear_stress",
+        "sliding",
+        "created_t",
+        "kind",
+    ] {
         assert_eq!(get(name).len(), ncells, "{name}");
     }
     assert!(get("sliding").iter().all(|&x| x == 0.0 || x == 1.0));

@@ -51,7 +51,10 @@ fn kgd_run(h: f64, scheme: &str) -> anyhow::Result<KgdRun> {
     let t0 = Instant::now();
     let mut sim = Simulation::new(sc, &[])?;
     let finish = sim.run(|_| {})?;
-    anyhow::ensure!(finish == Finish::EndTime, "kgd h = {h}: ended with {finish:?}");
+    anyhow::ensure!(
+        finish == Finish::EndTime,
+        "kgd h = {h}: ended with {finish:?}"
+    );
     let wall = t0.elapsed().as_secs_f64();
     let (_, _, _, balance) = sim.flow_balance().expect("flow");
     let f = sim.flow.as_ref().expect("flow");
@@ -132,11 +135,7 @@ pub fn kgd(quick: bool) -> anyhow::Result<CaseResult> {
         }
     }
     for &h in sizes {
-        let l: Vec<f64> = lengths
-            .iter()
-            .filter(|x| x.1 == h)
-            .map(|x| x.2)
-            .collect();
+        let l: Vec<f64> = lengths.iter().filter(|x| x.1 == h).map(|x| x.2).collect();
         res.check_max(
             format!("length explicit - implicit, h = {h} m (cells)"),
             (l[0] - l[1]).abs() / h,
