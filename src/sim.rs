@@ -63,6 +63,38 @@ pub struct FlowPart {
     pub implicit_error: Option<ImplicitError>,
 }
 
+impl FlowPart {
+    /// The flow part over the model's cells (a rigid network, or the rock's fractures when
+    /// `coupled`): boundaries attached, the view built, the initial state recorded.
+    fn new(
+        model: &mut Model,
+        scenario: &Scenario,
+        params: FlowParams,
+        network: CellNetwork,
+        coupled: bool,
+    ) -> Result<Self, SetupError> {
+        model.add_flow_boundaries(&scenario.flow_boundaries)?;
+        let mut view = FlowView::build(model, &params);
+        view.set_bc_kinds(&scenario.flow_boundaries);
+        Ok(FlowPart {
+            dt_crit: view.critical_step(&params),
+            initial_excess: view.excess.iter().sum(),
+            initial_volume: view.volume.iter().sum(),
+            view,
+            params,
+            dt: 0.0,
+            substeps: 1,
+            stats: FlowStats::default(),
+            residual: f64::INFINITY,
+            network,
+            coupling: coupled.then(crate::coupling::Coupling::default),
+            too_many: None,
+            implicit: (scenario.time.flow_scheme == FlowScheme::Implicit).then(ImplicitSolver::new),
+            implicit_error: None,
+        })
+    }
+}
+
 pub struct Simulation {
     pub scenario: Scenario,
     pub model: Model,
@@ -224,58 +256,20 @@ impl Simulation {
                 let fp = FlowParams::from(scenario.fluid);
                 let net = spec.discretise();
                 model.add_network(&net, scenario.initial_fluid, fp.rho_r, fp.k);
-                model.add_flow_boundaries(&scenario.flow_boundaries)?;
-                let mut view = FlowView::build(&model, &fp);
-                view.set_bc_kinds(&scenario.flow_boundaries);
-                let crit = view.critical_step(&fp);
-                let initial_excess = view.excess.iter().sum();
-                let initial_volume = view.volume.iter().sum();
-                Some(FlowPart {
-                    view,
-                    params: fp,
-                    dt: 0.0,
-                    substeps: 1,
-                    dt_crit: crit,
-                    stats: FlowStats::default(),
-                    initial_excess,
-                    initial_volume,
-                    residual: f64::INFINITY,
-                    network: net,
-                    coupling: None,
-                    too_many: None,
-                    implicit: (scenario.time.flow_scheme == FlowScheme::Implicit)
-                        .then(ImplicitSolver::new),
-                    implicit_error: None,
-                })
+                Some(FlowPart::new(&mut model, &scenario, fp, net, false)?)
             }
             None if coupled => {
                 let fp = FlowParams::from(scenario.fluid);
                 if let crate::scenario::InitialFluid::Full(p0) = scenario.initial_fluid {
                     crate::fractures::fill_cells(&mut model, fp.rho_r * (1.0 + p0 / fp.k));
                 }
-                model.add_flow_boundaries(&scenario.flow_boundaries)?;
-                let mut view = FlowView::build(&model, &fp);
-                view.set_bc_kinds(&scenario.flow_boundaries);
-                let crit = view.critical_step(&fp);
-                let initial_excess = view.excess.iter().sum();
-                let initial_volume = view.volume.iter().sum();
-                Some(FlowPart {
-                    view,
-                    params: fp,
-                    dt: 0.0,
-                    substeps: 1,
-                    dt_crit: crit,
-                    stats: FlowStats::default(),
-                    initial_excess,
-                    initial_volume,
-                    residual: f64::INFINITY,
-                    network: CellNetwork::default(),
-                    coupling: Some(crate::coupling::Coupling::default()),
-                    too_many: None,
-                    implicit: (scenario.time.flow_scheme == FlowScheme::Implicit)
-                        .then(ImplicitSolver::new),
-                    implicit_error: None,
-                })
+                Some(FlowPart::new(
+                    &mut model,
+                    &scenario,
+                    fp,
+                    CellNetwork::default(),
+                    true,
+                )?)
             }
             None => None,
         };

@@ -106,6 +106,17 @@ pub fn boundary_flows(v: &mut FlowView, specs: &[FlowBoundary], t: f64) {
     }
 }
 
+/// Add dt times each boundary's rate to its cumulative volume in (or out), m^2.
+pub fn accumulate_boundary_volumes(v: &mut FlowView, dt: f64) {
+    for b in &mut v.bcs {
+        if b.rate >= 0.0 {
+            kahan_add(&mut b.volume_in, &mut b.comp_in, dt * b.rate);
+        } else {
+            kahan_add(&mut b.volume_out, &mut b.comp_out, -dt * b.rate);
+        }
+    }
+}
+
 /// One explicit flow step of length dt at time t: pressures, pair fluxes, boundary flows, mass
 /// update (excess mass += dt rho_r sum of inflows), throughput, and the boundaries' cumulative
 /// volumes.
@@ -169,13 +180,7 @@ pub fn flow_step(
             st
         })
         .collect();
-    for b in &mut v.bcs {
-        if b.rate >= 0.0 {
-            kahan_add(&mut b.volume_in, &mut b.comp_in, dt * b.rate);
-        } else {
-            kahan_add(&mut b.volume_out, &mut b.comp_out, -dt * b.rate);
-        }
-    }
+    accumulate_boundary_volumes(v, dt);
     partial
         .into_iter()
         .fold(FlowStats::default(), |a, b| FlowStats {
@@ -220,13 +225,7 @@ fn flow_step_serial(
             st.bad_cell = Some(i);
         }
     }
-    for b in &mut v.bcs {
-        if b.rate >= 0.0 {
-            kahan_add(&mut b.volume_in, &mut b.comp_in, dt * b.rate);
-        } else {
-            kahan_add(&mut b.volume_out, &mut b.comp_out, -dt * b.rate);
-        }
-    }
+    accumulate_boundary_volumes(v, dt);
     // The parallel path folds its chunk statistics into a default: one chunk gives the same.
     FlowStats {
         net2: 0.0 + st.net2,

@@ -670,13 +670,7 @@ pub fn implicit_step(
             st.bad_cell = Some(i);
         }
     }
-    for b in &mut v.bcs {
-        if b.rate >= 0.0 {
-            kahan_add(&mut b.volume_in, &mut b.comp_in, dt * b.rate);
-        } else {
-            kahan_add(&mut b.volume_out, &mut b.comp_out, -dt * b.rate);
-        }
-    }
+    crate::systems::flow::accumulate_boundary_volumes(v, dt);
     s.last_iterations = it;
     s.total_iterations += it as u64;
     s.steps += 1;
