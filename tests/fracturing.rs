@@ -185,10 +185,13 @@ fn fracture_outputs_are_written() {
         8
     );
     assert!(csv.lines().any(|l| l.contains(",new,")));
-    assert_eq!(
-        &std::fs::read(out.join("fractures.png")).unwrap()[..4],
-        b"\x89PNG"
-    );
+    for png in ["fractures.png", "fractures_mesh.png"] {
+        assert_eq!(
+            &std::fs::read(out.join(png)).unwrap()[..4],
+            b"\x89PNG",
+            "{png}"
+        );
+    }
     let frames = hydrofrac::output::vtk::read_pvd(&out.join("network.pvd")).unwrap();
     assert!(frames.len() >= 2);
     // The last frame carries the joint state per cell: normal stress (tension positive),
