@@ -122,6 +122,14 @@ impl Coupling {
         }
     }
 
+    /// Transmissibilities at the mid-step apertures (a_start + a_end)/2, used through the step.
+    fn mid_step_kappa(&self, flow: &mut FlowView, p: &FlowParams) {
+        for c in 0..flow.n_cells() {
+            flow.aperture[c] = 0.5 * (self.a_start[c] + self.a_end[c]);
+        }
+        flow.update_kappa(p);
+    }
+
     /// One solid step of flow: N explicit sub-steps over [t0, t0 + dt] with apertures
     /// interpolated from the start (the flow view's) to the end (the solid's now). Leaves the
     /// view at the end apertures and the mean pressures in `p_mean`.
@@ -146,16 +154,7 @@ impl Coupling {
             flow.aperture[c] = self.a_start[c].max(self.a_end[c]);
         }
         flow.update_kappa(p);
-        self.kappa_sum.iter_mut().for_each(|s| *s = 0.0);
-        for (k, pr) in flow.pairs.iter().enumerate() {
-            self.kappa_sum[pr[0] as usize] += flow.kappa[k];
-            self.kappa_sum[pr[1] as usize] += flow.kappa[k];
-        }
-        for b in &flow.bcs {
-            for (k, &c) in b.cells.iter().enumerate() {
-                self.kappa_sum[c as usize] += b.kappa[k];
-            }
-        }
+        flow.kappa_sums(&mut self.kappa_sum);
         let (mut dt_crit, mut critical_cell) = (f64::INFINITY, 0);
         for c in 0..nc {
             if self.kappa_sum[c] > 0.0 {
@@ -184,11 +183,7 @@ impl Coupling {
         }
         let n = n as u64;
         let dtf = dt / n as f64;
-        // Transmissibilities at mid-step apertures for the sub-steps.
-        for c in 0..nc {
-            flow.aperture[c] = 0.5 * (self.a_start[c] + self.a_end[c]);
-        }
-        flow.update_kappa(p);
+        self.mid_step_kappa(flow, p);
         self.p_sum.iter_mut().for_each(|s| *s = 0.0);
         let mut stats = FlowStats::default();
         for k in 0..n {
@@ -240,10 +235,8 @@ impl Coupling {
     ) -> Result<CoupledStep, crate::flow::implicit::ImplicitError> {
         let nc = flow.n_cells();
         self.apertures_now(solid, flow);
-        for c in 0..nc {
-            flow.aperture[c] = 0.5 * (flow.aperture[c] + self.a_end[c]);
-        }
-        flow.update_kappa(p);
+        self.a_start.copy_from_slice(&flow.aperture);
+        self.mid_step_kappa(flow, p);
         for c in 0..nc {
             flow.aperture[c] = self.a_end[c];
             flow.set_volume_keep_mass(c, flow.length[c] * self.a_end[c], p);

@@ -127,9 +127,10 @@ fn substep_cap_stops_with_a_clear_message() {
 
 /// Both flow schemes (explicit sub-steps, one backward-Euler step per solid step) on the same
 /// coupled run: the same cells are opened (same fracture path, cell for cell), each conserves
-/// mass to 1e-9, and the pump's injected volumes agree to 2 % (the implicit step is first
-/// order in time with the solid step; the explicit sub-steps resolve the flow's own time
-/// scale, so the two differ by the implicit scheme's time error).
+/// mass to 1e-9, and the pump's injected volumes agree to 0.5 % (measured 0.04 %: the implicit
+/// step is first order in time with the solid step of about 2e-5 s, while the explicit
+/// sub-steps resolve the flow's own time scale; the limit leaves room for the time error to
+/// grow 10x before it fails).
 #[test]
 fn explicit_and_implicit_schemes_agree() {
     let run = |extra: &str| {
@@ -158,7 +159,7 @@ fn explicit_and_implicit_schemes_agree() {
     assert!(ce.len() > 10, "no fracture growth in the explicit run");
     assert_eq!(ce, ci, "the schemes opened different cells");
     assert!(
-        (ie - ii).abs() < 0.02 * ie,
+        (ie - ii).abs() < 0.005 * ie,
         "injected volume explicit {ie} vs implicit {ii}"
     );
 }

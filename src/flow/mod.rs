@@ -309,9 +309,9 @@ impl FlowView {
         self.critical_cell(p).map_or(f64::INFINITY, |c| c.1)
     }
 
-    /// The cell with the smallest stability bound and that bound, s.
-    pub fn critical_cell(&self, p: &FlowParams) -> Option<(usize, f64)> {
-        let mut sum = vec![0.0; self.n_cells()];
+    /// Sum of each cell's transmissibilities (pairs and boundaries) into `sum`, m^2/(Pa s).
+    pub fn kappa_sums(&self, sum: &mut [f64]) {
+        sum.iter_mut().for_each(|s| *s = 0.0);
         for (k, pr) in self.pairs.iter().enumerate() {
             sum[pr[0] as usize] += self.kappa[k];
             sum[pr[1] as usize] += self.kappa[k];
@@ -321,6 +321,12 @@ impl FlowView {
                 sum[c as usize] += b.kappa[k];
             }
         }
+    }
+
+    /// The cell with the smallest stability bound and that bound, s.
+    pub fn critical_cell(&self, p: &FlowParams) -> Option<(usize, f64)> {
+        let mut sum = vec![0.0; self.n_cells()];
+        self.kappa_sums(&mut sum);
         (0..self.n_cells())
             .filter(|&c| sum[c] > 0.0)
             .map(|c| (c, self.volume[c] / (p.k * sum[c])))
