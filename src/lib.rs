@@ -14,6 +14,7 @@ pub mod components;
 #[path = "../systems/mod.rs"]
 pub mod systems;
 
+pub mod atomic;
 pub mod coupling;
 pub mod driver;
 pub mod error;

@@ -5,7 +5,7 @@
 //! Log plots are drawn in log10 space with power-of-ten tick labels. Series
 //! with more than 60 points get no markers. The legend goes in the plot
 //! corner covering the fewest curve samples. PNGs are written atomically
-//! (`<name>.tmp.png` in the same folder, then renamed).
+//! (`crate::atomic`: a temporary file in the same folder, then renamed).
 //!
 //! Network maps ([`network`]) draw each segment as an anti-aliased line
 //! coloured by a hand-made viridis colormap, with equal x/y scales and a
@@ -16,7 +16,6 @@
 //! All text is drawn by this module glyph by glyph (`Pen`), not by
 //! plotters' text path, to work around its letter-spacing bug.
 
-use std::fs;
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
@@ -538,16 +537,6 @@ fn draw_err(path: &Path, e: impl std::fmt::Display) -> PlotError {
     }
 }
 
-fn tmp_png_path(path: &Path) -> Result<PathBuf, PlotError> {
-    let name = path.file_name().ok_or_else(|| PlotError::Io {
-        path: path.to_path_buf(),
-        source: std::io::Error::new(std::io::ErrorKind::InvalidInput, "not a file path"),
-    })?;
-    let mut tmp = name.to_os_string();
-    tmp.push(".tmp.png");
-    Ok(path.with_file_name(tmp))
-}
-
 fn render(
     path: &Path,
     title: &str,
@@ -562,29 +551,15 @@ fn render(
     })
 }
 
-/// Run `draw` on `<name>.tmp.png` next to `path`, then sync and rename it to
-/// `path`; the temporary file is removed on failure.
+/// Run `draw` on a temporary PNG next to `path`, then sync and rename it to `path`.
 fn write_atomically(
     path: &Path,
     draw: impl FnOnce(&Path) -> Result<(), PlotError>,
 ) -> Result<(), PlotError> {
-    let tmp = tmp_png_path(path)?;
-    let result = draw(&tmp).and_then(|()| {
-        let io = |source| PlotError::Io {
-            path: path.to_path_buf(),
-            source,
-        };
-        fs::OpenOptions::new()
-            .write(true)
-            .open(&tmp)
-            .and_then(|f| f.sync_all())
-            .map_err(io)?;
-        fs::rename(&tmp, path).map_err(io)
-    });
-    if result.is_err() {
-        let _ = fs::remove_file(&tmp);
-    }
-    result
+    crate::atomic::write_via_path(path, draw, |source| PlotError::Io {
+        path: path.to_path_buf(),
+        source,
+    })
 }
 
 // Text is drawn glyph by glyph: plotters 0.3.7's ab_glyph path drops each

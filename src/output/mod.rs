@@ -28,16 +28,7 @@ pub struct Outputs {
     fields: Vec<Field>,
 }
 
-/// Write `bytes` to `path` atomically (temporary file in the same folder, then rename).
-pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
-    let tmp = path.with_extension("tmp");
-    {
-        let mut f = File::create(&tmp)?;
-        f.write_all(bytes)?;
-        f.sync_data()?;
-    }
-    std::fs::rename(&tmp, path)
-}
+pub use crate::atomic::write as write_atomic;
 
 impl Outputs {
     /// Prepare the folder: create it, check it is writable, and remove results of an earlier run

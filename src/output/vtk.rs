@@ -1,7 +1,7 @@
 //! Minimal ASCII XML VTK output for ParaView: `.vtu` unstructured-grid pieces
 //! and a `.pvd` time-series index, plus a reader for files this writer produced.
 //!
-//! All files are written atomically (`<name>.tmp` in the same folder, flushed,
+//! All files are written atomically (`crate::atomic`: a temporary file in the same folder, flushed,
 //! synced, then renamed over the target). Floats are written in Rust's
 //! shortest round-trip form, so reading back gives identical bits.
 //! Non-finite values are written as `nan`, `inf`, `-inf` (as VTK itself
@@ -9,8 +9,8 @@
 //! never writes frames containing NaN; this only keeps the file well-formed.
 
 use std::fmt;
-use std::fs::{self, File};
-use std::io::{self, BufWriter, Write};
+use std::fs;
+use std::io::{self, Write};
 use std::path::{Path, PathBuf};
 
 /// Cell type of a piece; every cell in a piece has the same type.
@@ -115,37 +115,7 @@ impl fmt::Display for Esc<'_> {
     }
 }
 
-fn tmp_path(path: &Path) -> io::Result<PathBuf> {
-    let name = path.file_name().ok_or_else(|| {
-        io::Error::new(
-            io::ErrorKind::InvalidInput,
-            format!("not a file path: {}", path.display()),
-        )
-    })?;
-    let mut tmp = name.to_os_string();
-    tmp.push(".tmp");
-    Ok(path.with_file_name(tmp))
-}
-
-/// Write via `<name>.tmp` + rename; the tmp file is removed on failure.
-fn write_atomic(
-    path: &Path,
-    body: impl FnOnce(&mut BufWriter<File>) -> io::Result<()>,
-) -> io::Result<()> {
-    let tmp = tmp_path(path)?;
-    let result = (|| {
-        let mut w = BufWriter::with_capacity(1 << 20, File::create(&tmp)?);
-        body(&mut w)?;
-        let file = w.into_inner().map_err(|e| e.into_error())?;
-        file.sync_all()?;
-        drop(file);
-        fs::rename(&tmp, path)
-    })();
-    if result.is_err() {
-        let _ = fs::remove_file(&tmp);
-    }
-    result
-}
+use crate::atomic::write_with as write_atomic;
 
 fn invalid(msg: String) -> io::Error {
     io::Error::new(io::ErrorKind::InvalidInput, msg)
@@ -1005,7 +975,7 @@ mod tests {
         }
         assert_eq!(read[4], (2.0, "odd \"name\" & <more>.vtu".to_string()));
         assert_eq!(pvd.entries(), read.as_slice());
-        assert!(!dir.join("run.pvd.tmp").exists());
+        assert!(!dir.join("run.tmp.pvd").exists());
         fs::remove_dir_all(&dir).unwrap();
     }
 
@@ -1050,7 +1020,7 @@ mod tests {
         let dir = tmp_dir("tmp");
         let (path, _, _, _) = two_triangles(&dir);
         assert!(path.exists());
-        assert!(!dir.join("tri.vtu.tmp").exists());
+        assert!(!dir.join("tri.tmp.vtu").exists());
         // Overwriting an existing file also works and leaves no tmp.
         two_triangles(&dir);
         let names: Vec<_> = fs::read_dir(&dir)
