@@ -64,10 +64,10 @@ fn bench(c: &mut Criterion) {
         .unwrap();
     for n in sizes() {
         let mut sim = lattice(n);
-        let specs = sim.scenario.flow_boundaries.clone();
-        let f = sim.flow.as_mut().unwrap();
+        let specs = sim.scenario().flow_boundaries.clone();
+        let params = sim.params().fluid;
+        let f = sim.flow_mut().unwrap();
         let cells = f.view.n_cells();
-        let params = f.params;
         let crit = f.dt_crit;
         group.throughput(Throughput::Elements(cells as u64));
         group.bench_function(BenchmarkId::new("explicit_substep/1t", cells), |b| {

@@ -55,10 +55,10 @@ fn bench(c: &mut Criterion) {
         .measurement_time(Duration::from_secs(2));
     for n in sizes() {
         let mut sim = lattice(n);
-        let specs = sim.scenario.flow_boundaries.clone();
-        let f = sim.flow.as_mut().unwrap();
+        let specs = sim.scenario().flow_boundaries.clone();
+        let params = sim.params().fluid;
+        let f = sim.flow_mut().unwrap();
         let (cells, pairs) = (f.view.n_cells(), f.view.pairs.len());
-        let params = f.params;
         let dt = f.dt_crit * 0.9;
         let mut flat = FlatFlow::from_view(&f.view, &params);
         eprintln!("lattice {n}: {cells} cells, {pairs} pairs");

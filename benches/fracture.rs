@@ -106,7 +106,7 @@ fn bench(c: &mut Criterion) {
         .unwrap();
     for (name, with) in [("step_no_joints_1t", false), ("step_1000_joints_1t", true)] {
         let mut sim = mk(with);
-        eprintln!("{name}: {} joints", sim.view.joint_nodes.len());
+        eprintln!("{name}: {} joints", sim.solid().joint_nodes.len());
         g.bench_function(name, |b| {
             pool.install(|| b.iter(|| sim.step_once().unwrap()))
         });

@@ -55,13 +55,13 @@ fn solid_step(c: &mut Criterion) {
         );
         let mut sim = Simulation::new(sc, &[]).unwrap();
         let mesh = TriMesh::regular(100.0, 100.0, h, [0.0, 0.0]).unwrap();
-        let bcs: Vec<[Option<f64>; 2]> = (0..sim.view.n_nodes())
+        let bcs: Vec<[Option<f64>; 2]> = (0..sim.solid().n_nodes())
             .map(|i| {
-                [0, 1].map(|d| (sim.view.fixed[i] & (1 << d) != 0).then_some(sim.view.presc[i][d]))
+                [0, 1].map(|d| (sim.solid().fixed[i] & (1 << d) != 0).then_some(sim.solid().presc[i][d]))
             })
             .collect();
         let w = n + 1;
-        let mut flat = FlatSolid::new(&mesh, &ROCK, sim.params, 0.8, |x| {
+        let mut flat = FlatSolid::new(&mesh, &ROCK, sim.params().solid, 0.8, |x| {
             let (i, j) = ((x[0] / h).round() as usize, (x[1] / h).round() as usize);
             bcs[j * w + i]
         });

@@ -1,6 +1,7 @@
 //! `hydrofrac run`: load a scenario, run it with per-system timing, write the outputs.
 
-use crate::error::{RunError, SetupError};
+use crate::error::SetupError;
+use crate::systems::RunError;
 use crate::output::{Outputs, write_atomic};
 use crate::scenario::Scenario;
 use crate::schedule::Status;
@@ -56,14 +57,14 @@ pub fn run_scenario(scenario: Scenario, opts: &RunOptions) -> Result<RunReport, 
         .clone()
         .unwrap_or_else(|| PathBuf::from("out").join(&scenario.name));
     let mut sim = Simulation::new(scenario, &opts.disable)?;
-    let outputs = Outputs::create(&out, &sim.scenario.output.fields, &sim.series_columns())
+    let outputs = Outputs::create(&out, &sim.params().output.fields, &sim.series_columns())
         .map_err(DriverError::Output)?;
-    if let Some(f) = &sim.flow {
+    if let Some(f) = sim.flow() {
         outputs
             .write_fractures_csv(&f.network.fractures)
             .map_err(DriverError::Output)?;
     }
-    sim.output = Some(outputs);
+    sim.set_output(outputs);
 
     let timing = TimingLayer::default();
     let table = timing.table.clone();
@@ -84,7 +85,7 @@ pub fn run_scenario(scenario: Scenario, opts: &RunOptions) -> Result<RunReport, 
     let result = tracing::subscriber::with_default(subscriber, || {
         sim.run(|s| {
             bar.set_position(progress_position(s));
-            bar.set_message(format!("t = {:.4e} s  residual {:.2e}", s.time, s.residual));
+            bar.set_message(format!("t = {:.4e} s  residual {:.2e}", s.time(), s.residual()));
         })
     });
     let wall = t0.elapsed().as_secs_f64();
@@ -93,7 +94,7 @@ pub fn run_scenario(scenario: Scenario, opts: &RunOptions) -> Result<RunReport, 
 
     let times = table.lock().expect("timing table").clone();
     let rows: Vec<(String, bool, u64, f64)> = sim
-        .schedule
+        .schedule()
         .entries
         .iter()
         .map(|(s, st)| {
@@ -108,32 +109,28 @@ pub fn run_scenario(scenario: Scenario, opts: &RunOptions) -> Result<RunReport, 
         .collect();
     let timing_table = format_table(&rows);
     let mut summary = summary_json(&sim, &result, wall, &rows);
-    if let (Some(v), Some(o)) = (sim.fracture_view(), &sim.output) {
+    if let (Some(v), Some(o)) = (sim.fracture_view(), sim.output()) {
         o.write_network_csv(&v).map_err(DriverError::Output)?;
         let length: f64 = v.length.iter().sum();
         summary["fractures"] = json!({"cells": v.n_cells(), "total_length": length,
             "new_cells": v.kind.iter().filter(|k| **k == crate::components::CellKind::New).count()});
-        if let Err(e) = crate::output::plots::fracture_figure(&sim, &v, &o.dir) {
+        if let Err(e) = crate::output::plots::fracture_figure(&sim.params().name, sim.time(), &v, &o.dir) {
             summary["warnings"] = json!([format!("figures not written: {e}")]);
         }
         // The seed's Fig. 7 view: the mesh with apertures magnified 20x, coloured by the
         // prescribed face pressure (zero without one).
         let mut v = v;
-        let p = sim
-            .scenario
-            .fracture
-            .as_ref()
-            .and_then(|f| f.pressure)
-            .unwrap_or(0.0);
+        let p = sim.params().face_pressure.unwrap_or(0.0);
         v.pressure.iter_mut().for_each(|x| *x = p);
         let title = format!(
             "{}: fractures, apertures x20, t = {:.4} s",
-            sim.scenario.name, sim.time
+            sim.params().name,
+            sim.time()
         );
         if let Err(e) = crate::output::plots::fracture_pressure_figure(
             &o.dir.join("fractures_mesh.png"),
             &title,
-            &sim.view,
+            sim.solid(),
             &v,
             20.0,
             None,
@@ -141,17 +138,17 @@ pub fn run_scenario(scenario: Scenario, opts: &RunOptions) -> Result<RunReport, 
             summary["warnings"] = json!([format!("figures not written: {e}")]);
         }
     }
-    if sim.flow.as_ref().is_some_and(|f| f.coupling.is_some()) {
+    if sim.flow().is_some_and(|f| f.coupling.is_some()) {
         sim.fracture_pressure_figure("fractures_pressure.png");
-        let f = sim.flow.as_ref().expect("coupled");
+        let f = sim.flow().expect("coupled");
         let length: f64 = f.view.length.iter().sum();
         summary["fractures"] = json!({"cells": f.view.n_cells(), "total_length": length,
             "new_cells": f.view.kind.iter().filter(|k| **k == crate::components::CellKind::New).count(),
             "max_aperture": f.view.aperture.iter().fold(0.0f64, |a, &b| a.max(b))});
     }
-    if let (Some(f), Some(o)) = (&sim.flow, &sim.output) {
+    if let (Some(f), Some(o)) = (sim.flow(), sim.output()) {
         o.write_network_csv(&f.view).map_err(DriverError::Output)?;
-        if let Err(e) = crate::output::plots::flow_figures(&sim, &o.dir) {
+        if let Err(e) = crate::output::plots::flow_figures(&f.view, sim.params(), sim.time(), &o.dir) {
             summary["warnings"] = json!([format!("figures not written: {e}")]);
         }
     }
@@ -189,11 +186,11 @@ fn progress_bar(quiet: bool) -> ProgressBar {
 
 /// Progress in per mille: by time for timed runs, by residual decades for static ones.
 fn progress_position(s: &Simulation) -> u64 {
-    match s.scenario.time.end {
-        crate::scenario::End::Time(te) => (1000.0 * s.time / te) as u64,
+    match s.params().time.end {
+        crate::scenario::End::Time(te) => (1000.0 * s.time() / te) as u64,
         crate::scenario::End::SteadyDirect => 1000,
         crate::scenario::End::Static { tol, .. } => {
-            let done = (s.residual.max(tol).log10() / tol.log10()).clamp(0.0, 1.0);
+            let done = (s.residual().max(tol).log10() / tol.log10()).clamp(0.0, 1.0);
             (1000.0 * done) as u64
         }
     }
@@ -206,9 +203,9 @@ fn summary_json(
     wall: f64,
     rows: &[(String, bool, u64, f64)],
 ) -> serde_json::Value {
-    let (mean, min, max) = sim.stress_summary();
+    let (mean, min, max) = sim.solid().stress_summary(&sim.params().solid);
     let systems: Vec<serde_json::Value> = sim
-        .schedule
+        .schedule()
         .entries
         .iter()
         .zip(rows)
@@ -220,7 +217,7 @@ fn summary_json(
         Ok(f) => ("ok", Some(*f), None),
         Err(e) => ("failed", None, Some(e.to_string())),
     };
-    let flow = sim.flow.as_ref().map(|f| {
+    let flow = sim.flow().map(|f| {
         let (inj, prod, stored, err) = sim.flow_balance().unwrap_or_default();
         let bcs: Vec<serde_json::Value> = f
             .view
@@ -248,27 +245,27 @@ fn summary_json(
         })
     });
     json!({
-        "scenario": sim.scenario.name,
+        "scenario": sim.params().name,
         "flow": flow,
         "status": status,
         "finish": finish,
         "error": error,
-        "elements": sim.view.n_elems(),
-        "nodes": sim.view.n_nodes(),
-        "edges": sim.model.edge_count(),
-        "steps": sim.step,
-        "time": sim.time,
-        "dt": sim.params.dt,
-        "dt_critical": sim.dt_crit,
+        "elements": sim.solid().n_elems(),
+        "nodes": sim.solid().n_nodes(),
+        "edges": sim.model().edge_count(),
+        "steps": sim.step(),
+        "time": sim.time(),
+        "dt": sim.params().solid.dt,
+        "dt_critical": sim.dt_crit(),
         "wall_s": wall,
-        "residual": sim.residual,
-        "kinetic_energy": sim.stats.kinetic,
-        "frames": sim.output.as_ref().map_or(0, |o| o.frames),
-        "fracture_ready_edges": sim.scenario.fracture.as_ref().map(|_| sim.ready_edges),
-        "splits": sim.splits,
-        "opened_edges": sim.opened_edges,
-        "joints": sim.view.joint_nodes.len(),
-        "preexisting_fractures": sim.placed,
+        "residual": sim.residual(),
+        "kinetic_energy": sim.stats().kinetic,
+        "frames": sim.output().map_or(0, |o| o.frames),
+        "fracture_ready_edges": sim.params().has_fractures.then_some(sim.fracture().ready_edges),
+        "splits": sim.fracture().splits,
+        "opened_edges": sim.fracture().opened_edges,
+        "joints": sim.solid().joint_nodes.len(),
+        "preexisting_fractures": sim.placed(),
         "stress_mean": {"xx": mean[0], "yy": mean[1], "xy": mean[2]},
         "stress_min": {"xx": min[0], "yy": min[1], "xy": min[2]},
         "stress_max": {"xx": max[0], "yy": max[1], "xy": max[2]},

@@ -1,4 +1,6 @@
-//! Library error types. Every message names what was wrong and where, in one line.
+//! Setup errors: a scenario that cannot be read or makes no physical sense. Every message names
+//! what was wrong and where, in one line. (Errors of a running step are
+//! [`crate::systems::RunError`].)
 
 use std::path::PathBuf;
 
@@ -44,34 +46,4 @@ impl SetupError {
             why: why.into(),
         }
     }
-}
-
-/// A run that had to stop.
-#[derive(Debug, thiserror::Error)]
-pub enum RunError {
-    /// Numerical blow-up: the step, the entity and the quantity that went wrong.
-    #[error(
-        "blow-up at step {step} (t = {time:.6e} s): {entity} has {quantity} = {value:.6e}, {why}; \
-         stopped before writing non-finite output (dt = {dt:.3e} s)"
-    )]
-    BlowUp {
-        step: u64,
-        time: f64,
-        entity: String,
-        quantity: &'static str,
-        value: f64,
-        why: String,
-        dt: f64,
-    },
-    /// The implicit (backward-Euler) flow step failed: its Newton iteration did not converge.
-    #[error("step {step} (t = {time:.6e} s): {source}")]
-    ImplicitFlow {
-        step: u64,
-        time: f64,
-        source: Box<crate::flow::implicit::ImplicitError>,
-    },
-    #[error("output: {0}")]
-    Io(#[from] std::io::Error),
-    #[error(transparent)]
-    Setup(#[from] SetupError),
 }

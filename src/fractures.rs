@@ -173,39 +173,11 @@ pub fn joint_opening(model: &Model, j: &Joint) -> ([f64; 2], f64, f64) {
     (rp, (xq[0] - xp[0]) * n[0] + (xq[1] - xp[1]) * n[1], len)
 }
 
-/// Critical solid step with joint contact, s: the elements' `dt_crit` combined with the
-/// Gershgorin bound of the contact stiffness. Each joint couples its four nodes with
-/// coefficients +-K/2, a row sum of K per joint at a node, so
-/// dt = 2 / sqrt((2/dt_crit)^2 + max_i (sum of K over the joints at node i) / m_i), with
-/// K = max(K_n, K_t).
-pub fn step_with_joints(model: &Model, dt_crit: f64, k: f64) -> f64 {
-    step_with_joint_stiffness(model, dt_crit, |_| k)
-}
-
-/// [`step_with_joints`] with a stiffness per joint from its reference length (m), Pa.
-pub fn step_with_joint_stiffness(model: &Model, dt_crit: f64, k: impl Fn(f64) -> f64) -> f64 {
-    let mut sum: HashMap<Entity, f64> = HashMap::new();
-    for j in model.world.query::<&Joint>().iter() {
-        let en = model.world.get::<&EdgeNodes>(j.edges[0]).expect("edge").0;
-        let [a, b] = en.map(|n| model.world.get::<&NodeRef>(n).expect("node").0);
-        let kj = k((b[0] - a[0]).hypot(b[1] - a[1]));
-        for e in j.edges {
-            for n in model.world.get::<&EdgeNodes>(e).expect("edge").0 {
-                *sum.entry(n).or_default() += kj;
-            }
-        }
-    }
-    let worst = sum
-        .iter()
-        .map(|(&n, &ks)| {
-            let m = model.world.get::<&NodeMass>(n).map(|m| m.0).unwrap_or(0.0);
-            if m > 0.0 { ks / m } else { 0.0 }
-        })
-        .fold(0.0, f64::max);
-    if worst == 0.0 {
-        return dt_crit;
-    }
-    2.0 / ((2.0 / dt_crit).powi(2) + worst).sqrt()
+/// Hydraulic aperture of a joint, m: its normal opening delta_n, but never below the residual
+/// aperture a_r that closed, rough faces keep open (seed (12), `docs/seed-method.md`).
+#[inline]
+pub fn hydraulic_aperture(opening: f64, residual_aperture: f64) -> f64 {
+    opening.max(residual_aperture)
 }
 
 /// Bring the fracture geometry in the components up to date: every mother node (left the solid)
@@ -238,7 +210,7 @@ pub fn sync_fracture_geometry(model: &mut Model, residual_aperture: Option<f64>)
         .collect();
     for (j, opening) in joints {
         if let Ok(mut c) = model.world.get::<&mut CellFluid>(j.cell) {
-            c.aperture = opening.max(residual_aperture);
+            c.aperture = hydraulic_aperture(opening, residual_aperture);
         }
     }
 }

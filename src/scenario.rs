@@ -271,8 +271,11 @@ fn default_friction() -> f64 {
     30.0
 }
 
+/// Residual hydraulic aperture a_r when a scenario gives none, m (the seed's 0.5 mm).
+pub const DEFAULT_RESIDUAL_APERTURE: f64 = 5e-4;
+
 fn default_residual_aperture() -> f64 {
-    5e-4
+    DEFAULT_RESIDUAL_APERTURE
 }
 
 /// A pre-existing fracture: a straight segment, m.

@@ -68,6 +68,20 @@ impl Schedule {
             .map(|(s, _)| *s)
     }
 
+    /// Whether the scene (still) has data for `s`: switches it between enabled and `NoData`
+    /// (a system the user disabled stays disabled).
+    pub fn set_data(&mut self, s: SystemId, has_data: bool) {
+        for (t, st) in &mut self.entries {
+            if *t == s && *st != Status::DisabledByUser {
+                *st = if has_data {
+                    Status::Enabled
+                } else {
+                    Status::NoData
+                };
+            }
+        }
+    }
+
     pub fn is_enabled(&self, s: SystemId) -> bool {
         self.entries
             .iter()

@@ -1,9 +1,10 @@
 //! Dense views: index arrays and struct-of-arrays state copied out of the ECS, ordered by stable
-//! id, for the cross-entity hot loops (architecture.md section 3). A view is rebuilt only when the
+//! id, for the cross-entity hot loops (`docs/architecture.md`, dense views). A view is rebuilt only when the
 //! model's topology generation moves; between rebuilds the view holds the hot node and element
 //! state, which [`SolidView::write_back`] copies into the components at sync points.
 
 use crate::components::*;
+use crate::element::{SolidParams, cst_stress};
 use crate::model::Model;
 use hecs::Entity;
 
@@ -282,8 +283,10 @@ impl SolidView {
         self.elem_entity.len()
     }
 
-    /// Copy the hot state (displacement, velocity, stress) back into the components.
-    pub fn write_back(&self, model: &mut Model) {
+    /// Copy the hot state back into the components: displacement, velocity, the element
+    /// stresses at the current displacements (computed here; the view's own `stress` lags by
+    /// one step and is left alone), joint and edge state.
+    pub fn write_back(&self, model: &mut Model, p: &SolidParams) {
         let mut view = model.world.view_mut::<&mut NodeState>();
         for (i, &e) in self.node_entity.iter().enumerate() {
             if let Some(s) = view.get_mut(e) {
@@ -294,7 +297,7 @@ impl SolidView {
         let mut view = model.world.view_mut::<&mut ElemStress>();
         for (k, &e) in self.elem_entity.iter().enumerate() {
             if let Some(s) = view.get_mut(e) {
-                s.0 = self.stress[k];
+                s.0 = self.current_stress(k, p);
             }
         }
         let mut view = model.world.view_mut::<&mut JointState>();
@@ -310,6 +313,38 @@ impl SolidView {
                 s.fracture_ready = self.edge_ready[k];
             }
         }
+    }
+
+    /// Whether any node carries an external load (tractions, body forces).
+    pub fn has_load(&self) -> bool {
+        self.load.iter().any(|l| l[0] != 0.0 || l[1] != 0.0)
+    }
+
+    /// Stress of element k at the current displacements, [sxx, syy, sxy], Pa.
+    pub fn current_stress(&self, k: usize, p: &SolidParams) -> [f64; 3] {
+        cst_stress(&self.geom[k], self.conn[k].map(|a| self.u[a as usize]), p)
+    }
+
+    /// Mean element stress [sxx, syy, sxy] at the current displacements, weighted by area, Pa,
+    /// with the element minimum and maximum (zeros without elements).
+    pub fn stress_summary(&self, p: &SolidParams) -> ([f64; 3], [f64; 3], [f64; 3]) {
+        let mut mean = [0.0; 3];
+        let mut min = [f64::INFINITY; 3];
+        let mut max = [f64::NEG_INFINITY; 3];
+        let mut area = 0.0;
+        for (e, g) in self.geom.iter().enumerate() {
+            let s = self.current_stress(e, p);
+            for k in 0..3 {
+                mean[k] += g[0] * s[k];
+                min[k] = min[k].min(s[k]);
+                max[k] = max[k].max(s[k]);
+            }
+            area += g[0];
+        }
+        if area == 0.0 {
+            return ([0.0; 3], [0.0; 3], [0.0; 3]);
+        }
+        (mean.map(|m| m / area), min, max)
     }
 
     /// Deformed position of node i, m.

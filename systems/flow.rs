@@ -2,120 +2,22 @@
 //! pump, rate and pressure boundaries. Pair fluxes are computed per pair and gathered per cell
 //! through a CSR incidence list (no atomics), so results are the same bits for any thread count.
 
+pub use crate::flow::boundary::{
+    FlowStats, MASS_ROUNDOFF, accumulate_boundary_volumes, boundary_flows, pump_operating_point,
+};
+use crate::error::SetupError;
+use crate::flow::implicit::{ImplicitSolver, implicit_step};
 use crate::flow::{FlowParams, FlowView, kahan_add, pressure_of};
-use crate::scenario::{FlowBcKind, FlowBoundary};
+use crate::network::CellNetwork;
+use crate::params::RunParams;
+use crate::scenario::{FlowBoundary, FlowScheme};
+use crate::systems::RunError;
+use crate::systems::coupling::Coupling;
+use crate::view::SolidView;
 use rayon::prelude::*;
-
-/// A cell's mass may dip below zero by this fraction of the mass it holds when full,
-/// rho_r V (round-off of an emptying cell, or of a converged implicit step at tolerance
-/// 1e-12); below that it is a failure (more fluid withdrawn than the cell holds).
-pub const MASS_ROUNDOFF: f64 = 1e-12;
 
 /// Cells per rayon task / reduction chunk.
 pub const CELL_CHUNK: usize = 4096;
-
-/// Reductions of one flow step.
-#[derive(Clone, Copy, Debug, Default)]
-pub struct FlowStats {
-    /// Sum of squared net volumetric inflow per cell, (m^2/s)^2.
-    pub net2: f64,
-    /// First cell (dense index) with negative or non-finite mass.
-    pub bad_cell: Option<usize>,
-}
-
-/// Pump operating point against cells at pressures `p` through transmissibilities `kappa`:
-/// the rate q >= 0 solving q = sum kappa_k (P_pump(q) - p_k) with
-/// P_pump = p_max (1 - (2/pi) atan(q/q_half)). Returns (q, P_pump). With a closed check valve
-/// (the network pressure above the pump's) q = 0 and the pressure is the no-flow average.
-pub fn pump_operating_point(
-    p_max: f64,
-    q_half: f64,
-    kappa: &[f64],
-    p: &[f64],
-    q_guess: f64,
-) -> (f64, f64) {
-    let s: f64 = kappa.iter().sum();
-    let sp: f64 = kappa.iter().zip(p).map(|(k, p)| k * p).sum();
-    let curve = |q: f64| p_max * (1.0 - std::f64::consts::FRAC_2_PI * (q / q_half).atan());
-    let g = |q: f64| q - s * curve(q) + sp;
-    if s <= 0.0 || g(0.0) >= 0.0 {
-        return (0.0, if s > 0.0 { sp / s } else { p_max });
-    }
-    // g is increasing; bracket [0, s p_max] and Newton with bisection safeguard.
-    let (mut lo, mut hi) = (0.0, s * p_max);
-    let mut q = q_guess.clamp(lo, hi);
-    for _ in 0..200 {
-        let gq = g(q);
-        if gq > 0.0 {
-            hi = q;
-        } else {
-            lo = q;
-        }
-        let dg =
-            1.0 + s * p_max * std::f64::consts::FRAC_2_PI / q_half / (1.0 + (q / q_half).powi(2));
-        let mut next = q - gq / dg;
-        if !(next > lo && next < hi) {
-            next = 0.5 * (lo + hi);
-        }
-        if (next - q).abs() <= 1e-15 * q.abs().max(1e-300) || hi - lo <= 1e-15 * hi {
-            q = next;
-            break;
-        }
-        q = next;
-    }
-    (q, curve(q))
-}
-
-/// Boundary flows for the current cell pressures: fills `bc_in` and each boundary's state.
-pub fn boundary_flows(v: &mut FlowView, specs: &[FlowBoundary], t: f64) {
-    for b in &v.bcs {
-        for &c in &b.cells {
-            v.bc_in[c as usize] = 0.0;
-        }
-    }
-    for b in &mut v.bcs {
-        let f = specs[b.index].factor(t);
-        for (p, &c) in b.p_cells.iter_mut().zip(&b.cells) {
-            *p = v.pressure[c as usize];
-        }
-        let pc = &b.p_cells;
-        let s: f64 = b.kappa.iter().sum();
-        let sp: f64 = b.kappa.iter().zip(pc.iter()).map(|(k, p)| k * p).sum();
-        let pb = match b.kind {
-            FlowBcKind::Pressure(p) => f * p,
-            FlowBcKind::Rate(q) => {
-                if s > 0.0 {
-                    (f * q + sp) / s
-                } else {
-                    0.0
-                }
-            }
-            FlowBcKind::Pump { p_max, q_half } => {
-                pump_operating_point(f * p_max, q_half, &b.kappa, pc, b.rate).1
-            }
-        };
-        let mut total = 0.0;
-        for (k, &c) in b.cells.iter().enumerate() {
-            let q = b.kappa[k] * (pb - pc[k]);
-            b.q_cells[k] = q;
-            v.bc_in[c as usize] += q;
-            total += q;
-        }
-        b.pressure = pb;
-        b.rate = total;
-    }
-}
-
-/// Add dt times each boundary's rate to its cumulative volume in (or out), m^2.
-pub fn accumulate_boundary_volumes(v: &mut FlowView, dt: f64) {
-    for b in &mut v.bcs {
-        if b.rate >= 0.0 {
-            kahan_add(&mut b.volume_in, &mut b.comp_in, dt * b.rate);
-        } else {
-            kahan_add(&mut b.volume_out, &mut b.comp_out, -dt * b.rate);
-        }
-    }
-}
 
 /// One explicit flow step of length dt at time t: pressures, pair fluxes, boundary flows, mass
 /// update (excess mass += dt rho_r sum of inflows), throughput, and the boundaries' cumulative
@@ -248,4 +150,198 @@ mod tests {
         let (q, _) = pump_operating_point(18e6, 2.0, &[1e-9], &[20e6], 0.0);
         assert_eq!(q, 0.0);
     }
+}
+
+/// The fracture-network flow part of the state.
+pub struct FlowPart {
+    pub view: FlowView,
+    /// Flow sub-step, s, and sub-steps per step.
+    pub dt: f64,
+    pub substeps: u64,
+    /// Explicit critical flow step, s.
+    pub dt_crit: f64,
+    pub stats: FlowStats,
+    /// Fluid excess mass (above rho_r V) summed at the start, kg/m.
+    pub initial_excess: f64,
+    /// Steady residual ||net inflow per cell|| / sum |boundary rates| (infinite before the first
+    /// step).
+    pub residual: f64,
+    /// Network volume sum a L at the start, m^2 (volumes change in coupled runs).
+    pub initial_volume: f64,
+    /// The fractures the network was cut from (written to the output; empty in coupled runs).
+    pub network: CellNetwork,
+    /// Coupled runs (the network is the rock's fractures): maps and exchange state.
+    pub coupling: Option<Coupling>,
+    /// `time.flow_scheme: Implicit`: the backward-Euler solver (one flow step per step).
+    pub implicit: Option<ImplicitSolver>,
+}
+
+impl FlowPart {
+    /// The flow part over a freshly built view: pressures at the initial masses, the initial
+    /// state recorded for the mass balance.
+    pub fn new(mut view: FlowView, p: &RunParams, network: CellNetwork, coupled: bool) -> Self {
+        view.set_bc_kinds(&p.flow_boundaries);
+        for c in 0..view.n_cells() {
+            view.pressure[c] = pressure_of(view.excess[c], view.volume[c], &p.fluid);
+        }
+        FlowPart {
+            dt_crit: view.critical_step(&p.fluid),
+            initial_excess: view.excess.iter().sum(),
+            initial_volume: view.volume.iter().sum(),
+            view,
+            dt: 0.0,
+            substeps: 1,
+            stats: FlowStats::default(),
+            residual: f64::INFINITY,
+            network,
+            coupling: coupled.then(Coupling::default),
+            implicit: (p.time.flow_scheme == FlowScheme::Implicit).then(ImplicitSolver::new),
+        }
+    }
+
+    /// Flow volumes (m^2 at reference density): injected, produced, stored change, and the
+    /// relative mass-balance error |stored change - (injected - produced)| / max(injected,
+    /// produced, |stored change|, network volume). The network volume (sum of a L) is in the
+    /// scale because the cell masses carry round-off of eps times the mass they can hold.
+    pub fn balance(&self, p: &FlowParams) -> (f64, f64, f64, f64) {
+        let v = &self.view;
+        let inj: f64 = v.bcs.iter().map(|b| b.volume_in).sum();
+        let prod: f64 = v.bcs.iter().map(|b| b.volume_out).sum();
+        // Mass = excess + rho_r V: the stored volume is the change of both (volumes change in
+        // coupled runs, and cells created by splits arrive empty: e = -rho_r V).
+        let stored = (v.excess.iter().sum::<f64>() - self.initial_excess) / p.rho_r
+            + (v.volume.iter().sum::<f64>() - self.initial_volume);
+        let scale = inj
+            .max(prod)
+            .max(stored.abs())
+            .max(v.volume.iter().sum::<f64>());
+        let err = if scale > 0.0 {
+            (stored - (inj - prod)).abs() / scale
+        } else {
+            0.0
+        };
+        (inj, prod, stored, err)
+    }
+}
+
+/// `flow_substeps`: the network's flow over the solid step [t0, t0 + dt]. Explicit: N
+/// sub-steps, stopping at the first cell with negative or non-finite mass (reported by
+/// `monitor`); implicit: one backward-Euler step. Coupled runs exchange apertures and face
+/// pressures with the rock ([`Coupling`]). `step` is the number of the step being taken (for
+/// error messages). Errors: a coupled explicit step that needs more than `time.max_substeps`
+/// sub-steps, an implicit step whose Newton iteration fails.
+pub fn flow_substeps(
+    f: &mut FlowPart,
+    solid: &SolidView,
+    p: &RunParams,
+    t0: f64,
+    step: u64,
+) -> Result<(), RunError> {
+    let (specs, fp, dt) = (&p.flow_boundaries, &p.fluid, p.solid.dt);
+    let implicit_error = |e| RunError::ImplicitFlow {
+        step,
+        time: t0 + dt,
+        source: Box::new(e),
+    };
+    if let Some(c) = f.coupling.as_mut() {
+        let r = match f.implicit.as_mut() {
+            Some(solver) => c
+                .step_implicit(solid, &mut f.view, fp, specs, t0, dt, solver)
+                .map_err(implicit_error)?,
+            None => c
+                .step(
+                    solid,
+                    &mut f.view,
+                    fp,
+                    specs,
+                    t0,
+                    dt,
+                    p.time.safety,
+                    p.time.max_substeps,
+                )
+                .map_err(|e| RunError::BlowUp {
+                    step,
+                    time: t0 + dt,
+                    entity: f.view.cell_label(e.cell),
+                    quantity: "flow sub-steps per solid step",
+                    value: e.needed as f64,
+                    why: format!(
+                        "above time.max_substeps = {}: the apertures make the explicit flow step \
+                         {:.3e} s against a solid step of {dt:.3e} s (use time.flow_scheme: \
+                         Implicit, or raise time.max_substeps)",
+                        p.time.max_substeps, e.dt_crit
+                    ),
+                    dt,
+                })?,
+        };
+        f.stats = r.stats;
+        f.substeps = r.substeps;
+        f.dt = r.dt;
+        f.dt_crit = r.dt_crit;
+    } else if let Some(solver) = f.implicit.as_mut() {
+        f.dt = dt;
+        f.stats = implicit_step(&mut f.view, fp, specs, dt, t0, solver).map_err(implicit_error)?;
+    } else {
+        for k in 0..f.substeps {
+            f.stats = flow_step(&mut f.view, fp, specs, f.dt, t0 + k as f64 * f.dt);
+            if f.stats.bad_cell.is_some() {
+                break;
+            }
+        }
+    }
+    let bc: f64 = f.view.bcs.iter().map(|b| b.rate.abs()).sum();
+    let net = f.stats.net2.sqrt();
+    f.residual = if bc > 0.0 {
+        net / bc
+    } else if net == 0.0 {
+        0.0
+    } else {
+        f64::INFINITY
+    };
+    Ok(())
+}
+
+/// `time.end: SteadyDirect`: solve the network's incompressible steady state directly and
+/// store it as the current state (cell pressures, masses at those pressures, throughputs,
+/// boundary pressures and rates). No time passes: the solved state is the mass balance's
+/// reference.
+pub fn steady_direct(f: &mut FlowPart, p: &RunParams, t: f64) -> Result<(), SetupError> {
+    let mut solver = crate::flow::steady::SteadySolver::new();
+    let sol = f
+        .view
+        .solve_steady(
+            &mut solver,
+            &p.flow_boundaries,
+            |i| p.bc_names[i].clone(),
+            t,
+        )
+        .map_err(|e| SetupError::invalid("flow", e.to_string()))?;
+    let v = &mut f.view;
+    for c in 0..v.n_cells() {
+        v.pressure[c] = sol.pressure[c];
+        v.excess[c] = p.fluid.rho_r * sol.pressure[c] / p.fluid.k * v.volume[c];
+    }
+    // Throughput per cell from the pair flows and the boundary flows of the solution.
+    for (k, pr) in v.pairs.iter().enumerate() {
+        v.pair_q[k] = v.kappa[k] * (sol.pressure[pr[0] as usize] - sol.pressure[pr[1] as usize]);
+    }
+    v.bc_in.iter_mut().for_each(|q| *q = 0.0);
+    for (b, &(pb, rate)) in v.bcs.iter_mut().zip(&sol.boundaries) {
+        for (k, &c) in b.cells.iter().enumerate() {
+            b.q_cells[k] = b.kappa[k] * (pb - sol.pressure[c as usize]);
+            v.bc_in[c as usize] += b.q_cells[k];
+        }
+        b.pressure = pb;
+        b.rate = rate;
+    }
+    for c in 0..v.n_cells() {
+        let through: f64 = v.inc[v.inc_ptr[c] as usize..v.inc_ptr[c + 1] as usize]
+            .iter()
+            .map(|&e| v.pair_q[(e >> 1) as usize].abs())
+            .sum();
+        v.flow_rate[c] = 0.5 * (through + v.bc_in[c].abs());
+    }
+    f.residual = sol.residual;
+    f.initial_excess = v.excess.iter().sum();
+    Ok(())
 }

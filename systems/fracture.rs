@@ -4,6 +4,7 @@
 //! split system. `contact` (joint penalty forces with Coulomb friction) and `fluid_pressure`
 //! (the fracture fluid's pressure on the faces) add to the nodal forces.
 
+pub use crate::params::JointParams;
 use crate::view::SolidView;
 use rayon::prelude::*;
 
@@ -59,14 +60,6 @@ pub fn fracture_criterion(v: &mut SolidView, strength: f64, by_elements: bool) -
             *ready |= *sn >= strength;
         });
     v.edge_ready.iter().filter(|r| **r).count()
-}
-
-/// Joint constants: penalty stiffnesses K_n, K_t (Pa) and the friction coefficient tan(phi).
-#[derive(Clone, Copy, Debug)]
-pub struct JointParams {
-    pub kn: f64,
-    pub kt: f64,
-    pub mu: f64,
 }
 
 /// Current geometry of joint `k`: face p's unit tangent t (from its first node to its second),
@@ -165,4 +158,18 @@ pub fn contact(v: &mut SolidView, p: &JointParams) {
             v.force[i][1] += sgn * fq[1];
         }
     }
+}
+
+/// Counters of the fracture systems.
+#[derive(Clone, Debug, Default)]
+pub struct FractureState {
+    /// Internal edges marked fracture-ready so far (`fracture_criterion`).
+    pub ready_edges: usize,
+    /// Nodes split and edges opened so far (`split`).
+    pub splits: usize,
+    pub opened_edges: usize,
+    /// (ready edges, topology generation) of the last split attempt that split nothing: a
+    /// ready edge with both ends interior waits for the fracture to reach it, so `split` retries
+    /// only when the ready set or the topology changed.
+    pub last_idle_split: Option<(usize, u64)>,
 }

@@ -9,11 +9,24 @@
 //! - `flow_substeps` runs after `integrate`: it knows the apertures at both ends of the step and
 //!   interpolates them over its sub-steps; the mean pressure it leaves is the load of the next
 //!   step's `fluid_pressure` (the seed's staggered sub-stepping);
+//! - `split` is the only system that changes topology; the step loop rebuilds the views right
+//!   after it (`Simulation::rebuild_views_if_needed`);
 //! - `monitor` must run before `output` so that no frame with non-finite values is written.
+//!
+//! Every system is a function in this folder that takes what it reads and writes as explicit
+//! arguments; those that can fail return a [`RunError`]. A new system is one function here plus
+//! one line in [`SystemId::ORDER`] and in the step loop (`src/sim.rs`).
 
+pub mod coupling;
 pub mod flow;
 pub mod fracture;
+pub mod monitor;
+pub mod output;
 pub mod solid;
+pub mod split;
+pub mod sync;
+
+use crate::error::SetupError;
 
 /// A named system of the step.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -133,4 +146,34 @@ impl SystemId {
             SystemId::Output => tracing::info_span!(target: "hydrofrac::system", "output"),
         }
     }
+}
+
+/// A run that had to stop.
+#[derive(Debug, thiserror::Error)]
+pub enum RunError {
+    /// Numerical blow-up: the step, the entity and the quantity that went wrong.
+    #[error(
+        "blow-up at step {step} (t = {time:.6e} s): {entity} has {quantity} = {value:.6e}, {why}; \
+         stopped before writing non-finite output (dt = {dt:.3e} s)"
+    )]
+    BlowUp {
+        step: u64,
+        time: f64,
+        entity: String,
+        quantity: &'static str,
+        value: f64,
+        why: String,
+        dt: f64,
+    },
+    /// The implicit (backward-Euler) flow step failed: its Newton iteration did not converge.
+    #[error("step {step} (t = {time:.6e} s): {source}")]
+    ImplicitFlow {
+        step: u64,
+        time: f64,
+        source: Box<crate::flow::implicit::ImplicitError>,
+    },
+    #[error("output: {0}")]
+    Io(#[from] std::io::Error),
+    #[error(transparent)]
+    Setup(#[from] SetupError),
 }

@@ -5,74 +5,14 @@
 //! reductions are summed over fixed-size chunks in chunk order, so results are bit-identical
 //! for any number of threads.
 
+pub use crate::element::{SolidParams, cst_forces, cst_strain, cst_stress, hooke};
 use crate::scenario::Damping;
 use crate::view::SolidView;
 use rayon::prelude::*;
 
-/// Material and step constants used by the solid kernels.
-#[derive(Clone, Copy, Debug)]
-pub struct SolidParams {
-    /// lambda + 2G, Pa.
-    pub lam2g: f64,
-    /// Lame's lambda, Pa.
-    pub lam: f64,
-    /// Shear modulus G, Pa.
-    pub g: f64,
-    /// Time step, s.
-    pub dt: f64,
-    pub damping: Damping,
-    /// Multiplier of all boundary loads and prescribed displacements this step (the scenario's
-    /// `boundary_schedule`; 1 without one).
-    pub load_factor: f64,
-}
-
 /// Elements per rayon task in element loops, nodes per task / reduction chunk in node loops.
 pub const ELEM_GRAIN: usize = 4096;
 pub const NODE_CHUNK: usize = 4096;
-
-/// Strain of one element from its nodal displacements: [exx, eyy, gamma_xy] (engineering shear).
-#[inline(always)]
-pub fn cst_strain(g: &[f64; 7], u: [[f64; 2]; 3]) -> [f64; 3] {
-    [
-        g[1] * u[0][0] + g[2] * u[1][0] + g[3] * u[2][0],
-        g[4] * u[0][1] + g[5] * u[1][1] + g[6] * u[2][1],
-        g[4] * u[0][0]
-            + g[5] * u[1][0]
-            + g[6] * u[2][0]
-            + g[1] * u[0][1]
-            + g[2] * u[1][1]
-            + g[3] * u[2][1],
-    ]
-}
-
-/// Plane-strain Hooke's law: [sxx, syy, sxy], Pa, from [exx, eyy, gamma_xy].
-#[inline(always)]
-pub fn hooke(e: [f64; 3], p: &SolidParams) -> [f64; 3] {
-    [
-        p.lam2g * e[0] + p.lam * e[1],
-        p.lam * e[0] + p.lam2g * e[1],
-        p.g * e[2],
-    ]
-}
-
-/// Stress of one element from its nodal displacements: [sxx, syy, sxy], Pa.
-#[inline(always)]
-pub fn cst_stress(g: &[f64; 7], u: [[f64; 2]; 3], p: &SolidParams) -> [f64; 3] {
-    hooke(cst_strain(g, u), p)
-}
-
-/// Nodal internal forces of one element, f_a = -A B_a^T sigma, N/m.
-#[inline(always)]
-pub fn cst_forces(g: &[f64; 7], s: [f64; 3]) -> [f64; 6] {
-    let a = g[0];
-    let mut f = [0.0; 6];
-    for k in 0..3 {
-        let (bx, by) = (g[1 + k], g[4 + k]);
-        f[2 * k] = -a * (bx * s[0] + by * s[2]);
-        f[2 * k + 1] = -a * (bx * s[2] + by * s[1]);
-    }
-    f
-}
 
 /// `internal_force`: element stresses and nodal forces, then a gather by node (no atomics).
 /// Overwrites `force` with the internal force.
@@ -355,4 +295,15 @@ pub fn strain_energy(v: &SolidView, p: &SolidParams) -> f64 {
         })
         .collect();
     partial.into_iter().sum()
+}
+
+/// The rock's part of the state: the dense view, the last step's statistics and the critical
+/// step of the current topology.
+pub struct SolidPart {
+    pub view: SolidView,
+    /// Statistics of the last `integrate`.
+    pub stats: StepStats,
+    /// Critical solid step (elements, joints, fluid stiffness; [`crate::stability::solid`]), s;
+    /// infinite without a solid.
+    pub dt_crit: f64,
 }

@@ -14,13 +14,13 @@ fn solve(text: &str) -> Simulation {
         finish,
         hydrofrac::sim::Finish::Converged,
         "residual {}",
-        sim.residual
+        sim.residual()
     );
     sim
 }
 
 fn assert_uniform(sim: &Simulation, expect: [f64; 3], scale: f64) {
-    for (e, s) in sim.view.stress.iter().enumerate() {
+    for (e, s) in sim.solid().stress.iter().enumerate() {
         for k in 0..3 {
             assert!(
                 (s[k] - expect[k]).abs() < 1e-6 * scale,
@@ -49,7 +49,7 @@ fn uniaxial_traction() {
     assert_uniform(&sim, [5e6, 0.0, 0.0], 5e6);
     // Closed form: u_x(L) = (1 - nu^2) t L / E.
     let (e, nu, t, l) = (20e9, 0.25, 5e6, 20.0);
-    let ux_max = sim.view.u.iter().map(|u| u[0]).fold(f64::MIN, f64::max);
+    let ux_max = sim.solid().u.iter().map(|u| u[0]).fold(f64::MIN, f64::max);
     let expect = (1.0 - nu * nu) * t * l / e;
     assert!(
         (ux_max - expect).abs() < 1e-6 * expect,

@@ -6,7 +6,7 @@
 //! P_max = 30 MPa (higher than the seed's 18 MPa so that the small, stiff domain fractures
 //! within 0.1 s of simulated time).
 
-use hydrofrac::error::RunError;
+use hydrofrac::systems::RunError;
 use hydrofrac::scenario::Scenario;
 use hydrofrac::sim::{Finish, Simulation};
 use hydrofrac::systems::SystemId;
@@ -36,28 +36,28 @@ fn scene(end: f64, extra: &str) -> Scenario {
 #[test]
 fn coupled_run_conserves_mass_and_grows_the_fracture() {
     let mut sim = Simulation::new(scene(0.11, ""), &[]).unwrap();
-    assert!(sim.schedule.is_enabled(SystemId::FluidPressure));
-    let cells0 = sim.flow.as_ref().unwrap().view.n_cells();
+    assert!(sim.schedule().is_enabled(SystemId::FluidPressure));
+    let cells0 = sim.flow().unwrap().view.n_cells();
     assert_eq!(cells0, 10);
     // Every time-series column has its value (a missing one shifts every later column).
     assert_eq!(sim.series_columns().len(), sim.series_values().len());
     let mut worst: f64 = 0.0;
     let mut substeps_seen = (u64::MAX, 0u64);
-    while sim.finish.is_none() {
+    while sim.finish().is_none() {
         sim.step_once().unwrap();
         let (inj, _, stored, err) = sim.flow_balance().unwrap();
         assert!(err.is_finite() && inj >= 0.0 && stored.is_finite());
         worst = worst.max(err);
-        let n = sim.flow.as_ref().unwrap().substeps;
+        let n = sim.flow().unwrap().substeps;
         substeps_seen = (substeps_seen.0.min(n), substeps_seen.1.max(n));
     }
     assert!(worst < 1e-9, "mass balance error {worst:e}");
-    let f = sim.flow.as_ref().unwrap();
+    let f = sim.flow().unwrap();
     let (inj, _, _, _) = sim.flow_balance().unwrap();
     assert!(inj > 1e-3, "pump injected only {inj} m^2");
     // The fracture grew along y = 15 from its tip at x = 10 (the criterion and split ran), and
     // the new cells took fluid.
-    assert!(sim.splits >= 1, "no split");
+    assert!(sim.fracture().splits >= 1, "no split");
     let new: Vec<usize> = (0..f.view.n_cells())
         .filter(|&c| f.view.created_t[c] > 0.0)
         .collect();
@@ -87,12 +87,12 @@ fn coupled_run_conserves_mass_and_grows_the_fracture() {
 #[test]
 fn ablation_runs_complete() {
     let mut sim = Simulation::new(scene(0.02, ""), &["contact".to_string()]).unwrap();
-    assert!(!sim.schedule.is_enabled(SystemId::Contact));
+    assert!(!sim.schedule().is_enabled(SystemId::Contact));
     assert_eq!(sim.run(|_| {}).unwrap(), Finish::EndTime);
     let mut sim = Simulation::new(scene(0.11, ""), &["fracture_criterion".to_string()]).unwrap();
-    assert!(!sim.schedule.is_enabled(SystemId::FractureCriterion));
+    assert!(!sim.schedule().is_enabled(SystemId::FractureCriterion));
     assert_eq!(sim.run(|_| {}).unwrap(), Finish::EndTime);
-    assert_eq!(sim.splits, 0);
+    assert_eq!(sim.fracture().splits, 0);
 }
 
 /// Stability: when the apertures need more flow sub-steps per solid step than allowed, the run
@@ -115,10 +115,10 @@ fn substep_cap_stops_with_a_clear_message() {
         }
         other => panic!("expected a blow-up report, got {other:?}"),
     }
-    let f = sim.flow.as_ref().unwrap();
+    let f = sim.flow().unwrap();
     assert!(f.view.excess.iter().all(|e| e.is_finite()));
     assert!(
-        sim.view
+        sim.solid()
             .u
             .iter()
             .all(|u| u[0].is_finite() && u[1].is_finite())
@@ -138,7 +138,7 @@ fn explicit_and_implicit_schemes_agree() {
         assert_eq!(sim.run(|_| {}).unwrap(), Finish::EndTime);
         let (inj, _, _, err) = sim.flow_balance().unwrap();
         assert!(err < 1e-9, "{extra}: mass balance error {err:e}");
-        let f = sim.flow.as_ref().unwrap();
+        let f = sim.flow().unwrap();
         if extra.contains("Implicit") {
             assert_eq!(f.substeps, 1, "implicit: one flow step per solid step");
             assert_eq!(f.dt, sim.dt());
@@ -176,15 +176,15 @@ fn coupled_run_is_deterministic_across_thread_counts() {
         pool.install(|| {
             let mut sim = Simulation::new(scene(0.1, ""), &[]).unwrap();
             assert_eq!(sim.run(|_| {}).unwrap(), Finish::EndTime);
-            let f = sim.flow.as_ref().unwrap();
+            let f = sim.flow().unwrap();
             let u: Vec<u64> = sim
-                .view
+                .solid()
                 .u
                 .iter()
                 .flat_map(|x| x.map(f64::to_bits))
                 .collect();
             let e: Vec<u64> = f.view.excess.iter().map(|x| x.to_bits()).collect();
-            (u, e, sim.splits, f.view.bcs[0].volume_in.to_bits())
+            (u, e, sim.fracture().splits, f.view.bcs[0].volume_in.to_bits())
         })
     };
     let (a, b) = (run(1), run(2));

@@ -22,9 +22,9 @@ fn run(threads: usize) -> (Vec<[f64; 2]>, Vec<[f64; 3]>, f64) {
         let mut sim = Simulation::new(sc, &[]).unwrap();
         sim.run(|_| {}).unwrap();
         (
-            sim.view.u.clone(),
-            sim.view.stress.clone(),
-            sim.stats.kinetic,
+            sim.solid().u.clone(),
+            sim.solid().stress.clone(),
+            sim.stats().kinetic,
         )
     })
 }
@@ -80,8 +80,12 @@ fn flow_one_and_two_threads_give_identical_bits() {
         pool.install(|| {
             let mut sim = Simulation::new(sc, &[]).unwrap();
             sim.run(|_| {}).unwrap();
-            let f = sim.flow.unwrap();
-            (f.view.excess, f.view.flow_rate, f.view.bcs[0].volume_in)
+            let f = sim.flow().unwrap();
+            (
+                f.view.excess.clone(),
+                f.view.flow_rate.clone(),
+                f.view.bcs[0].volume_in,
+            )
         })
     };
     let (a, b) = (run(1), run(2));

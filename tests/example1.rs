@@ -54,7 +54,7 @@ fn vertical(c: &CellRow) -> bool {
 #[test]
 fn friction_45_degrees_crosses() {
     let sim = run("example1_cross.ron");
-    let f = sim.flow.as_ref().unwrap();
+    let f = sim.flow().unwrap();
     let cs = cells(&f.view);
     let beyond = cs
         .iter()
@@ -81,7 +81,7 @@ fn friction_45_degrees_crosses() {
 #[test]
 fn friction_3_degrees_offsets() {
     let sim = run("example1_offset.ron");
-    let f = sim.flow.as_ref().unwrap();
+    let f = sim.flow().unwrap();
     let cs = cells(&f.view);
     assert!(
         !cs.iter()

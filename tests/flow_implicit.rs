@@ -2,7 +2,7 @@
 //! verification.md items 10-13. Tolerances and their reasons are stated at each check (the
 //! verification cases' own are in `src/verify/flow_cases.rs`).
 
-use hydrofrac::error::RunError;
+use hydrofrac::systems::RunError;
 use hydrofrac::flow::implicit::{ImplicitError, ImplicitSolver, implicit_step};
 use hydrofrac::flow::pressure_of;
 use hydrofrac::network::Fracture;
@@ -60,7 +60,7 @@ fn one_long_step_reaches_the_direct_steady_solution() {
     )
     .unwrap();
     direct.run(|_| {}).unwrap();
-    let pd = direct.flow.as_ref().unwrap().view.pressure.clone();
+    let pd = direct.flow().unwrap().view.pressure.clone();
     let dt = fc::long_step(1e-4, 10.0);
     let sc = fc::implicit(
         single_fracture(40, InitialFluid::Full(0.0), End::Time(8.0 * dt)),
@@ -68,14 +68,14 @@ fn one_long_step_reaches_the_direct_steady_solution() {
     );
     let mut sim = Simulation::new(sc, &[]).unwrap();
     sim.run(|_| {}).unwrap();
-    assert_eq!(sim.step, 8);
-    let f = sim.flow.as_ref().unwrap();
+    assert_eq!(sim.step(), 8);
+    let f = sim.flow().unwrap();
     let solver = f.implicit.as_ref().unwrap();
     assert!(solver.last_iterations <= 2, "{solver:?}");
     assert!(solver.last_residual <= 1e-12, "{solver:?}");
     assert_eq!(pd.len(), f.view.n_cells());
     for (c, &pdc) in pd.iter().enumerate() {
-        let p = pressure_of(f.view.excess[c], f.view.volume[c], &f.params);
+        let p = pressure_of(f.view.excess[c], f.view.volume[c], &sim.params().fluid);
         assert!((p - pdc).abs() < 1e-9 * 1e6, "cell {c}: {p} vs {pdc}");
         // The view's pressure is the end-of-step pressure used for the fluxes.
         assert!((f.view.pressure[c] - pdc).abs() < 1e-9 * 1e6);
@@ -135,7 +135,7 @@ fn implicit_mass_balance_pump_on_off_on_from_empty() {
         let (im, _, worst, mixed) = fc::mass_balance_run(2.0, Some(dt)).unwrap();
         assert!(worst < 1e-12, "dt {dt:?}: balance {worst}");
         assert!(mixed > 0, "no filling front");
-        let f = im.flow.as_ref().unwrap();
+        let f = im.flow().unwrap();
         assert_eq!(f.substeps, 1);
         let s = f.implicit.as_ref().unwrap();
         assert_eq!(s.symbolic_count(), 1, "one symbolic LU for the run");
@@ -158,13 +158,14 @@ fn symbolic_factorisation_reused_until_the_pattern_changes() {
             &[],
         )
         .unwrap();
-        let specs = sim.scenario.flow_boundaries.clone();
-        let f = sim.flow.as_mut().unwrap();
+        let specs = sim.scenario().flow_boundaries.clone();
+        let fp = sim.params().fluid;
+        let f = sim.flow_mut().unwrap();
         let dt = 100.0 * f.dt_crit;
         for k in 0..5 {
             implicit_step(
                 &mut f.view,
-                &f.params,
+                &fp,
                 &specs,
                 dt,
                 k as f64 * dt,
@@ -184,11 +185,10 @@ fn symbolic_factorisation_reused_until_the_pattern_changes() {
 #[test]
 fn newton_failure_names_step_cell_and_residual() {
     let (sim, ..) = fc::mass_balance_run(2.0, Some(Some(0.1))).unwrap();
-    let mut sc = sim.scenario.clone();
+    let mut sc = sim.scenario().clone();
     sc.time.dt = Some(0.1);
     let mut sim = Simulation::new(sc, &[]).unwrap();
-    sim.flow
-        .as_mut()
+    sim.flow_mut()
         .unwrap()
         .implicit
         .as_mut()
@@ -196,7 +196,7 @@ fn newton_failure_names_step_cell_and_residual() {
         .max_iter = 1;
     let err = loop {
         match sim.step_once() {
-            Ok(()) => assert!(sim.step < 20, "a one-iteration Newton never failed"),
+            Ok(()) => assert!(sim.step() < 20, "a one-iteration Newton never failed"),
             Err(e) => break e,
         }
     };
@@ -227,7 +227,7 @@ fn implicit_same_bits_for_any_thread_count() {
             .unwrap();
         pool.install(|| {
             let (sim, ..) = fc::mass_balance_run(2.0, Some(Some(1e-3))).unwrap();
-            let f = sim.flow.as_ref().unwrap();
+            let f = sim.flow().unwrap();
             let mut bits: Vec<u64> = f.view.excess.iter().map(|x| x.to_bits()).collect();
             bits.extend(f.view.bcs.iter().map(|b| b.volume_in.to_bits()));
             bits

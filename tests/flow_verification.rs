@@ -70,10 +70,10 @@ fn over_limit_kernel_violates_the_maximum_principle() {
         flow_cases::WATER,
     );
     let mut sim = Simulation::new(sc, &[]).unwrap();
-    let f = sim.flow.as_mut().unwrap();
-    let p: FlowParams = f.params;
+    let p: FlowParams = sim.params().fluid;
+    let specs = sim.scenario().flow_boundaries.clone();
+    let f = sim.flow_mut().unwrap();
     let dt = 3.0 * f.dt_crit;
-    let specs = sim.scenario.flow_boundaries.clone();
     let mut over = 0.0f64;
     for k in 0..200 {
         hydrofrac::systems::flow::flow_step(&mut f.view, &p, &specs, dt, k as f64 * dt);

@@ -36,15 +36,15 @@ fn marks_exactly_the_edges_at_or_above_the_strength() {
     {
         let mut sim = relaxed();
         assert_eq!(
-            sim.view.edge_entity.len(),
+            sim.solid().edge_entity.len(),
             vertical + diagonal + nx * (ny - 1)
         );
-        let n = fracture_criterion(&mut sim.view, strength, by_elements);
+        let n = fracture_criterion(sim.solid_mut(), strength, by_elements);
         assert_eq!(n, expect, "strength {strength:e}");
-        for k in 0..sim.view.edge_entity.len() {
-            let nrm = sim.view.edge_normal[k];
+        for k in 0..sim.solid().edge_entity.len() {
+            let nrm = sim.solid().edge_normal[k];
             let expected_sn = 5e6 * nrm[0] * nrm[0];
-            let err = (sim.view.edge_sigma_n[k] - expected_sn).abs();
+            let err = (sim.solid().edge_sigma_n[k] - expected_sn).abs();
             assert!(
                 err < 1e-6 * 5e6,
                 "edge {k}: sigma_n off by {err} Pa (relaxation tolerance 1e-6)"
@@ -60,18 +60,18 @@ fn criterion_runs_every_step_and_marks_persist_in_the_components() {
     let mut sim = Simulation::new(sc, &["split".into()]).unwrap();
     sim.run(|_| {}).unwrap();
     assert!(
-        sim.schedule
+        sim.schedule()
             .is_enabled(hydrofrac::systems::SystemId::FractureCriterion)
     );
-    assert!(sim.ready_edges > 0);
+    assert!(sim.fracture().ready_edges > 0);
     let marked = sim
-        .model
+        .model()
         .world
         .query::<&hydrofrac::components::EdgeState>()
         .iter()
         .filter(|s| s.fracture_ready)
         .count();
-    assert_eq!(marked, sim.ready_edges);
+    assert_eq!(marked, sim.fracture().ready_edges);
     // Without `fracture` the system has no data and is not scheduled.
     let sc = Scenario::parse(
         &PLATE.replace("fracture: Some((strength: 1e6)),", ""),
@@ -80,7 +80,7 @@ fn criterion_runs_every_step_and_marks_persist_in_the_components() {
     .unwrap();
     let sim = Simulation::new(sc, &[]).unwrap();
     assert!(
-        !sim.schedule
+        !sim.schedule()
             .is_enabled(hydrofrac::systems::SystemId::FractureCriterion)
     );
 }

@@ -29,16 +29,16 @@ fn plate(strength: f64) -> Simulation {
 #[test]
 fn strong_rock_does_not_split() {
     let sim = plate(200e6);
-    assert_eq!(sim.splits, 0);
-    assert_eq!(sim.view.joint_nodes.len(), 8, "only the notch's joints");
+    assert_eq!(sim.fracture().splits, 0);
+    assert_eq!(sim.solid().joint_nodes.len(), 8, "only the notch's joints");
 }
 
 #[test]
 fn weak_rock_cracks_from_the_notch_tip_along_the_notch_line() {
     let sim = plate(4e6);
-    assert!(sim.splits > 0 && sim.opened_edges > 0);
-    hydrofrac::split::check_invariants(&sim.model).unwrap();
-    let w = &sim.model.world;
+    assert!(sim.fracture().splits > 0 && sim.fracture().opened_edges > 0);
+    hydrofrac::split::check_invariants(sim.model()).unwrap();
+    let w = &sim.model().world;
     let mut new_cells: Vec<(f64, [f64; 2])> = w
         .query::<(&CellNodes, &CellOrigin)>()
         .iter()
@@ -75,7 +75,7 @@ fn weak_rock_cracks_from_the_notch_tip_along_the_notch_line() {
 fn cells_carry_the_hydraulic_aperture_and_mothers_follow_daughters() {
     use hydrofrac::components::{CellFluid, Joint, JointState, NodeLink, NodeState};
     let sim = plate(4e6);
-    let w = &sim.model.world;
+    let w = &sim.model().world;
     let mut checked = 0;
     for (j, st) in w.query::<(&Joint, &JointState)>().iter() {
         let a = w.get::<&CellFluid>(j.cell).unwrap().aperture;
@@ -127,16 +127,16 @@ fn splits_when_the_applied_stress_reaches_the_strength() {
         )"#
         );
         let mut sim = Simulation::new(Scenario::parse(&text, "ramp.ron").unwrap(), &[]).unwrap();
-        while sim.finish.is_none() {
+        while sim.finish().is_none() {
             sim.step_once().unwrap();
-            if sim.splits > 0 {
+            if sim.fracture().splits > 0 {
                 // The first cells are vertical edges (normal along the load).
-                let w = &sim.model.world;
+                let w = &sim.model().world;
                 for c in w.query::<&CellNodes>().iter() {
                     let p = c.0.map(|n| w.get::<&NodeRef>(n).unwrap().0);
                     assert_eq!(p[0][0], p[1][0], "a non-vertical edge split first: {p:?}");
                 }
-                return Some((2e6 * sim.time / 0.5, sim.view.joint_nodes.len()));
+                return Some((2e6 * sim.time() / 0.5, sim.solid().joint_nodes.len()));
             }
         }
         None

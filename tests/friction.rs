@@ -34,13 +34,13 @@ const SIGMA: f64 = 10e6;
 fn joint_sticks_below_the_coulomb_limit() {
     let mu = 30f64.to_radians().tan();
     let mut sim = block(0.8 * SIGMA * mu, "Static(tol: 1e-9)");
-    assert_eq!(sim.view.joint_nodes.len(), 8);
+    assert_eq!(sim.solid().joint_nodes.len(), 8);
     assert!(
-        sim.schedule
+        sim.schedule()
             .is_enabled(hydrofrac::systems::SystemId::Contact)
     );
     assert_eq!(sim.run(|_| {}).unwrap(), Finish::Converged);
-    for (k, st) in sim.view.joint_state.iter().enumerate() {
+    for (k, st) in sim.solid().joint_state.iter().enumerate() {
         assert!(!st.sliding, "joint {k} slides");
         assert!(
             st.shear_force.abs() < mu * st.normal_force,
@@ -54,7 +54,7 @@ fn joint_sticks_below_the_coulomb_limit() {
         );
         assert!(st.opening < 0.0, "joint {k} should be closed");
     }
-    let fn_total: f64 = sim.view.joint_state.iter().map(|s| s.normal_force).sum();
+    let fn_total: f64 = sim.solid().joint_state.iter().map(|s| s.normal_force).sum();
     assert!(
         (fn_total - 8.0 * SIGMA).abs() < 1e-3 * 8.0 * SIGMA,
         "total normal force {fn_total}"
@@ -66,7 +66,7 @@ fn joint_slides_above_the_coulomb_limit() {
     let mu = 30f64.to_radians().tan();
     let mut sim = block(1.2 * SIGMA * mu, "Time(0.2)");
     sim.run(|_| {}).unwrap();
-    let sliding: Vec<_> = sim.view.joint_state.iter().filter(|s| s.sliding).collect();
+    let sliding: Vec<_> = sim.solid().joint_state.iter().filter(|s| s.sliding).collect();
     assert!(
         sliding.len() >= 6,
         "only {} of 8 joints slide",
@@ -77,10 +77,10 @@ fn joint_slides_above_the_coulomb_limit() {
     }
     // The upper block has moved along the fracture far beyond elastic shear (tau/G * 2 m ~ 1 mm).
     let top = sim
-        .view
+        .solid()
         .x0
         .iter()
-        .zip(&sim.view.u)
+        .zip(&sim.solid().u)
         .filter(|(x, _)| x[1] == 4.0)
         .map(|(_, u)| u[0].abs())
         .fold(0.0, f64::max);
@@ -104,22 +104,22 @@ fn gravity_loads_the_rock_with_its_weight() {
     let mut sim = Simulation::new(Scenario::parse(text, "column.ron").unwrap(), &[]).unwrap();
     assert_eq!(sim.run(|_| {}).unwrap(), Finish::Converged);
     let weight = 2700.0 * 9.81 * 4.0 * 10.0;
-    let base: f64 = (0..sim.view.n_nodes())
-        .filter(|&i| sim.view.x0[i][1] == 0.0)
-        .map(|i| sim.view.force[i][1])
+    let base: f64 = (0..sim.solid().n_nodes())
+        .filter(|&i| sim.solid().x0[i][1] == 0.0)
+        .map(|i| sim.solid().force[i][1])
         .sum();
     assert!(
         (base + weight).abs() < 1e-6 * weight,
         "base reaction {base} vs weight {weight}"
     );
-    for (k, c) in sim.view.conn.iter().enumerate() {
-        let yc = c.iter().map(|&a| sim.view.x0[a as usize][1]).sum::<f64>() / 3.0;
+    for (k, c) in sim.solid().conn.iter().enumerate() {
+        let yc = c.iter().map(|&a| sim.solid().x0[a as usize][1]).sum::<f64>() / 3.0;
         let exact = -2700.0 * 9.81 * (10.0 - yc);
-        let err = (sim.view.stress[k][1] - exact).abs();
+        let err = (sim.solid().stress[k][1] - exact).abs();
         assert!(
             err < 0.05 * 2700.0 * 9.81 * 10.0,
             "element {k}: syy {} vs {exact}",
-            sim.view.stress[k][1]
+            sim.solid().stress[k][1]
         );
     }
 }

@@ -20,8 +20,8 @@ fn imported_mesh_passes_the_patch_test() {
     std::fs::write(dir.join("patch.ron"), text).unwrap();
     let sc = Scenario::load(&dir.join("patch.ron"), &[]).unwrap();
     let mut sim = Simulation::new(sc, &[]).unwrap();
-    assert_eq!(sim.view.n_elems(), 8);
-    assert_eq!(sim.view.n_nodes(), 9);
+    assert_eq!(sim.solid().n_elems(), 8);
+    assert_eq!(sim.solid().n_nodes(), 9);
     let exact = |x: [f64; 2]| {
         [
             1e-4 + 1e-3 * x[0] + 2e-4 * x[1],
@@ -30,8 +30,8 @@ fn imported_mesh_passes_the_patch_test() {
     };
     sim.edit_model(|m| m.prescribe_boundary_field(exact));
     assert_eq!(sim.run(|_| {}).unwrap(), Finish::Converged);
-    let i = sim.view.x0.iter().position(|&x| x == [1.13, 0.91]).unwrap();
-    let (u, e) = (sim.view.u[i], exact(sim.view.x0[i]));
+    let i = sim.solid().x0.iter().position(|&x| x == [1.13, 0.91]).unwrap();
+    let (u, e) = (sim.solid().u[i], exact(sim.solid().x0[i]));
     let err = ((u[0] - e[0]).powi(2) + (u[1] - e[1]).powi(2)).sqrt() / 2.2e-3;
     assert!(err < 1e-9, "interior node off by {err:.3e}");
 }

@@ -34,21 +34,21 @@ fn reference_kernel_matches_the_engine_bit_for_bit() {
     );
     let mut sim = Simulation::new(sc, &[]).unwrap();
     let mesh = TriMesh::perturbed(100.0, 100.0, 1.0, [0.0, 0.0], 0.2, 9).unwrap();
-    let bcs: Vec<[Option<f64>; 2]> = (0..sim.view.n_nodes())
+    let bcs: Vec<[Option<f64>; 2]> = (0..sim.solid().n_nodes())
         .map(|i| {
-            [0, 1].map(|d| (sim.view.fixed[i] & (1 << d) != 0).then_some(sim.view.presc[i][d]))
+            [0, 1].map(|d| (sim.solid().fixed[i] & (1 << d) != 0).then_some(sim.solid().presc[i][d]))
         })
         .collect();
-    assert_eq!(sim.view.x0, mesh.nodes, "view order must follow stable ids");
+    assert_eq!(sim.solid().x0, mesh.nodes, "view order must follow stable ids");
     let lookup = |x: [f64; 2]| bcs[mesh.nodes.iter().position(|&y| y == x).unwrap()];
-    let mut serial = FlatSolid::new(&mesh, &mat, sim.params, 0.8, lookup);
-    let mut parallel = FlatSolid::new(&mesh, &mat, sim.params, 0.8, lookup);
+    let mut serial = FlatSolid::new(&mesh, &mat, sim.params().solid, 0.8, lookup);
+    let mut parallel = FlatSolid::new(&mesh, &mat, sim.params().solid, 0.8, lookup);
     for _ in 0..200 {
         sim.step_once().unwrap();
         serial.step_serial();
         parallel.step_parallel();
     }
-    let engine: Vec<f64> = sim.view.u.as_flattened().to_vec();
+    let engine: Vec<f64> = sim.solid().u.as_flattened().to_vec();
     assert!(engine.iter().any(|&u| u != 0.0));
     assert!(
         engine == serial.u,

@@ -64,15 +64,15 @@ fn shipped_scenario_places_the_crack_exactly() {
         hydrofrac::scenario::Scenario::load(std::path::Path::new("scenarios/sneddon.ron"), &[])
             .unwrap();
     let sim = hydrofrac::sim::Simulation::new(sc, &[]).unwrap();
-    assert_eq!(sim.placed.len(), 1);
-    assert_eq!(sim.placed[0].snap_error, 0.0);
-    assert_eq!(sim.placed[0].edges, 40);
+    assert_eq!(sim.placed().len(), 1);
+    assert_eq!(sim.placed()[0].snap_error, 0.0);
+    assert_eq!(sim.placed()[0].edges, 40);
     let joints = sim
-        .model
+        .model()
         .world
         .query::<&hydrofrac::components::Joint>()
         .iter()
         .count();
     assert_eq!(joints, 40);
-    hydrofrac::split::check_invariants(&sim.model).unwrap();
+    hydrofrac::split::check_invariants(sim.model()).unwrap();
 }

@@ -16,7 +16,7 @@
 //! rate over its cells through their half-cell transmissibilities at the common boundary
 //! pressure P_b = (q + sum kappa_k P_k) / sum kappa_k; a pump solves its characteristic curve
 //! with the network (check valve: no backflow), exactly as the explicit step does
-//! ([`crate::systems::flow::boundary_flows`] is called on the Newton iterate). The Jacobian has
+//! ([`crate::flow::boundary::boundary_flows`] is called on the Newton iterate). The Jacobian has
 //! the exact derivatives: dP/dy = 1 for y >= 0 and 0 otherwise (so it is not symmetric when some
 //! cells are unfilled), and for a pump the implicit-function derivative of its operating point,
 //! dP_b/dP_l = -P'(q) kappa_l / (1 - s P'(q)), s = sum kappa_k, P'(q) < 0 the curve's slope
@@ -48,7 +48,7 @@
 
 use crate::flow::{FlowParams, FlowView, kahan_add};
 use crate::scenario::{FlowBcKind, FlowBoundary};
-use crate::systems::flow::{FlowStats, boundary_flows};
+use crate::flow::boundary::{FlowStats, boundary_flows};
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
 use faer::sparse::linalg::lu::{NumericLu, SymbolicLu, factorize_symbolic_lu};
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
@@ -663,14 +663,14 @@ pub fn implicit_step(
         v.flow_rate[i] = 0.5 * through;
         st.net2 += net * net;
         let m = v.excess[i];
-        if !(m >= -params.rho_r * v.volume[i] * (1.0 + crate::systems::flow::MASS_ROUNDOFF)
+        if !(m >= -params.rho_r * v.volume[i] * (1.0 + crate::flow::boundary::MASS_ROUNDOFF)
             && m.is_finite())
             && st.bad_cell.is_none()
         {
             st.bad_cell = Some(i);
         }
     }
-    crate::systems::flow::accumulate_boundary_volumes(v, dt);
+    crate::flow::boundary::accumulate_boundary_volumes(v, dt);
     s.last_iterations = it;
     s.total_iterations += it as u64;
     s.steps += 1;
@@ -735,12 +735,13 @@ mod tests {
             WATER,
         );
         let mut sim = Simulation::new(sc, &[]).unwrap();
-        let specs = sim.scenario.flow_boundaries.clone();
-        let f = sim.flow.as_mut().unwrap();
+        let specs = sim.scenario().flow_boundaries.clone();
+        let fp = sim.params().fluid;
+        let f = sim.flow_mut().unwrap();
         let v = &mut f.view;
         let n = v.n_cells();
         let dt = 50.0 * f.dt_crit;
-        let w: Vec<f64> = (0..n).map(|i| dt * f.params.k / v.volume[i]).collect();
+        let w: Vec<f64> = (0..n).map(|i| dt * fp.k / v.volume[i]).collect();
         let y0 = vec![0.0; n];
         // Mixed states, away from the kink: every third cell filling.
         let y: Vec<f64> = (0..n)

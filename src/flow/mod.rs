@@ -12,6 +12,7 @@
 //! - a boundary at a node connects to every cell there, at a cell to that cell, through half
 //!   the cell's length: kappa_b = a^3 / (6 mu L).
 
+pub mod boundary;
 pub mod implicit;
 pub mod steady;
 
@@ -302,9 +303,10 @@ impl FlowView {
         }
     }
 
-    /// Explicit critical step, s: the Gershgorin bound min_i V_i / (K sum of the cell's
-    /// transmissibilities, pairs and boundaries). For a chain of equal cells it equals the seed's
-    /// 6 mu/K (L/a)^2; architecture.md's 2 V_i/(K sum kappa) is twice the chain limit.
+    /// Explicit critical step, s: min over cells of [`crate::stability::flow_cell`], the
+    /// Gershgorin bound V_i / (K sum of the cell's transmissibilities, pairs and boundaries).
+    /// For a chain of equal cells it equals the seed's 6 mu/K (L/a)^2
+    /// (`docs/seed-method.md` (6)); 2 V_i/(K sum kappa) would be twice the chain limit (D5).
     pub fn critical_step(&self, p: &FlowParams) -> f64 {
         self.critical_cell(p).map_or(f64::INFINITY, |c| c.1)
     }
@@ -329,7 +331,7 @@ impl FlowView {
         self.kappa_sums(&mut sum);
         (0..self.n_cells())
             .filter(|&c| sum[c] > 0.0)
-            .map(|c| (c, self.volume[c] / (p.k * sum[c])))
+            .map(|c| (c, crate::stability::flow_cell(self.volume[c], p.k, sum[c])))
             .min_by(|a, b| a.1.total_cmp(&b.1))
     }
 

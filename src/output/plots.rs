@@ -3,14 +3,13 @@
 
 use crate::flow::FlowView;
 use crate::plot::{ColourScale, Segment, Series, fracture_map, lines, network};
-use crate::sim::Simulation;
+use crate::params::RunParams;
 use crate::view::SolidView;
 use std::path::Path;
 
 /// `network_pressure.png`, `network_flow.png` and `boundaries.png` for a scene with a network.
-pub fn flow_figures(sim: &Simulation, dir: &Path) -> anyhow::Result<()> {
-    let Some(f) = &sim.flow else { return Ok(()) };
-    network_figures(sim, dir)?;
+pub fn flow_figures(v: &FlowView, p: &RunParams, time: f64, dir: &Path) -> anyhow::Result<()> {
+    network_figures(v, p, time, dir)?;
     // Boundary pressures and rates from the time series.
     let text = std::fs::read_to_string(dir.join("timeseries.csv"))?;
     let mut rows = text.lines();
@@ -26,8 +25,8 @@ pub fn flow_figures(sim: &Simulation, dir: &Path) -> anyhow::Result<()> {
     let t = col("time").unwrap_or(1);
     let mut pressure = Vec::new();
     let mut rate = Vec::new();
-    for b in &f.view.bcs {
-        let name = sim.bc_name(b.index);
+    for b in &v.bcs {
+        let name = p.bc_names[b.index].clone();
         if let Some(c) = col(&format!("{name}_pressure")) {
             pressure.push(Series {
                 label: name.clone(),
@@ -62,9 +61,7 @@ pub fn flow_figures(sim: &Simulation, dir: &Path) -> anyhow::Result<()> {
 
 /// The network coloured by pressure (linear, MPa) and by flow rate (log, m^2/s), line width
 /// growing with aperture, boundaries marked.
-fn network_figures(sim: &Simulation, dir: &Path) -> anyhow::Result<()> {
-    let Some(f) = &sim.flow else { return Ok(()) };
-    let v = &f.view;
+fn network_figures(v: &FlowView, p: &RunParams, time: f64, dir: &Path) -> anyhow::Result<()> {
     let segments: Vec<Segment> = v
         .cell_nodes
         .iter()
@@ -92,23 +89,23 @@ fn network_figures(sim: &Simulation, dir: &Path) -> anyhow::Result<()> {
             1.5 + 4.5 * s
         })
         .collect();
-    let names: Vec<String> = v.bcs.iter().map(|b| sim.bc_name(b.index)).collect();
+    let names: Vec<&str> = v.bcs.iter().map(|b| p.bc_names[b.index].as_str()).collect();
     let markers: Vec<([f64; 2], &str)> = v
         .bcs
         .iter()
         .zip(&names)
         .map(|(b, name)| {
-            let pos = match sim.scenario.flow_boundaries[b.index].at {
+            let pos = match p.flow_boundaries[b.index].at {
                 crate::scenario::FlowTarget::Node(p) | crate::scenario::FlowTarget::Cell(p) => p,
             };
-            (pos, name.as_str())
+            (pos, *name)
         })
         .collect();
     let mpa: Vec<f64> = v.pressure.iter().map(|p| p / 1e6).collect();
-    let t = sim.time;
+    let t = time;
     network(
         &dir.join("network_pressure.png"),
-        &format!("{}: fluid pressure at t = {t:.4e} s", sim.scenario.name),
+        &format!("{}: fluid pressure at t = {t:.4e} s", p.name),
         &segments,
         &mpa,
         "pressure [MPa]",
@@ -118,7 +115,7 @@ fn network_figures(sim: &Simulation, dir: &Path) -> anyhow::Result<()> {
     )?;
     network(
         &dir.join("network_flow.png"),
-        &format!("{}: flow rate at t = {t:.4e} s", sim.scenario.name),
+        &format!("{}: flow rate at t = {t:.4e} s", p.name),
         &segments,
         &v.flow_rate,
         "flow rate [m^2/s]",
@@ -132,11 +129,7 @@ fn network_figures(sim: &Simulation, dir: &Path) -> anyhow::Result<()> {
 /// `fractures.png` for a rock scene with fractures: the fracture cells drawn with line width
 /// growing with the hydraulic aperture and coloured by it (mm), like the seed's Fig. 7 (which
 /// magnifies apertures 20x in the mesh instead).
-pub fn fracture_figure(
-    sim: &Simulation,
-    view: &crate::flow::FlowView,
-    dir: &Path,
-) -> anyhow::Result<()> {
+pub fn fracture_figure(name: &str, time: f64, view: &FlowView, dir: &Path) -> anyhow::Result<()> {
     let segments: Vec<Segment> = view
         .cell_nodes
         .iter()
@@ -155,8 +148,7 @@ pub fn fracture_figure(
     network(
         &dir.join("fractures.png"),
         &format!(
-            "{}: fracture apertures at t = {:.4e} s",
-            sim.scenario.name, sim.time
+            "{name}: fracture apertures at t = {time:.4e} s"
         ),
         &segments,
         &mm,

@@ -73,7 +73,7 @@ pub fn kgd_run(h: f64, scheme: &str) -> anyhow::Result<KgdRun> {
     );
     let wall = t0.elapsed().as_secs_f64();
     let (_, _, _, balance) = sim.flow_balance().expect("flow");
-    let f = sim.flow.as_ref().expect("flow");
+    let f = sim.flow().expect("flow");
     let v = &f.view;
     // Cells on the fracture line y = 0, by their position along it.
     let mut on_line: Vec<(f64, f64, f64)> = (0..v.n_cells())
@@ -104,7 +104,7 @@ pub fn kgd_run(h: f64, scheme: &str) -> anyhow::Result<KgdRun> {
         exact,
         balance,
         wall,
-        unknowns: 2 * sim.view.n_nodes(),
+        unknowns: 2 * sim.solid().n_nodes(),
     })
 }
 

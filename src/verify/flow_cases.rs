@@ -2,7 +2,7 @@
 //! `mass_balance`, `pump_curve`, `steady`, `flow_stability`.
 
 use super::{CaseResult, Row, observed_order};
-use crate::error::RunError;
+use crate::systems::RunError;
 use crate::network::{Fracture, NetworkSpec, RandomNetwork};
 use crate::scenario::{
     Boundary, Damping, End, FlowBcKind, FlowBoundary, FlowScheme, FlowTarget, Fluid, InitialFluid,
@@ -132,16 +132,16 @@ pub fn run(sc: Scenario) -> anyhow::Result<(Simulation, f64)> {
     anyhow::ensure!(
         finish != Finish::MaxSteps,
         "{}: no steady state within {} steps (residual {:.3e})",
-        sim.scenario.name,
-        sim.step,
-        sim.residual
+        sim.scenario().name,
+        sim.step(),
+        sim.residual()
     );
     Ok((sim, t0.elapsed().as_secs_f64()))
 }
 
 /// Boundary rate (m^2/s) of the boundary named `name`.
 pub fn rate(sim: &Simulation, name: &str) -> f64 {
-    let f = sim.flow.as_ref().expect("flow");
+    let f = sim.flow().expect("flow");
     f.view
         .bcs
         .iter()
@@ -164,7 +164,7 @@ fn push(
         case,
         level,
         h,
-        unknowns: sim.flow.as_ref().map_or(0, |f| f.view.n_cells()),
+        unknowns: sim.flow().map_or(0, |f| f.view.n_cells()),
         metric: metric.into(),
         error,
         wall_s: wall,
@@ -413,15 +413,15 @@ pub fn diffusion_run(
         FlowScheme::Implicit => sc = implicit(sc, dt),
     }
     let (sim, wall) = run(sc)?;
-    let f = sim.flow.as_ref().expect("flow");
+    let f = sim.flow().expect("flow");
     let (mut e_series, mut e_erfc) = (0.0f64, 0.0f64);
     let mut p = Vec::with_capacity(f.view.n_cells());
     for c in 0..f.view.n_cells() {
         let [pa, pb] = f.view.cell_nodes[c].map(|k| f.view.node_pos[k as usize]);
         let x = 0.5 * (pa[0] + pb[0]);
-        let pc = crate::flow::pressure_of(f.view.excess[c], f.view.volume[c], &f.params);
-        let s = pi + (p0 - pi) * closed_end_series(x, sim.time, len, d);
-        let e = pi + (p0 - pi) * erfc(x / (2.0 * (d * sim.time).sqrt()));
+        let pc = crate::flow::pressure_of(f.view.excess[c], f.view.volume[c], &sim.params().fluid);
+        let s = pi + (p0 - pi) * closed_end_series(x, sim.time(), len, d);
+        let e = pi + (p0 - pi) * erfc(x / (2.0 * (d * sim.time()).sqrt()));
         e_series = e_series.max((pc - s).abs() / (p0 - pi));
         e_erfc = e_erfc.max((pc - e).abs() / (p0 - pi));
         p.push(pc);
@@ -587,15 +587,15 @@ pub fn mass_balance_run(
     let mut worst = 0.0f64;
     let mut filling = 0usize;
     let mut injected_off = None;
-    while sim.finish.is_none() {
+    while sim.finish().is_none() {
         sim.step_once()?;
         let (inj, _, _, err) = sim.flow_balance().expect("flow");
         worst = worst.max(err);
-        let f = sim.flow.as_ref().expect("flow");
+        let f = sim.flow().expect("flow");
         let empty = f.view.excess.iter().filter(|&&e| e < 0.0).count();
         let full = f.view.excess.iter().filter(|&&e| e > 0.0).count();
         filling = filling.max(empty.min(full));
-        if sim.time > 1.01 && sim.time < 1.49 {
+        if sim.time() > 1.01 && sim.time() < 1.49 {
             injected_off.get_or_insert(inj);
             // While the pump is off nothing may be injected.
             anyhow::ensure!(
@@ -731,7 +731,7 @@ pub fn pump_curve(quick: bool) -> anyhow::Result<CaseResult> {
             ("implicit", implicit(sc, long_step(a, len))),
         ] {
             let (sim, wall) = run(sc)?;
-            let f = sim.flow.as_ref().expect("flow");
+            let f = sim.flow().expect("flow");
             let pump = &f.view.bcs[0];
             let (ep, eq) = (
                 (pump.pressure - p_exact).abs() / p_exact,
@@ -798,13 +798,13 @@ pub fn steady(quick: bool) -> anyhow::Result<CaseResult> {
         ))?;
         {
             let (fi, fd) = (
-                im.flow.as_ref().expect("flow"),
-                di.flow.as_ref().expect("flow"),
+                im.flow().expect("flow"),
+                di.flow().expect("flow"),
             );
             let e_p = (0..fi.view.n_cells())
                 .map(|c| {
                     let p =
-                        crate::flow::pressure_of(fi.view.excess[c], fi.view.volume[c], &fi.params);
+                        crate::flow::pressure_of(fi.view.excess[c], fi.view.volume[c], &im.params().fluid);
                     (p - fd.view.pressure[c]).abs()
                 })
                 .fold(0.0, f64::max)
@@ -843,8 +843,8 @@ pub fn steady(quick: bool) -> anyhow::Result<CaseResult> {
             );
         }
         let (fe, fd) = (
-            ex.flow.as_ref().expect("flow"),
-            di.flow.as_ref().expect("flow"),
+            ex.flow().expect("flow"),
+            di.flow().expect("flow"),
         );
         anyhow::ensure!(
             fe.view.n_cells() >= 200,
@@ -853,7 +853,7 @@ pub fn steady(quick: bool) -> anyhow::Result<CaseResult> {
         );
         let dp = 12e6;
         let pe: Vec<f64> = (0..fe.view.n_cells())
-            .map(|c| crate::flow::pressure_of(fe.view.excess[c], fe.view.volume[c], &fe.params))
+            .map(|c| crate::flow::pressure_of(fe.view.excess[c], fe.view.volume[c], &ex.params().fluid))
             .collect();
         let e_p = pe
             .iter()
@@ -943,11 +943,11 @@ pub fn flow_stability(_quick: bool) -> anyhow::Result<CaseResult> {
             let t0 = Instant::now();
             let mut sim = Simulation::new(sc, &[])?;
             let mut over = 0.0f64;
-            while sim.finish.is_none() {
+            while sim.finish().is_none() {
                 sim.step_once()?;
-                let f = sim.flow.as_ref().expect("flow");
+                let f = sim.flow().expect("flow");
                 for c in 0..f.view.n_cells() {
-                    let p = crate::flow::pressure_of(f.view.excess[c], f.view.volume[c], &f.params);
+                    let p = crate::flow::pressure_of(f.view.excess[c], f.view.volume[c], &sim.params().fluid);
                     over = over.max((p - 2e6).max(1e6 - p) / 1e6);
                 }
             }
@@ -982,7 +982,7 @@ pub fn flow_stability(_quick: bool) -> anyhow::Result<CaseResult> {
         WATER,
     );
     let probe = Simulation::new(sc.clone(), &[])?;
-    let crit = probe.flow.as_ref().expect("flow").dt_crit;
+    let crit = probe.flow().expect("flow").dt_crit;
     sc.time.flow_dt = Some(3.0 * crit);
     sc.time.dt = Some(3.0 * crit);
     let mut sim = Simulation::new(sc, &[])?;
@@ -1001,7 +1001,7 @@ pub fn flow_stability(_quick: bool) -> anyhow::Result<CaseResult> {
                 break Some(step);
             }
             Err(e) => return Err(e.into()),
-            Ok(()) if sim.step >= 100_000 => break None,
+            Ok(()) if sim.step() >= 100_000 => break None,
             Ok(()) => {}
         }
     };

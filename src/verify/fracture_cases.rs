@@ -113,23 +113,23 @@ pub fn pressurised_crack(
     let mut sim = Simulation::new(sc, &[])?;
     if let Relax::Scaled(k) = relax {
         let across = |d: usize| {
-            let mut c: Vec<f64> = sim.view.x0.iter().map(|x| x[d]).collect();
+            let mut c: Vec<f64> = sim.solid().x0.iter().map(|x| x[d]).collect();
             c.sort_by(f64::total_cmp);
             c.dedup();
             c.len() - 1
         };
         let n = across(0).max(across(1)) as f64;
-        sim.params.damping = Damping::Viscous(k / (n * sim.dt()));
+        sim.params_mut().solid.damping = Damping::Viscous(k / (n * sim.dt()));
     }
     let finish = sim.run(|_| {})?;
     anyhow::ensure!(
         finish == Finish::Converged,
         "sneddon: no static state (residual {:.3e})",
-        sim.residual
+        sim.residual()
     );
     let (mut area, mut wmax) = (0.0, 0.0f64);
-    for j in sim.model.world.query::<&crate::components::Joint>().iter() {
-        let (_, w, len) = crate::fractures::joint_opening(&sim.model, j);
+    for j in sim.model().world.query::<&crate::components::Joint>().iter() {
+        let (_, w, len) = crate::fractures::joint_opening(sim.model(), j);
         area += w * len;
         wmax = wmax.max(w);
     }
@@ -137,8 +137,8 @@ pub fn pressurised_crack(
         area,
         wmax,
         wall_s: t0.elapsed().as_secs_f64(),
-        unknowns: 2 * sim.view.n_nodes(),
-        steps: sim.step,
+        unknowns: 2 * sim.solid().n_nodes(),
+        steps: sim.step(),
     })
 }
 
@@ -368,10 +368,10 @@ pub fn inclined_block(psi_deg: f64, phi_deg: f64, h: f64) -> anyhow::Result<Incl
     anyhow::ensure!(
         finish == Finish::Converged,
         "inclined block: no static state under the normal load (residual {:.3e})",
-        sim.residual
+        sim.residual()
     );
     // The upper block: nodes of elements whose centroid lies above the fracture.
-    let v = &sim.view;
+    let v = sim.solid();
     let mut upper = vec![false; v.n_nodes()];
     for c in &v.conn {
         let yc = c.iter().map(|&a| v.x0[a as usize][1]).sum::<f64>() / 3.0;
@@ -384,7 +384,7 @@ pub fn inclined_block(psi_deg: f64, phi_deg: f64, h: f64) -> anyhow::Result<Incl
         .map(|i| v.mass[i])
         .sum();
     let com = |sim: &Simulation| -> (f64, f64) {
-        let v = &sim.view;
+        let v = sim.solid();
         let (mut x, mut vel) = (0.0, 0.0);
         for i in (0..v.n_nodes()).filter(|&i| upper[i]) {
             x += v.mass[i] * v.u[i][0];
@@ -392,38 +392,39 @@ pub fn inclined_block(psi_deg: f64, phi_deg: f64, h: f64) -> anyhow::Result<Incl
         }
         (x / mass, vel / mass)
     };
-    let sliding = |sim: &Simulation| sim.view.joint_state.iter().filter(|s| s.sliding).count();
-    let base = sim.view.load.clone();
+    let sliding = |sim: &Simulation| sim.solid().joint_state.iter().filter(|s| s.sliding).count();
+    let base = sim.solid().load.clone();
     let gt = G * psi.sin();
-    sim.params.damping = Damping::None;
-    let (x_start, t_start) = (com(&sim).0, sim.time);
+    sim.params_mut().solid.damping = Damping::None;
+    let (x_start, t_start) = (com(&sim).0, sim.time());
     let mut sliding_ever = 0;
     // Ramp, then hold: the tangential body force m_i g sin psi (the body force is lumped like
     // the mass, rho g A / 3 per element node) grows linearly to its full value.
-    while sim.time - t_start < ramp + delay {
-        let f = ((sim.time + sim.dt() - t_start) / ramp).min(1.0);
-        for (i, l) in sim.view.load.iter_mut().enumerate() {
-            l[0] = base[i][0] + f * sim.view.mass[i] * gt;
+    while sim.time() - t_start < ramp + delay {
+        let f = ((sim.time() + sim.dt() - t_start) / ramp).min(1.0);
+        let v = sim.solid_mut();
+        for i in 0..v.load.len() {
+            v.load[i][0] = base[i][0] + f * v.mass[i] * gt;
         }
         sim.step_once()?;
         sliding_ever = sliding_ever.max(sliding(&sim));
     }
-    let (v1, t1) = (com(&sim).1, sim.time);
+    let (v1, t1) = (com(&sim).1, sim.time());
     let (mut smin, mut smax) = (usize::MAX, 0);
     let (mut sum_n, mut sum_t, mut n_steps) = (0.0, 0.0, 0usize);
-    while sim.time - t1 < window {
+    while sim.time() - t1 < window {
         sim.step_once()?;
         let s = sliding(&sim);
         smin = smin.min(s);
         smax = smax.max(s);
         sum_n += sim
-            .view
+            .solid()
             .joint_state
             .iter()
             .map(|s| s.normal_force)
             .sum::<f64>();
         sum_t += sim
-            .view
+            .solid()
             .joint_state
             .iter()
             .map(|s| s.shear_force)
@@ -434,14 +435,14 @@ pub fn inclined_block(psi_deg: f64, phi_deg: f64, h: f64) -> anyhow::Result<Incl
     let (mean_n, mean_t) = (sum_n / n_steps as f64, sum_t / n_steps as f64);
     let (x_end, v2) = com(&sim);
     Ok(InclinedBlock {
-        accel: (v2 - v1) / (sim.time - t1),
+        accel: (v2 - v1) / (sim.time() - t1),
         expected: (G * (psi.sin() - psi.cos() * phi.tan())).max(0.0),
         slip: x_end - x_start,
         sliding_min: smin,
         sliding_max: smax,
         sliding_ever,
-        joints: sim.view.joint_nodes.len(),
-        unknowns: 2 * sim.view.n_nodes(),
+        joints: sim.solid().joint_nodes.len(),
+        unknowns: 2 * sim.solid().n_nodes(),
         normal_ratio: mean_n / (mass * G * psi.cos()),
         shear_ratio: mean_t.abs() / (phi.tan() * mean_n),
         wall_s: t0.elapsed().as_secs_f64(),

@@ -1,7 +1,7 @@
 //! Solid verification cases (verification.md items 1-4).
 
 use super::{CaseResult, Row, observed_order};
-use crate::error::RunError;
+use crate::systems::RunError;
 use crate::model::Model;
 use crate::scenario::{
     Boundary, Damping, End, Material, MeshSpec, OutputSpec, Scenario, SystemsSpec, TimeControl,
@@ -83,9 +83,9 @@ pub fn relax(sc: Scenario, prep: impl FnOnce(&mut Model)) -> anyhow::Result<(Sim
     ensure!(
         finish == Finish::Converged,
         "{}: static relaxation did not converge in {} steps (residual {:.3e})",
-        sim.scenario.name,
-        sim.step,
-        sim.residual
+        sim.scenario().name,
+        sim.step(),
+        sim.residual()
     );
     Ok((sim, t0.elapsed().as_secs_f64()))
 }
@@ -129,13 +129,13 @@ pub fn patch(quick: bool) -> anyhow::Result<CaseResult> {
             Damping::Local(0.8),
         );
         let (sim, wall) = relax(sc, |m| m.prescribe_boundary_field(exact))?;
-        let v = &sim.view;
+        let v = sim.solid();
         let umax = v.x0.iter().map(|&x| norm(exact(x))).fold(0.0, f64::max);
         let du = (0..v.n_nodes())
             .map(|i| norm(sub(v.u[i], exact(v.x0[i]))))
             .fold(0.0, f64::max);
         let eps = [grad[0][0], grad[1][1], grad[0][1] + grad[1][0]];
-        let s_exact = solid::hooke(eps, &sim.params);
+        let s_exact = solid::hooke(eps, &sim.params().solid);
         let smax = s_exact.iter().map(|s| s.abs()).fold(0.0, f64::max);
         let ds = v
             .stress
@@ -194,7 +194,7 @@ pub fn insitu(quick: bool) -> anyhow::Result<CaseResult> {
             );
             let (sim, wall) = relax(sc, |_| {})?;
             let err = sim
-                .view
+                .solid()
                 .stress
                 .iter()
                 .map(|s| (s[0] - sxx).abs().max((s[1] - syy).abs()).max(s[2].abs()))
@@ -204,7 +204,7 @@ pub fn insitu(quick: bool) -> anyhow::Result<CaseResult> {
                 case: "insitu",
                 level,
                 h,
-                unknowns: 2 * sim.view.n_nodes(),
+                unknowns: 2 * sim.solid().n_nodes(),
                 metric: metric.into(),
                 error: err,
                 wall_s: wall,
@@ -314,14 +314,14 @@ pub fn mms(quick: bool) -> anyhow::Result<CaseResult> {
             m.prescribe_boundary_field(|x| mf.u(x));
             m.add_body_force(|x| mf.body_force(x));
         })?;
-        let (eu, es) = mms_errors(&sim.view, &sim.params, &mf);
+        let (eu, es) = mms_errors(sim.solid(), &sim.params().solid, &mf);
         let h = 1.0 / n as f64;
         for (metric, error) in [("displacement_l2", eu), ("stress_l2", es)] {
             res.rows.push(Row {
                 case: "mms",
                 level,
                 h,
-                unknowns: 2 * sim.view.n_nodes(),
+                unknowns: 2 * sim.solid().n_nodes(),
                 metric: metric.into(),
                 error,
                 wall_s: wall,
@@ -412,10 +412,10 @@ pub fn energy_growth(sc: Scenario, steps: u64) -> anyhow::Result<(f64, f64, usiz
     let mut sim = Simulation::new(sc, &[])?;
     let every = (steps / 1000).max(1);
     let mut energy = Vec::new();
-    while sim.step < steps {
+    while sim.step() < steps {
         sim.step_once()?;
-        if sim.step % every == 0 && sim.step >= 10 * every {
-            energy.push(sim.stats.kinetic_mid + sim.stats.strain);
+        if sim.step() % every == 0 && sim.step() >= 10 * every {
+            energy.push(sim.stats().kinetic_mid + sim.stats().strain);
         }
     }
     let k = (energy.len() / 10).max(1);
@@ -424,7 +424,7 @@ pub fn energy_growth(sc: Scenario, steps: u64) -> anyhow::Result<(f64, f64, usiz
     Ok((
         (last - first) / first,
         t0.elapsed().as_secs_f64(),
-        sim.view.n_nodes(),
+        sim.solid().n_nodes(),
     ))
 }
 
@@ -501,7 +501,7 @@ pub fn stability(quick: bool) -> anyhow::Result<CaseResult> {
                 Damping::None,
             );
             let sim = Simulation::new(sc, &[])?;
-            let lmax = max_eigenvalue(&sim.view, &sim.params, 400);
+            let lmax = max_eigenvalue(sim.solid(), &sim.params().solid, 400);
             let dt_true = 2.0 / lmax.sqrt();
             res.check_max(
                 format!("dt / true critical step, {what} mesh, nu = {nu}"),
@@ -520,18 +520,18 @@ pub fn stability(quick: bool) -> anyhow::Result<CaseResult> {
         Damping::None,
     );
     let probe = Simulation::new(sc.clone(), &[])?;
-    sc.time.dt = Some(1.5 * probe.dt_crit);
+    sc.time.dt = Some(1.5 * probe.dt_crit());
     let mut sim = Simulation::new(sc, &[])?;
     let caught = loop {
         match sim.step_once() {
             Err(RunError::BlowUp { step, .. }) => break Some(step),
             Err(e) => return Err(e).context("overstep run"),
-            Ok(()) if sim.step >= 20_000 => break None,
+            Ok(()) if sim.step() >= 20_000 => break None,
             Ok(()) => {}
         }
     };
     let finite = sim
-        .view
+        .solid()
         .u
         .iter()
         .all(|u| u[0].is_finite() && u[1].is_finite());

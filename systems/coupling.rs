@@ -1,9 +1,11 @@
-//! Hydro-mechanical coupling by sub-stepping (seed "Time Stepping Considerations").
+//! Hydro-mechanical coupling by sub-stepping (`docs/seed-method.md`, time stepping and flow
+//! sub-stepping; D8 says where we differ from the seed).
 //!
 //! The solid takes one central-difference step of dt; the fracture network's flow takes N
 //! explicit sub-steps of dt/N inside it, N chosen every solid step from the flow's critical step
 //! at the step's apertures. Exchange per solid step:
-//! - solid -> flow: every fracture cell's hydraulic aperture a = max(delta_n, a_r) (seed (12))
+//! - solid -> flow: every fracture cell's hydraulic aperture a = max(delta_n, a_r) (seed (12),
+//!   [`crate::fractures::hydraulic_aperture`])
 //!   from its joint's opening at the start and at the end of the step (the flow runs after
 //!   `integrate`, so both are known); the sub-steps use the linear interpolation between them
 //!   (the seed extrapolates from the previous step: the same scheme shifted by one step, with
@@ -18,7 +20,7 @@
 //!
 //! The fluid is a stiff spring on the fracture faces: an opening change d(delta) changes a full
 //! cell's pressure by K d(delta)/a, a force K L/a d(delta) per face, stiffer than the joint
-//! penalty for a = a_r. The solid's critical step includes it (see [`coupled_step_bound`]).
+//! penalty for a = a_r. The solid's critical step includes it (see [`crate::stability::solid`]).
 
 use crate::flow::{FlowParams, FlowView, pressure_of};
 use crate::model::Model;
@@ -117,7 +119,7 @@ impl Coupling {
             self.a_end[c] = if k == u32::MAX {
                 flow.aperture[c]
             } else {
-                joint_frame(solid, k as usize).dn.max(self.a_r)
+                crate::fractures::hydraulic_aperture(joint_frame(solid, k as usize).dn, self.a_r)
             };
         }
     }
@@ -159,7 +161,7 @@ impl Coupling {
         for c in 0..nc {
             if self.kappa_sum[c] > 0.0 {
                 let v = flow.length[c] * self.a_start[c].min(self.a_end[c]);
-                let b = v / (p.k * self.kappa_sum[c]);
+                let b = crate::stability::flow_cell(v, p.k, self.kappa_sum[c]);
                 if b < dt_crit {
                     (dt_crit, critical_cell) = (b, c);
                 }
@@ -251,19 +253,4 @@ impl Coupling {
             critical_cell: 0,
         })
     }
-}
-
-/// Critical solid step of a coupled run, s: [`crate::fractures::step_with_joints`] with each
-/// joint's stiffness raised by the fluid's, K_f L / a_r (the stiffest a full cell of length L
-/// at the residual aperture pushes back on an opening change).
-pub fn coupled_step_bound(
-    model: &Model,
-    dt_elements: f64,
-    k_joint: f64,
-    k_fluid: f64,
-    a_r: f64,
-) -> f64 {
-    crate::fractures::step_with_joint_stiffness(model, dt_elements, |len| {
-        k_joint + k_fluid * len / a_r
-    })
 }

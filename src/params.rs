@@ -1,0 +1,172 @@
+//! Run parameters: the scenario resolved once, at setup, into the typed constants the systems
+//! read. Every default is applied here (or in the scenario's serde defaults it reads); nothing
+//! in the step reads the raw scenario. SI units throughout.
+
+use crate::element::SolidParams;
+use crate::flow::FlowParams;
+use crate::scenario::{
+    DEFAULT_RESIDUAL_APERTURE, End, FaceStress, Field, FlowBoundary, FlowScheme, Material,
+    Scenario,
+};
+
+/// Joint constants: penalty stiffnesses K_n, K_t (Pa) and the friction coefficient tan(phi).
+#[derive(Clone, Copy, Debug)]
+pub struct JointParams {
+    pub kn: f64,
+    pub kt: f64,
+    pub mu: f64,
+}
+
+impl JointParams {
+    /// The stiffer of K_n and K_t, Pa: what the stability bounds take per joint.
+    pub fn k_max(&self) -> f64 {
+        self.kn.max(self.kt)
+    }
+}
+
+/// The fracture criterion (seed (7), `docs/seed-method.md`).
+#[derive(Clone, Copy, Debug)]
+pub struct CriterionParams {
+    /// lambda*T0, Pa (tension positive).
+    pub strength: f64,
+    /// Face stress from the two elements beside the edge (`FaceStress::Elements`) instead of
+    /// the edge's patch.
+    pub by_elements: bool,
+}
+
+/// Time control.
+#[derive(Clone, Debug)]
+pub struct TimeParams {
+    pub end: End,
+    /// Fraction of the critical step used.
+    pub safety: f64,
+    /// The user forced the step (`time.dt`): it is not shortened after splits.
+    pub forced_dt: bool,
+    pub flow_dt: Option<f64>,
+    pub flow_scheme: FlowScheme,
+    pub max_steps: u64,
+    pub max_substeps: u64,
+    pub mass_scaling: bool,
+}
+
+/// What is written and when.
+#[derive(Clone, Debug)]
+pub struct OutputParams {
+    /// A frame every this many steps (0: first and last only).
+    pub frame_every: u64,
+    /// A time-series row every this many steps.
+    pub series_every: u64,
+    /// Simulated times of the fracture-pressure figures, s.
+    pub figure_times: Vec<f64>,
+    pub fields: Vec<Field>,
+}
+
+/// Everything the step needs, resolved from a validated scenario.
+#[derive(Clone, Debug)]
+pub struct RunParams {
+    /// The scenario's name (figure titles).
+    pub name: String,
+    /// Solid kernel constants; `dt` is set by setup and shortened by `split`, `load_factor`
+    /// follows the boundary schedule each step.
+    pub solid: SolidParams,
+    pub material: Material,
+    /// P-wave speed sqrt((lambda + 2G)/rho), m/s (0 without a solid).
+    pub c_p: f64,
+    pub joint: JointParams,
+    /// Residual hydraulic aperture a_r, m (seed (12)).
+    pub residual_aperture: f64,
+    pub criterion: Option<CriterionParams>,
+    /// The scenario has a `fracture` block (pre-existing fractures and/or a criterion).
+    pub has_fractures: bool,
+    /// A prescribed uniform pressure on every fracture face, Pa.
+    pub face_pressure: Option<f64>,
+    pub fluid: FlowParams,
+    /// The rock's fractures carry the network flow (a mesh and flow boundaries).
+    pub coupled: bool,
+    pub flow_boundaries: Vec<FlowBoundary>,
+    /// Label of each flow boundary (`bc<index>` when unnamed).
+    pub bc_names: Vec<String>,
+    /// Multiplier of all boundary loads against time, piecewise linear.
+    pub boundary_schedule: Vec<(f64, f64)>,
+    pub time: TimeParams,
+    pub output: OutputParams,
+}
+
+impl RunParams {
+    /// Resolve a validated scenario; `material` is the model's (a default without a mesh).
+    pub fn resolve(sc: &Scenario, material: Material) -> Self {
+        let f = sc.fracture.as_ref();
+        let has_solid = sc.mesh.is_some();
+        let t = &sc.time;
+        RunParams {
+            name: sc.name.clone(),
+            solid: SolidParams {
+                lam2g: material.lambda() + 2.0 * material.shear(),
+                lam: material.lambda(),
+                g: material.shear(),
+                dt: 0.0,
+                damping: sc.damping,
+                load_factor: 1.0,
+            },
+            material,
+            c_p: if has_solid {
+                material.p_wave_speed()
+            } else {
+                0.0
+            },
+            joint: JointParams {
+                kn: f.and_then(|f| f.normal_stiffness).unwrap_or(material.young),
+                kt: f.and_then(|f| f.shear_stiffness).unwrap_or(material.shear()),
+                mu: f.map_or(0.0, |f| f.friction_deg.to_radians().tan()),
+            },
+            residual_aperture: f.map_or(DEFAULT_RESIDUAL_APERTURE, |f| f.residual_aperture),
+            criterion: f
+                .and_then(|f| f.strength.map(|s| (s, f.face_stress)))
+                .filter(|_| has_solid)
+                .map(|(strength, face)| CriterionParams {
+                    strength,
+                    by_elements: face == FaceStress::Elements,
+                }),
+            has_fractures: f.is_some(),
+            face_pressure: f.and_then(|f| f.pressure),
+            fluid: FlowParams::from(sc.fluid),
+            coupled: has_solid && !sc.flow_boundaries.is_empty(),
+            flow_boundaries: sc.flow_boundaries.clone(),
+            bc_names: sc
+                .flow_boundaries
+                .iter()
+                .enumerate()
+                .map(|(i, b)| {
+                    if b.name.is_empty() {
+                        format!("bc{i}")
+                    } else {
+                        b.name.clone()
+                    }
+                })
+                .collect(),
+            boundary_schedule: sc.boundary_schedule.clone(),
+            time: TimeParams {
+                end: t.end,
+                safety: t.safety,
+                forced_dt: t.dt.is_some(),
+                flow_dt: t.flow_dt,
+                flow_scheme: t.flow_scheme,
+                max_steps: t.max_steps,
+                max_substeps: t.max_substeps,
+                mass_scaling: t.mass_scaling,
+            },
+            output: OutputParams {
+                frame_every: sc.output.frame_every,
+                series_every: sc.output.series_every,
+                figure_times: sc.output.figure_times.clone(),
+                fields: sc.output.fields.clone(),
+            },
+        }
+    }
+
+    /// Fluid bulk modulus that stiffens the joints in the solid's stability bound, Pa: K of the
+    /// fluid in coupled runs, 0 otherwise.
+    pub fn k_fluid(&self) -> f64 {
+        if self.coupled { self.fluid.k } else { 0.0 }
+    }
+}

@@ -1,0 +1,146 @@
+//! `monitor`: advances the clock, stops a run whose state has blown up (non-finite or runaway
+//! speeds, negative fluid mass, an explicit flow step above its bound), updates the static
+//! residual and decides when the run ends.
+
+use crate::params::RunParams;
+use crate::scenario::End;
+use crate::systems::RunError;
+use crate::systems::flow::FlowPart;
+use crate::systems::solid::SolidPart;
+
+/// A speed above this fraction of the P-wave speed implies strains of order 100 %: far outside
+/// small-strain elasticity, so the run is treated as blown up.
+pub const SPEED_LIMIT_FRACTION: f64 = 1.0;
+
+/// How a run ended.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Finish {
+    /// Reached the end time.
+    EndTime,
+    /// Static (or steady) residual below tolerance.
+    Converged,
+    /// Hit `time.max_steps` first.
+    MaxSteps,
+}
+
+/// Where the run is in time.
+#[derive(Clone, Debug)]
+pub struct Clock {
+    /// Steps taken.
+    pub step: u64,
+    /// Simulated time, s.
+    pub time: f64,
+    /// Steps to run for an `End::Time` scenario.
+    pub steps_to_end: Option<u64>,
+    /// Static residual after the last step (solid and flow, the larger).
+    pub residual: f64,
+    pub finish: Option<Finish>,
+}
+
+/// `monitor`: the step [t0, t0 + dt] is done; check it and decide whether the run ends.
+pub fn monitor(
+    clock: &mut Clock,
+    t0: f64,
+    solid: &SolidPart,
+    flow: Option<&FlowPart>,
+    p: &RunParams,
+) -> Result<(), RunError> {
+    clock.step += 1;
+    clock.time = t0 + p.solid.dt;
+    let (st, v) = (&solid.stats, &solid.view);
+    let blow = |entity: String, quantity: &'static str, value: f64, why: String, dt: f64| {
+        RunError::BlowUp {
+            step: clock.step,
+            time: clock.time,
+            entity,
+            quantity,
+            value,
+            why,
+            dt,
+        }
+    };
+    let node = |i: usize| {
+        let x = v.x0[i];
+        format!("node {} at ({:.4}, {:.4}) m", v.node_id[i], x[0], x[1])
+    };
+    if let Some(i) = st.non_finite {
+        let vel = v.v[i];
+        let value = if vel[0].is_finite() { vel[1] } else { vel[0] };
+        return Err(blow(
+            node(i),
+            "velocity",
+            value,
+            "a non-finite value".into(),
+            p.solid.dt,
+        ));
+    }
+    let limit = SPEED_LIMIT_FRACTION * p.c_p;
+    if v.n_nodes() > 0 && st.vmax > limit {
+        return Err(blow(
+            node(st.vmax_node),
+            "speed",
+            st.vmax,
+            format!(
+                "above {SPEED_LIMIT_FRACTION} c_p = {limit:.4e} m/s (strain of order 100 %: the step \
+                 exceeds the stability limit {:.3e} s or the loading is not physical)",
+                solid.dt_crit
+            ),
+            p.solid.dt,
+        ));
+    }
+    let mut residual = if v.n_nodes() > 0 { st.residual() } else { 0.0 };
+    if let Some(f) = flow {
+        // The explicit flow step must respect the stability bound (a forced `time.flow_dt`
+        // may not): above it the scheme oscillates, and the P = 0 floor of unfilled cells can
+        // hold the oscillation bounded, so it would not show up as a blow-up by itself.
+        if f.implicit.is_none()
+            && f.dt > f.dt_crit * (1.0 + 1e-9)
+            && let Some((c, bound)) = f.view.critical_cell(&p.fluid)
+        {
+            return Err(blow(
+                f.view.cell_label(c),
+                "flow step",
+                f.dt,
+                format!(
+                    "above the cell's stability bound V/(K sum kappa) = {bound:.4e} s: unstable"
+                ),
+                f.dt,
+            ));
+        }
+        if let Some(c) = f.stats.bad_cell {
+            return Err(blow(
+                f.view.cell_label(c),
+                "fluid mass",
+                f.view.excess[c] + p.fluid.rho_r * f.view.volume[c],
+                match f.implicit {
+                    None => format!(
+                        "negative or non-finite: the flow step exceeds its stability limit {:.3e} s",
+                        f.dt_crit
+                    ),
+                    Some(_) => {
+                        "negative or non-finite: more fluid withdrawn than the cell holds".into()
+                    }
+                },
+                f.dt,
+            ));
+        }
+        residual = residual.max(f.residual);
+    }
+    clock.residual = residual;
+    if let End::Static { tol, min_steps } = p.time.end
+        && clock.step >= min_steps
+        && clock.residual < tol
+    {
+        clock.finish = Some(Finish::Converged);
+    }
+    if let Some(n) = clock.steps_to_end
+        && clock.step >= n
+    {
+        clock.finish = Some(Finish::EndTime);
+    }
+    if clock.finish.is_none() && clock.step >= p.time.max_steps {
+        clock.finish = Some(Finish::MaxSteps);
+    }
+    Ok(())
+}
