@@ -57,7 +57,9 @@ fn solid_step(c: &mut Criterion) {
         let mesh = TriMesh::regular(100.0, 100.0, h, [0.0, 0.0]).unwrap();
         let bcs: Vec<[Option<f64>; 2]> = (0..sim.solid().n_nodes())
             .map(|i| {
-                [0, 1].map(|d| (sim.solid().fixed[i] & (1 << d) != 0).then_some(sim.solid().presc[i][d]))
+                [0, 1].map(|d| {
+                    (sim.solid().fixed[i] & (1 << d) != 0).then_some(sim.solid().presc[i][d])
+                })
             })
             .collect();
         let w = n + 1;

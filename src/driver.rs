@@ -1,11 +1,11 @@
 //! `hydrofrac run`: load a scenario, run it with per-system timing, write the outputs.
 
 use crate::error::SetupError;
-use crate::systems::RunError;
 use crate::output::{Outputs, write_atomic};
 use crate::scenario::Scenario;
 use crate::schedule::Status;
 use crate::sim::{Finish, Simulation};
+use crate::systems::RunError;
 use crate::timing::{TimingLayer, format_table};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use serde_json::json;
@@ -85,7 +85,11 @@ pub fn run_scenario(scenario: Scenario, opts: &RunOptions) -> Result<RunReport, 
     let result = tracing::subscriber::with_default(subscriber, || {
         sim.run(|s| {
             bar.set_position(progress_position(s));
-            bar.set_message(format!("t = {:.4e} s  residual {:.2e}", s.time(), s.residual()));
+            bar.set_message(format!(
+                "t = {:.4e} s  residual {:.2e}",
+                s.time(),
+                s.residual()
+            ));
         })
     });
     let wall = t0.elapsed().as_secs_f64();
@@ -114,7 +118,9 @@ pub fn run_scenario(scenario: Scenario, opts: &RunOptions) -> Result<RunReport, 
         let length: f64 = v.length.iter().sum();
         summary["fractures"] = json!({"cells": v.n_cells(), "total_length": length,
             "new_cells": v.kind.iter().filter(|k| **k == crate::components::CellKind::New).count()});
-        if let Err(e) = crate::output::plots::fracture_figure(&sim.params().name, sim.time(), &v, &o.dir) {
+        if let Err(e) =
+            crate::output::plots::fracture_figure(&sim.params().name, sim.time(), &v, &o.dir)
+        {
             summary["warnings"] = json!([format!("figures not written: {e}")]);
         }
         // The seed's Fig. 7 view: the mesh with apertures magnified 20x, coloured by the
@@ -148,7 +154,9 @@ pub fn run_scenario(scenario: Scenario, opts: &RunOptions) -> Result<RunReport, 
     }
     if let (Some(f), Some(o)) = (sim.flow(), sim.output()) {
         o.write_network_csv(&f.view).map_err(DriverError::Output)?;
-        if let Err(e) = crate::output::plots::flow_figures(&f.view, sim.params(), sim.time(), &o.dir) {
+        if let Err(e) =
+            crate::output::plots::flow_figures(&f.view, sim.params(), sim.time(), &o.dir)
+        {
             summary["warnings"] = json!([format!("figures not written: {e}")]);
         }
     }

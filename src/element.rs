@@ -128,7 +128,9 @@ mod tests {
     #[test]
     fn stiffness_matches_the_kernel_and_has_rigid_modes() {
         let e = crate::model::element_geometry([[0.0, 0.0], [1.3, 0.2], [0.4, 0.9]]);
-        let g = [e.area, e.dndx[0], e.dndx[1], e.dndx[2], e.dndy[0], e.dndy[1], e.dndy[2]];
+        let g = [
+            e.area, e.dndx[0], e.dndx[1], e.dndx[2], e.dndy[0], e.dndy[1], e.dndy[2],
+        ];
         let p = params();
         let k = element_stiffness(&g, &p);
         let u = [[1e-3, -2e-4], [3e-4, 5e-4], [-7e-4, 2e-4]];
@@ -136,15 +138,16 @@ mod tests {
         let fk = -(k * element_vector(u));
         let scale = f.iter().fold(0.0f64, |a, x| a.max(x.abs()));
         for i in 0..6 {
-            assert!((f[i] - fk[i]).abs() <= 1e-12 * scale, "{i}: {} vs {}", f[i], fk[i]);
+            assert!(
+                (f[i] - fk[i]).abs() <= 1e-12 * scale,
+                "{i}: {} vs {}",
+                f[i],
+                fk[i]
+            );
         }
         assert!((k - k.transpose()).abs().max() <= 1e-12 * k.abs().max());
         let x = [[0.0, 0.0], [1.3, 0.2], [0.4, 0.9]];
-        for rigid in [
-            [[1.0, 0.0]; 3],
-            [[0.0, 1.0]; 3],
-            x.map(|p| [-p[1], p[0]]),
-        ] {
+        for rigid in [[[1.0, 0.0]; 3], [[0.0, 1.0]; 3], x.map(|p| [-p[1], p[0]])] {
             let r = k * element_vector(rigid);
             assert!(r.abs().max() <= 1e-9 * k.abs().max(), "{r}");
         }

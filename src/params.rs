@@ -5,8 +5,7 @@
 use crate::element::SolidParams;
 use crate::flow::FlowParams;
 use crate::scenario::{
-    DEFAULT_RESIDUAL_APERTURE, End, FaceStress, Field, FlowBoundary, FlowScheme, Material,
-    Scenario,
+    DEFAULT_RESIDUAL_APERTURE, End, FaceStress, Field, FlowBoundary, FlowScheme, Material, Scenario,
 };
 
 /// Joint constants: penalty stiffnesses K_n, K_t (Pa) and the friction coefficient tan(phi).
@@ -116,7 +115,9 @@ impl RunParams {
             },
             joint: JointParams {
                 kn: f.and_then(|f| f.normal_stiffness).unwrap_or(material.young),
-                kt: f.and_then(|f| f.shear_stiffness).unwrap_or(material.shear()),
+                kt: f
+                    .and_then(|f| f.shear_stiffness)
+                    .unwrap_or(material.shear()),
                 mu: f.map_or(0.0, |f| f.friction_deg.to_radians().tan()),
             },
             residual_aperture: f.map_or(DEFAULT_RESIDUAL_APERTURE, |f| f.residual_aperture),

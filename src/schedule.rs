@@ -14,6 +14,36 @@ pub enum Status {
     NoData,
 }
 
+/// What a scene has, which decides the systems that have data to work on.
+#[derive(Clone, Copy, Debug)]
+pub struct SceneData {
+    pub solid: bool,
+    pub joints: bool,
+    /// External loads (tractions, body forces).
+    pub load: bool,
+    pub damping: bool,
+    pub flow: bool,
+    /// The rock's fractures carry the flow.
+    pub coupled: bool,
+    pub criterion: bool,
+}
+
+impl SceneData {
+    /// Whether system `s` has data in this scene.
+    pub fn has(&self, s: SystemId) -> bool {
+        match s {
+            SystemId::Contact => self.joints,
+            SystemId::FluidPressure => self.coupled,
+            SystemId::InternalForce | SystemId::Integrate => self.solid,
+            SystemId::ExternalLoad => self.load,
+            SystemId::Damping => self.solid && self.damping,
+            SystemId::FlowSubsteps => self.flow,
+            SystemId::FractureCriterion | SystemId::Split => self.criterion,
+            SystemId::Monitor | SystemId::Output => true,
+        }
+    }
+}
+
 #[derive(Clone, Debug)]
 pub struct Schedule {
     pub entries: Vec<(SystemId, Status)>,

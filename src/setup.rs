@@ -1,10 +1,21 @@
 //! Setup: the rock model a scenario describes (mesh, material, pre-existing fractures,
-//! boundary conditions, pins, initial state, body forces, face pressure) and its fluid network.
+//! boundary conditions, pins, initial state, body forces, face pressure), its fluid network and
+//! the time step. Called by [`crate::sim::Simulation::new`].
 
 use crate::error::SetupError;
+use crate::flow::FlowView;
 use crate::mesh::TriMesh;
 use crate::model::Model;
-use crate::scenario::{Boundary, InitialFluid, InitialState, MeshSpec, Scenario};
+use crate::network::CellNetwork;
+use crate::params::RunParams;
+use crate::scenario::{
+    Boundary, End, FlowScheme, InitialFluid, InitialState, MeshSpec, Scenario, TimeControl,
+};
+use crate::systems::flow::FlowPart;
+
+/// Flow sub-steps per step in flow-only scenes: the schedule, spans and monitoring run once per
+/// step, so a step of several flow sub-steps keeps their cost small against the flow kernel.
+pub const FLOW_ONLY_SUBSTEPS: u64 = 32;
 
 /// Build the mesh a scenario describes.
 pub fn build_mesh(spec: &MeshSpec) -> Result<TriMesh, SetupError> {
@@ -67,10 +78,76 @@ pub fn build_model(sc: &Scenario) -> Result<(Model, Vec<crate::fractures::Placed
     Ok((m, placed))
 }
 
-/// Coupled runs: fill the rock's fracture cells at the initial fluid pressure (an empty start
-/// leaves them empty).
-pub fn fill_fractures(model: &mut Model, initial: InitialFluid, rho_r: f64, k: f64) {
-    if let InitialFluid::Full(p0) = initial {
-        crate::fractures::fill_cells(model, rho_r * (1.0 + p0 / k));
+/// The flow part: a rigid network of its own (`network`), or the rock's fractures when the
+/// scene has a mesh and flow boundaries (coupled; the cells are filled at the initial fluid
+/// pressure unless the start is empty); `None` without either.
+pub fn build_flow(
+    model: &mut Model,
+    sc: &Scenario,
+    p: &RunParams,
+) -> Result<Option<FlowPart>, SetupError> {
+    let net = match &sc.network {
+        Some(spec) => {
+            let net = spec.discretise();
+            model.add_network(&net, sc.initial_fluid, p.fluid.rho_r, p.fluid.k);
+            net
+        }
+        None if p.coupled => {
+            if let InitialFluid::Full(p0) = sc.initial_fluid {
+                crate::fractures::fill_cells(model, p.fluid.rho_r * (1.0 + p0 / p.fluid.k));
+            }
+            CellNetwork::default()
+        }
+        None => return Ok(None),
+    };
+    model.add_flow_boundaries(&p.flow_boundaries)?;
+    let view = FlowView::build(model, &p.fluid);
+    Ok(Some(FlowPart::new(view, p, net, p.coupled)))
+}
+
+/// The step, s, and for timed runs the number of steps to the end (the step is shortened so a
+/// whole number of steps reaches it). The solid sets the step when there is one (`safety`
+/// times its critical step `dt_crit`, unless `time.dt` forces one); flow sub-steps fill it.
+/// Flow-only scenes take [`FLOW_ONLY_SUBSTEPS`] explicit sub-steps per step, or one implicit
+/// step of `time.flow_dt`. Sets the flow's sub-step count and length.
+pub fn time_step(
+    t: &TimeControl,
+    has_solid: bool,
+    dt_crit: f64,
+    flow: Option<&mut FlowPart>,
+) -> (f64, Option<u64>) {
+    let flow_auto = flow.as_ref().map(|f| t.safety * f.dt_crit);
+    let per_flow_dt = match t.flow_scheme {
+        FlowScheme::Explicit => FLOW_ONLY_SUBSTEPS as f64,
+        FlowScheme::Implicit => 1.0,
+    };
+    let mut dt = match (t.dt, has_solid, flow_auto, t.flow_dt) {
+        (Some(dt), _, _, _) => dt,
+        (None, true, _, _) => t.safety * dt_crit,
+        (None, false, _, Some(fdt)) => per_flow_dt * fdt,
+        (None, false, Some(fa), None) => FLOW_ONLY_SUBSTEPS as f64 * fa,
+        (None, false, None, None) => unreachable!("validated: a mesh or a network"),
+    };
+    let steps_to_end = match t.end {
+        End::Time(te) => {
+            let n = (te / dt - 1e-9).ceil().max(1.0);
+            dt = te / n;
+            Some(n as u64)
+        }
+        End::Static { .. } | End::SteadyDirect => None,
+    };
+    if t.dt.is_some() && dt > dt_crit {
+        tracing::warn!(
+            "time.dt = {dt:.3e} s is above the critical step {dt_crit:.3e} s; expect a blow-up"
+        );
     }
+    if let Some(f) = flow {
+        let target = t.flow_dt.unwrap_or(t.safety * f.dt_crit);
+        f.substeps = match f.implicit {
+            Some(_) => 1,
+            None => ((dt / target) * (1.0 - 1e-12)).ceil().max(1.0) as u64,
+        };
+        f.dt = dt / f.substeps as f64;
+    }
+    (dt, steps_to_end)
 }

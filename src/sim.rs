@@ -9,11 +9,10 @@
 use crate::error::SetupError;
 use crate::fractures::Placed;
 use crate::model::Model;
-use crate::network::CellNetwork;
 use crate::output::Outputs;
 use crate::params::RunParams;
-use crate::scenario::{Damping, End, FlowScheme, Scenario};
-use crate::schedule::{Schedule, Status};
+use crate::scenario::{Damping, End, Scenario};
+use crate::schedule::{SceneData, Schedule, Status};
 use crate::systems::flow::FlowPart;
 use crate::systems::fracture::FractureState;
 use crate::systems::output::Scene;
@@ -23,9 +22,7 @@ use crate::view::SolidView;
 
 pub use crate::systems::monitor::{Clock, Finish, SPEED_LIMIT_FRACTION};
 
-/// Flow sub-steps per step in flow-only scenes: the schedule, spans and monitoring run once per
-/// step, so a step of several flow sub-steps keeps their cost small against the flow kernel.
-pub const FLOW_ONLY_SUBSTEPS: u64 = 32;
+pub use crate::setup::FLOW_ONLY_SUBSTEPS;
 
 pub struct Simulation {
     /// The scenario as given (read by reports only; the step reads `params`).
@@ -60,63 +57,9 @@ impl Simulation {
         } else {
             f64::INFINITY
         };
-        let mut flow = match &scenario.network {
-            Some(spec) => {
-                let net = spec.discretise();
-                model.add_network(&net, scenario.initial_fluid, p.fluid.rho_r, p.fluid.k);
-                model.add_flow_boundaries(&p.flow_boundaries)?;
-                let view = crate::flow::FlowView::build(&model, &p.fluid);
-                Some(FlowPart::new(view, &p, net, false))
-            }
-            None if p.coupled => {
-                crate::setup::fill_fractures(
-                    &mut model,
-                    scenario.initial_fluid,
-                    p.fluid.rho_r,
-                    p.fluid.k,
-                );
-                model.add_flow_boundaries(&p.flow_boundaries)?;
-                let view = crate::flow::FlowView::build(&model, &p.fluid);
-                Some(FlowPart::new(view, &p, CellNetwork::default(), true))
-            }
-            None => None,
-        };
-        // Steps: the solid sets the step when there is one; flow sub-steps fill it. Implicit
-        // flow-only scenes take `time.flow_dt` as their (single) flow step.
-        let t = &scenario.time;
-        let flow_auto = flow.as_ref().map(|f| t.safety * f.dt_crit);
-        let per_flow_dt = match t.flow_scheme {
-            FlowScheme::Explicit => FLOW_ONLY_SUBSTEPS as f64,
-            FlowScheme::Implicit => 1.0,
-        };
-        let mut dt = match (t.dt, has_solid, flow_auto, t.flow_dt) {
-            (Some(dt), _, _, _) => dt,
-            (None, true, _, _) => t.safety * dt_crit,
-            (None, false, _, Some(fdt)) => per_flow_dt * fdt,
-            (None, false, Some(fa), None) => FLOW_ONLY_SUBSTEPS as f64 * fa,
-            (None, false, None, None) => unreachable!("validated: a mesh or a network"),
-        };
-        let steps_to_end = match t.end {
-            End::Time(te) => {
-                let n = (te / dt - 1e-9).ceil().max(1.0);
-                dt = te / n;
-                Some(n as u64)
-            }
-            End::Static { .. } | End::SteadyDirect => None,
-        };
-        if t.dt.is_some() && dt > dt_crit {
-            tracing::warn!(
-                "time.dt = {dt:.3e} s is above the critical step {dt_crit:.3e} s; expect a blow-up"
-            );
-        }
-        if let Some(f) = flow.as_mut() {
-            let target = t.flow_dt.unwrap_or(t.safety * f.dt_crit);
-            f.substeps = match f.implicit {
-                Some(_) => 1,
-                None => ((dt / target) * (1.0 - 1e-12)).ceil().max(1.0) as u64,
-            };
-            f.dt = dt / f.substeps as f64;
-        }
+        let mut flow = crate::setup::build_flow(&mut model, &scenario, &p)?;
+        let (dt, steps_to_end) =
+            crate::setup::time_step(&scenario.time, has_solid, dt_crit, flow.as_mut());
         p.solid.dt = dt;
         let mut view = SolidView::build(&model);
         if p.time.mass_scaling {
@@ -135,24 +78,16 @@ impl Simulation {
         }
         let mut disabled = scenario.systems.disable.clone();
         disabled.extend(extra_disable.iter().cloned());
-        let has_load = view.has_load();
-        let has_joints = !view.joint_nodes.is_empty();
-        let (damping_on, has_flow, coupled) = (
-            p.solid.damping != Damping::None,
-            flow.is_some(),
-            p.coupled,
-        );
-        let has_criterion = p.criterion.is_some();
-        let schedule = Schedule::new(&disabled, |s| match s {
-            SystemId::Contact => has_joints,
-            SystemId::FluidPressure => coupled,
-            SystemId::InternalForce | SystemId::Integrate => has_solid,
-            SystemId::ExternalLoad => has_load,
-            SystemId::Damping => has_solid && damping_on,
-            SystemId::FlowSubsteps => has_flow,
-            SystemId::FractureCriterion | SystemId::Split => has_criterion,
-            SystemId::Monitor | SystemId::Output => true,
-        })?;
+        let data = SceneData {
+            solid: has_solid,
+            joints: !view.joint_nodes.is_empty(),
+            load: view.has_load(),
+            damping: p.solid.damping != Damping::None,
+            flow: flow.is_some(),
+            coupled: p.coupled,
+            criterion: p.criterion.is_some(),
+        };
+        let schedule = Schedule::new(&disabled, |s| data.has(s))?;
         Ok(Simulation {
             scenario,
             model,
@@ -181,9 +116,10 @@ impl Simulation {
     pub fn run(&mut self, mut progress: impl FnMut(&Simulation)) -> Result<Finish, RunError> {
         self.rebuild_views_if_needed();
         if self.params.time.end == End::SteadyDirect {
-            let f = self.flow.as_mut().ok_or_else(|| {
-                SetupError::invalid("time.end", "SteadyDirect needs a network")
-            })?;
+            let f = self
+                .flow
+                .as_mut()
+                .ok_or_else(|| SetupError::invalid("time.end", "SteadyDirect needs a network"))?;
             flow::steady_direct(f, &self.params, self.clock.time)?;
             self.clock.residual = f.residual;
             self.clock.finish = Some(Finish::Converged);
@@ -326,7 +262,13 @@ impl Simulation {
             f.view.set_bc_kinds(&p.flow_boundaries);
             f.dt_crit = f.view.critical_step(&p.fluid);
             if let Some(c) = f.coupling.as_mut() {
-                *c = coupling::Coupling::build(&self.model, &self.solid.view, &f.view, &p.fluid, c.a_r);
+                *c = coupling::Coupling::build(
+                    &self.model,
+                    &self.solid.view,
+                    &f.view,
+                    &p.fluid,
+                    c.a_r,
+                );
             }
         }
     }
@@ -428,7 +370,12 @@ impl Simulation {
     }
     /// The rock's fractures as a network view (scenes with joints but no flow network).
     pub fn fracture_view(&self) -> Option<crate::flow::FlowView> {
-        output::fracture_view(&self.model, &self.solid.view, self.flow.as_ref(), &self.params)
+        output::fracture_view(
+            &self.model,
+            &self.solid.view,
+            self.flow.as_ref(),
+            &self.params,
+        )
     }
     /// Coupled runs with an output folder: the fracture-pressure figure `name` there.
     pub fn fracture_pressure_figure(&mut self, name: &str) {

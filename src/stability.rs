@@ -70,4 +70,3 @@ pub fn with_joint_stiffness(model: &Model, dt_crit: f64, k: impl Fn(f64) -> f64)
     }
     2.0 / ((2.0 / dt_crit).powi(2) + worst).sqrt()
 }
-

@@ -2,10 +2,10 @@
 //! pump, rate and pressure boundaries. Pair fluxes are computed per pair and gathered per cell
 //! through a CSR incidence list (no atomics), so results are the same bits for any thread count.
 
+use crate::error::SetupError;
 pub use crate::flow::boundary::{
     FlowStats, MASS_ROUNDOFF, accumulate_boundary_volumes, boundary_flows, pump_operating_point,
 };
-use crate::error::SetupError;
 use crate::flow::implicit::{ImplicitSolver, implicit_step};
 use crate::flow::{FlowParams, FlowView, kahan_add, pressure_of};
 use crate::network::CellNetwork;

@@ -134,10 +134,7 @@ pub fn fracture_pressure_figure(
     };
     sync::write_back(model, solid, Some(f), p);
     f.view.refresh_positions(model);
-    let title = format!(
-        "{}: fluid pressure, apertures x20, t = {time:.4} s",
-        p.name
-    );
+    let title = format!("{}: fluid pressure, apertures x20, t = {time:.4} s", p.name);
     if let Err(e) = crate::output::plots::fracture_pressure_figure(
         &dir.join(name),
         &title,

@@ -5,13 +5,13 @@
 
 use crate::model::Model;
 use crate::params::RunParams;
+use crate::scenario::End;
 use crate::systems::flow::FlowPart;
 use crate::systems::fracture::FractureState;
 use crate::systems::monitor::Clock;
 use crate::systems::solid::SolidPart;
 use crate::systems::sync;
 use crate::view::SolidView;
-use crate::scenario::End;
 
 /// Open the ready edges at time `t` (the end of the step). Returns whether any node split (the
 /// topology changed). The state is synced into the components first.

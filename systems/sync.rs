@@ -20,9 +20,6 @@ pub fn write_back(model: &mut Model, solid: &SolidView, flow: Option<&FlowPart>,
     }
     if !solid.joint_entity.is_empty() {
         let coupled = flow.is_some_and(|f| f.coupling.is_some());
-        crate::fractures::sync_fracture_geometry(
-            model,
-            (!coupled).then_some(p.residual_aperture),
-        );
+        crate::fractures::sync_fracture_geometry(model, (!coupled).then_some(p.residual_aperture));
     }
 }

@@ -6,9 +6,9 @@
 //! P_max = 30 MPa (higher than the seed's 18 MPa so that the small, stiff domain fractures
 //! within 0.1 s of simulated time).
 
-use hydrofrac::systems::RunError;
 use hydrofrac::scenario::Scenario;
 use hydrofrac::sim::{Finish, Simulation};
+use hydrofrac::systems::RunError;
 use hydrofrac::systems::SystemId;
 
 fn scene(end: f64, extra: &str) -> Scenario {
@@ -184,7 +184,12 @@ fn coupled_run_is_deterministic_across_thread_counts() {
                 .flat_map(|x| x.map(f64::to_bits))
                 .collect();
             let e: Vec<u64> = f.view.excess.iter().map(|x| x.to_bits()).collect();
-            (u, e, sim.fracture().splits, f.view.bcs[0].volume_in.to_bits())
+            (
+                u,
+                e,
+                sim.fracture().splits,
+                f.view.bcs[0].volume_in.to_bits(),
+            )
         })
     };
     let (a, b) = (run(1), run(2));

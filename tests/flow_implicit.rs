@@ -2,12 +2,12 @@
 //! verification.md items 10-13. Tolerances and their reasons are stated at each check (the
 //! verification cases' own are in `src/verify/flow_cases.rs`).
 
-use hydrofrac::systems::RunError;
 use hydrofrac::flow::implicit::{ImplicitError, ImplicitSolver, implicit_step};
 use hydrofrac::flow::pressure_of;
 use hydrofrac::network::Fracture;
 use hydrofrac::scenario::{End, FlowBcKind, FlowScheme, FlowTarget, InitialFluid, Scenario};
 use hydrofrac::sim::Simulation;
+use hydrofrac::systems::RunError;
 use hydrofrac::verify::{CaseResult, flow_cases as fc};
 
 fn assert_case(name: &str, res: &CaseResult) {
@@ -163,15 +163,7 @@ fn symbolic_factorisation_reused_until_the_pattern_changes() {
         let f = sim.flow_mut().unwrap();
         let dt = 100.0 * f.dt_crit;
         for k in 0..5 {
-            implicit_step(
-                &mut f.view,
-                &fp,
-                &specs,
-                dt,
-                k as f64 * dt,
-                &mut solver,
-            )
-            .unwrap();
+            implicit_step(&mut f.view, &fp, &specs, dt, k as f64 * dt, &mut solver).unwrap();
         }
     }
     assert_eq!(solver.symbolic_count(), 2);
@@ -188,12 +180,7 @@ fn newton_failure_names_step_cell_and_residual() {
     let mut sc = sim.scenario().clone();
     sc.time.dt = Some(0.1);
     let mut sim = Simulation::new(sc, &[]).unwrap();
-    sim.flow_mut()
-        .unwrap()
-        .implicit
-        .as_mut()
-        .unwrap()
-        .max_iter = 1;
+    sim.flow_mut().unwrap().implicit.as_mut().unwrap().max_iter = 1;
     let err = loop {
         match sim.step_once() {
             Ok(()) => assert!(sim.step() < 20, "a one-iteration Newton never failed"),

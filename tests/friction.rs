@@ -66,7 +66,12 @@ fn joint_slides_above_the_coulomb_limit() {
     let mu = 30f64.to_radians().tan();
     let mut sim = block(1.2 * SIGMA * mu, "Time(0.2)");
     sim.run(|_| {}).unwrap();
-    let sliding: Vec<_> = sim.solid().joint_state.iter().filter(|s| s.sliding).collect();
+    let sliding: Vec<_> = sim
+        .solid()
+        .joint_state
+        .iter()
+        .filter(|s| s.sliding)
+        .collect();
     assert!(
         sliding.len() >= 6,
         "only {} of 8 joints slide",
@@ -113,7 +118,11 @@ fn gravity_loads_the_rock_with_its_weight() {
         "base reaction {base} vs weight {weight}"
     );
     for (k, c) in sim.solid().conn.iter().enumerate() {
-        let yc = c.iter().map(|&a| sim.solid().x0[a as usize][1]).sum::<f64>() / 3.0;
+        let yc = c
+            .iter()
+            .map(|&a| sim.solid().x0[a as usize][1])
+            .sum::<f64>()
+            / 3.0;
         let exact = -2700.0 * 9.81 * (10.0 - yc);
         let err = (sim.solid().stress[k][1] - exact).abs();
         assert!(

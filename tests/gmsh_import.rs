@@ -30,7 +30,12 @@ fn imported_mesh_passes_the_patch_test() {
     };
     sim.edit_model(|m| m.prescribe_boundary_field(exact));
     assert_eq!(sim.run(|_| {}).unwrap(), Finish::Converged);
-    let i = sim.solid().x0.iter().position(|&x| x == [1.13, 0.91]).unwrap();
+    let i = sim
+        .solid()
+        .x0
+        .iter()
+        .position(|&x| x == [1.13, 0.91])
+        .unwrap();
     let (u, e) = (sim.solid().u[i], exact(sim.solid().x0[i]));
     let err = ((u[0] - e[0]).powi(2) + (u[1] - e[1]).powi(2)).sqrt() / 2.2e-3;
     assert!(err < 1e-9, "interior node off by {err:.3e}");

@@ -36,10 +36,15 @@ fn reference_kernel_matches_the_engine_bit_for_bit() {
     let mesh = TriMesh::perturbed(100.0, 100.0, 1.0, [0.0, 0.0], 0.2, 9).unwrap();
     let bcs: Vec<[Option<f64>; 2]> = (0..sim.solid().n_nodes())
         .map(|i| {
-            [0, 1].map(|d| (sim.solid().fixed[i] & (1 << d) != 0).then_some(sim.solid().presc[i][d]))
+            [0, 1]
+                .map(|d| (sim.solid().fixed[i] & (1 << d) != 0).then_some(sim.solid().presc[i][d]))
         })
         .collect();
-    assert_eq!(sim.solid().x0, mesh.nodes, "view order must follow stable ids");
+    assert_eq!(
+        sim.solid().x0,
+        mesh.nodes,
+        "view order must follow stable ids"
+    );
     let lookup = |x: [f64; 2]| bcs[mesh.nodes.iter().position(|&y| y == x).unwrap()];
     let mut serial = FlatSolid::new(&mesh, &mat, sim.params().solid, 0.8, lookup);
     let mut parallel = FlatSolid::new(&mesh, &mat, sim.params().solid, 0.8, lookup);

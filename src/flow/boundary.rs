@@ -113,4 +113,3 @@ pub fn accumulate_boundary_volumes(v: &mut FlowView, dt: f64) {
         }
     }
 }
-

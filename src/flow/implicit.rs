@@ -46,9 +46,9 @@
 //! crosses many cells needs many iterations; `max_iter` (default 100) bounds them and the error
 //! names the cell with the largest residual.
 
+use crate::flow::boundary::{FlowStats, boundary_flows};
 use crate::flow::{FlowParams, FlowView, kahan_add};
 use crate::scenario::{FlowBcKind, FlowBoundary};
-use crate::flow::boundary::{FlowStats, boundary_flows};
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
 use faer::sparse::linalg::lu::{NumericLu, SymbolicLu, factorize_symbolic_lu};
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};

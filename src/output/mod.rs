@@ -7,10 +7,10 @@ pub mod plots;
 pub mod vtk;
 
 use crate::components::CellKind;
+use crate::element::{SolidParams, cst_stress};
 use crate::flow::FlowView;
 use crate::network::Fracture;
 use crate::scenario::Field;
-use crate::element::{SolidParams, cst_stress};
 use crate::view::SolidView;
 use std::fs::File;
 use std::io::{BufWriter, Write};

@@ -2,8 +2,8 @@
 //! and the boundary pressures and rates against time.
 
 use crate::flow::FlowView;
-use crate::plot::{ColourScale, Segment, Series, fracture_map, lines, network};
 use crate::params::RunParams;
+use crate::plot::{ColourScale, Segment, Series, fracture_map, lines, network};
 use crate::view::SolidView;
 use std::path::Path;
 
@@ -147,9 +147,7 @@ pub fn fracture_figure(name: &str, time: f64, view: &FlowView, dir: &Path) -> an
     let mm: Vec<f64> = view.aperture.iter().map(|a| a * 1e3).collect();
     network(
         &dir.join("fractures.png"),
-        &format!(
-            "{name}: fracture apertures at t = {time:.4e} s"
-        ),
+        &format!("{name}: fracture apertures at t = {time:.4e} s"),
         &segments,
         &mm,
         "hydraulic aperture [mm]",

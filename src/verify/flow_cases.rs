@@ -2,13 +2,13 @@
 //! `mass_balance`, `pump_curve`, `steady`, `flow_stability`.
 
 use super::{CaseResult, Row, observed_order};
-use crate::systems::RunError;
 use crate::network::{Fracture, NetworkSpec, RandomNetwork};
 use crate::scenario::{
     Boundary, Damping, End, FlowBcKind, FlowBoundary, FlowScheme, FlowTarget, Fluid, InitialFluid,
     OutputSpec, Scenario, SystemsSpec, TimeControl,
 };
 use crate::sim::{Finish, Simulation};
+use crate::systems::RunError;
 use std::time::Instant;
 
 /// Water at 25 C.
@@ -797,14 +797,14 @@ pub fn steady(quick: bool) -> anyhow::Result<CaseResult> {
             long_step(5e-5, 30.0),
         ))?;
         {
-            let (fi, fd) = (
-                im.flow().expect("flow"),
-                di.flow().expect("flow"),
-            );
+            let (fi, fd) = (im.flow().expect("flow"), di.flow().expect("flow"));
             let e_p = (0..fi.view.n_cells())
                 .map(|c| {
-                    let p =
-                        crate::flow::pressure_of(fi.view.excess[c], fi.view.volume[c], &im.params().fluid);
+                    let p = crate::flow::pressure_of(
+                        fi.view.excess[c],
+                        fi.view.volume[c],
+                        &im.params().fluid,
+                    );
                     (p - fd.view.pressure[c]).abs()
                 })
                 .fold(0.0, f64::max)
@@ -842,10 +842,7 @@ pub fn steady(quick: bool) -> anyhow::Result<CaseResult> {
                 1e-6,
             );
         }
-        let (fe, fd) = (
-            ex.flow().expect("flow"),
-            di.flow().expect("flow"),
-        );
+        let (fe, fd) = (ex.flow().expect("flow"), di.flow().expect("flow"));
         anyhow::ensure!(
             fe.view.n_cells() >= 200,
             "network has only {} cells",
@@ -853,7 +850,9 @@ pub fn steady(quick: bool) -> anyhow::Result<CaseResult> {
         );
         let dp = 12e6;
         let pe: Vec<f64> = (0..fe.view.n_cells())
-            .map(|c| crate::flow::pressure_of(fe.view.excess[c], fe.view.volume[c], &ex.params().fluid))
+            .map(|c| {
+                crate::flow::pressure_of(fe.view.excess[c], fe.view.volume[c], &ex.params().fluid)
+            })
             .collect();
         let e_p = pe
             .iter()
@@ -947,7 +946,11 @@ pub fn flow_stability(_quick: bool) -> anyhow::Result<CaseResult> {
                 sim.step_once()?;
                 let f = sim.flow().expect("flow");
                 for c in 0..f.view.n_cells() {
-                    let p = crate::flow::pressure_of(f.view.excess[c], f.view.volume[c], &sim.params().fluid);
+                    let p = crate::flow::pressure_of(
+                        f.view.excess[c],
+                        f.view.volume[c],
+                        &sim.params().fluid,
+                    );
                     over = over.max((p - 2e6).max(1e6 - p) / 1e6);
                 }
             }

@@ -128,7 +128,12 @@ pub fn pressurised_crack(
         sim.residual()
     );
     let (mut area, mut wmax) = (0.0, 0.0f64);
-    for j in sim.model().world.query::<&crate::components::Joint>().iter() {
+    for j in sim
+        .model()
+        .world
+        .query::<&crate::components::Joint>()
+        .iter()
+    {
         let (_, w, len) = crate::fractures::joint_opening(sim.model(), j);
         area += w * len;
         wmax = wmax.max(w);

@@ -1,12 +1,12 @@
 //! Solid verification cases (verification.md items 1-4).
 
 use super::{CaseResult, Row, observed_order};
-use crate::systems::RunError;
 use crate::model::Model;
 use crate::scenario::{
     Boundary, Damping, End, Material, MeshSpec, OutputSpec, Scenario, SystemsSpec, TimeControl,
 };
 use crate::sim::{Finish, Simulation};
+use crate::systems::RunError;
 use crate::systems::solid::{self, cst_stress};
 use crate::view::SolidView;
 use anyhow::{Context, ensure};
