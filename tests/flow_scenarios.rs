@@ -2,7 +2,10 @@
 //! are scheduled, the network frames and network.csv read back, the figures exist, and the
 //! physics in summary.json is right (cubic law, splitting at the junction, mass balance).
 
-use hydrofrac::output::vtk::{read_pvd, read_vtu};
+#[path = "support/vtu.rs"]
+mod vtu;
+
+use vtu::{read_pvd, read_vtu};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
