@@ -2028,6 +2028,7 @@ fn draw_fracture_map(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::fs;
 
     fn tmp_dir(name: &str) -> PathBuf {
         let d = std::env::temp_dir().join(format!("plot_test_{}_{name}", std::process::id()));
