@@ -33,5 +33,6 @@ pub mod sim;
 pub mod snap;
 pub mod split;
 pub mod timing;
+pub mod union_find;
 pub mod verify;
 pub mod view;

@@ -30,6 +30,7 @@
 //! * [`SteadySolution::residual`] is `||A u - b|| / ||b||` for that (shifted) system,
 //!   with `||.||` the Euclidean norm (or `||A u - b||` itself when `b = 0`).
 
+use crate::union_find::UnionFind;
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
 use faer::linalg::cholesky::llt::factor::LltRegularization;
 use faer::sparse::linalg::cholesky::{
@@ -170,26 +171,13 @@ impl Structure {
     /// Builds components, the reduced numbering and the matrix pattern (no factorisation).
     fn build(p: &SteadyProblem) -> Self {
         let n = p.n_cells;
-        // Union-find; the root of a component is always its smallest cell index.
-        let mut parent: Vec<u32> = (0..n as u32).collect();
-        fn find(parent: &mut [u32], mut x: u32) -> u32 {
-            while parent[x as usize] != x {
-                let gp = parent[parent[x as usize] as usize];
-                parent[x as usize] = gp;
-                x = gp;
-            }
-            x
-        }
+        // The root of a component is always its smallest cell index.
+        let mut sets = UnionFind::new(n);
         for &(i, j, _) in p.pairs {
-            let ri = find(&mut parent, i);
-            let rj = find(&mut parent, j);
-            if ri != rj {
-                let (lo, hi) = if ri < rj { (ri, rj) } else { (rj, ri) };
-                parent[hi as usize] = lo;
-            }
+            sets.union(i as usize, j as usize);
         }
-        let root: Vec<u32> = (0..n as u32).map(|c| find(&mut parent, c)).collect();
-        drop(parent);
+        let root: Vec<u32> = (0..n).map(|c| sets.find(c) as u32).collect();
+        drop(sets);
         let mut grounded = vec![false; n];
         for &(c, _, _) in p.dirichlet {
             grounded[root[c as usize] as usize] = true;
