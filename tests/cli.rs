@@ -4,9 +4,9 @@
 #[path = "support/vtu.rs"]
 mod vtu;
 
-use vtu::{read_pvd, read_vtu};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
+use vtu::{read_pvd, read_vtu};
 
 fn bin() -> Command {
     Command::new(env!("CARGO_BIN_EXE_hydrofrac"))

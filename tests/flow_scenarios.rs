@@ -5,9 +5,9 @@
 #[path = "support/vtu.rs"]
 mod vtu;
 
-use vtu::{read_pvd, read_vtu};
 use std::path::{Path, PathBuf};
 use std::process::Command;
+use vtu::{read_pvd, read_vtu};
 
 fn run(scenario: &str, extra: &[&str]) -> (PathBuf, serde_json::Value) {
     let out = std::env::temp_dir().join(format!(

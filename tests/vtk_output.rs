@@ -208,11 +208,23 @@ fn inconsistent_files_are_refused() {
     let good = fs::read_to_string(&path).unwrap();
     let bad = dir.join("bad.vtu");
     let edits = [
-        ("NumberOfPoints=\"4\"", "NumberOfPoints=\"5\"", "expected 5 x 3"),
-        ("NumberOfCells=\"2\"", "NumberOfCells=\"3\"", "expected 3 x 1"),
+        (
+            "NumberOfPoints=\"4\"",
+            "NumberOfPoints=\"5\"",
+            "expected 5 x 3",
+        ),
+        (
+            "NumberOfCells=\"2\"",
+            "NumberOfCells=\"3\"",
+            "expected 3 x 1",
+        ),
         ("stress &amp; &lt;x&gt;", "stress & <x>", ""),
         ("format=\"ascii\"", "format=\"binary\"", "unsupported"),
-        ("\n0 1 2\n2 1 3\n", "\n0 1 2\n2 1 4\n", "connectivity index 4"),
+        (
+            "\n0 1 2\n2 1 3\n",
+            "\n0 1 2\n2 1 4\n",
+            "connectivity index 4",
+        ),
         ("\n3 6\n", "\n3 5\n", "last offset 5"),
         ("</Cells>", "</Cells>stray", "unexpected text"),
     ];
