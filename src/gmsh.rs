@@ -5,6 +5,7 @@
 //! Node tags are mapped to compact 0-based indices in order of first appearance in `$Nodes`,
 //! nodes not used by any triangle are dropped, and every triangle is made counter-clockwise.
 
+use crate::mesh::signed_area;
 use std::collections::HashMap;
 use std::path::Path;
 use std::str::FromStr;
@@ -504,7 +505,7 @@ fn build(raw: Raw, path: &str) -> Result<GmshMesh, GmshError> {
     };
     for (t, idx) in raw.tris.into_iter().zip(tris) {
         let [a, b, c] = idx.map(|i| new_index[i]);
-        let area = signed_area(&mesh.nodes, [a, b, c]);
+        let area = triangle_area(&mesh.nodes, [a, b, c]);
         if area.is_nan() || area.abs() <= 1e-14 * diag * diag {
             let (line, tag) = (t.line, t.tag);
             return Err(GmshError::BadTriangle {
@@ -521,9 +522,10 @@ fn build(raw: Raw, path: &str) -> Result<GmshMesh, GmshError> {
     Ok(mesh)
 }
 
-fn signed_area(nodes: &[[f64; 2]], [a, b, c]: [u32; 3]) -> f64 {
-    let (a, b, c) = (nodes[a as usize], nodes[b as usize], nodes[c as usize]);
-    0.5 * ((b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]))
+/// Signed area of triangle `t` of `nodes` ([`signed_area`]), m^2.
+fn triangle_area(nodes: &[[f64; 2]], t: [u32; 3]) -> f64 {
+    let [a, b, c] = t.map(|i| nodes[i as usize]);
+    signed_area(a, b, c)
 }
 
 #[cfg(test)]
@@ -622,7 +624,7 @@ $EndElements
         let areas: Vec<f64> = m
             .triangles
             .iter()
-            .map(|&t| signed_area(&m.nodes, t))
+            .map(|&t| triangle_area(&m.nodes, t))
             .collect();
         assert!(areas.iter().all(|a| (a - 0.25).abs() < 1e-12), "{areas:?}");
         let mut used = vec![false; m.nodes.len()];

@@ -36,5 +36,6 @@ pub mod snap;
 pub mod split;
 pub mod stability;
 pub mod timing;
+pub mod union_find;
 pub mod verify;
 pub mod view;

@@ -13,6 +13,7 @@
 
 use crate::components::*;
 use crate::model::Model;
+use crate::union_find::UnionFind;
 use hecs::Entity;
 use std::collections::{BTreeMap, BTreeSet, HashMap};
 
@@ -103,15 +104,7 @@ pub fn open_edges(model: &mut Model, ready: &[Entity], aperture: f64, t: f64) ->
             }
         }
         elems.sort_by_key(|&el| stable(world, el));
-        let mut parent: Vec<usize> = (0..elems.len()).collect();
-        fn find(p: &mut [usize], i: usize) -> usize {
-            let mut i = i;
-            while p[i] != i {
-                p[i] = p[p[i]];
-                i = p[i];
-            }
-            i
-        }
+        let mut sets = UnionFind::new(elems.len());
         for &e in edges {
             if is_ready.contains_key(&e) {
                 continue;
@@ -119,15 +112,14 @@ pub fn open_edges(model: &mut Model, ready: &[Entity], aperture: f64, t: f64) ->
             if let [Some(a), Some(b)] = world.get::<&EdgeElems>(e).expect("edge").0 {
                 let ia = elems.iter().position(|&x| x == a).expect("element at node");
                 let ib = elems.iter().position(|&x| x == b).expect("element at node");
-                let (ra, rb) = (find(&mut parent, ia), find(&mut parent, ib));
-                parent[ra.max(rb)] = ra.min(rb);
+                sets.union(ia, ib);
             }
         }
         // Group numbers in order of the smallest element stable id.
         let mut number: HashMap<usize, usize> = HashMap::new();
         let mut of_elem = HashMap::new();
         for (i, &el) in elems.iter().enumerate() {
-            let r = find(&mut parent, i);
+            let r = sets.find(i);
             let next = number.len();
             let g = *number.entry(r).or_insert(next);
             of_elem.insert(el, g);

@@ -1,9 +1,12 @@
 //! The `hydrofrac` binary as a user meets it: outputs of a run, ablation, overrides, and clear
 //! one-line errors (with a non-zero exit and no panic) for bad input.
 
-use hydrofrac::output::vtk::{read_pvd, read_vtu};
+#[path = "support/vtu.rs"]
+mod vtu;
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
+use vtu::{read_pvd, read_vtu};
 
 fn bin() -> Command {
     Command::new(env!("CARGO_BIN_EXE_hydrofrac"))

@@ -2,9 +2,12 @@
 //! are scheduled, the network frames and network.csv read back, the figures exist, and the
 //! physics in summary.json is right (cubic law, splitting at the junction, mass balance).
 
-use hydrofrac::output::vtk::{read_pvd, read_vtu};
+#[path = "support/vtu.rs"]
+mod vtu;
+
 use std::path::{Path, PathBuf};
 use std::process::Command;
+use vtu::{read_pvd, read_vtu};
 
 fn run(scenario: &str, extra: &[&str]) -> (PathBuf, serde_json::Value) {
     let out = std::env::temp_dir().join(format!(

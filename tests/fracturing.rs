@@ -4,6 +4,9 @@
 //! below it, the crack starts at the notch tip and runs straight along y = 5 (mode I), every new
 //! cell within one cell of the notch line, and the topology stays valid.
 
+#[path = "support/vtu.rs"]
+mod vtu;
+
 use hydrofrac::components::{CellKind, CellNodes, CellOrigin, NodeRef};
 use hydrofrac::scenario::Scenario;
 use hydrofrac::sim::Simulation;
@@ -192,11 +195,11 @@ fn fracture_outputs_are_written() {
             "{png}"
         );
     }
-    let frames = hydrofrac::output::vtk::read_pvd(&out.join("network.pvd")).unwrap();
+    let frames = vtu::read_pvd(&out.join("network.pvd")).unwrap();
     assert!(frames.len() >= 2);
     // The last frame carries the joint state per cell: normal stress (tension positive),
     // shear stress, sliding flag, and the creation time.
-    let last = hydrofrac::output::vtk::read_vtu(&out.join(&frames.last().unwrap().1)).unwrap();
+    let last = vtu::read_vtu(&out.join(&frames.last().unwrap().1)).unwrap();
     let ncells = last.types.len();
     let get = |name: &str| {
         last.cell_data

@@ -47,11 +47,12 @@
 //! names the cell with the largest residual.
 
 use crate::flow::boundary::{FlowStats, boundary_flows};
+use crate::flow::sparse::SparsePattern;
 use crate::flow::{FlowParams, FlowView, kahan_add};
 use crate::scenario::{FlowBcKind, FlowBoundary};
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
+use faer::sparse::SparseColMatRef;
 use faer::sparse::linalg::lu::{NumericLu, SymbolicLu, factorize_symbolic_lu};
-use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{Conj, MatMut, Par};
 
 /// Default convergence tolerance on |R_i| / (rho_r V_i) (see the module documentation).
@@ -123,8 +124,7 @@ struct Pattern {
     generation: u64,
     pairs: Vec<[u32; 2]>,
     bc_cells: Vec<Vec<u32>>,
-    col_ptr: Vec<usize>,
-    row_idx: Vec<usize>,
+    sparse: SparsePattern,
     /// Value slot of the diagonal of each cell.
     diag: Vec<usize>,
     /// Value slots of each pair (i, j): entry (row i, col j) and (row j, col i).
@@ -146,36 +146,25 @@ impl Pattern {
 
     fn build(v: &FlowView) -> Result<Self, ImplicitError> {
         let n = v.n_cells();
-        // (col, row) entries: diagonal, both directions of every pair, and every two cells of a
+        // (row, col) entries: diagonal, both directions of every pair, and every two cells of a
         // boundary (a rate or pump boundary couples its cells through the common pressure).
         let mut e: Vec<(usize, usize)> = (0..n).map(|i| (i, i)).collect();
         for p in &v.pairs {
             let (i, j) = (p[0] as usize, p[1] as usize);
-            e.push((j, i));
             e.push((i, j));
+            e.push((j, i));
         }
         for b in &v.bcs {
             for &k in &b.cells {
                 for &l in &b.cells {
-                    e.push((l as usize, k as usize));
+                    e.push((k as usize, l as usize));
                 }
             }
         }
-        e.sort_unstable();
-        e.dedup();
-        let mut col_ptr = vec![0usize; n + 1];
-        for &(c, _) in &e {
-            col_ptr[c + 1] += 1;
-        }
-        for c in 0..n {
-            col_ptr[c + 1] += col_ptr[c];
-        }
-        let row_idx: Vec<usize> = e.iter().map(|&(_, r)| r).collect();
+        let sparse = SparsePattern::from_entries(n, e)
+            .map_err(|detail| ImplicitError::Factorisation { detail })?;
         let slot = |row: usize, col: usize| -> usize {
-            let (a, b) = (col_ptr[col], col_ptr[col + 1]);
-            a + row_idx[a..b]
-                .binary_search(&row)
-                .expect("entry is in the pattern")
+            sparse.slot(row, col).expect("entry is in the pattern")
         };
         let diag = (0..n).map(|i| slot(i, i)).collect();
         let pair_slots = v
@@ -199,8 +188,7 @@ impl Pattern {
                 s
             })
             .collect();
-        let sym = SymbolicSparseColMatRef::new_checked(n, n, &col_ptr, None, &row_idx);
-        let symbolic = factorize_symbolic_lu(sym, Default::default()).map_err(|e| {
+        let symbolic = factorize_symbolic_lu(sparse.as_ref(), Default::default()).map_err(|e| {
             ImplicitError::Factorisation {
                 detail: format!("symbolic analysis: {e:?}"),
             }
@@ -216,8 +204,7 @@ impl Pattern {
             generation: v.generation,
             pairs: v.pairs.clone(),
             bc_cells: v.bcs.iter().map(|b| b.cells.clone()).collect(),
-            col_ptr,
-            row_idx,
+            sparse,
             diag,
             pair_slots,
             bc_slots,
@@ -390,7 +377,7 @@ fn assemble(
     values: &mut Vec<f64>,
 ) {
     values.clear();
-    values.resize(pat.row_idx.len(), 0.0);
+    values.resize(pat.sparse.nnz(), 0.0);
     // dP/dy: 1 for a full cell, 0 for a filling one. At the kink y = 0 (a cell exactly full at
     // zero pressure, e.g. `Full(0)` at the start) the right derivative is taken: the cell is
     // about to be pressurised, and with 0 every such cell would need its own Newton iteration.
@@ -551,10 +538,7 @@ pub fn implicit_step(
         // Newton direction: J delta = -r.
         let pat = s.pattern.as_mut().expect("built above");
         assemble(v, specs, t1, &s.y, &s.w, pat, &mut s.values);
-        let a = SparseColMatRef::new(
-            SymbolicSparseColMatRef::new_checked(n, n, &pat.col_ptr, None, &pat.row_idx),
-            &s.values,
-        );
+        let a = SparseColMatRef::new(pat.sparse.as_ref(), &s.values);
         let lu = pat
             .symbolic
             .factorize_numeric_lu(
@@ -759,8 +743,8 @@ mod tests {
         assemble(v, &specs, 1.0, &y, &w, &pat, &mut values);
         let mut dense = vec![0.0; n * n];
         for col in 0..n {
-            for s in pat.col_ptr[col]..pat.col_ptr[col + 1] {
-                dense[pat.row_idx[s] * n + col] = values[s];
+            for s in pat.sparse.col_ptr()[col]..pat.sparse.col_ptr()[col + 1] {
+                dense[pat.sparse.row_idx()[s] * n + col] = values[s];
             }
         }
         let (mut rp, mut rm) = (vec![0.0; n], vec![0.0; n]);

@@ -14,6 +14,7 @@
 
 pub mod boundary;
 pub mod implicit;
+mod sparse;
 pub mod steady;
 
 use crate::components::*;

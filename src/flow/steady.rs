@@ -30,12 +30,14 @@
 //! * [`SteadySolution::residual`] is `||A u - b|| / ||b||` for that (shifted) system,
 //!   with `||.||` the Euclidean norm (or `||A u - b||` itself when `b = 0`).
 
+use super::sparse::SparsePattern;
+use crate::union_find::UnionFind;
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
 use faer::linalg::cholesky::llt::factor::LltRegularization;
+use faer::sparse::SparseColMatRef;
 use faer::sparse::linalg::cholesky::{
     LltRef, SymbolicCholesky, SymmetricOrdering, factorize_symbolic_cholesky,
 };
-use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{Conj, MatMut, Par, Side};
 
 /// Marker for "no reduced index" / "no matrix slot".
@@ -137,8 +139,7 @@ struct Structure {
     /// Cell of each reduced index.
     cell_of: Vec<u32>,
     /// Lower-triangular CSC pattern of the reduced matrix (diagonal first in each column).
-    col_ptr: Vec<usize>,
-    row_idx: Vec<usize>,
+    pattern: SparsePattern,
     /// Value slot of the off-diagonal entry of each pair (`NONE_USIZE` if ungrounded).
     pair_slot: Vec<usize>,
     symbolic: Option<SymbolicCholesky<usize>>,
@@ -168,28 +169,15 @@ impl Structure {
     }
 
     /// Builds components, the reduced numbering and the matrix pattern (no factorisation).
-    fn build(p: &SteadyProblem) -> Self {
+    fn build(p: &SteadyProblem) -> Result<Self, SteadyError> {
         let n = p.n_cells;
-        // Union-find; the root of a component is always its smallest cell index.
-        let mut parent: Vec<u32> = (0..n as u32).collect();
-        fn find(parent: &mut [u32], mut x: u32) -> u32 {
-            while parent[x as usize] != x {
-                let gp = parent[parent[x as usize] as usize];
-                parent[x as usize] = gp;
-                x = gp;
-            }
-            x
-        }
+        // The root of a component is always its smallest cell index.
+        let mut sets = UnionFind::new(n);
         for &(i, j, _) in p.pairs {
-            let ri = find(&mut parent, i);
-            let rj = find(&mut parent, j);
-            if ri != rj {
-                let (lo, hi) = if ri < rj { (ri, rj) } else { (rj, ri) };
-                parent[hi as usize] = lo;
-            }
+            sets.union(i as usize, j as usize);
         }
-        let root: Vec<u32> = (0..n as u32).map(|c| find(&mut parent, c)).collect();
-        drop(parent);
+        let root: Vec<u32> = (0..n).map(|c| sets.find(c) as u32).collect();
+        drop(sets);
         let mut grounded = vec![false; n];
         for &(c, _, _) in p.dirichlet {
             grounded[root[c as usize] as usize] = true;
@@ -204,47 +192,33 @@ impl Structure {
         }
         let m = cell_of.len();
 
-        // Off-diagonal entries (col = min, row = max) bucketed by column.
-        let mut count = vec![0usize; m + 1];
-        for &(i, j, _) in p.pairs {
+        // Lower triangle: the diagonal and, per grounded pair, (row = max, col = min). The
+        // diagonal is the smallest row of its column, so it comes first.
+        let reduced_pair = |&(i, j, _): &(u32, u32, f64)| {
             let (ri, rj) = (reduced[i as usize], reduced[j as usize]);
-            if ri != NONE_U32 {
-                count[ri.min(rj) as usize + 1] += 1;
-            }
-        }
-        for c in 0..m {
-            count[c + 1] += count[c];
-        }
-        let mut fill = count.clone();
-        let mut bucket = vec![(0u32, 0usize); count[m]];
-        for (k, &(i, j, _)) in p.pairs.iter().enumerate() {
-            let (ri, rj) = (reduced[i as usize], reduced[j as usize]);
-            if ri != NONE_U32 {
-                let col = ri.min(rj) as usize;
-                bucket[fill[col]] = (ri.max(rj), k);
-                fill[col] += 1;
-            }
-        }
-        let mut col_ptr = Vec::with_capacity(m + 1);
-        let mut row_idx = Vec::with_capacity(m + count[m]);
-        let mut pair_slot = vec![NONE_USIZE; p.pairs.len()];
-        col_ptr.push(0);
-        for col in 0..m {
-            let b = &mut bucket[count[col]..count[col + 1]];
-            b.sort_unstable();
-            row_idx.push(col); // diagonal first
-            let mut last = NONE_U32;
-            for &(row, k) in b.iter() {
-                if row != last {
-                    row_idx.push(row as usize);
-                    last = row;
-                }
-                pair_slot[k] = row_idx.len() - 1;
-            }
-            col_ptr.push(row_idx.len());
-        }
+            (ri != NONE_U32).then(|| (ri.max(rj) as usize, ri.min(rj) as usize))
+        };
+        let pattern = SparsePattern::from_entries(
+            m,
+            (0..m)
+                .map(|c| (c, c))
+                .chain(p.pairs.iter().filter_map(reduced_pair)),
+        )
+        .map_err(|detail| SteadyError::Factorisation { detail })?;
+        debug_assert!((0..m).all(|c| pattern.slot(c, c) == Some(pattern.col_ptr()[c])));
+        let pair_slot = p
+            .pairs
+            .iter()
+            .map(|pr| {
+                reduced_pair(pr).map_or(NONE_USIZE, |(row, col)| {
+                    pattern
+                        .slot(row, col)
+                        .expect("pair entry is in the pattern")
+                })
+            })
+            .collect();
 
-        Structure {
+        Ok(Structure {
             n_cells: n,
             pair_pattern: p.pairs.iter().map(|&(i, j, _)| (i, j)).collect(),
             dirichlet_cells: p.dirichlet.iter().map(|&(c, _, _)| c).collect(),
@@ -252,23 +226,17 @@ impl Structure {
             grounded,
             reduced,
             cell_of,
-            col_ptr,
-            row_idx,
+            pattern,
             pair_slot,
             symbolic: None,
             mem: None,
-        }
-    }
-
-    fn symbolic_matrix(&self) -> SymbolicSparseColMatRef<'_, usize> {
-        let m = self.n_reduced();
-        SymbolicSparseColMatRef::new_checked(m, m, &self.col_ptr, None, &self.row_idx)
+        })
     }
 
     /// Symbolic Cholesky analysis (AMD ordering) and workspace allocation.
     fn analyse(&mut self) -> Result<(), SteadyError> {
         let symbolic = factorize_symbolic_cholesky(
-            self.symbolic_matrix(),
+            self.pattern.as_ref(),
             Side::Lower,
             SymmetricOrdering::Amd,
             Default::default(),
@@ -375,8 +343,9 @@ fn validate(p: &SteadyProblem) -> Result<(), SteadyError> {
 }
 
 /// y = A x for the symmetric matrix stored as its lower triangle (diagonal first in
-/// each column) in `col_ptr`, `row_idx`, `values`.
-fn sym_matvec(col_ptr: &[usize], row_idx: &[usize], values: &[f64], x: &[f64], y: &mut [f64]) {
+/// each column) in `pattern` and `values`.
+fn sym_matvec(pattern: &SparsePattern, values: &[f64], x: &[f64], y: &mut [f64]) {
+    let (col_ptr, row_idx) = (pattern.col_ptr(), pattern.row_idx());
     y.fill(0.0);
     for col in 0..col_ptr.len() - 1 {
         let (start, end) = (col_ptr[col], col_ptr[col + 1]);
@@ -416,7 +385,7 @@ impl SteadySolver {
         let reuse = self.structure.as_ref().is_some_and(|s| s.matches(p));
         if !reuse {
             self.structure = None;
-            let mut s = Structure::build(p);
+            let mut s = Structure::build(p)?;
             if s.n_reduced() > 0 {
                 s.analyse()?;
                 self.symbolic_count += 1;
@@ -444,24 +413,26 @@ impl SteadySolver {
         };
 
         // Numeric assembly (lower triangle, deterministic summation order) and rhs.
-        let nnz = s.row_idx.len();
+        let nnz = s.pattern.nnz();
         self.values.clear();
         self.values.resize(nnz, 0.0);
         let values = &mut self.values;
+        // Diagonal slots: first in each column.
+        let col_ptr = s.pattern.col_ptr();
         let mut rhs = vec![0.0; m];
         for (k, &(i, j, kappa)) in p.pairs.iter().enumerate() {
             let slot = s.pair_slot[k];
             if slot != NONE_USIZE {
                 let ri = s.reduced[i as usize] as usize;
                 let rj = s.reduced[j as usize] as usize;
-                values[s.col_ptr[ri]] += kappa;
-                values[s.col_ptr[rj]] += kappa;
+                values[col_ptr[ri]] += kappa;
+                values[col_ptr[rj]] += kappa;
                 values[slot] -= kappa;
             }
         }
         for &(c, kappa, pb) in p.dirichlet {
             let r = s.reduced[c as usize] as usize;
-            values[s.col_ptr[r]] += kappa;
+            values[col_ptr[r]] += kappa;
             rhs[r] += kappa * (pb - shift(c as usize));
         }
         for &(c, rate) in p.sources {
@@ -478,10 +449,7 @@ impl SteadySolver {
             let mem = s.mem.as_mut().expect("analysed");
             self.l_values.clear();
             self.l_values.resize(symbolic.len_val(), 0.0);
-            let a = SparseColMatRef::new(
-                SymbolicSparseColMatRef::new_checked(m, m, &s.col_ptr, None, &s.row_idx),
-                values,
-            );
+            let a = SparseColMatRef::new(s.pattern.as_ref(), values);
             symbolic
                 .factorize_numeric_llt::<f64>(
                     &mut self.l_values,
@@ -509,7 +477,7 @@ impl SteadySolver {
 
             // One step of iterative refinement.
             let mut r = vec![0.0; m];
-            sym_matvec(&s.col_ptr, &s.row_idx, values, &u, &mut r);
+            sym_matvec(&s.pattern, values, &u, &mut r);
             for (ri, bi) in r.iter_mut().zip(&rhs) {
                 *ri = bi - *ri;
             }
@@ -518,7 +486,7 @@ impl SteadySolver {
                 *ui += di;
             }
 
-            sym_matvec(&s.col_ptr, &s.row_idx, values, &u, &mut r);
+            sym_matvec(&s.pattern, values, &u, &mut r);
             for (ri, bi) in r.iter_mut().zip(&rhs) {
                 *ri -= bi;
             }
