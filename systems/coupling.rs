@@ -22,10 +22,11 @@
 //! cell's pressure by K d(delta)/a, a force K L/a d(delta) per face, stiffer than the joint
 //! penalty for a = a_r. The solid's critical step includes it (see [`crate::stability::solid`]).
 
+use crate::flow::boundary::FlowStats;
+use crate::flow::explicit::flow_step;
 use crate::flow::{FlowParams, FlowView, pressure_of};
 use crate::model::Model;
 use crate::scenario::FlowBoundary;
-use crate::systems::flow::{self as flowsys, FlowStats};
 use crate::systems::fracture::joint_frame;
 use crate::view::SolidView;
 use hecs::Entity;
@@ -196,7 +197,7 @@ impl Coupling {
                     flow.set_volume_keep_mass(c, flow.length[c] * a, p);
                 }
             }
-            stats = flowsys::flow_step(flow, p, specs, dtf, t0 + k as f64 * dtf);
+            stats = flow_step(flow, p, specs, dtf, t0 + k as f64 * dtf);
             for c in 0..nc {
                 self.p_sum[c] += flow.pressure[c];
             }

@@ -452,7 +452,7 @@ fn assemble(
 /// not converge within `solver.max_iter` iterations. On error the view's masses and boundary
 /// volumes are unchanged (its pressures and fluxes hold the last iterate).
 ///
-/// [`flow_step`]: crate::systems::flow::flow_step
+/// [`flow_step`]: crate::flow::explicit::flow_step
 pub fn implicit_step(
     v: &mut FlowView,
     params: &FlowParams,

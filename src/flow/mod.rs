@@ -13,6 +13,7 @@
 //!   the cell's length: kappa_b = a^3 / (6 mu L).
 
 pub mod boundary;
+pub mod explicit;
 pub mod implicit;
 mod sparse;
 pub mod steady;
