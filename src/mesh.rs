@@ -1,7 +1,7 @@
 //! Triangle mesh generation (plain data, before it becomes ECS entities).
 //!
 //! `regular`: a rectangle of square cells of size h, each split into two triangles with the
-//! diagonal alternating like a chequerboard (the seed paper's Fig. 4a; a crack along edges can
+//! diagonal alternating like a chequerboard (the seed's Fig. 4a, `docs/seed-method.md`; a crack along edges can
 //! turn by 45 or 90 degrees). `perturbed`: the same with seeded random nodal perturbation
 //! (Fig. 4b) that keeps every triangle valid. All lengths in m.
 

@@ -31,7 +31,7 @@ pub struct Scenario {
     /// starts in equilibrium instead of relaxing into it.
     #[serde(default)]
     pub initial_state: InitialState,
-    /// Fracturing of the rock (the criterion; node splitting comes with the fracture issue).
+    /// Fracturing of the rock (the criterion, pre-existing fractures and node splitting).
     #[serde(default)]
     pub fracture: Option<FractureSpec>,
     /// A rigid fracture network (flow-only scenes).
@@ -244,8 +244,8 @@ pub struct FractureSpec {
     /// Fractures present at the start, snapped to mesh edges and opened by node splitting.
     #[serde(default)]
     pub preexisting: Vec<PreFracture>,
-    /// A uniform pressure on the faces of every fracture, Pa (prescribed; the coupling issue
-    /// feeds it from the flow solver instead).
+    /// A uniform pressure on the faces of every fracture, Pa (prescribed; in coupled runs the
+    /// flow solver supplies the face pressures instead).
     #[serde(default)]
     pub pressure: Option<f64>,
     /// Joint friction angle phi, degrees (Coulomb: |F_t| <= F_n tan phi). Default 30.

@@ -1,4 +1,4 @@
-//! Hydro-mechanical coupling (issue 5): a pump drives water into a pre-existing fracture in
+//! Hydro-mechanical coupling (README, "Hydro-mechanical coupling"): a pump drives water into a pre-existing fracture in
 //! rock under the seed's in-situ stress (sigma_xx = -20 MPa, sigma_yy = -10 MPa); the fracture
 //! opens and grows by node splitting, and the new cells join the flow network.
 //!
@@ -28,10 +28,10 @@ fn scene(end: f64, extra: &str) -> Scenario {
     Scenario::parse(&text, "coupled.ron").unwrap()
 }
 
-/// Mass balance over the whole coupled run (verification.md item 12): injected volume = change
+/// Mass balance over the whole coupled run (`docs/verification.md` R12): injected volume = change
 /// of stored fluid, counting cells created mid-run (they arrive empty) and the volume changes of
-/// every cell as its faces move, checked after every step. Tolerance 1e-9 relative (the issue's
-/// target); the scheme conserves to round-off (about 1e-16 measured), so this fails on any real
+/// every cell as its faces move, checked after every step. Tolerance 1e-9 relative
+/// (`docs/verification.md` R12); the scheme conserves to round-off (about 1e-16 measured), so this fails on any real
 /// leak, e.g. a volume change without rebasing the excess mass or a new cell created full.
 #[test]
 fn coupled_run_conserves_mass_and_grows_the_fracture() {
@@ -82,7 +82,7 @@ fn coupled_run_conserves_mass_and_grows_the_fracture() {
     );
 }
 
-/// Ablation (issue 5): with the contact system or the criterion switched off the coupled run
+/// Ablation (README, "Hydro-mechanical coupling"): with the contact system or the criterion switched off the coupled run
 /// completes; the schedule reports what was off; without the criterion nothing splits.
 #[test]
 fn ablation_runs_complete() {

@@ -1,4 +1,4 @@
-//! The seed's Example I (verification.md item 9), the shipped scenarios shortened to 0.6 s of
+//! The seed's Example I (`docs/verification.md` R9), the shipped scenarios shortened to 0.6 s of
 //! simulated time (the outcome is decided by then: the fracture reaches the vertical fracture
 //! at x = 16 m at about 0.41 s). Full runs: `hydrofrac run scenarios/example1_cross.ron` and
 //! `example1_offset.ron` (1.5 s).
@@ -63,7 +63,7 @@ fn friction_45_degrees_crosses() {
     assert!(beyond >= 1, "no new fracture past x = 17 m at y = 50 m");
     let vert: Vec<_> = cs.iter().filter(|c| vertical(c)).collect();
     assert_eq!(vert.len(), 8);
-    // "Mostly closed" (verification.md item 9): at least 6 of the 8 cells at the residual
+    // "Mostly closed" (`docs/verification.md` R9): at least 6 of the 8 cells at the residual
     // aperture; measured 8 of 8.
     let closed = vert.iter().filter(|c| c.2 <= 5e-4 * (1.0 + 1e-9)).count();
     assert!(

@@ -1,5 +1,5 @@
 //! The implicit (backward-Euler) flow step against the explicit one and the references of
-//! verification.md items 10-13. Tolerances and their reasons are stated at each check (the
+//! `docs/verification.md` R10-R13. Tolerances and their reasons are stated at each check (the
 //! verification cases' own are in `src/verify/flow_cases.rs`).
 
 use hydrofrac::flow::implicit::{ImplicitError, ImplicitSolver, implicit_step};

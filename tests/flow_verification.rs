@@ -1,4 +1,4 @@
-//! Fracture-network flow verification (verification.md items 10-13) at test resolutions. Every
+//! Fracture-network flow verification (`docs/verification.md` R10-R13) at test resolutions. Every
 //! check's tolerance and its reason are in `src/verify/flow_cases.rs`.
 
 use hydrofrac::flow::{FlowParams, pressure_of};

@@ -1,4 +1,4 @@
-//! Joint contact with Coulomb friction (seed (8)-(11), verification.md item 8): a block cut by a
+//! Joint contact with Coulomb friction (seed (8)-(11), `docs/verification.md` R8): a block cut by a
 //! horizontal fracture across its whole width, pressed by sigma = 10 MPa and sheared by tau.
 //! Below the friction limit (tau = 0.8 sigma tan phi) the joint sticks: the run reaches static
 //! equilibrium, no joint slides, every joint carries |F_t| < F_n tan phi and about sigma per
@@ -133,11 +133,11 @@ fn gravity_loads_the_rock_with_its_weight() {
     }
 }
 
-/// Inclined block under gravity (verification.md item 8, `fracture_cases::inclined_block`:
+/// Inclined block under gravity (`docs/verification.md` R8, `fracture_cases::inclined_block`:
 /// gravity rotated by psi, a 4 m x 2 m rock cut along y = 1 m, relaxed under the normal
 /// component, then the tangential component ramped in undamped). Sliding (psi > phi): the
-/// mean acceleration of the upper block's centre of mass over 0.1 s is within 2 % (the issue's
-/// tolerance) of g (sin psi - cos psi tan phi) (m/s^2) and every joint slides throughout the
+/// mean acceleration of the upper block's centre of mass over 0.1 s is within 2 % (`docs/verification.md`
+/// R8) of g (sin psi - cos psi tan phi) (m/s^2) and every joint slides throughout the
 /// window. Sticking (psi < phi): no joint ever slides, and the centre of mass moves by less
 /// than 1e-4 m (elastic deformation only, ~1e-5 m; a sliding block would move millimetres).
 /// Near the limit (psi = 29, phi = 30 deg) joints at the ends may slip locally, but the block

@@ -1,4 +1,4 @@
-//! KGD propagation (verification.md item 6), the shipped `scenarios/kgd.ron` with the implicit
+//! KGD propagation (`docs/verification.md` R6), the shipped `scenarios/kgd.ron` with the implicit
 //! flow scheme at h = 2 and 1 m (about 45 s). The engine converges to the viscosity-dominated
 //! similarity solution as h falls (the strength criterion acts like a toughness that vanishes
 //! with h; README, "KGD"): each of the half-length, well-opening and net-pressure errors must

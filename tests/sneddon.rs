@@ -1,6 +1,6 @@
 //! Sneddon's pressurised crack on graded meshes at a/h = 10 and 20 (`verify sneddon --quick`):
 //! the opened area converges at about first order (crack-tip singularity, linear elements) and
-//! is within 5 % at a/h = 20 (the target; measured -4.2 % raw, -3.9 % corrected for the
+//! is within 5 % at a/h = 20 (the target in `docs/verification.md`, sneddon; measured -4.2 % raw, -3.9 % corrected for the
 //! fixed edges at 20a). Mass scaling for the relaxation gives the same static answer as the true
 //! masses. Also: the shipped scenario parses and its crack snaps exactly.
 

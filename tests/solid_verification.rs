@@ -1,4 +1,4 @@
-//! Solid verification (verification.md items 1-4) at test resolutions. Each case states its
+//! Solid verification (`docs/verification.md` R1-R4) at test resolutions. Each case states its
 //! tolerance and why in `src/verify/solid_cases.rs`; here every check of the case must pass.
 
 use hydrofrac::verify::{CaseResult, solid_cases};

@@ -128,20 +128,3 @@ fn flow_step_serial(
         bad_cell: st.bad_cell,
     }
 }
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn pump_point_solves_both_curves() {
-        // One cell at 2 MPa behind kappa = 1e-9: q = kappa (P(q) - 2e6).
-        let (q, pp) = pump_operating_point(18e6, 2.0, &[1e-9], &[2e6], 0.0);
-        assert!((q - 1e-9 * (pp - 2e6)).abs() < 1e-12 * q);
-        let curve = 18e6 * (1.0 - std::f64::consts::FRAC_2_PI * (q / 2.0).atan());
-        assert!((pp - curve).abs() < 1e-6, "{pp} vs {curve}");
-        // Check valve: network above p_max gives no backflow.
-        let (q, _) = pump_operating_point(18e6, 2.0, &[1e-9], &[20e6], 0.0);
-        assert_eq!(q, 0.0);
-    }
-}

@@ -1,7 +1,7 @@
 //! Fracture-network flow: the dense flow view (cells, pairs, boundaries) and its parameters.
 //!
 //! Finite volumes, one per cell (fracture segment), per unit thickness. Equations (seed (1)-(4),
-//! with architecture.md's corrections):
+//! with the corrections D1-D5 of `docs/seed-method.md`):
 //! - transmissibility between cells i and j sharing a node:
 //!   kappa_ij = 1 / (6 mu (L_i / a_i^3 + L_j / a_j^3))   (m^2/(Pa s)), the harmonic form of (1)+(2);
 //! - volumetric flow from i to j: q_ij = kappa_ij (P_i - P_j)   (m^2/s);

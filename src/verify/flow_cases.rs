@@ -1,4 +1,4 @@
-//! Flow verification cases (verification.md items 10-13): `cubic_law`, `diffusion`,
+//! Flow verification cases (`docs/verification.md` R10-R13): `cubic_law`, `diffusion`,
 //! `mass_balance`, `pump_curve`, `steady`, `flow_stability`.
 
 use super::{CaseResult, Row, observed_order};

@@ -1,4 +1,4 @@
-//! Fracture verification cases (verification.md items 5 and 8): `sneddon`, `friction`.
+//! Fracture verification cases (`docs/verification.md` R5 and R8): `sneddon`, `friction`.
 
 use super::{CaseResult, Row, observed_order};
 use crate::scenario::{
@@ -194,12 +194,12 @@ pub fn domain_effect(
 /// (1 + raw) (1 + domain effect) - 1, i.e. against the formula reduced to the finite domain.
 /// Rows: `area`, `area_corrected`, `max_opening`, `max_opening_corrected` (wall time: the 20a
 /// run), and `domain_effect_area` (the correction, wall time: both extra runs).
-/// Targets (the issue): corrected area error within 5 % at a/h = 20 and 1.5 % at a/h = 80
+/// Targets (`docs/verification.md`, sneddon): corrected area error within 5 % at a/h = 20 and 1.5 % at a/h = 80
 /// (measured -3.9 % and -1.1 %); the raw error is also required within 5 % at a/h = 20 and
 /// reported at 80 (measured -1.48 %, too close to 1.5 % to be a robust check);
 /// observed order of the corrected area error about 1 (linear elements, crack-tip
 /// singularity), required in [0.7, 1.5]; the domain effect at 20a below 1 %
-/// (verification.md: keep the domain >= 20a or correct for it).
+/// (`docs/verification.md`, sneddon: keep the domain >= 20a or correct for it).
 pub fn sneddon(quick: bool) -> anyhow::Result<CaseResult> {
     let ratios: &[f64] = if quick {
         &[10.0, 20.0]
@@ -309,7 +309,7 @@ pub const G: f64 = 9.81;
 pub const BLOCK_JOINT_STIFFNESS: f64 = 2e8;
 
 /// A block on a joint inclined at `psi_deg` with friction angle `phi_deg` under gravity
-/// (verification.md item 8). Instead of tilting the mesh, gravity is rotated:
+/// (`docs/verification.md` R8). Instead of tilting the mesh, gravity is rotated:
 /// g = 9.81 (sin psi, -cos psi) m/s^2 on a 4 m x 2 m rectangle (cell size `h`, m) cut by a
 /// pre-existing fracture along y = 1 m across its whole width into two 4 m x 1 m blocks; the
 /// lower block's base is fixed, everything else is free; E = 20 GPa, nu = 0.2,
@@ -454,10 +454,10 @@ pub fn inclined_block(psi_deg: f64, phi_deg: f64, h: f64) -> anyhow::Result<Incl
     })
 }
 
-/// Frictional sliding (verification.md item 8) with [`inclined_block`] at cell sizes 0.5,
+/// Frictional sliding (`docs/verification.md` R8) with [`inclined_block`] at cell sizes 0.5,
 /// 0.25, 0.125 m (0.5, 0.25 with `quick`). Sliding, psi = 30 deg > phi = 20 deg: the relative
 /// error of the mean acceleration against g (sin psi - cos psi tan phi) = 1.8128 m/s^2 is at
-/// most 2 % at every level (the issue's tolerance; measured below 1e-3: the rigid-block
+/// most 2 % at every level (the target in `docs/verification.md` R8; measured below 1e-3: the rigid-block
 /// answer is exact for the discrete momentum balance once every joint slides, and what is left
 /// is the ~1 % residual vibration from the ramp averaged over 40 periods). Sticking, psi = 20
 /// deg < phi = 30 deg: no joint ever slides, and the block's centre of mass moves by at most

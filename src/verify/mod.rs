@@ -1,9 +1,9 @@
 //! `hydrofrac verify`: verification cases run at several resolutions, each reporting error and
 //! wall time side by side (`DIR/<case>.csv`, `DIR/<case>.png`), with stated tolerances.
 //!
-//! Cases: solid (verification.md items 1-4) `patch`, `insitu`, `mms`, `stability`; flow
+//! Cases: solid (`docs/verification.md` R1-R4) `patch`, `insitu`, `mms`, `stability`; flow
 //! `cubic_law`, `diffusion`, `mass_balance`, `pump_curve`, `steady`, `flow_stability`; fracture
-//! (items 5 and 8) `sneddon`, `friction`.
+//! (R5, R8) `sneddon`, `friction`; coupled (R6) `kgd`.
 
 pub mod coupled_cases;
 pub mod flow_cases;

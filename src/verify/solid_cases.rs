@@ -1,4 +1,4 @@
-//! Solid verification cases (verification.md items 1-4).
+//! Solid verification cases (`docs/verification.md` R1-R4).
 
 use super::{CaseResult, Row, observed_order};
 use crate::model::Model;
@@ -166,7 +166,7 @@ pub fn patch(quick: bool) -> anyhow::Result<CaseResult> {
 /// Uniform in-situ stress: the seed's 100 m x 100 m block with normal boundary displacements from
 /// plane-strain Hooke's law for sxx = -20 MPa, syy = -10 MPa, on the regular and the perturbed
 /// mesh. Error: largest deviation of any element stress component over 20 MPa. Tolerance 1e-6
-/// (the issue's); the relaxation to a residual of 1e-9 leaves about 1e-8.
+/// (the project target, `docs/verification.md` R2); the relaxation to a residual of 1e-9 leaves about 1e-8.
 pub fn insitu(quick: bool) -> anyhow::Result<CaseResult> {
     let hs: &[f64] = if quick {
         &[10.0, 5.0, 2.5]

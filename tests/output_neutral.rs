@@ -1,0 +1,115 @@
+//! Writing outputs never changes the physics: the same scenario run without an output folder
+//! and with a frame (solid, network, joint state: each one a sync into the components) after
+//! every step takes the same number of steps and ends in the same state, to the bit. Three
+//! scenes that sync for frames: a frictional joint relaxing to static equilibrium, a notched
+//! plate that cracks (splits, view rebuilds), and a coupled pump-driven fracture (flow view,
+//! joint stresses, positions refreshed for the frames, the fracture-pressure figure).
+
+use hydrofrac::output::Outputs;
+use hydrofrac::scenario::Scenario;
+use hydrofrac::sim::Simulation;
+
+/// Steps, displacement and velocity bits, fluid excess-mass bits and the split count of a run.
+type Fingerprint = (u64, Vec<u64>, Vec<u64>, Vec<u64>, usize);
+
+fn run(text: &str, frames: bool, tag: &str) -> Fingerprint {
+    let mut sc = Scenario::parse(text, "neutral.ron").unwrap();
+    let dir = std::env::temp_dir().join(format!("hydrofrac-neutral-{tag}-{}", std::process::id()));
+    if frames {
+        sc.output.frame_every = 1;
+        sc.output.series_every = 1;
+        sc.output.figure_times = vec![0.004];
+    }
+    let mut sim = Simulation::new(sc, &[]).unwrap();
+    if frames {
+        let out = Outputs::create(
+            &dir,
+            &sim.params().output.fields.clone(),
+            &sim.series_columns(),
+        )
+        .unwrap();
+        sim.set_output(out);
+    }
+    sim.run(|_| {}).unwrap();
+    if frames {
+        let o = sim.output().unwrap();
+        assert!(o.frames as u64 >= sim.step(), "{} frames", o.frames);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+    let bits = |v: &[[f64; 2]]| v.iter().flat_map(|x| x.map(f64::to_bits)).collect();
+    let flow = sim
+        .flow()
+        .map(|f| f.view.excess.iter().map(|e| e.to_bits()).collect())
+        .unwrap_or_default();
+    (
+        sim.step(),
+        bits(&sim.solid().u),
+        bits(&sim.solid().v),
+        flow,
+        sim.fracture().splits,
+    )
+}
+
+fn same_with_and_without_frames(text: &str, tag: &str) -> Fingerprint {
+    let a = run(text, false, tag);
+    let b = run(text, true, tag);
+    assert_eq!(a.0, b.0, "{tag}: steps without / with frames");
+    assert!(
+        a.1 == b.1 && a.2 == b.2,
+        "{tag}: solid state differs with frames"
+    );
+    assert!(a.3 == b.3, "{tag}: fluid state differs with frames");
+    assert_eq!(a.4, b.4, "{tag}: splits");
+    a
+}
+
+#[test]
+fn frictional_static_run_is_the_same_with_frames() {
+    let text = r#"(
+        name: "friction",
+        mesh: Regular(width: 8.0, height: 4.0, h: 1.0),
+        material: (young: 20e9, poisson: 0.2, density: 2700.0),
+        boundary: Sides(
+            bottom: Fixed,
+            top: Traction(normal: -10e6, shear: -4.6e6),
+            left: Traction(normal: 0.0, shear: 4.6e6),
+            right: Traction(normal: 0.0, shear: 4.6e6),
+        ),
+        fracture: Some((preexisting: [(from: (0.0, 2.0), to: (8.0, 2.0))], friction_deg: 30.0)),
+        time: (end: Static(tol: 1e-9), max_steps: 400000),
+    )"#;
+    let (steps, ..) = same_with_and_without_frames(text, "friction");
+    assert!(steps > 100, "{steps} steps");
+}
+
+#[test]
+fn cracking_plate_is_the_same_with_frames() {
+    let text = r#"(
+        name: "notch",
+        mesh: Regular(width: 20.0, height: 10.0, h: 0.5),
+        material: (young: 20e9, poisson: 0.2, density: 2700.0),
+        boundary: Sides(top: Traction(normal: 2e6, shear: 0.0), bottom: Traction(normal: 2e6, shear: 0.0)),
+        pins: [(at: (20.0, 0.0), ux: 0.0, uy: 0.0), (at: (20.0, 10.0), ux: 0.0)],
+        fracture: Some((strength: Some(4e6), preexisting: [(from: (0.0, 5.0), to: (4.0, 5.0))])),
+        time: (end: Time(0.02)),
+    )"#;
+    let (.., splits) = same_with_and_without_frames(text, "notch");
+    assert!(splits > 0, "the plate should crack");
+}
+
+#[test]
+fn coupled_fracture_is_the_same_with_frames() {
+    let text = r#"(
+        name: "coupled",
+        mesh: Regular(width: 40.0, height: 30.0, h: 1.0),
+        material: (young: 20e9, poisson: 0.2, density: 2700.0),
+        boundary: InSitu(sxx: -20e6, syy: -10e6),
+        initial_state: InSitu,
+        fracture: Some((strength: Some(1e6), preexisting: [(from: (0.0, 15.0), to: (10.0, 15.0))],
+            friction_deg: 45.0, normal_stiffness: Some(20e9), shear_stiffness: Some(8.3e9))),
+        flow_boundaries: [(name: "pump", at: Node((0.0, 15.0)), kind: Pump(p_max: 30e6, q_half: 2.0))],
+        time: (end: Time(0.01), flow_scheme: Implicit),
+    )"#;
+    let (_, _, _, excess, _) = same_with_and_without_frames(text, "coupled");
+    assert!(!excess.is_empty());
+}
