@@ -77,7 +77,7 @@ pub fn open_edges(model: &mut Model, ready: &[Entity], aperture: f64, t: f64) ->
         .map(|n| (stable(world, n), n))
         .collect();
     // For each split node: element -> group index, and the number of groups.
-    let mut groups: BTreeMap<u64, (Entity, HashMap<Entity, usize>, usize)> = BTreeMap::new();
+    let mut groups: BTreeMap<u64, (Entity, BTreeMap<Entity, usize>, usize)> = BTreeMap::new();
     for (&nid, &n) in &candidates {
         let edges = &node_edges[&n];
         let r = edges.iter().filter(|e| is_ready.contains_key(e)).count();
@@ -115,9 +115,12 @@ pub fn open_edges(model: &mut Model, ready: &[Entity], aperture: f64, t: f64) ->
                 sets.union(ia, ib);
             }
         }
-        // Group numbers in order of the smallest element stable id.
+        // Group numbers in order of the smallest element stable id. `of_elem` is ordered so
+        // that the daughters' masses below are summed in the same order in every process (a
+        // HashMap's iteration order changes from run to run, and so would the masses' last
+        // bits on a mesh of unequal elements).
         let mut number: HashMap<usize, usize> = HashMap::new();
-        let mut of_elem = HashMap::new();
+        let mut of_elem = BTreeMap::new();
         for (i, &el) in elems.iter().enumerate() {
             let r = sets.find(i);
             let next = number.len();
@@ -182,7 +185,7 @@ pub fn open_edges(model: &mut Model, ready: &[Entity], aperture: f64, t: f64) ->
         report.daughters += ds.len();
         daughters.insert(*n, ds);
     }
-    let group_of: HashMap<Entity, &HashMap<Entity, usize>> =
+    let group_of: HashMap<Entity, &BTreeMap<Entity, usize>> =
         groups.values().map(|(n, g, _)| (*n, g)).collect();
     let daughter_of = |n: Entity, el: Entity| -> Entity {
         match group_of.get(&n) {
@@ -309,7 +312,7 @@ pub fn check_invariants(model: &Model) -> Result<(), String> {
     let w = &model.world;
     let live = |e: Entity| w.contains(e);
     let in_solid = |n: Entity| w.get::<&NodeLink>(n).map(|l| l.in_solid).unwrap_or(false);
-    let mut sides: HashMap<(Entity, Entity), usize> = HashMap::new();
+    let mut sides: BTreeMap<(Entity, Entity), usize> = BTreeMap::new();
     for (el, en) in w.query::<(Entity, &ElemNodes)>().iter() {
         for &n in &en.0 {
             if !live(n) || !in_solid(n) {
