@@ -1,31 +1,22 @@
 //! Line plots: [`loglog`] and [`lines`].
 
-use std::ops::Range;
 use std::path::Path;
 
 use plotters::prelude::*;
 use plotters::style::RGBColor;
-use plotters::style::text_anchor::{HPos, VPos};
 
-use super::{Area, Axis, Coords, Layout, Pens, PlotError, Series, count, legend_box, write_png};
+use super::{Area, Axis, Coords, Drawn, LABEL, Layout, PixelBox, PlotError, RIGHT_OF, Series};
+use super::{Texts, count, legend_box, notes, write_png};
 
 const WIDTH: u32 = 1000;
 const HEIGHT: u32 = 700;
 /// Series with more points than this are drawn as plain lines (no markers).
 const MAX_MARKED_POINTS: usize = 60;
 
-/// Tableau-10 palette.
-const PALETTE: [RGBColor; 10] = [
-    RGBColor(31, 119, 180),
-    RGBColor(255, 127, 14),
-    RGBColor(44, 160, 44),
-    RGBColor(214, 39, 40),
-    RGBColor(148, 103, 189),
-    RGBColor(140, 86, 75),
-    RGBColor(227, 119, 194),
-    RGBColor(127, 127, 127),
-    RGBColor(188, 189, 34),
-    RGBColor(23, 190, 207),
+/// Tableau-10 palette (0xRRGGBB).
+const PALETTE: [u32; 10] = [
+    0x1f77b4, 0xff7f0e, 0x2ca02c, 0xd62728, 0x9467bd, 0x8c564b, 0xe377c2, 0x7f7f7f, 0xbcbd22,
+    0x17becf,
 ];
 
 /// Log-log plot, one line+markers per series, legend, axis labels, 1000x700
@@ -36,12 +27,10 @@ pub fn loglog(
     title: &str,
     xlabel: &str,
     ylabel: &str,
-    series: &[Series],
+    s: &[Series],
 ) -> Result<(), PlotError> {
-    let pens = Pens::new()?;
-    let texts = (title, xlabel, ylabel);
     write_png(path, (WIDTH, HEIGHT), |root| {
-        draw_lines(root, &pens, texts, series, true).map(drop)
+        draw_lines(root, (title, xlabel, ylabel), s, true)
     })
 }
 
@@ -52,74 +41,48 @@ pub fn lines(
     title: &str,
     xlabel: &str,
     ylabel: &str,
-    series: &[Series],
+    s: &[Series],
 ) -> Result<(), PlotError> {
-    let pens = Pens::new()?;
-    let texts = (title, xlabel, ylabel);
     write_png(path, (WIDTH, HEIGHT), |root| {
-        draw_lines(root, &pens, texts, series, false).map(drop)
+        draw_lines(root, (title, xlabel, ylabel), s, false)
     })
 }
 
-#[derive(Clone, Copy)]
-enum Marker {
-    Circle,
-    Square,
-    Triangle,
-    Diamond,
+/// Colour of series `i` (cycling), and its marker: circle, square, triangle
+/// or diamond, changing after each cycle of colours.
+fn series_style(i: usize) -> (RGBColor, usize) {
+    let c = PALETTE[i % PALETTE.len()];
+    let rgb = RGBColor((c >> 16) as u8, (c >> 8) as u8, c as u8);
+    (rgb, (i / PALETTE.len()) % 4)
 }
 
-const MARKERS: [Marker; 4] = [
-    Marker::Circle,
-    Marker::Square,
-    Marker::Triangle,
-    Marker::Diamond,
-];
-
-/// Colour and marker of series `i` (colours cycle first).
-fn series_style(i: usize) -> (RGBColor, Marker) {
-    (
-        PALETTE[i % PALETTE.len()],
-        MARKERS[(i / PALETTE.len()) % MARKERS.len()],
-    )
-}
-
-fn draw_marker(
-    root: &Area,
-    (x, y): (i32, i32),
-    marker: Marker,
-    color: RGBColor,
-) -> Result<(), String> {
+fn draw_marker(root: &Area, (x, y): (i32, i32), (color, marker): (RGBColor, usize)) -> Drawn {
     let st = color.filled();
+    let diamond = vec![(x, y - 6), (x + 6, y), (x, y + 6), (x - 6, y)];
     match marker {
-        Marker::Circle => root.draw(&Circle::new((x, y), 5, st)),
-        Marker::Square => root.draw(&Rectangle::new([(x - 4, y - 4), (x + 4, y + 4)], st)),
-        Marker::Triangle => root.draw(&TriangleMarker::new((x, y), 6, st)),
-        Marker::Diamond => root.draw(&Polygon::new(
-            vec![(x, y - 6), (x + 6, y), (x, y + 6), (x - 6, y)],
-            st,
-        )),
+        0 => root.draw(&Circle::new((x, y), 5, st)),
+        1 => root.draw(&Rectangle::new([(x - 4, y - 4), (x + 4, y + 4)], st)),
+        2 => root.draw(&TriangleMarker::new((x, y), 6, st)),
+        _ => root.draw(&Polygon::new(diamond, st)),
     }
-    .map_err(|e| e.to_string())
 }
 
-/// Pick the plot corner where a `w`x`h` px legend box (inset by `inset`)
-/// covers the fewest curve samples; returns the box's top-left corner.
+/// Pick the corner of the plotting area `(px, py)` where a `w`x`h` px
+/// legend box (inset by 12 px) covers the fewest curve samples; returns the
+/// box's top-left corner.
 fn legend_origin(
     curves: &[Vec<(i32, i32)>],
-    (px, py): &(Range<i32>, Range<i32>),
+    (px, py): &PixelBox,
     (w, h): (i32, i32),
-    inset: i32,
 ) -> (i32, i32) {
-    let (left, right) = (px.start + inset, px.end - inset - w);
-    let (top, bottom) = (py.start + inset, py.end - inset - h);
+    let (left, right) = (px.start + 12, px.end - 12 - w);
+    let (top, bottom) = (py.start + 12, py.end - 12 - h);
     // Preference order on ties: upper right, upper left, lower right, lower left.
     let corners = [(right, top), (left, top), (right, bottom), (left, bottom)];
     let mut counts = [0usize; 4];
     let mut visit = |x: f64, y: f64| {
-        let m = 6.0;
         for (k, &(cx, cy)) in corners.iter().enumerate() {
-            let (cx, cy) = (cx as f64, cy as f64);
+            let (cx, cy, m) = (cx as f64, cy as f64, 6.0);
             if x >= cx - m && x <= cx + w as f64 + m && y >= cy - m && y <= cy + h as f64 + m {
                 counts[k] += 1;
             }
@@ -139,63 +102,41 @@ fn legend_origin(
             visit(x as f64, y as f64);
         }
     }
-    let best = (0..4).min_by_key(|&k| counts[k]).unwrap_or(0);
-    corners[best]
+    corners[(0..4).min_by_key(|&k| counts[k]).unwrap_or(0)]
 }
 
 /// Draw a line plot on `root`; returns where data coordinates land.
-pub(super) fn draw_lines(
-    root: &Area,
-    pens: &Pens,
-    texts: (&str, &str, &str),
-    series: &[Series],
-    log: bool,
-) -> Result<Coords, String> {
+pub(super) fn draw_lines(root: &Area, texts: Texts, series: &[Series], log: bool) -> Drawn<Coords> {
     // Filter and (for log plots) transform the data.
-    let mut dropped = 0usize;
-    let data: Vec<Vec<(f64, f64)>> = series
-        .iter()
-        .map(|s| {
-            let kept: Vec<(f64, f64)> = (s.points.iter())
-                .filter(|(x, y)| x.is_finite() && y.is_finite() && (!log || (*x > 0.0 && *y > 0.0)))
-                .map(|&(x, y)| if log { (x.log10(), y.log10()) } else { (x, y) })
-                .collect();
-            dropped += s.points.len() - kept.len();
-            kept
-        })
-        .collect();
+    let keep =
+        |&&(x, y): &&(f64, f64)| x.is_finite() && y.is_finite() && (!log || x > 0.0 && y > 0.0);
+    let to_plot = |&(x, y): &(f64, f64)| if log { (x.log10(), y.log10()) } else { (x, y) };
+    let kept = |s: &Series| s.points.iter().filter(keep).map(to_plot).collect();
+    let data: Vec<Vec<(f64, f64)>> = series.iter().map(kept).collect();
+    let dropped: usize = series.iter().map(|s| s.points.len()).sum::<usize>()
+        - data.iter().map(Vec::len).sum::<usize>();
     let (mut xmin, mut xmax, mut ymin, mut ymax) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
     for &(x, y) in data.iter().flatten() {
-        (xmin, xmax) = (xmin.min(x), xmax.max(x));
-        (ymin, ymax) = (ymin.min(y), ymax.max(y));
+        (xmin, xmax, ymin, ymax) = (xmin.min(x), xmax.max(x), ymin.min(y), ymax.max(y));
     }
     let empty = xmin > xmax;
     if empty {
         (xmin, xmax, ymin, ymax) = (0.0, 1.0, 0.0, 1.0);
     }
     let axis = if log { Axis::log } else { Axis::linear };
-    let (x_axis, y_axis) = (axis(xmin, xmax), axis(ymin, ymax));
-    let layout = Layout::new(pens, texts, x_axis, y_axis, None, 0);
+    let layout = Layout::new(texts, axis(xmin, xmax), axis(ymin, ymax), None, 0);
     let mut chart = layout.chart(root, Some((0.16, 0.05)))?;
-
-    // Curves.
-    let mut pixel_curves = Vec::with_capacity(data.len());
     for (i, pts) in data.iter().enumerate() {
-        let color = series_style(i).0;
-        let line = LineSeries::new(pts.iter().copied(), color.stroke_width(2));
-        chart.draw_series(line).map_err(|e| e.to_string())?;
-        pixel_curves.push(
-            pts.iter()
-                .map(|p| chart.backend_coord(p))
-                .collect::<Vec<_>>(),
-        );
+        let line = LineSeries::new(pts.iter().copied(), series_style(i).0.stroke_width(2));
+        chart.draw_series(line)?;
     }
+    let to_px = |pts: &Vec<(f64, f64)>| pts.iter().map(|p| chart.backend_coord(p)).collect();
+    let curves: Vec<Vec<(i32, i32)>> = data.iter().map(to_px).collect();
     let area = layout.frame(root, &mut chart)?;
-    for (i, pix) in pixel_curves.iter().enumerate() {
-        if pix.len() <= MAX_MARKED_POINTS {
-            for &p in pix {
-                draw_marker(root, p, series_style(i).1, series_style(i).0)?;
-            }
+    let marked = |(_, c): &(usize, &Vec<(i32, i32)>)| c.len() <= MAX_MARKED_POINTS;
+    for (i, pix) in curves.iter().enumerate().filter(marked) {
+        for &p in pix {
+            draw_marker(root, p, series_style(i))?;
         }
     }
 
@@ -204,50 +145,33 @@ pub(super) fn draw_lines(
         .filter(|&i| !series[i].label.is_empty() && !data[i].is_empty())
         .collect();
     if !entries.is_empty() {
-        let pen = &pens.label;
-        let (row_h, sample_w, pad) = (pen.cap() * 2, 34, 12);
-        let text_w = (entries.iter().map(|&i| pen.width(&series[i].label)))
-            .max()
-            .unwrap_or(0);
-        let w = pad + sample_w + 10 + text_w + pad;
-        let h = 2 * pad + row_h * entries.len() as i32 - pen.cap();
-        let (lx, ly) = legend_origin(&pixel_curves, &area, (w, h), 12);
+        let (row_h, sample_w, pad) = (LABEL.cap() * 2, 34, 12);
+        let text_w = entries.iter().map(|&i| LABEL.width(&series[i].label)).max();
+        let w = pad + sample_w + 10 + text_w.unwrap_or(0) + pad;
+        let h = 2 * pad + row_h * entries.len() as i32 - LABEL.cap();
+        let (lx, ly) = legend_origin(&curves, &area, (w, h));
         legend_box(root, [(lx, ly), (lx + w, ly + h)])?;
         for (row, &i) in entries.iter().enumerate() {
-            let (color, marker) = series_style(i);
-            let (x0, y) = (lx + pad, ly + pad + pen.cap() / 2 + row as i32 * row_h);
-            let sample = PathElement::new(vec![(x0, y), (x0 + sample_w, y)], color.stroke_width(2));
-            root.draw(&sample).map_err(|e| e.to_string())?;
+            let (x0, y) = (lx + pad, ly + pad + LABEL.cap() / 2 + row as i32 * row_h);
+            let style = series_style(i);
+            let sample = vec![(x0, y), (x0 + sample_w, y)];
+            root.draw(&PathElement::new(sample, style.0.stroke_width(2)))?;
             if data[i].len() <= MAX_MARKED_POINTS {
-                draw_marker(root, (x0 + sample_w / 2, y), marker, color)?;
+                draw_marker(root, (x0 + sample_w / 2, y), style)?;
             }
-            let at = (x0 + sample_w + 10, y);
-            pen.draw(
-                root,
-                &series[i].label,
-                at,
-                (HPos::Left, VPos::Center),
-                false,
-            )?;
+            LABEL.draw(root, &series[i].label, (x0 + sample_w + 10, y), RIGHT_OF)?;
         }
     }
 
-    // Notes.
-    let big = empty.then_some(if log {
-        "no data to plot (no finite, positive points)"
-    } else {
-        "no data to plot (no finite points)"
-    });
-    let what = if log {
-        "non-positive or non-finite point"
-    } else {
-        "non-finite point"
+    let big = match log {
+        true => "no data to plot (no finite, positive points)",
+        false => "no data to plot (no finite points)",
     };
-    let small = if dropped > 0 && !empty {
-        vec![format!("{} omitted", count(dropped, what))]
-    } else {
-        vec![]
+    let what = match log {
+        true => "non-positive or non-finite point",
+        false => "non-finite point",
     };
-    layout.notes(root, &area, big.map(|m| (m, true)), &small)?;
+    let small = (dropped > 0 && !empty).then(|| format!("{} omitted", count(dropped, what)));
+    notes(root, &area, empty.then_some((big, true)), small.as_slice())?;
     Ok(chart.as_coord_spec().clone())
 }

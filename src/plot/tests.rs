@@ -457,24 +457,29 @@ fn small_fracture_map() -> (Vec<Segment>, Vec<[[f64; 2]; 4]>, Vec<f64>) {
 
 /// Render a figure of `size` px into memory with `draw`: RGB pixels and
 /// where data coordinates landed.
-fn render(
-    size: (u32, u32),
-    draw: impl FnOnce(&Area, &Pens) -> Result<Coords, String>,
-) -> (Vec<u8>, Coords) {
-    let pens = Pens::new().unwrap();
+fn render(size: (u32, u32), draw: impl FnOnce(&Area) -> Drawn<Coords>) -> (Vec<u8>, Coords) {
+    ensure_font().unwrap();
     let mut buf = vec![0u8; (size.0 * size.1 * 3) as usize];
     let coords = {
         let root = BitMapBackend::with_buffer(&mut buf, size).into_drawing_area();
-        let coords = draw(&root, &pens).unwrap();
+        let coords = draw(&root).unwrap();
         root.present().unwrap();
         coords
     };
     (buf, coords)
 }
 
-fn render_fracture_map(map: &QuadMap) -> (Vec<u8>, Coords) {
-    render((NET_WIDTH, NET_HEIGHT), |root, pens| {
-        draw_fracture_map(root, pens, map)
+/// Render a fracture map of `quads` over `mesh` into memory.
+fn render_fracture_map(
+    mesh: &[Segment],
+    quads: &[[[f64; 2]; 4]],
+    values: &[f64],
+    window: Option<[f64; 4]>,
+) -> (Vec<u8>, Coords) {
+    let shapes = Shapes::Quads(quads, mesh, window);
+    let linear = ColourScale::Linear;
+    render((NET_WIDTH, NET_HEIGHT), |root| {
+        draw_map(root, ("t", "v"), &shapes, values, linear, &[])
     })
 }
 
@@ -523,15 +528,7 @@ fn fracture_map_writes_png_of_expected_size() {
 #[test]
 fn fracture_map_pixels() {
     let (edges, quads, values) = small_fracture_map();
-    let mut map = QuadMap {
-        texts: ("t", "v"),
-        mesh_edges: &edges,
-        quads: &quads,
-        values: &values,
-        window: None,
-        markers: &[],
-    };
-    let (buf, c) = render_fracture_map(&map);
+    let (buf, c) = render_fracture_map(&edges, &quads, &values, None);
     let (fx, fy) = (c.get_x_range(), c.get_y_range());
     // Inside the big quad: the top of the colour bar.
     let top = viridis(1.0);
@@ -558,8 +555,8 @@ fn fracture_map_pixels() {
     assert!(fy.start < 1.0 && fy.end > 3.9, "{fy:?}");
 
     // A window shows just that region; the quads outside it are clipped.
-    map.window = Some([5.0, 6.0, 2.0, 2.5]);
-    let (buf, c) = render_fracture_map(&map);
+    let window = Some([5.0, 6.0, 2.0, 2.5]);
+    let (buf, c) = render_fracture_map(&edges, &quads, &values, window);
     let fx = c.get_x_range();
     assert!(fx.start <= 5.0 && fx.end >= 6.0, "{fx:?}");
     assert!(fx.end - fx.start < 1.5, "{fx:?}");
@@ -568,11 +565,7 @@ fn fracture_map_pixels() {
     // The default window follows the quads, not the mesh.
     let big = grid_edges(100, 100);
     let q = [rect(40.0, 45.0, 50.0, 50.2)];
-    map.mesh_edges = &big;
-    map.quads = &q;
-    map.values = &[2.0];
-    map.window = None;
-    let (buf, c) = render_fracture_map(&map);
+    let (buf, c) = render_fracture_map(&big, &q, &[2.0], None);
     let fx = c.get_x_range();
     assert!(fx.start > 35.0 && fx.end < 50.0, "{fx:?}");
     // The middle of the colour bar (up to rounding: one value only).
@@ -765,13 +758,12 @@ const EVEN_TEXT: &str = "HxHxHxH";
 
 #[test]
 fn text_spacing_and_baseline_are_even() {
-    let f = font().unwrap();
-    for size in [TICK_SIZE, DESC_SIZE, TITLE_SIZE] {
-        let pen = Pen::new(&f, size, BLACK_TEXT);
+    ensure_font().unwrap();
+    for size in [TICK.0, DESC.0, TITLE.0] {
+        let pen = Pen(size, RGBColor(0, 0, 0));
         let runs = ink_runs(|root| {
             let top_left = (HPos::Left, VPos::Top);
-            pen.draw(root, EVEN_TEXT, (10, 10), top_left, false)
-                .unwrap();
+            pen.draw(root, EVEN_TEXT, (10, 10), top_left).unwrap();
         });
         assert_eq!(runs.len(), EVEN_TEXT.len(), "size {size}: {runs:?}");
         let (spread, baselines) = unevenness(&runs);
@@ -792,21 +784,22 @@ fn text_spacing_and_baseline_are_even() {
 /// update, its text path may be good enough to replace `Pen`.
 #[test]
 fn plotters_text_is_uneven() {
-    font().unwrap();
-    let runs = |size: f64| {
+    ensure_font().unwrap();
+    let runs = |size: f32| {
         ink_runs(|root| {
-            let style = ("sans-serif", size).into_font().color(&BLACK);
+            let style = ("sans-serif", size as f64).into_font().color(&BLACK);
             let style = style.pos(Pos::new(HPos::Left, VPos::Top));
             root.draw(&Text::new(EVEN_TEXT, (10, 10), style)).unwrap();
         })
     };
-    let (spread, _) = unevenness(&runs(TITLE_SIZE as f64));
+    let (spread, _) = unevenness(&runs(TITLE.0));
     assert!(
         spread >= 3,
-        "letter gaps vary by {spread} px at {TITLE_SIZE} px"
+        "letter gaps vary by {spread} px at {} px",
+        TITLE.0
     );
-    let (_, baselines) = unevenness(&runs(TICK_SIZE as f64));
-    assert!(baselines > 1, "one baseline at {TICK_SIZE} px");
+    let (_, baselines) = unevenness(&runs(TICK.0));
+    assert!(baselines > 1, "one baseline at {} px", TICK.0);
 }
 
 #[test]
@@ -821,14 +814,8 @@ fn legend_goes_to_the_emptiest_corner() {
         (line("rising", |x| x), true),
         (line("falling", |x| 20.0 - x), false),
     ] {
-        let (buf, c) = render((1000, 700), |root, pens| {
-            draw_lines(
-                root,
-                pens,
-                ("t", "x", "y"),
-                std::slice::from_ref(&series),
-                false,
-            )
+        let (buf, c) = render((1000, 700), |root| {
+            draw_lines(root, ("t", "x", "y"), std::slice::from_ref(&series), false)
         });
         let (px, py) = plot_px(&c);
         // On the top side of a legend box inset by 12 px.
@@ -849,16 +836,11 @@ fn network_pixels() {
         b: [10.0, y],
     };
     let segs = [seg(0.0), seg(5.0), seg(2.5)];
-    let net = Network {
-        texts: ("t", "v"),
-        segments: &segs,
-        values: &[1.0, 2.0, f64::NAN],
-        scale: ColourScale::Linear,
-        width_px: Some(&[6.0; 3]),
-        markers: &[([5.0, 3.75], "pump")],
-    };
-    let (buf, c) = render((NET_WIDTH, NET_HEIGHT), |root, pens| {
-        draw_network(root, pens, &net)
+    let shapes = Shapes::Lines(&segs, Some(&[6.0; 3]));
+    let (values, markers) = ([1.0, 2.0, f64::NAN], [([5.0, 3.75], "pump")]);
+    let linear = ColourScale::Linear;
+    let (buf, c) = render((NET_WIDTH, NET_HEIGHT), |root| {
+        draw_map(root, ("t", "v"), &shapes, &values, linear, &markers)
     });
     // Lowest value at the bottom of the colour bar, highest at the top.
     assert_eq!(pixel_at(&buf, &c, [2.0, 0.0]), rgb(viridis(0.0)));
