@@ -290,15 +290,15 @@ pub(super) fn draw_map(
     let pad = if lines { NET_PAD } else { QUAD_PAD };
     let (bbox, pad) = window.map_or((bbox, pad), |w| (w, 0.0));
     let (bar, order) = colour_order(values, &drawable, scale);
-    let layout = MapLayout::new(texts, bar, bbox, pad);
-    let (x, y) = (&layout.base.x, &layout.base.y);
+    let layout = map_layout(texts.0, bar_margin(bar.as_ref(), texts.1), bbox, pad);
+    let (x, y) = (&layout.x, &layout.y);
     // Whether any of the box of the points `ps` lies within the axes.
     let shown = |ps: &[[f64; 2]]| {
         let b = bounding_box(ps);
         b[0] <= x.hi && b[1] >= x.lo && b[2] <= y.hi && b[3] >= y.lo
     };
 
-    let mut chart = layout.base.chart(root, lines.then_some((0.12, 0.04)))?;
+    let mut chart = layout.chart(root, lines.then_some((0.12, 0.04)))?;
     let area = chart.plotting_area();
     for s in edges.iter().filter(|s| shown(&[s.a, s.b])) {
         let line = vec![(s.a[0], s.a[1]), (s.b[0], s.b[1])];
@@ -325,8 +325,8 @@ pub(super) fn draw_map(
         |m: &&([f64; 2], &str)| (x.lo..=x.hi).contains(&m.0[0]) && (y.lo..=y.hi).contains(&m.0[1]);
     let shown_markers: Vec<_> = markers.iter().filter(inside).collect();
     draw_markers(root, &chart, &shown_markers)?;
-    let frame = layout.base.frame(root, &mut chart)?;
-    layout.draw_bar(root, &frame)?;
+    let frame = layout.frame(root, &mut chart)?;
+    draw_bar(root, &frame, bar.as_ref(), texts.1)?;
 
     // Notes.
     let [many, one, ends] = if lines { NETWORK_NOUNS } else { QUAD_NOUNS };
@@ -335,7 +335,7 @@ pub(super) fn draw_map(
         Some(format!("no {many} to plot"))
     } else if drawable.is_empty() {
         Some(format!("no {many} with finite {ends} to plot"))
-    } else if layout.bar.is_none() {
+    } else if bar.is_none() {
         let positive = if log { ", positive" } else { "" };
         Some(format!(
             "no finite{positive} values to colour (all {one}s grey)"
@@ -352,7 +352,7 @@ pub(super) fn draw_map(
     };
     let (no_coords, bad_edges) = (items.len() - drawable.len(), mesh.len() - edges.len());
     let mut small = Vec::new();
-    if greyed > 0 && layout.bar.is_some() {
+    if greyed > 0 && bar.is_some() {
         small.push(format!(
             "{} with {what} value drawn grey",
             count(greyed, one)
@@ -414,90 +414,67 @@ fn draw_markers(root: &Area, chart: &Chart, markers: &[&([f64; 2], &str)]) -> Dr
     Ok(())
 }
 
-/// A map's layout and colour bar.
-struct MapLayout<'a> {
-    base: Layout<'a>,
-    value_label: &'a str,
-    /// Colour-bar axis (`None`: nothing to colour, the bar is left blank).
-    bar: Option<Axis>,
+/// Width right of a map's plotting area for its colour bar over `bar`
+/// (`None`: nothing to colour, the bar is left blank) labelled `label`.
+fn bar_margin(bar: Option<&Axis>, label: &str) -> i32 {
+    let mult_w = bar.and_then(Axis::multiplier).map_or(0, |m| TICK.width(&m));
+    let bar_w = BAR_GAP + BAR_W + BAR_TICK + 26 + bar.map_or(0, |a| labels_width(a, 0));
+    let desc_w = if label.is_empty() { 0 } else { DESC.cap() + 22 };
+    (bar_w + desc_w).max(BAR_GAP + mult_w + 16)
 }
 
-impl<'a> MapLayout<'a> {
-    /// Lay out a map of the data box `bbox` (`[xmin, xmax, ymin, ymax]`, m)
-    /// with a margin of `pad` times its larger side, widened to the plotting
-    /// area's aspect ratio.
-    fn new(
-        (title, value_label): (&'a str, &'a str),
-        bar: Option<Axis>,
-        bbox: [f64; 4],
-        pad: f64,
-    ) -> Self {
-        let mult = bar.as_ref().and_then(Axis::multiplier);
-        let bar_w =
-            BAR_GAP + BAR_W + BAR_TICK + 26 + bar.as_ref().map_or(0, |a| labels_width(a, 0));
-        let bar_desc_w = if value_label.is_empty() {
-            0
-        } else {
-            DESC.cap() + 22
-        };
-        let right = (bar_w + bar_desc_w).max(BAR_GAP + mult.map_or(0, |m| TICK.width(&m)) + 16);
-        let texts = (title, "x [m]", "y [m]");
-        let unit = || Axis::linear(0.0, 1.0);
-        let [top, _, bottom, _] = Layout::new(texts, unit(), unit(), Some(right), 0).margin;
-        let ax_h = (NET_HEIGHT as i32 - bottom - 1 - top).max(10) as f64;
-        // The y tick labels' width sets the plot width, which sets the axes.
-        let (mut y_tick_w, mut tries) = (0, 0);
-        let (x, y) = loop {
-            let left = Layout::left_margin(texts.2, y_tick_w);
-            let ax_w = (NET_WIDTH as i32 - right - 1 - left).max(10) as f64;
-            let axes = equal_axes(bbox, ax_w, ax_h, pad);
-            let need = labels_width(&axes.1, 0);
-            tries += 1;
-            if need <= y_tick_w || tries == 5 {
-                break axes;
-            }
-            y_tick_w = need;
-        };
-        let base = Layout::new(texts, x, y, Some(right), y_tick_w);
-        MapLayout {
-            base,
-            value_label,
-            bar,
+/// Lay out a map of the data box `bbox` (`[xmin, xmax, ymin, ymax]`, m)
+/// with a margin of `pad` times its larger side, widened to the plotting
+/// area's aspect ratio, with `right` px right of it.
+fn map_layout(title: &str, right: i32, bbox: [f64; 4], pad: f64) -> Layout<'_> {
+    let texts = (title, "x [m]", "y [m]");
+    let unit = || Axis::linear(0.0, 1.0);
+    let [top, _, bottom, _] = Layout::new(texts, unit(), unit(), Some(right), 0).margin;
+    let ax_h = (NET_HEIGHT as i32 - bottom - 1 - top).max(10) as f64;
+    // The y tick labels' width sets the plot width, which sets the axes.
+    let (mut y_tick_w, mut tries) = (0, 0);
+    let (x, y) = loop {
+        let left = Layout::left_margin(texts.2, y_tick_w);
+        let ax_w = (NET_WIDTH as i32 - right - 1 - left).max(10) as f64;
+        let axes = equal_axes(bbox, ax_w, ax_h, pad);
+        let need = labels_width(&axes.1, 0);
+        tries += 1;
+        if need <= y_tick_w || tries == 5 {
+            break axes;
         }
-    }
+        y_tick_w = need;
+    };
+    Layout::new(texts, x, y, Some(right), y_tick_w)
+}
 
-    /// The colour bar right of the plotting area `(px, py)`, as tall as it.
-    fn draw_bar(&self, root: &Area, (px, py): &PixelBox) -> Drawn {
-        let (bx0, bx1) = (px.end - 1 + BAR_GAP, px.end - 1 + BAR_GAP + BAR_W);
-        let (b_top, b_bot) = (py.start, py.end - 1);
-        let bar_y = |f: f64| b_bot - (f * (b_bot - b_top) as f64).round() as i32;
-        for y in b_top..=b_bot {
-            let f = (b_bot - y) as f64 / (b_bot - b_top).max(1) as f64;
-            let color = self
-                .bar
-                .as_ref()
-                .map_or(RGBColor(240, 240, 240), |_| viridis(f));
-            root.draw(&PathElement::new(vec![(bx0, y), (bx1, y)], color))?;
-        }
-        let edge = [(bx0, b_top), (bx1, b_bot)];
-        root.draw(&Rectangle::new(edge, BLACK.stroke_width(1)))?;
-        let mut tick_w = 0;
-        if let Some(a) = &self.bar {
-            let minor = a.minor.iter().map(|&t| (t, 3));
-            for (t, len) in minor.chain(a.major.iter().map(|&t| (t, BAR_TICK))) {
-                let y = bar_y(colour_fraction(a, t));
-                root.draw(&PathElement::new(vec![(bx1, y), (bx1 + len, y)], BLACK))?;
-            }
-            for (t, l) in labels(a) {
-                let at = (bx1 + BAR_TICK + 6, bar_y(colour_fraction(a, t)));
-                TICK.draw(root, &l, at, RIGHT_OF)?;
-            }
-            if let Some(m) = a.multiplier() {
-                TICK.draw(root, &m, (bx0, b_top - 8), (HPos::Left, VPos::Bottom))?;
-            }
-            tick_w = labels_width(a, 0);
-        }
-        let x = bx1 + BAR_TICK + 6 + tick_w + 16 + (DESC.cap() + 6) / 2;
-        DESC.draw_up(root, self.value_label, (x, (b_top + b_bot) / 2))
+/// The colour bar over `bar` (see [`bar_margin`]) labelled `label`, right of
+/// the plotting area `(px, py)` and as tall as it.
+fn draw_bar(root: &Area, (px, py): &PixelBox, bar: Option<&Axis>, label: &str) -> Drawn {
+    let (bx0, bx1) = (px.end - 1 + BAR_GAP, px.end - 1 + BAR_GAP + BAR_W);
+    let (b_top, b_bot) = (py.start, py.end - 1);
+    let bar_y = |f: f64| b_bot - (f * (b_bot - b_top) as f64).round() as i32;
+    for y in b_top..=b_bot {
+        let f = (b_bot - y) as f64 / (b_bot - b_top).max(1) as f64;
+        let color = bar.map_or(RGBColor(240, 240, 240), |_| viridis(f));
+        root.draw(&PathElement::new(vec![(bx0, y), (bx1, y)], color))?;
     }
+    let edge = [(bx0, b_top), (bx1, b_bot)];
+    root.draw(&Rectangle::new(edge, BLACK.stroke_width(1)))?;
+    if let Some(a) = bar {
+        let minor = a.minor.iter().map(|&t| (t, 3));
+        for (t, len) in minor.chain(a.major.iter().map(|&t| (t, BAR_TICK))) {
+            let y = bar_y(colour_fraction(a, t));
+            root.draw(&PathElement::new(vec![(bx1, y), (bx1 + len, y)], BLACK))?;
+        }
+        for (t, l) in labels(a) {
+            let at = (bx1 + BAR_TICK + 6, bar_y(colour_fraction(a, t)));
+            TICK.draw(root, &l, at, RIGHT_OF)?;
+        }
+        if let Some(m) = a.multiplier() {
+            TICK.draw(root, &m, (bx0, b_top - 8), (HPos::Left, VPos::Bottom))?;
+        }
+    }
+    let tick_w = bar.map_or(0, |a| labels_width(a, 0));
+    let x = bx1 + BAR_TICK + 6 + tick_w + 16 + (DESC.cap() + 6) / 2;
+    DESC.draw_up(root, label, (x, (b_top + b_bot) / 2))
 }
