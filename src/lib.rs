@@ -33,6 +33,7 @@ pub mod schedule;
 pub mod setup;
 pub mod sim;
 pub mod snap;
+pub mod sparse;
 pub mod split;
 pub mod stability;
 pub mod timing;

@@ -4,6 +4,7 @@
 
 use crate::element::SolidParams;
 use crate::flow::FlowParams;
+use crate::scenario::SolidScheme;
 use crate::scenario::{
     DEFAULT_RESIDUAL_APERTURE, End, FaceStress, Field, FlowBoundary, FlowScheme, Material, Scenario,
 };
@@ -43,6 +44,7 @@ pub struct TimeParams {
     pub forced_dt: bool,
     pub flow_dt: Option<f64>,
     pub flow_scheme: FlowScheme,
+    pub solid_scheme: SolidScheme,
     pub max_steps: u64,
     pub max_substeps: u64,
     pub mass_scaling: bool,
@@ -152,6 +154,7 @@ impl RunParams {
                 forced_dt: t.dt.is_some(),
                 flow_dt: t.flow_dt,
                 flow_scheme: t.flow_scheme,
+                solid_scheme: t.solid_scheme,
                 max_steps: t.max_steps,
                 max_substeps: t.max_substeps,
                 mass_scaling: t.mass_scaling,

@@ -436,6 +436,14 @@ pub struct TimeControl {
     /// time: choose the step for the accuracy wanted, not for stability.
     #[serde(default)]
     pub flow_scheme: FlowScheme,
+    /// Time integration of the rock (default `Explicit`, the seed's central difference).
+    /// `QuasiStatic`: equilibrium at the end of every step (Newton, sparse Cholesky) with the
+    /// same forces, joints and friction; no inertia, no stability limit. `end: Static` is then
+    /// one solve; a timed run takes `time.dt` steps (default: the end time in 100 steps).
+    /// Not yet available with fracture flow (a network or flow boundaries) or a fracture
+    /// criterion (`fracture.strength`).
+    #[serde(default)]
+    pub solid_scheme: SolidScheme,
     /// Hard cap on the number of steps.
     #[serde(default = "default_max_steps")]
     pub max_steps: u64,
@@ -466,6 +474,16 @@ pub enum FlowScheme {
     Explicit,
     /// One backward-Euler step per step (unconditionally stable, first order in time).
     Implicit,
+}
+
+/// Time integration of the rock (see [`TimeControl::solid_scheme`]).
+#[derive(Clone, Copy, Debug, Default, Serialize, Deserialize, PartialEq, Eq)]
+pub enum SolidScheme {
+    /// Central difference, damped for pseudo-static response (the seed's).
+    #[default]
+    Explicit,
+    /// Static equilibrium per step.
+    QuasiStatic,
 }
 
 fn default_safety() -> f64 {
@@ -853,6 +871,25 @@ impl Scenario {
         }
         if t.max_steps == 0 {
             return Err(SetupError::invalid("time.max_steps", "must be at least 1"));
+        }
+        if t.solid_scheme == SolidScheme::QuasiStatic {
+            let why = if self.mesh.is_none() {
+                Some("needs a rock mesh")
+            } else if self.network.is_some() || !self.flow_boundaries.is_empty() {
+                Some(
+                    "does not yet couple with fracture flow (a network or flow boundaries): use Explicit",
+                )
+            } else if self.fracture.as_ref().is_some_and(|f| f.strength.is_some()) {
+                Some("does not yet propagate fractures (fracture.strength): use Explicit")
+            } else {
+                None
+            };
+            if let Some(why) = why {
+                return Err(SetupError::invalid(
+                    "time.solid_scheme",
+                    format!("QuasiStatic {why}"),
+                ));
+            }
         }
         if t.mass_scaling && !matches!(t.end, End::Static { .. }) {
             return Err(SetupError::invalid(

@@ -26,6 +26,8 @@ pub struct SceneData {
     /// The rock's fractures carry the flow.
     pub coupled: bool,
     pub criterion: bool,
+    /// The rock is solved quasi-statically (`solve` replaces `damping` and `integrate`).
+    pub quasi_static: bool,
 }
 
 impl SceneData {
@@ -34,9 +36,11 @@ impl SceneData {
         match s {
             SystemId::Contact => self.joints,
             SystemId::FluidPressure => self.coupled,
-            SystemId::InternalForce | SystemId::Integrate => self.solid,
+            SystemId::InternalForce => self.solid,
+            SystemId::Integrate => self.solid && !self.quasi_static,
             SystemId::ExternalLoad => self.load,
-            SystemId::Damping => self.solid && self.damping,
+            SystemId::Damping => self.solid && self.damping && !self.quasi_static,
+            SystemId::Solve => self.solid && self.quasi_static,
             SystemId::FlowSubsteps => self.flow,
             SystemId::FractureCriterion | SystemId::Split => self.criterion,
             SystemId::Monitor | SystemId::Output => true,

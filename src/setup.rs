@@ -9,7 +9,8 @@ use crate::model::Model;
 use crate::network::CellNetwork;
 use crate::params::RunParams;
 use crate::scenario::{
-    Boundary, End, FlowScheme, InitialFluid, InitialState, MeshSpec, Scenario, TimeControl,
+    Boundary, End, FlowScheme, InitialFluid, InitialState, MeshSpec, Scenario, SolidScheme,
+    TimeControl,
 };
 use crate::systems::flow::FlowPart;
 
@@ -121,8 +122,14 @@ pub fn time_step(
         FlowScheme::Explicit => FLOW_ONLY_SUBSTEPS as f64,
         FlowScheme::Implicit => 1.0,
     };
+    let quasi_static = has_solid && t.solid_scheme == SolidScheme::QuasiStatic;
     let mut dt = match (t.dt, has_solid, flow_auto, t.flow_dt) {
         (Some(dt), _, _, _) => dt,
+        // Quasi-static: no stability limit; a static run is one step, a timed one 100.
+        (None, true, _, _) if quasi_static => match t.end {
+            End::Time(te) => te / 100.0,
+            End::Static { .. } | End::SteadyDirect => 1.0,
+        },
         (None, true, _, _) => t.safety * dt_crit,
         (None, false, _, Some(fdt)) => per_flow_dt * fdt,
         (None, false, Some(fa), None) => FLOW_ONLY_SUBSTEPS as f64 * fa,
@@ -136,7 +143,7 @@ pub fn time_step(
         }
         End::Static { .. } | End::SteadyDirect => None,
     };
-    if t.dt.is_some() && dt > dt_crit {
+    if t.dt.is_some() && dt > dt_crit && !quasi_static {
         tracing::warn!(
             "time.dt = {dt:.3e} s is above the critical step {dt_crit:.3e} s; expect a blow-up"
         );

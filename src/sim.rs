@@ -11,11 +11,12 @@ use crate::fractures::Placed;
 use crate::model::Model;
 use crate::output::Outputs;
 use crate::params::RunParams;
-use crate::scenario::{Damping, End, Scenario};
+use crate::scenario::{Damping, End, Scenario, SolidScheme};
 use crate::schedule::{SceneData, Schedule, Status};
 use crate::systems::flow::FlowPart;
 use crate::systems::fracture::FractureState;
 use crate::systems::output::Scene;
+use crate::systems::quasi_static::{self, QuasiStatic};
 use crate::systems::solid::{SolidPart, StepStats};
 use crate::systems::{RunError, SystemId, coupling, flow, fracture, monitor, output, solid, split};
 use crate::view::SolidView;
@@ -78,6 +79,7 @@ impl Simulation {
         }
         let mut disabled = scenario.systems.disable.clone();
         disabled.extend(extra_disable.iter().cloned());
+        let quasi_static = has_solid && p.time.solid_scheme == SolidScheme::QuasiStatic;
         let data = SceneData {
             solid: has_solid,
             joints: !view.joint_nodes.is_empty(),
@@ -86,6 +88,7 @@ impl Simulation {
             flow: flow.is_some(),
             coupled: p.coupled,
             criterion: p.criterion.is_some(),
+            quasi_static,
         };
         let schedule = Schedule::new(&disabled, |s| data.has(s))?;
         Ok(Simulation {
@@ -96,6 +99,7 @@ impl Simulation {
                 view,
                 stats: StepStats::default(),
                 dt_crit,
+                quasi_static: quasi_static.then(QuasiStatic::default),
             },
             flow,
             fracture: FractureState::default(),
@@ -167,6 +171,16 @@ impl Simulation {
                 }
                 SystemId::Damping => solid::damping(v, &p.solid),
                 SystemId::Integrate => self.solid.stats = solid::integrate(v, &p.solid),
+                SystemId::Solve => {
+                    let on = quasi_static::Systems {
+                        load: self.schedule.is_enabled(SystemId::ExternalLoad),
+                        contact: self.schedule.is_enabled(SystemId::Contact),
+                    };
+                    let (qs, step) = (self.solid.quasi_static.as_mut(), self.clock.step + 1);
+                    let qs = qs.expect("scheduled with the quasi-static scheme");
+                    let t1 = t0 + p.solid.dt;
+                    self.solid.stats = quasi_static::solve(v, qs, p, on, step, t1)?;
+                }
                 SystemId::FlowSubsteps => {
                     if let Some(f) = self.flow.as_mut() {
                         flow::flow_substeps(f, v, p, t0, self.clock.step + 1)?;

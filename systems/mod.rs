@@ -22,6 +22,7 @@ pub mod flow;
 pub mod fracture;
 pub mod monitor;
 pub mod output;
+pub mod quasi_static;
 pub mod solid;
 pub mod split;
 pub mod sync;
@@ -36,6 +37,7 @@ pub enum SystemId {
     Contact,
     FluidPressure,
     Damping,
+    Solve,
     Integrate,
     FlowSubsteps,
     FractureCriterion,
@@ -46,12 +48,13 @@ pub enum SystemId {
 
 impl SystemId {
     /// The step, in order.
-    pub const ORDER: [SystemId; 11] = [
+    pub const ORDER: [SystemId; 12] = [
         SystemId::InternalForce,
         SystemId::ExternalLoad,
         SystemId::Contact,
         SystemId::FluidPressure,
         SystemId::Damping,
+        SystemId::Solve,
         SystemId::Integrate,
         SystemId::FlowSubsteps,
         SystemId::FractureCriterion,
@@ -67,6 +70,7 @@ impl SystemId {
             SystemId::Contact => "contact",
             SystemId::FluidPressure => "fluid_pressure",
             SystemId::Damping => "damping",
+            SystemId::Solve => "solve",
             SystemId::Integrate => "integrate",
             SystemId::FlowSubsteps => "flow_substeps",
             SystemId::FractureCriterion => "fracture_criterion",
@@ -89,6 +93,9 @@ impl SystemId {
             }
             SystemId::Damping => {
                 "local (Cundall) or viscous damping force for pseudo-static response"
+            }
+            SystemId::Solve => {
+                "quasi-static scheme: equilibrium of internal force, loads and contact at the end of the step (Newton, sparse Cholesky)"
             }
             SystemId::Integrate => {
                 "central-difference update of velocity and displacement; prescribed displacements"
@@ -134,6 +141,7 @@ impl SystemId {
                 tracing::info_span!(target: "hydrofrac::system", "fluid_pressure")
             }
             SystemId::Damping => tracing::info_span!(target: "hydrofrac::system", "damping"),
+            SystemId::Solve => tracing::info_span!(target: "hydrofrac::system", "solve"),
             SystemId::Integrate => tracing::info_span!(target: "hydrofrac::system", "integrate"),
             SystemId::FlowSubsteps => {
                 tracing::info_span!(target: "hydrofrac::system", "flow_substeps")
@@ -172,6 +180,9 @@ pub enum RunError {
         time: f64,
         source: Box<crate::flow::implicit::ImplicitError>,
     },
+    /// The quasi-static equilibrium iteration failed.
+    #[error("step {step} (t = {time:.6e} s): quasi-static solve: {why}")]
+    QuasiStatic { step: u64, time: f64, why: String },
     #[error("output: {0}")]
     Io(#[from] std::io::Error),
     #[error(transparent)]

@@ -128,8 +128,10 @@ pub fn monitor(
         residual = residual.max(f.residual);
     }
     clock.residual = residual;
+    // A quasi-static step is an equilibrium: a static run is one step.
+    let quasi_static = p.time.solid_scheme == crate::scenario::SolidScheme::QuasiStatic;
     if let End::Static { tol, min_steps } = p.time.end
-        && clock.step >= min_steps
+        && (clock.step >= min_steps || quasi_static)
         && clock.residual < tol
     {
         clock.finish = Some(Finish::Converged);

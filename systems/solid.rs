@@ -306,4 +306,6 @@ pub struct SolidPart {
     /// Critical solid step (elements, joints, fluid stiffness; [`crate::stability::solid`]), s;
     /// infinite without a solid.
     pub dt_crit: f64,
+    /// `time.solid_scheme: QuasiStatic`: the equilibrium solver.
+    pub quasi_static: Option<crate::systems::quasi_static::QuasiStatic>,
 }

@@ -31,6 +31,7 @@ const LAYERS: &[(&str, u8)] = &[
     ("view", 3),
     ("element", 3),
     ("stability", 3),
+    ("sparse", 3),
     ("params", 3),
     ("flow", 3),
     ("output", 3),

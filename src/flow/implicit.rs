@@ -47,9 +47,9 @@
 //! names the cell with the largest residual.
 
 use crate::flow::boundary::{FlowStats, boundary_flows};
-use crate::flow::sparse::SparsePattern;
 use crate::flow::{FlowParams, FlowView, kahan_add};
 use crate::scenario::{FlowBcKind, FlowBoundary};
+use crate::sparse::SparsePattern;
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
 use faer::sparse::SparseColMatRef;
 use faer::sparse::linalg::lu::{NumericLu, SymbolicLu, factorize_symbolic_lu};

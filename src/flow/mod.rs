@@ -15,7 +15,6 @@
 pub mod boundary;
 pub mod explicit;
 pub mod implicit;
-mod sparse;
 pub mod steady;
 
 use crate::components::*;

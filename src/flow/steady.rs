@@ -30,7 +30,7 @@
 //! * [`SteadySolution::residual`] is `||A u - b|| / ||b||` for that (shifted) system,
 //!   with `||.||` the Euclidean norm (or `||A u - b||` itself when `b = 0`).
 
-use super::sparse::SparsePattern;
+use crate::sparse::SparsePattern;
 use crate::union_find::UnionFind;
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
 use faer::linalg::cholesky::llt::factor::LltRegularization;

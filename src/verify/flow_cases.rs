@@ -48,6 +48,7 @@ pub fn flow_scenario(
             dt: None,
             flow_dt: None,
             flow_scheme: Default::default(),
+            solid_scheme: Default::default(),
             max_steps: 5_000_000,
             max_substeps: 100_000,
             mass_scaling: false,

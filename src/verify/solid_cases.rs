@@ -43,6 +43,7 @@ pub fn scenario(
             dt: None,
             flow_dt: None,
             flow_scheme: Default::default(),
+            solid_scheme: Default::default(),
             max_steps: 2_000_000,
             max_substeps: 100_000,
             mass_scaling: false,

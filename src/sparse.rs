@@ -1,5 +1,5 @@
-//! Sparsity pattern shared by the flow solvers ([`super::steady`], [`super::implicit`]): faer
-//! builds the compressed-column pattern from the (row, col) entries a matrix will have
+//! Sparsity pattern shared by the sparse solvers (flow: `flow::steady`, `flow::implicit`;
+//! solid: `systems::quasi_static`): faer builds the compressed-column pattern from the (row, col) entries a matrix will have
 //! ([`SymbolicSparseColMat::try_new_from_indices`]: rows sorted within each column, repeats
 //! merged), and each solver looks up, once per pattern, the value slot every contribution of its
 //! assembly goes to. The solvers then assemble in place, in their own (fixed) order, so the
