@@ -24,11 +24,8 @@ pub(super) struct Axis {
 /// `k` in superscript digits.
 fn superscript(k: i32) -> String {
     const DIGITS: [char; 10] = ['⁰', '¹', '²', '³', '⁴', '⁵', '⁶', '⁷', '⁸', '⁹'];
-    let digits = k.unsigned_abs().to_string().into_bytes();
-    let sign = (k < 0).then_some('⁻');
-    sign.into_iter()
-        .chain(digits.iter().map(|d| DIGITS[(d - b'0') as usize]))
-        .collect()
+    let sup = |c: char| c.to_digit(10).map_or('⁻', |d| DIGITS[d as usize]);
+    k.to_string().chars().map(sup).collect()
 }
 
 /// `m × 10^k` written out in plain decimal (m, k integers, m in 1..=9).
@@ -44,17 +41,19 @@ fn or_one(x: f64) -> f64 {
     if x > 0.0 && x.is_finite() { x } else { 1.0 }
 }
 
+/// `f` clamped to `lo..=hi`; 0.5 when not finite.
+pub(super) fn clamp_or_half(f: f64, lo: f64, hi: f64) -> f64 {
+    if f.is_finite() { f.clamp(lo, hi) } else { 0.5 }
+}
+
 impl Axis {
     fn new(lo: f64, hi: f64, major: Vec<f64>, minor: Vec<f64>) -> Axis {
-        let span = Axis {
+        Axis {
             lo,
             hi,
-            ..Axis::default()
-        };
-        Axis {
             major,
             minor,
-            ..span
+            ..Axis::default()
         }
     }
 
@@ -84,12 +83,8 @@ impl Axis {
     pub(super) fn linear_stepped(lo: f64, hi: f64, step: f64) -> Axis {
         let step = or_one(step);
         let mag = 10f64.powf((step.log10() + 1e-9).floor());
-        let minor_step = step
-            / if (step / mag - 2.0).abs() < 1e-9 {
-                4.0
-            } else {
-                5.0
-            };
+        let quarters = (step / mag - 2.0).abs() < 1e-9;
+        let minor_step = step / if quarters { 4.0 } else { 5.0 };
         let multiples = |s: f64| -> Vec<f64> {
             let (first, last) = ((lo / s).ceil() as i64, (hi / s).floor() as i64);
             let snap = |v: f64| if v.abs() < s * 1e-9 { 0.0 } else { v };
@@ -107,12 +102,8 @@ impl Axis {
     pub(super) fn log(lmin: f64, lmax: f64) -> Axis {
         // Margins in decades: 5% of the span (at least 0.05), half a decade
         // each side when all values are equal.
-        let equal = lmax - lmin < 1e-9;
-        let m = if equal {
-            0.5
-        } else {
-            (0.05 * (lmax - lmin)).max(0.05)
-        };
+        let m = (0.05 * (lmax - lmin)).max(0.05);
+        let m = if lmax - lmin < 1e-9 { 0.5 } else { m };
         let (lo, hi) = (lmin - m, lmax + m);
         let (first, last) = (lo.floor() as i64, hi.ceil() as i64);
         // Ticks at m x 10^k for the given m within the axis.
@@ -140,14 +131,11 @@ impl Axis {
             a.fine = Some(Box::new(fine));
             a
         } else {
-            let plain = major
-                .iter()
-                .all(|&t| (-3.0 - 1e-9..=5.0 + 1e-9).contains(&t));
+            let plain = -3.0 - 1e-9..=5.0 + 1e-9;
             let minor = if decades.len() <= 8 { all } else { decades };
-            Axis {
-                plain,
-                ..Axis::new(lo, hi, major, minor)
-            }
+            let mut a = Axis::new(lo, hi, major, minor);
+            a.plain = a.major.iter().all(|t| plain.contains(t));
+            a
         };
         a.log = true;
         a
@@ -184,22 +172,14 @@ impl Axis {
         let s = format!("{:.*}", decimals as usize, v);
         // Avoid "-0.0" for values that round to zero.
         let zero = s.trim_start_matches(['-', '0', '.']).is_empty();
-        if zero {
-            s.trim_start_matches('-').to_string()
-        } else {
-            s
-        }
+        if zero { s.replace('-', "") } else { s }
     }
 
     /// Common power of ten of a scientific linear axis.
     fn exponent(&self) -> i32 {
         let big = self.lo.abs().max(self.hi.abs());
-        let ok = big > 0.0 && big.is_finite();
-        if ok {
-            (big.log10() + 1e-9).floor() as i32
-        } else {
-            0
-        }
+        let e = (big.log10() + 1e-9).floor() as i32;
+        if big > 0.0 && big.is_finite() { e } else { 0 }
     }
 
     /// Axis multiplier label ("×10⁻⁵") for scientific linear axes.
@@ -217,12 +197,7 @@ impl Ranged for Axis {
     type ValueType = f64;
 
     fn map(&self, v: &f64, limit: (i32, i32)) -> i32 {
-        let f = (*v - self.lo) / (self.hi - self.lo);
-        let f = if f.is_finite() {
-            f.clamp(-10.0, 10.0)
-        } else {
-            0.5
-        };
+        let f = clamp_or_half((*v - self.lo) / (self.hi - self.lo), -10.0, 10.0);
         limit.0 + ((limit.1 - limit.0) as f64 * f + 1e-3).floor() as i32
     }
 

@@ -6,11 +6,9 @@ use plotters::prelude::*;
 use plotters::style::RGBColor;
 
 use super::{Area, Axis, Coords, Drawn, LABEL, Layout, PixelBox, PlotError, RIGHT_OF, Series};
-use super::{Texts, count, legend_box, notes, write_png};
+use super::{Texts, bounding_box, count, legend_box, notes, value_words, write_png};
 
-const WIDTH: u32 = 1000;
-const HEIGHT: u32 = 700;
-/// Series with more points than this are drawn as plain lines (no markers).
+const SIZE: (u32, u32) = (1000, 700);
 const MAX_MARKED_POINTS: usize = 60;
 
 /// Tableau-10 palette (0xRRGGBB).
@@ -19,9 +17,11 @@ const PALETTE: [u32; 10] = [
     0x17becf,
 ];
 
-/// Log-log plot, one line+markers per series, legend, axis labels, 1000x700
-/// px PNG. Non-positive and non-finite points are dropped (noted on the plot);
-/// if nothing is left, a PNG with a "no data" note is still written.
+/// Log-log plot, 1000x700 px PNG: one line per series, with markers unless
+/// it has over 60 points; a legend in the plot corner covering the fewest
+/// curve samples; axis labels; power-of-ten tick labels. Non-positive and
+/// non-finite points are dropped (noted on the plot); if nothing is left, a
+/// PNG with a "no data" note is still written.
 pub fn loglog(
     path: &Path,
     title: &str,
@@ -29,7 +29,7 @@ pub fn loglog(
     ylabel: &str,
     s: &[Series],
 ) -> Result<(), PlotError> {
-    write_png(path, (WIDTH, HEIGHT), |root| {
+    write_png(path, SIZE, |root| {
         draw_lines(root, (title, xlabel, ylabel), s, true)
     })
 }
@@ -43,7 +43,7 @@ pub fn lines(
     ylabel: &str,
     s: &[Series],
 ) -> Result<(), PlotError> {
-    write_png(path, (WIDTH, HEIGHT), |root| {
+    write_png(path, SIZE, |root| {
         draw_lines(root, (title, xlabel, ylabel), s, false)
     })
 }
@@ -67,14 +67,9 @@ fn draw_marker(root: &Area, (x, y): (i32, i32), (color, marker): (RGBColor, usiz
     }
 }
 
-/// Pick the corner of the plotting area `(px, py)` where a `w`x`h` px
-/// legend box (inset by 12 px) covers the fewest curve samples; returns the
-/// box's top-left corner.
-fn legend_origin(
-    curves: &[Vec<(i32, i32)>],
-    (px, py): &PixelBox,
-    (w, h): (i32, i32),
-) -> (i32, i32) {
+/// Top-left corner of a `w`x`h` px legend box, inset 12 px into the corner of
+/// the plotting area `(px, py)` where it covers the fewest curve samples.
+fn legend_origin(curves: &[Vec<(i32, i32)>], (px, py): &PixelBox, w: i32, h: i32) -> (i32, i32) {
     let (left, right) = (px.start + 12, px.end - 12 - w);
     let (top, bottom) = (py.start + 12, py.end - 12 - h);
     // Preference order on ties: upper right, upper left, lower right, lower left.
@@ -82,10 +77,9 @@ fn legend_origin(
     let mut counts = [0usize; 4];
     let mut visit = |x: f64, y: f64| {
         for (k, &(cx, cy)) in corners.iter().enumerate() {
-            let (cx, cy, m) = (cx as f64, cy as f64, 6.0);
-            if x >= cx - m && x <= cx + w as f64 + m && y >= cy - m && y <= cy + h as f64 + m {
-                counts[k] += 1;
-            }
+            let (x0, y0) = ((cx - 6) as f64, (cy - 6) as f64);
+            let (x1, y1) = (x0 + (w + 12) as f64, y0 + (h + 12) as f64);
+            counts[k] += usize::from(x >= x0 && x <= x1 && y >= y0 && y <= y1);
         }
     };
     for pts in curves {
@@ -115,14 +109,9 @@ pub(super) fn draw_lines(root: &Area, texts: Texts, series: &[Series], log: bool
     let data: Vec<Vec<(f64, f64)>> = series.iter().map(kept).collect();
     let dropped: usize = series.iter().map(|s| s.points.len()).sum::<usize>()
         - data.iter().map(Vec::len).sum::<usize>();
-    let (mut xmin, mut xmax, mut ymin, mut ymax) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
-    for &(x, y) in data.iter().flatten() {
-        (xmin, xmax, ymin, ymax) = (xmin.min(x), xmax.max(x), ymin.min(y), ymax.max(y));
-    }
-    let empty = xmin > xmax;
-    if empty {
-        (xmin, xmax, ymin, ymax) = (0.0, 1.0, 0.0, 1.0);
-    }
+    let b = bounding_box(data.iter().flatten().map(|&(x, y)| [x, y]));
+    let empty = b[0] > b[1];
+    let [xmin, xmax, ymin, ymax] = if empty { [0.0, 1.0, 0.0, 1.0] } else { b };
     let axis = if log { Axis::log } else { Axis::linear };
     let layout = Layout::new(texts, axis(xmin, xmax), axis(ymin, ymax), None, 0);
     let mut chart = layout.chart(root, Some((0.16, 0.05)))?;
@@ -133,9 +122,8 @@ pub(super) fn draw_lines(root: &Area, texts: Texts, series: &[Series], log: bool
     let to_px = |pts: &Vec<(f64, f64)>| pts.iter().map(|p| chart.backend_coord(p)).collect();
     let curves: Vec<Vec<(i32, i32)>> = data.iter().map(to_px).collect();
     let area = layout.frame(root, &mut chart)?;
-    let marked = |(_, c): &(usize, &Vec<(i32, i32)>)| c.len() <= MAX_MARKED_POINTS;
-    for (i, pix) in curves.iter().enumerate().filter(marked) {
-        for &p in pix {
+    for (i, pix) in curves.iter().enumerate() {
+        for &p in pix.iter().filter(|_| pix.len() <= MAX_MARKED_POINTS) {
             draw_marker(root, p, series_style(i))?;
         }
     }
@@ -149,7 +137,7 @@ pub(super) fn draw_lines(root: &Area, texts: Texts, series: &[Series], log: bool
         let text_w = entries.iter().map(|&i| LABEL.width(&series[i].label)).max();
         let w = pad + sample_w + 10 + text_w.unwrap_or(0) + pad;
         let h = 2 * pad + row_h * entries.len() as i32 - LABEL.cap();
-        let (lx, ly) = legend_origin(&curves, &area, (w, h));
+        let (lx, ly) = legend_origin(&curves, &area, w, h);
         legend_box(root, [(lx, ly), (lx + w, ly + h)])?;
         for (row, &i) in entries.iter().enumerate() {
             let (x0, y) = (lx + pad, ly + pad + LABEL.cap() / 2 + row as i32 * row_h);
@@ -163,15 +151,10 @@ pub(super) fn draw_lines(root: &Area, texts: Texts, series: &[Series], log: bool
         }
     }
 
-    let big = match log {
-        true => "no data to plot (no finite, positive points)",
-        false => "no data to plot (no finite points)",
-    };
-    let what = match log {
-        true => "non-positive or non-finite point",
-        false => "non-finite point",
-    };
-    let small = (dropped > 0 && !empty).then(|| format!("{} omitted", count(dropped, what)));
-    notes(root, &area, empty.then_some((big, true)), small.as_slice())?;
+    let [good, bad] = value_words(log);
+    let big = format!("no data to plot (no {good} points)");
+    let omitted = format!("{} omitted", count(dropped, &format!("{bad} point")));
+    let small = (dropped > 0 && !empty).then_some(omitted);
+    notes(root, &area, empty.then_some((&big, true)), small.as_slice())?;
     Ok(chart.as_coord_spec().clone())
 }

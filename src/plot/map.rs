@@ -7,18 +7,17 @@ use std::path::Path;
 use plotters::prelude::*;
 use plotters::style::RGBColor;
 use plotters::style::colors::colormaps::ViridisRGB;
-use plotters::style::text_anchor::{HPos, VPos};
+use plotters::style::text_anchor::HPos;
 
-use super::{Area, Axis, Chart, ColourScale, Coords, DESC, Drawn, LABEL, Layout, PixelBox};
-use super::{PlotError, RIGHT_OF, Segment, TICK, boxed_text, count, labels, labels_width};
-use super::{notes, write_png};
+use super::axis::clamp_or_half;
+use super::{ABOVE_RIGHT, Area, Axis, Chart, ColourScale, Coords, DESC, Drawn, LABEL, Layout};
+use super::{PixelBox, PlotError, RIGHT_OF, Segment, TICK, boxed_text, count, labels};
+use super::{bounding_box, labels_width, notes, room, value_words, write_png};
 
 pub(super) const NET_WIDTH: u32 = 1100;
 pub(super) const NET_HEIGHT: u32 = 900;
-/// Line width when no widths are given, and for non-finite widths, px.
+/// Network line width (px) when none, or a non-finite one, is given.
 const NET_LINE_PX: f64 = 2.0;
-/// Range that given line widths are clamped to, px.
-const NET_LINE_PX_RANGE: (f64, f64) = (0.75, 40.0);
 /// Colour of segments and quads without a usable value.
 pub(super) const NO_VALUE_GREY: RGBColor = RGBColor(178, 178, 178);
 pub(super) const MARKER_FILL: RGBColor = RGBColor(214, 39, 40);
@@ -28,27 +27,23 @@ const MESH_GREY: RGBColor = RGBColor(210, 210, 210);
 pub(super) const BAR_GAP: i32 = 28;
 pub(super) const BAR_W: i32 = 24;
 const BAR_TICK: i32 = 6;
-/// Margin around a network's data box, fraction of its larger side.
+/// Margin around the box shown by a network and (default window) a fracture
+/// map, fraction of the box's larger side.
 pub(super) const NET_PAD: f64 = 0.04;
-/// Margin around a fracture map's quads (default window), fraction of the
-/// larger side of their box.
 const QUAD_PAD: f64 = 0.1;
 
-/// Draw a fracture network: each segment as a line coloured by `values[k]`
-/// (viridis colormap), `width_px[k]` px wide when given (e.g. scaled
-/// aperture; non-finite widths use the 2 px default, others are clamped to
-/// 0.75..=40 px and drawn in whole pixels), equal x/y scales in metres, a
-/// vertical colour bar labelled `value_label`, and `title` on top; 1100x900
-/// px PNG, written atomically.
+/// Draw a fracture network, 1100x900 px PNG: each segment as a line coloured
+/// by `values[k]` (viridis colormap; [`ColourScale::Log`]: colour bar in
+/// powers of ten), `width_px[k]` px wide when given (e.g. scaled aperture;
+/// clamped to 0.75..=40 px, whole pixels; non-finite: the 2 px default),
+/// equal x/y scales in metres, a colour bar labelled `value_label`, `title`
+/// on top, and `markers` (labelled points, e.g. a pump) as filled circles.
 ///
-/// Non-finite values are drawn grey (below the coloured segments, which are
-/// drawn in increasing value order); [`ColourScale::Log`] also greys out
-/// non-positive values and labels the colour bar in powers of ten. Segments
-/// with non-finite end points are left out. Both are counted in a note.
-/// `markers` are labelled points (e.g. a pump) drawn as filled circles. An
-/// empty network or one without any colourable value still gives a PNG,
-/// with a note. `values` (and `width_px`) must have one entry per segment,
-/// else [`PlotError::Input`].
+/// Segments without a colourable value (non-finite, or non-positive on a log
+/// scale) are drawn grey, below the others (drawn in increasing value order);
+/// those with non-finite end points are left out; both are counted in a
+/// note. Nothing to draw or colour still gives a PNG, with a note. `values`
+/// (and `width_px`) must have one entry per segment, else [`PlotError::Input`].
 #[allow(clippy::too_many_arguments)]
 pub fn network(
     path: &Path,
@@ -67,32 +62,26 @@ pub fn network(
         let message = format!("{k} {what} given for {n} segments (need one {one} per segment)");
         return Err(input_error(path, message));
     }
-    let (texts, shapes) = ((title, value_label), Shapes::Lines(segments, width_px));
+    let shapes = Shapes::Lines(segments, width_px);
     write_png(path, (NET_WIDTH, NET_HEIGHT), |root| {
-        draw_map(root, texts, &shapes, values, scale, markers)
+        draw_map(root, (title, value_label), &shapes, values, scale, markers)
     })
 }
 
-/// Draw fracture cells as filled polygons over a rock mesh, like the seed's
-/// Fig. 7 (`docs/seed-method.md`, Example I): each of `quads` (corners in order around the polygon, m;
-/// e.g. a fracture cell as wide as its magnified aperture) filled with the
-/// viridis colour of `values[k]` (linear scale) and edged with a 1 px line
-/// of the same colour, so quads thinner than a pixel still show; the
-/// `mesh_edges` as thin light-grey lines below them; equal x/y scales in
-/// metres, a vertical colour bar labelled `value_label`, and `title` on top;
-/// 1100x900 px PNG, written atomically.
+/// Draw fracture cells over a rock mesh, like the seed's Fig. 7
+/// (`docs/seed-method.md`, Example I): each of `quads` (corners in order
+/// around the polygon, m; e.g. a fracture cell as wide as its magnified
+/// aperture) filled and edged (1 px, so quads thinner than a pixel still
+/// show) with the viridis colour of `values[k]` (linear scale), over the
+/// `mesh_edges` as thin light-grey lines; the rest as in [`network`].
 ///
-/// `window` (`[xmin, xmax, ymin, ymax]`, m) is the region shown (widened to
-/// the plot's aspect ratio); by default the bounding box of the quads and
-/// markers plus 10 % of its larger side on each side (of the mesh when there
-/// are neither). As in [`network`], non-finite values are drawn grey (below
-/// the coloured quads, which are drawn in increasing value order); quads with
-/// a non-finite corner and mesh edges with a non-finite end are left out; all
-/// three are counted in a note. `markers` are labelled points (e.g. a pump)
-/// drawn as filled circles when inside the window. No quads, or none with a
-/// colourable value, still gives a PNG, with a note. `values` must have one
-/// entry per quad, and `window`, when given, finite bounds with xmin < xmax
-/// and ymin < ymax, else [`PlotError::Input`].
+/// `window` (`[xmin, xmax, ymin, ymax]`, m; widened to the plot's aspect
+/// ratio) is the region shown, by default the box of the quads and markers
+/// (else of the mesh) plus 10 % of its larger side on each side. Quads with
+/// a non-finite corner and mesh edges with a non-finite end are left out,
+/// and counted in a note. `values` must have one entry per quad, and
+/// `window` finite bounds with xmin < xmax and ymin < ymax, else
+/// [`PlotError::Input`].
 #[allow(clippy::too_many_arguments)]
 pub fn fracture_map(
     path: &Path,
@@ -114,13 +103,10 @@ pub fn fracture_map(
         let ok = "[xmin, xmax, ymin, ymax] with finite xmin < xmax and ymin < ymax";
         return Err(input_error(path, format!("window {w:?} is not {ok}")));
     }
-    let (texts, shapes) = (
-        (title, value_label),
-        Shapes::Quads(quads, mesh_edges, window),
-    );
+    let shapes = Shapes::Quads(quads, mesh_edges, window);
     let linear = ColourScale::Linear;
     write_png(path, (NET_WIDTH, NET_HEIGHT), |root| {
-        draw_map(root, texts, &shapes, values, linear, markers)
+        draw_map(root, (title, value_label), &shapes, values, linear, markers)
     })
 }
 
@@ -162,19 +148,14 @@ pub(super) fn colour_axis(vmin: f64, vmax: f64, scale: ColourScale) -> Axis {
 pub(super) fn colour_fraction(axis: &Axis, v: f64) -> f64 {
     // Halve first so extreme ranges do not overflow.
     let f = (v / 2.0 - axis.lo / 2.0) / (axis.hi / 2.0 - axis.lo / 2.0);
-    if f.is_finite() {
-        f.clamp(0.0, 1.0)
-    } else {
-        0.5
-    }
+    clamp_or_half(f, 0.0, 1.0)
 }
 
 /// Items to draw in order, with their colour fractions (`None`: grey).
 type Order = Vec<(Option<f64>, usize)>;
 
-/// Colour bar of the `values` of the `drawable` items and their drawing
-/// order: items without a usable value (grey, `None`) first, then by
-/// increasing colour fraction.
+/// Colour bar of the `values` of the `drawable` items, and the items in
+/// drawing order: grey (`None`) first, then by increasing colour fraction.
 fn colour_order(values: &[f64], drawable: &[usize], scale: ColourScale) -> (Option<Axis>, Order) {
     let usable = |v: f64| v.is_finite() && (scale == ColourScale::Linear || v > 0.0);
     let (mut vmin, mut vmax) = (f64::MAX, f64::MIN);
@@ -214,35 +195,23 @@ pub(super) fn equal_axes(bbox: [f64; 4], w: f64, h: f64, pad: f64) -> (Axis, Axi
         if !(ends.iter().all(|v| v.is_finite()) && px_per_m > 0.0 && hx > 0.0 && hy > 0.0) {
             return None;
         }
-        let x = Axis::linear_exact(ends[0], ends[1]);
-        let y = Axis::linear_exact(ends[2], ends[3]);
-        let step = x.step.max(y.step);
-        let x = Axis::linear_stepped(x.lo, x.hi, step);
-        Some((x, Axis::linear_stepped(y.lo, y.hi, step)))
+        let step = |lo, hi| Axis::linear_exact(lo, hi).step;
+        let step = step(ends[0], ends[1]).max(step(ends[2], ends[3]));
+        let axis = |lo, hi| Axis::linear_stepped(lo, hi, step);
+        Some((axis(ends[0], ends[1]), axis(ends[2], ends[3])))
     };
     (try_box(bbox).or_else(|| try_box([0.0, 1.0, 0.0, 1.0])))
         .unwrap_or_else(|| (Axis::linear(0.0, 1.0), Axis::linear(0.0, 1.0)))
 }
 
-/// The box (`[xmin, xmax, ymin, ymax]`) of the points `ps`; xmin > xmax
-/// when there are none.
-fn bounding_box<'p>(ps: impl IntoIterator<Item = &'p [f64; 2]>) -> [f64; 4] {
-    let grow =
-        |b: [f64; 4], &[x, y]: &[f64; 2]| [b[0].min(x), b[1].max(x), b[2].min(y), b[3].max(y)];
-    ps.into_iter()
-        .fold([f64::MAX, f64::MIN, f64::MAX, f64::MIN], grow)
+fn finite(ps: &[[f64; 2]]) -> bool {
+    ps.iter().flatten().all(|v| v.is_finite())
 }
 
-fn finite(p: &[f64; 2]) -> bool {
-    p[0].is_finite() && p[1].is_finite()
-}
-
-/// What a map draws.
+/// What a map draws: [`network`]'s segments and line widths (px), or
+/// [`fracture_map`]'s quads, mesh edges and window.
 pub(super) enum Shapes<'a> {
-    /// Segments as lines, with their widths (px) if given (see [`network`]).
     Lines(&'a [Segment], Option<&'a [f64]>),
-    /// Filled quads over mesh edges, in a window if given (see
-    /// [`fracture_map`]).
     Quads(&'a [[[f64; 2]; 4]], &'a [Segment], Option<[f64; 4]>),
 }
 
@@ -260,41 +229,27 @@ pub(super) fn draw_map(
         Shapes::Lines(segments, _) => segments.iter().map(|s| vec![s.a, s.b]).collect(),
         Shapes::Quads(quads, ..) => quads.iter().map(|q| q.to_vec()).collect(),
     };
-    let (mesh, window, widths) = match *shapes {
-        Shapes::Lines(_, widths) => (&[][..], None, widths),
-        Shapes::Quads(_, mesh, window) => (mesh, window, None),
+    let (mesh, window, widths, pad, lines) = match *shapes {
+        Shapes::Lines(_, widths) => (&[][..], None, widths, NET_PAD, true),
+        Shapes::Quads(_, mesh, window) => (mesh, window, None, QUAD_PAD, false),
     };
-    let lines = matches!(shapes, Shapes::Lines(..));
-    let drawable: Vec<usize> = (0..items.len())
-        .filter(|&k| items[k].iter().all(finite))
-        .collect();
-    let edges: Vec<&Segment> = mesh
-        .iter()
-        .filter(|s| finite(&s.a) && finite(&s.b))
-        .collect();
+    let drawable: Vec<usize> = (0..items.len()).filter(|&k| finite(&items[k])).collect();
+    let edges: Vec<&Segment> = mesh.iter().filter(|s| finite(&[s.a, s.b])).collect();
 
-    // Region shown: the window, else the items and markers, else the mesh.
-    let finite_markers = markers.iter().map(|m| &m.0).filter(|p| finite(p));
-    let mut bbox = bounding_box(
-        drawable
-            .iter()
-            .flat_map(|&k| &items[k])
-            .chain(finite_markers),
-    );
+    // Region shown: the window, else the items and markers, else the mesh
+    // (else, all empty, `equal_axes`' unit box).
+    let marks = markers.iter().map(|m| m.0).filter(|p| finite(&[*p]));
+    let mut bbox = bounding_box(drawable.iter().flat_map(|&k| items[k].clone()).chain(marks));
     if bbox[0] > bbox[1] {
-        bbox = bounding_box(edges.iter().flat_map(|s| [&s.a, &s.b]));
+        bbox = bounding_box(edges.iter().flat_map(|s| [s.a, s.b]));
     }
-    if bbox[0] > bbox[1] {
-        bbox = [0.0, 1.0, 0.0, 1.0];
-    }
-    let pad = if lines { NET_PAD } else { QUAD_PAD };
     let (bbox, pad) = window.map_or((bbox, pad), |w| (w, 0.0));
     let (bar, order) = colour_order(values, &drawable, scale);
     let layout = map_layout(texts.0, bar_margin(bar.as_ref(), texts.1), bbox, pad);
     let (x, y) = (&layout.x, &layout.y);
     // Whether any of the box of the points `ps` lies within the axes.
     let shown = |ps: &[[f64; 2]]| {
-        let b = bounding_box(ps);
+        let b = bounding_box(ps.iter().copied());
         b[0] <= x.hi && b[1] >= x.lo && b[2] <= y.hi && b[3] >= y.lo
     };
 
@@ -321,82 +276,57 @@ pub(super) fn draw_map(
             area.draw(&PathElement::new(pts, color))?;
         }
     }
-    let inside =
-        |m: &&([f64; 2], &str)| (x.lo..=x.hi).contains(&m.0[0]) && (y.lo..=y.hi).contains(&m.0[1]);
-    let shown_markers: Vec<_> = markers.iter().filter(inside).collect();
+    let shown_markers: Vec<_> = markers.iter().filter(|m| shown(&[m.0])).collect();
     draw_markers(root, &chart, &shown_markers)?;
     let frame = layout.frame(root, &mut chart)?;
     draw_bar(root, &frame, bar.as_ref(), texts.1)?;
 
     // Notes.
-    let [many, one, ends] = if lines { NETWORK_NOUNS } else { QUAD_NOUNS };
-    let log = scale == ColourScale::Log;
+    let [many, one, ends] = if lines {
+        ["segments", "segment", "end points"]
+    } else {
+        ["fracture cells", "cell", "corners"]
+    };
+    let [good, bad] = value_words(scale == ColourScale::Log);
     let big = if items.is_empty() {
         Some(format!("no {many} to plot"))
     } else if drawable.is_empty() {
         Some(format!("no {many} with finite {ends} to plot"))
     } else if bar.is_none() {
-        let positive = if log { ", positive" } else { "" };
-        Some(format!(
-            "no finite{positive} values to colour (all {one}s grey)"
-        ))
+        Some(format!("no {good} values to colour (all {one}s grey)"))
     } else {
         None
     };
     let centred = drawable.is_empty() && shown_markers.is_empty() && edges.is_empty();
     let greyed = order.iter().filter(|o| o.0.is_none()).count();
-    let what = if log {
-        "a non-positive or non-finite"
-    } else {
-        "a non-finite"
-    };
-    let (no_coords, bad_edges) = (items.len() - drawable.len(), mesh.len() - edges.len());
-    let mut small = Vec::new();
-    if greyed > 0 && bar.is_some() {
-        small.push(format!(
-            "{} with {what} value drawn grey",
-            count(greyed, one)
-        ));
-    }
-    if no_coords > 0 {
-        small.push(format!(
-            "{} with non-finite {ends} omitted",
-            count(no_coords, one)
-        ));
-    }
-    if bad_edges > 0 {
-        let n = count(bad_edges, "mesh edge");
-        small.push(format!("{n} with non-finite end points omitted"));
-    }
+    let grey = format!("with a {bad} value drawn grey");
+    let no_ends = format!("with non-finite {ends} omitted");
+    let lost = mesh.len() - edges.len();
+    let small: Vec<String> = [
+        (bar.as_ref().map_or(0, |_| greyed), one, &grey[..]),
+        (items.len() - drawable.len(), one, &no_ends[..]),
+        (lost, "mesh edge", "with non-finite end points omitted"),
+    ]
+    .into_iter()
+    .filter(|s| s.0 > 0)
+    .map(|(n, what, rest)| format!("{} {rest}", count(n, what)))
+    .collect();
     notes(root, &frame, big.as_deref().map(|m| (m, centred)), &small)?;
     Ok(chart.as_coord_spec().clone())
 }
 
-/// Width in whole pixels of a network line `w` px wide (non-finite: the
-/// default, else clamped).
+/// Width in whole pixels of a network line `w` px wide, clamped to 0.75..=40.
 fn line_px(w: f64) -> u32 {
-    let (lo, hi) = NET_LINE_PX_RANGE;
-    let w = if w.is_finite() {
-        w.clamp(lo, hi)
-    } else {
-        NET_LINE_PX
-    };
-    w.round().max(1.0) as u32
+    let w = if w.is_finite() { w } else { NET_LINE_PX };
+    w.clamp(0.75, 40.0).round() as u32
 }
-
-/// What the notes of a network and of a fracture map call their items and
-/// those items' points.
-const NETWORK_NOUNS: [&str; 3] = ["segments", "segment", "end points"];
-const QUAD_NOUNS: [&str; 3] = ["fracture cells", "cell", "corners"];
 
 /// Labelled points as red discs with a dark rim on a white halo, each label
 /// on a white box beside its point (left of it near the right edge).
 fn draw_markers(root: &Area, chart: &Chart, markers: &[&([f64; 2], &str)]) -> Drawn {
     let (px, py) = chart.plotting_area().get_pixel_range();
-    let centres: Vec<_> = markers
-        .iter()
-        .map(|m| chart.backend_coord(&(m.0[0], m.0[1])))
-        .collect();
+    let to_px = |p: [f64; 2]| chart.backend_coord(&(p[0], p[1]));
+    let centres: Vec<_> = markers.iter().map(|m| to_px(m.0)).collect();
     for &c in &centres {
         for (r, color) in [(8, WHITE), (7, RGBColor(40, 40, 40)), (5, MARKER_FILL)] {
             root.draw(&Circle::new(c, r, color.filled()))?;
@@ -419,13 +349,12 @@ fn draw_markers(root: &Area, chart: &Chart, markers: &[&([f64; 2], &str)]) -> Dr
 fn bar_margin(bar: Option<&Axis>, label: &str) -> i32 {
     let mult_w = bar.and_then(Axis::multiplier).map_or(0, |m| TICK.width(&m));
     let bar_w = BAR_GAP + BAR_W + BAR_TICK + 26 + bar.map_or(0, |a| labels_width(a, 0));
-    let desc_w = if label.is_empty() { 0 } else { DESC.cap() + 22 };
+    let desc_w = room(label, DESC, 22);
     (bar_w + desc_w).max(BAR_GAP + mult_w + 16)
 }
 
-/// Lay out a map of the data box `bbox` (`[xmin, xmax, ymin, ymax]`, m)
-/// with a margin of `pad` times its larger side, widened to the plotting
-/// area's aspect ratio, with `right` px right of it.
+/// Layout of a map of `bbox` (`[xmin, xmax, ymin, ymax]`, m; see
+/// [`equal_axes`]) with `right` px right of the plotting area.
 fn map_layout(title: &str, right: i32, bbox: [f64; 4], pad: f64) -> Layout<'_> {
     let texts = (title, "x [m]", "y [m]");
     let unit = || Axis::linear(0.0, 1.0);
@@ -458,8 +387,7 @@ fn draw_bar(root: &Area, (px, py): &PixelBox, bar: Option<&Axis>, label: &str) -
         let color = bar.map_or(RGBColor(240, 240, 240), |_| viridis(f));
         root.draw(&PathElement::new(vec![(bx0, y), (bx1, y)], color))?;
     }
-    let edge = [(bx0, b_top), (bx1, b_bot)];
-    root.draw(&Rectangle::new(edge, BLACK.stroke_width(1)))?;
+    root.draw(&Rectangle::new([(bx0, b_top), (bx1, b_bot)], BLACK))?;
     if let Some(a) = bar {
         let minor = a.minor.iter().map(|&t| (t, 3));
         for (t, len) in minor.chain(a.major.iter().map(|&t| (t, BAR_TICK))) {
@@ -471,7 +399,7 @@ fn draw_bar(root: &Area, (px, py): &PixelBox, bar: Option<&Axis>, label: &str) -
             TICK.draw(root, &l, at, RIGHT_OF)?;
         }
         if let Some(m) = a.multiplier() {
-            TICK.draw(root, &m, (bx0, b_top - 8), (HPos::Left, VPos::Bottom))?;
+            TICK.draw(root, &m, (bx0, b_top - 8), ABOVE_RIGHT)?;
         }
     }
     let tick_w = bar.map_or(0, |a| labels_width(a, 0));

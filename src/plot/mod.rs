@@ -1,21 +1,13 @@
 //! PNG line plots (log-log and linear) and fracture-network maps, drawn with
-//! plotters' bitmap backend and elements, plotters' viridis colormap and the
-//! embedded DejaVu Sans font (`assets/DejaVuSans.ttf`).
+//! plotters' bitmap backend and elements, its viridis colormap and the
+//! embedded DejaVu Sans font (`assets/DejaVuSans.ttf`), written atomically.
 //!
-//! Log plots are drawn in log10 space with power-of-ten tick labels. Series
-//! with more than 60 points get no markers. The legend goes in the plot
-//! corner covering the fewest curve samples. Maps ([`network`],
-//! [`fracture_map`]) have equal x/y scales and a colour bar. PNGs are written
-//! atomically (`crate::atomic`: a temporary file in the same folder, then
-//! renamed).
-//!
-//! Text is laid out and rasterised by `ab_glyph` (the crate behind plotters'
-//! text path) through [`Pen`], not by plotters' text elements: plotters 0.3.7
-//! puts each glyph's ink at the pen position, dropping the glyph's left side
-//! bearing, and at odd pixel sizes it rounds glyphs whose top lies below half
-//! the font size one pixel up. Both are visible (uneven letter spacing, "x"
-//! above the baseline of "H"); the test `plotters_text_is_uneven` measures
-//! them.
+//! Text is laid out and rasterised by `ab_glyph` (behind plotters' text path)
+//! through [`Pen`], not by plotters' text elements: plotters 0.3.7 puts each
+//! glyph's ink at the pen position, dropping its left side bearing, and at odd
+//! pixel sizes rounds glyphs whose top lies below half the font size one pixel
+//! up. Both show (uneven letter spacing, "x" above the baseline of "H"); the
+//! test `plotters_text_is_uneven` measures them.
 
 mod axis;
 mod lines;
@@ -27,7 +19,7 @@ use std::ops::Range;
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
-use ab_glyph::{Font, FontRef, GlyphId, Outline, PxScaleFont, ScaleFont, point};
+use ab_glyph::{Font, FontRef, GlyphId, ScaleFont, point};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, VPos};
@@ -101,9 +93,8 @@ fn ensure_font() -> Result<(), PlotError> {
     font.as_ref().map(drop).ok_or(PlotError::Font)
 }
 
-/// Text of one size and colour, laid out with the font's advances, kerning
-/// and side bearings (see the module docs). Draws nothing before
-/// [`ensure_font`] has succeeded.
+/// Text of one size (px) and colour, laid out with the font's advances,
+/// kerning and side bearings (module docs); draws nothing before [`ensure_font`].
 #[derive(Clone, Copy)]
 struct Pen(f32, RGBColor);
 
@@ -122,9 +113,19 @@ const CENTRE: Anchor = (HPos::Center, VPos::Center);
 const BELOW: Anchor = (HPos::Center, VPos::Top);
 const RIGHT_OF: Anchor = (HPos::Left, VPos::Center);
 const LEFT_OF: Anchor = (HPos::Right, VPos::Center);
+const ABOVE_RIGHT: Anchor = (HPos::Left, VPos::Bottom);
 
 fn font() -> Option<&'static FontRef<'static>> {
     FONT.get().and_then(Option::as_ref)
+}
+
+/// The share of a text's width left of its anchor.
+fn share(h: HPos) -> f32 {
+    match h {
+        HPos::Left => 0.0,
+        HPos::Center => 0.5,
+        HPos::Right => 1.0,
+    }
 }
 
 impl Pen {
@@ -150,11 +151,11 @@ impl Pen {
 
     /// Cap height in pixels.
     fn cap(self) -> i32 {
-        let h = font().and_then(|f| Some((f.outline(f.glyph_id('H'))?, f.as_scaled(self.0))));
-        let cap = |(o, f): (Outline, PxScaleFont<_>)| {
-            (o.bounds.max.y - o.bounds.min.y).abs() * f.v_scale_factor()
-        };
-        h.map_or(0.7 * self.0, cap).round() as i32
+        let h = font().and_then(|f| {
+            let b = f.outline(f.glyph_id('H'))?.bounds;
+            Some((b.max.y - b.min.y).abs() * f.as_scaled(self.0).v_scale_factor())
+        });
+        h.unwrap_or(0.7 * self.0).round() as i32
     }
 
     /// Draw `s` with its `anchor` at `pos`.
@@ -169,11 +170,7 @@ impl Pen {
 
     fn put(self, area: &Area, s: &str, pos: (i32, i32), (h, v): Anchor, up: bool) -> Drawn {
         let (glyphs, w) = self.layout(s);
-        let x0 = match h {
-            HPos::Left => 0.0,
-            HPos::Center => -w / 2.0,
-            HPos::Right => -w,
-        };
+        let x0 = -w * share(h);
         let base = match v {
             VPos::Top => self.cap(),
             VPos::Center => self.cap() / 2,
@@ -188,12 +185,9 @@ impl Pen {
             let min = g.px_bounds().min;
             g.draw(|gx, gy, a| {
                 let (x, y) = (min.x as i32 + gx as i32, min.y as i32 + gy as i32);
-                let p = if up {
-                    (pos.0 + y, pos.1 - x)
-                } else {
-                    (pos.0 + x, pos.1 + y)
-                };
+                let (x, y) = if up { (y, -x) } else { (x, y) };
                 if a > 0.0 && result.is_ok() {
+                    let p = (pos.0 + x, pos.1 + y);
                     result = area.draw_pixel(p, &self.1.mix(a.min(1.0) as f64));
                 }
             });
@@ -202,8 +196,7 @@ impl Pen {
     }
 }
 
-/// Draw a `size` px PNG with `draw` into a temporary file next to `path`,
-/// then sync and rename it to `path` (`crate::atomic`).
+/// Draw a `size` px PNG at `path` with `draw`, atomically (`crate::atomic`).
 fn write_png<T>(
     path: &Path,
     size: (u32, u32),
@@ -213,12 +206,10 @@ fn write_png<T>(
     let draw_file = |tmp: &Path| {
         let root = BitMapBackend::new(tmp, size).into_drawing_area();
         let drawn = draw(&root).and_then(|_| root.present());
-        let message = drawn.err().map(|e| e.to_string());
-        let error = |message| PlotError::Draw {
+        drawn.map_err(|e| PlotError::Draw {
             path: path.to_path_buf(),
-            message,
-        };
-        message.map_or(Ok(()), |m| Err(error(m)))
+            message: e.to_string(),
+        })
     };
     let io = |source| PlotError::Io {
         path: path.to_path_buf(),
@@ -227,13 +218,13 @@ fn write_png<T>(
     crate::atomic::write_via_path(path, draw_file, io)
 }
 
-/// Axes, texts and margins (px) around the plotting area of a figure.
+/// Axes, texts and margins (px: top, right, bottom, left) around the
+/// plotting area of a figure.
 struct Layout<'a> {
     texts: Texts<'a>,
     x: Axis,
     y: Axis,
     y_tick_w: i32,
-    /// Margins: top, right, bottom, left.
     margin: [i32; 4],
 }
 
@@ -247,15 +238,15 @@ fn labels_width(a: &Axis, min: i32) -> i32 {
     labels(a).map(|(_, l)| TICK.width(&l)).fold(min, i32::max)
 }
 
-/// Room for an axis description (`s` non-empty) beside the tick labels.
-fn desc_room(s: &str) -> i32 {
-    if s.is_empty() { 0 } else { DESC.cap() + 24 }
+/// Room (px) for the text `s` in `pen` plus `gap`; none for no text.
+fn room(s: &str, pen: Pen, gap: i32) -> i32 {
+    if s.is_empty() { 0 } else { pen.cap() + gap }
 }
 
 impl<'a> Layout<'a> {
     /// Margin left of the plotting area for y tick labels `y_tick_w` px wide.
     fn left_margin(ylabel: &str, y_tick_w: i32) -> i32 {
-        16 + desc_room(ylabel) + y_tick_w + TICK_GAP
+        16 + room(ylabel, DESC, 24) + y_tick_w + TICK_GAP
     }
 
     /// Layout with `right` px right of the plotting area (`None`: room for
@@ -263,13 +254,9 @@ impl<'a> Layout<'a> {
     fn new(texts: Texts<'a>, x: Axis, y: Axis, right: Option<i32>, min_y_tick_w: i32) -> Self {
         let y_tick_w = labels_width(&y, min_y_tick_w);
         let last_x_w = labels(&x).last().map_or(0, |(_, l)| TICK.width(&l));
-        let top = if texts.0.is_empty() {
-            24
-        } else {
-            TITLE.cap() + 44
-        };
+        let top = 24 + room(texts.0, TITLE, 20);
         let right = right.unwrap_or((last_x_w / 2 + 12).max(32));
-        let bottom = TICK_GAP + TICK.cap() + 22 + desc_room(texts.1);
+        let bottom = TICK_GAP + TICK.cap() + 22 + room(texts.1, DESC, 24);
         let margin = [top, right, bottom, Layout::left_margin(texts.2, y_tick_w)];
         Layout {
             texts,
@@ -280,8 +267,7 @@ impl<'a> Layout<'a> {
         }
     }
 
-    /// White background, the chart and its grid (`grid`: opacity of the
-    /// major and the minor grid lines).
+    /// White background, the chart and its grid (`grid`: major, minor line opacity).
     fn chart<'c, 'b>(&self, root: &'c Area<'b>, grid: Option<(f64, f64)>) -> Drawn<Chart<'c, 'b>> {
         root.fill(&WHITE)?;
         let [top, right, bottom, left] = self.margin;
@@ -313,12 +299,11 @@ impl<'a> Layout<'a> {
         let no_label = |_: &f64| String::new();
         let mut mesh = chart.configure_mesh();
         mesh.disable_mesh().x_label_formatter(&no_label);
-        mesh.y_label_formatter(&no_label)
-            .axis_style(BLACK.stroke_width(1));
+        mesh.y_label_formatter(&no_label).axis_style(BLACK);
         mesh.set_all_tick_mark_size(6).draw()?;
         let (x1, y1) = (px.end - 1, py.end - 1);
         let corner = vec![(px.start, py.start), (x1, py.start), (x1, y1)];
-        root.draw(&PathElement::new(corner, BLACK.stroke_width(1)))?;
+        root.draw(&PathElement::new(corner, BLACK))?;
 
         for (t, l) in labels(&self.x) {
             let x = chart.backend_coord(&(t, self.y.lo)).0;
@@ -339,8 +324,7 @@ impl<'a> Layout<'a> {
             TICK.draw(root, &m, (px.end, below), (HPos::Right, VPos::Top))?;
         }
         if let Some(m) = self.y.multiplier() {
-            let at = (px.start, py.start - 8);
-            TICK.draw(root, &m, at, (HPos::Left, VPos::Bottom))?;
+            TICK.draw(root, &m, (px.start, py.start - 8), ABOVE_RIGHT)?;
         }
         Ok((px, py))
     }
@@ -350,16 +334,14 @@ impl<'a> Layout<'a> {
 /// else boxed near its top) and small notes in the image's lower left corner.
 fn notes(root: &Area, (px, py): &PixelBox, big: Option<(&str, bool)>, small: &[String]) -> Drawn {
     let cx = (px.start + px.end) / 2;
+    let top = py.start + 24 + BIG_NOTE.cap() / 2;
     match big {
         Some((msg, true)) => BIG_NOTE.draw(root, msg, (cx, (py.start + py.end) / 2), CENTRE)?,
-        Some((msg, false)) => {
-            let at = (cx, py.start + 24 + BIG_NOTE.cap() / 2);
-            boxed_text(root, BIG_NOTE, msg, at, HPos::Center)?
-        }
+        Some((msg, false)) => boxed_text(root, BIG_NOTE, msg, (cx, top), HPos::Center)?,
         None => {}
     }
     let at = (12, root.dim_in_pixel().1 as i32 - 12);
-    NOTE.draw(root, &small.join("; "), at, (HPos::Left, VPos::Bottom))
+    NOTE.draw(root, &small.join("; "), at, ABOVE_RIGHT)
 }
 
 /// A legend-style box (nearly opaque white, thin grey border).
@@ -371,11 +353,7 @@ fn legend_box(root: &Area, corners: [(i32, i32); 2]) -> Drawn {
 /// Text on a legend-style box, vertically centred on `pos.1`.
 fn boxed_text(root: &Area, pen: Pen, s: &str, pos: (i32, i32), h: HPos) -> Drawn {
     let w = pen.width(s);
-    let x0 = match h {
-        HPos::Left => pos.0,
-        HPos::Center => pos.0 - w / 2,
-        HPos::Right => pos.0 - w,
-    };
+    let x0 = pos.0 - (w as f32 * share(h)) as i32;
     // Room for descenders below the baseline.
     let top = pos.1 - pen.cap() / 2 - 7;
     let bottom = pos.1 + (pen.cap() + 1) / 2 + pen.cap() / 4 + 7;
@@ -383,7 +361,22 @@ fn boxed_text(root: &Area, pen: Pen, s: &str, pos: (i32, i32), h: HPos) -> Drawn
     pen.draw(root, s, (x0, pos.1), RIGHT_OF)
 }
 
+/// `[xmin, xmax, ymin, ymax]` of the points `ps`; xmin > xmax if there are none.
+fn bounding_box(ps: impl IntoIterator<Item = [f64; 2]>) -> [f64; 4] {
+    let grow = |b: [f64; 4], [x, y]: [f64; 2]| [b[0].min(x), b[1].max(x), b[2].min(y), b[3].max(y)];
+    ps.into_iter()
+        .fold([f64::MAX, f64::MIN, f64::MAX, f64::MIN], grow)
+}
+
 /// `n` things, with a plural "s" on `what` unless `n` is 1.
 fn count(n: usize, what: &str) -> String {
     format!("{n} {what}{}", if n == 1 { "" } else { "s" })
+}
+
+/// What notes call values that can (log scale: positive) and cannot be plotted.
+fn value_words(log: bool) -> [&'static str; 2] {
+    match log {
+        true => ["finite, positive", "non-positive or non-finite"],
+        false => ["finite", "non-finite"],
+    }
 }
