@@ -3,7 +3,8 @@
 use super::{CaseResult, Row, observed_order};
 use crate::model::Model;
 use crate::scenario::{
-    Boundary, Damping, End, Material, MeshSpec, OutputSpec, Scenario, SystemsSpec, TimeControl,
+    Boundary, Damping, End, Material, MeshSpec, OutputSpec, Scenario, SolidScheme, SystemsSpec,
+    TimeControl,
 };
 use crate::sim::{Finish, Simulation};
 use crate::systems::RunError;
@@ -74,6 +75,13 @@ fn square(n: usize, side: f64, perturb: Option<(f64, u64)>) -> MeshSpec {
     }
 }
 
+/// Both solid schemes, with the suffix of their metric names: the explicit relaxation (no
+/// suffix, as before) and the quasi-static solve (`_quasi_static`), side by side at every level.
+pub const SCHEMES: [(SolidScheme, &str); 2] = [
+    (SolidScheme::Explicit, ""),
+    (SolidScheme::QuasiStatic, "_quasi_static"),
+];
+
 /// Relax a scenario to static equilibrium after `prep` edits the model; returns the simulation
 /// and the wall time of set-up plus solve.
 pub fn relax(sc: Scenario, prep: impl FnOnce(&mut Model)) -> anyhow::Result<(Simulation, f64)> {
@@ -118,47 +126,51 @@ pub fn patch(quick: bool) -> anyhow::Result<CaseResult> {
     };
     let mut res = CaseResult::default();
     for (level, &n) in levels.iter().enumerate() {
-        let sc = scenario(
-            "patch",
-            square(n, 1.0, Some((0.3, 11 + n as u64))),
-            mat,
-            Boundary::default(),
-            End::Static {
-                tol: 1e-13,
-                min_steps: 10,
-            },
-            Damping::Local(0.8),
-        );
-        let (sim, wall) = relax(sc, |m| m.prescribe_boundary_field(exact))?;
-        let v = sim.solid();
-        let umax = v.x0.iter().map(|&x| norm(exact(x))).fold(0.0, f64::max);
-        let du = (0..v.n_nodes())
-            .map(|i| norm(sub(v.u[i], exact(v.x0[i]))))
-            .fold(0.0, f64::max);
-        let eps = [grad[0][0], grad[1][1], grad[0][1] + grad[1][0]];
-        let s_exact = solid::hooke(eps, &sim.params().solid);
-        let smax = s_exact.iter().map(|s| s.abs()).fold(0.0, f64::max);
-        let ds = v
-            .stress
-            .iter()
-            .map(|s| {
-                (0..3)
-                    .map(|k| (s[k] - s_exact[k]).abs())
-                    .fold(0.0, f64::max)
-            })
-            .fold(0.0, f64::max);
-        let h = 1.0 / n as f64;
-        for (metric, error) in [("displacement_max", du / umax), ("stress_max", ds / smax)] {
-            res.rows.push(Row {
-                case: "patch",
-                level,
-                h,
-                unknowns: 2 * v.n_nodes(),
-                metric: metric.into(),
-                error,
-                wall_s: wall,
-            });
-            res.check_max(format!("{metric} at h = {h}"), error, 1e-9);
+        for (scheme, suffix) in SCHEMES {
+            let mut sc = scenario(
+                "patch",
+                square(n, 1.0, Some((0.3, 11 + n as u64))),
+                mat,
+                Boundary::default(),
+                End::Static {
+                    tol: 1e-13,
+                    min_steps: 10,
+                },
+                Damping::Local(0.8),
+            );
+            sc.time.solid_scheme = scheme;
+            let (sim, wall) = relax(sc, |m| m.prescribe_boundary_field(exact))?;
+            let v = sim.solid();
+            let umax = v.x0.iter().map(|&x| norm(exact(x))).fold(0.0, f64::max);
+            let du = (0..v.n_nodes())
+                .map(|i| norm(sub(v.u[i], exact(v.x0[i]))))
+                .fold(0.0, f64::max);
+            let eps = [grad[0][0], grad[1][1], grad[0][1] + grad[1][0]];
+            let s_exact = solid::hooke(eps, &sim.params().solid);
+            let smax = s_exact.iter().map(|s| s.abs()).fold(0.0, f64::max);
+            let ds = v
+                .stress
+                .iter()
+                .map(|s| {
+                    (0..3)
+                        .map(|k| (s[k] - s_exact[k]).abs())
+                        .fold(0.0, f64::max)
+                })
+                .fold(0.0, f64::max);
+            let h = 1.0 / n as f64;
+            for (metric, error) in [("displacement_max", du / umax), ("stress_max", ds / smax)] {
+                let metric = format!("{metric}{suffix}");
+                res.check_max(format!("{metric} at h = {h}"), error, 1e-9);
+                res.rows.push(Row {
+                    case: "patch",
+                    level,
+                    h,
+                    unknowns: 2 * v.n_nodes(),
+                    metric,
+                    error,
+                    wall_s: wall,
+                });
+            }
         }
     }
     Ok(res)
@@ -177,12 +189,15 @@ pub fn insitu(quick: bool) -> anyhow::Result<CaseResult> {
     let (sxx, syy) = (-20e6, -10e6);
     let mut res = CaseResult::default();
     for (level, &h) in hs.iter().enumerate() {
-        for (metric, perturb) in [
+        for ((metric, perturb), (scheme, suffix)) in [
             ("stress_regular", None),
             ("stress_perturbed", Some((0.2, 42))),
-        ] {
+        ]
+        .into_iter()
+        .flat_map(|m| SCHEMES.map(|s| (m, s)))
+        {
             let n = (100.0 / h).round() as usize;
-            let sc = scenario(
+            let mut sc = scenario(
                 "insitu",
                 square(n, 100.0, perturb),
                 ROCK,
@@ -193,6 +208,8 @@ pub fn insitu(quick: bool) -> anyhow::Result<CaseResult> {
                 },
                 Damping::Local(0.8),
             );
+            sc.time.solid_scheme = scheme;
+            let metric = format!("{metric}{suffix}");
             let (sim, wall) = relax(sc, |_| {})?;
             let err = sim
                 .solid()
@@ -206,7 +223,7 @@ pub fn insitu(quick: bool) -> anyhow::Result<CaseResult> {
                 level,
                 h,
                 unknowns: 2 * sim.solid().n_nodes(),
-                metric: metric.into(),
+                metric: metric.clone(),
                 error: err,
                 wall_s: wall,
             });
@@ -300,39 +317,49 @@ pub fn mms(quick: bool) -> anyhow::Result<CaseResult> {
     };
     let mut res = CaseResult::default();
     for (level, &n) in levels.iter().enumerate() {
-        let sc = scenario(
-            "mms",
-            square(n, 1.0, None),
-            mat,
-            Boundary::default(),
-            End::Static {
-                tol: 1e-11,
-                min_steps: 10,
-            },
-            Damping::Local(0.8),
-        );
-        let (sim, wall) = relax(sc, |m| {
-            m.prescribe_boundary_field(|x| mf.u(x));
-            m.add_body_force(|x| mf.body_force(x));
-        })?;
-        let (eu, es) = mms_errors(sim.solid(), &sim.params().solid, &mf);
-        let h = 1.0 / n as f64;
-        for (metric, error) in [("displacement_l2", eu), ("stress_l2", es)] {
-            res.rows.push(Row {
-                case: "mms",
-                level,
-                h,
-                unknowns: 2 * sim.solid().n_nodes(),
-                metric: metric.into(),
-                error,
-                wall_s: wall,
-            });
+        for (scheme, suffix) in SCHEMES {
+            let mut sc = scenario(
+                "mms",
+                square(n, 1.0, None),
+                mat,
+                Boundary::default(),
+                End::Static {
+                    tol: 1e-11,
+                    min_steps: 10,
+                },
+                Damping::Local(0.8),
+            );
+            sc.time.solid_scheme = scheme;
+            let (sim, wall) = relax(sc, |m| {
+                m.prescribe_boundary_field(|x| mf.u(x));
+                m.add_body_force(|x| mf.body_force(x));
+            })?;
+            let (eu, es) = mms_errors(sim.solid(), &sim.params().solid, &mf);
+            let h = 1.0 / n as f64;
+            for (metric, error) in [("displacement_l2", eu), ("stress_l2", es)] {
+                res.rows.push(Row {
+                    case: "mms",
+                    level,
+                    h,
+                    unknowns: 2 * sim.solid().n_nodes(),
+                    metric: format!("{metric}{suffix}"),
+                    error,
+                    wall_s: wall,
+                });
+            }
         }
     }
-    let pu = observed_order(&res.errors("displacement_l2"));
-    let ps = observed_order(&res.errors("stress_l2"));
-    res.check_range("displacement_l2 observed order", pu, 1.8, 2.3);
-    res.check_range("stress_l2 observed order", ps, 0.85, 1.3);
+    for (_, suffix) in SCHEMES {
+        let pu = observed_order(&res.errors(&format!("displacement_l2{suffix}")));
+        let ps = observed_order(&res.errors(&format!("stress_l2{suffix}")));
+        res.check_range(
+            format!("displacement_l2{suffix} observed order"),
+            pu,
+            1.8,
+            2.3,
+        );
+        res.check_range(format!("stress_l2{suffix} observed order"), ps, 0.85, 1.3);
+    }
     Ok(res)
 }
 
