@@ -221,6 +221,9 @@ pub struct JointState {
     pub last_shear_offset: f64,
     pub sliding: bool,
     pub opening: f64,
+    /// Slid at some step since the last frame (output: "slid during the output interval";
+    /// cleared after each frame; the physics never reads it).
+    pub slid: bool,
 }
 
 /// Joint bundle.

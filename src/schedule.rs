@@ -116,6 +116,14 @@ impl Schedule {
         }
     }
 
+    /// The status of system `s`.
+    pub fn status(&self, s: SystemId) -> Status {
+        self.entries
+            .iter()
+            .find(|(t, _)| *t == s)
+            .map_or(Status::NoData, |e| e.1)
+    }
+
     pub fn is_enabled(&self, s: SystemId) -> bool {
         self.entries
             .iter()

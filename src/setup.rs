@@ -79,6 +79,67 @@ pub fn build_model(sc: &Scenario) -> Result<(Model, Vec<crate::fractures::Placed
     Ok((m, placed))
 }
 
+/// The rock's view (masses scaled with `time.mass_scaling`), and the coupling maps of a coupled
+/// flow part, which need it.
+pub fn solid_view(
+    model: &Model,
+    p: &RunParams,
+    dt_crit: f64,
+    flow: Option<&mut FlowPart>,
+) -> crate::view::SolidView {
+    let mut view = crate::view::SolidView::build(model);
+    if p.time.mass_scaling {
+        crate::systems::solid::scale_masses(&mut view, &p.solid, p.joint.k_max(), dt_crit);
+    }
+    if let Some(f) = flow
+        && f.coupling.is_some()
+    {
+        let a_r = p.residual_aperture;
+        let c = crate::systems::coupling::Coupling::build(model, &view, &f.view, &p.fluid, a_r);
+        f.coupling = Some(c);
+    }
+    view
+}
+
+/// The quasi-static solver when the schedule runs `solve`, its residual made of the force
+/// systems the user did not switch off.
+pub fn quasi_static(
+    schedule: &crate::schedule::Schedule,
+) -> Option<crate::systems::quasi_static::QuasiStatic> {
+    use crate::schedule::Status;
+    use crate::systems::SystemId;
+    use crate::systems::quasi_static::{QuasiStatic, Systems};
+    let user_on = |s| schedule.status(s) != Status::DisabledByUser;
+    schedule.is_enabled(SystemId::Solve).then(|| {
+        QuasiStatic::new(Systems {
+            load: user_on(SystemId::ExternalLoad),
+            contact: user_on(SystemId::Contact),
+        })
+    })
+}
+
+/// The schedule of a scene: the literal order minus the systems in `disabled` and those whose
+/// data the scene lacks.
+pub fn schedule(
+    disabled: &[String],
+    view: &crate::view::SolidView,
+    p: &RunParams,
+    has_flow: bool,
+) -> Result<crate::schedule::Schedule, SetupError> {
+    let solid = view.n_nodes() > 0;
+    let data = crate::schedule::SceneData {
+        solid,
+        joints: !view.joint_nodes.is_empty(),
+        load: view.has_load(),
+        damping: p.solid.damping != crate::scenario::Damping::None,
+        flow: has_flow,
+        coupled: p.coupled,
+        criterion: p.criterion.is_some(),
+        quasi_static: solid && p.time.solid_scheme == SolidScheme::QuasiStatic,
+    };
+    crate::schedule::Schedule::new(disabled, |s| data.has(s))
+}
+
 /// The flow part: a rigid network of its own (`network`), or the rock's fractures when the
 /// scene has a mesh and flow boundaries (coupled; the cells are filled at the initial fluid
 /// pressure unless the start is empty); `None` without either.

@@ -11,13 +11,14 @@ use crate::fractures::Placed;
 use crate::model::Model;
 use crate::output::Outputs;
 use crate::params::RunParams;
-use crate::scenario::{Damping, End, Scenario, SolidScheme};
-use crate::schedule::{SceneData, Schedule, Status};
+use crate::scenario::{End, Scenario};
+use crate::schedule::{Schedule, Status};
 use crate::systems::flow::FlowPart;
 use crate::systems::fracture::FractureState;
 use crate::systems::output::Scene;
-use crate::systems::quasi_static::{self, QuasiStatic};
-use crate::systems::solid::{SolidPart, StepStats};
+use crate::systems::quasi_static;
+use crate::systems::solid::StepStats;
+use crate::systems::state::SolidPart;
 use crate::systems::{RunError, SystemId, coupling, flow, fracture, monitor, output, solid, split};
 use crate::view::SolidView;
 
@@ -62,35 +63,11 @@ impl Simulation {
         let (dt, steps_to_end) =
             crate::setup::time_step(&scenario.time, has_solid, dt_crit, flow.as_mut());
         p.solid.dt = dt;
-        let mut view = SolidView::build(&model);
-        if p.time.mass_scaling {
-            solid::scale_masses(&mut view, &p.solid, p.joint.k_max(), dt_crit);
-        }
-        if let Some(f) = flow.as_mut()
-            && f.coupling.is_some()
-        {
-            f.coupling = Some(coupling::Coupling::build(
-                &model,
-                &view,
-                &f.view,
-                &p.fluid,
-                p.residual_aperture,
-            ));
-        }
+        let view = crate::setup::solid_view(&model, &p, dt_crit, flow.as_mut());
         let mut disabled = scenario.systems.disable.clone();
         disabled.extend(extra_disable.iter().cloned());
-        let quasi_static = has_solid && p.time.solid_scheme == SolidScheme::QuasiStatic;
-        let data = SceneData {
-            solid: has_solid,
-            joints: !view.joint_nodes.is_empty(),
-            load: view.has_load(),
-            damping: p.solid.damping != Damping::None,
-            flow: flow.is_some(),
-            coupled: p.coupled,
-            criterion: p.criterion.is_some(),
-            quasi_static,
-        };
-        let schedule = Schedule::new(&disabled, |s| data.has(s))?;
+        let schedule = crate::setup::schedule(&disabled, &view, &p, flow.is_some())?;
+        let qs = crate::setup::quasi_static(&schedule);
         Ok(Simulation {
             scenario,
             model,
@@ -99,7 +76,7 @@ impl Simulation {
                 view,
                 stats: StepStats::default(),
                 dt_crit,
-                quasi_static: quasi_static.then(QuasiStatic::default),
+                quasi_static: qs,
             },
             flow,
             fracture: FractureState::default(),
@@ -172,14 +149,13 @@ impl Simulation {
                 SystemId::Damping => solid::damping(v, &p.solid),
                 SystemId::Integrate => self.solid.stats = solid::integrate(v, &p.solid),
                 SystemId::Solve => {
-                    let on = quasi_static::Systems {
-                        load: self.schedule.is_enabled(SystemId::ExternalLoad),
-                        contact: self.schedule.is_enabled(SystemId::Contact),
-                    };
-                    let (qs, step) = (self.solid.quasi_static.as_mut(), self.clock.step + 1);
-                    let qs = qs.expect("scheduled with the quasi-static scheme");
-                    let t1 = t0 + p.solid.dt;
-                    self.solid.stats = quasi_static::solve(v, qs, p, on, step, t1)?;
+                    let qs = self
+                        .solid
+                        .quasi_static
+                        .as_mut()
+                        .expect("quasi-static scheme");
+                    let (step, t1) = (self.clock.step + 1, t0 + p.solid.dt);
+                    self.solid.stats = quasi_static::solve(v, qs, p, step, t1)?;
                 }
                 SystemId::FlowSubsteps => {
                     if let Some(f) = self.flow.as_mut() {
@@ -213,7 +189,14 @@ impl Simulation {
                             fracture: &self.fracture,
                             params: &self.params,
                         };
-                        output::output(&mut self.model, self.flow.as_mut(), &scene, out, t0)?;
+                        let flow = self.flow.as_mut();
+                        if output::output(&mut self.model, flow, &scene, out, t0)? {
+                            self.solid
+                                .view
+                                .joint_state
+                                .iter_mut()
+                                .for_each(|s| s.slid = false);
+                        }
                     }
                 }
             }

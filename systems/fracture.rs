@@ -138,6 +138,7 @@ pub fn contact(v: &mut SolidView, p: &JointParams) {
             let mut ft = st.shear_force - p.kt * (dt - st.last_shear_offset);
             let cap = p.mu * st.normal_force;
             st.sliding = ft.abs() > cap;
+            st.slid |= st.sliding;
             if st.sliding {
                 ft = cap.copysign(ft);
             }

@@ -25,6 +25,7 @@ pub mod output;
 pub mod quasi_static;
 pub mod solid;
 pub mod split;
+pub mod state;
 pub mod sync;
 
 use crate::error::SetupError;
@@ -120,7 +121,10 @@ impl SystemId {
 
     /// Systems that cannot be switched off (the run would be unsafe or meaningless).
     pub fn required(self) -> bool {
-        matches!(self, SystemId::Integrate | SystemId::Monitor)
+        matches!(
+            self,
+            SystemId::Integrate | SystemId::Solve | SystemId::Monitor
+        )
     }
 
     pub fn from_name(name: &str) -> Option<SystemId> {

@@ -6,7 +6,7 @@ use crate::params::RunParams;
 use crate::scenario::End;
 use crate::systems::RunError;
 use crate::systems::flow::FlowPart;
-use crate::systems::solid::SolidPart;
+use crate::systems::state::SolidPart;
 
 /// A speed above this fraction of the P-wave speed implies strains of order 100 %: far outside
 /// small-strain elasticity, so the run is treated as blown up.

@@ -12,7 +12,7 @@ use crate::systems::RunError;
 use crate::systems::flow::FlowPart;
 use crate::systems::fracture::FractureState;
 use crate::systems::monitor::Clock;
-use crate::systems::solid::SolidPart;
+use crate::systems::state::SolidPart;
 use crate::systems::sync;
 use crate::view::SolidView;
 use std::path::Path;
@@ -26,14 +26,15 @@ pub struct Scene<'a> {
 }
 
 /// `output` after the step that started at `t0`: a frame and/or a series row when due, and a
-/// fracture-pressure figure for every `figure_times` entry the step passed.
+/// fracture-pressure figure for every `figure_times` entry the step passed. Returns whether a
+/// frame was written (the caller then clears the joints' slid-since-last-frame flags).
 pub fn output(
     model: &mut Model,
     flow: Option<&mut FlowPart>,
     scene: &Scene,
     out: &mut Outputs,
     t0: f64,
-) -> Result<(), RunError> {
+) -> Result<bool, RunError> {
     let (clock, p) = (scene.clock, scene.params);
     let every = p.output.frame_every;
     let frame = clock.finish.is_some() || (every > 0 && clock.step.is_multiple_of(every));
@@ -58,7 +59,7 @@ pub fn output(
             clock.time,
         );
     }
-    Ok(())
+    Ok(frame)
 }
 
 /// Write a frame (solid, network) and/or a series row now.
@@ -147,6 +148,33 @@ pub fn fracture_pressure_figure(
     }
 }
 
+/// Total reference length of the joints whose faces are apart (delta_n > 0), m, and the
+/// largest opening delta_n, m (0 without joints).
+pub fn opened_length(v: &SolidView) -> (f64, f64) {
+    let mut length = 0.0;
+    let mut max_opening = 0.0f64;
+    for (k, st) in v.joint_state.iter().enumerate() {
+        if st.opening > 0.0 {
+            let [a, b] = [v.joint_nodes[k][0], v.joint_nodes[k][1]].map(|i| v.x0[i as usize]);
+            length += (b[0] - a[0]).hypot(b[1] - a[1]);
+        }
+        max_opening = max_opening.max(st.opening);
+    }
+    (length, max_opening)
+}
+
+/// Opening delta_n (m) of the joint under the first cell of the first flow boundary (the well
+/// of a coupled run), 0 when there is none.
+pub fn well_opening(v: &SolidView, f: &FlowPart, c: &crate::systems::coupling::Coupling) -> f64 {
+    f.view
+        .bcs
+        .first()
+        .and_then(|b| b.cells.first())
+        .map(|&cell| c.cell_joint[cell as usize])
+        .filter(|&k| k != u32::MAX)
+        .map_or(0.0, |k| v.joint_state[k as usize].opening)
+}
+
 /// Names of the time-series columns of a scene.
 pub fn series_columns(solid: &SolidView, flow: Option<&FlowPart>, p: &RunParams) -> Vec<String> {
     let mut c: Vec<String> = vec!["step".into(), "time".into()];
@@ -157,6 +185,11 @@ pub fn series_columns(solid: &SolidView, flow: Option<&FlowPart>, p: &RunParams)
     }
     if p.has_fractures {
         c.push("fracture_ready_edges".into());
+        c.push("fracture_length".into());
+        c.push("max_opening".into());
+    }
+    if flow.is_some_and(|f| f.coupling.is_some()) {
+        c.push("well_opening".into());
     }
     if let Some(f) = flow {
         for b in &f.view.bcs {
@@ -184,8 +217,13 @@ pub fn series_values(scene: &Scene, flow: Option<&FlowPart>) -> Vec<f64> {
     if scene.solid.view.n_nodes() > 0 {
         v.extend([st.kinetic, st.strain, st.residual(), st.vmax]);
     }
+    let view = &scene.solid.view;
     if scene.params.has_fractures {
-        v.push(scene.fracture.ready_edges as f64);
+        let (length, max_opening) = opened_length(view);
+        v.extend([scene.fracture.ready_edges as f64, length, max_opening]);
+    }
+    if let Some(c) = flow.and_then(|f| f.coupling.as_ref().map(|c| (f, c))) {
+        v.push(well_opening(view, c.0, c.1));
     }
     if let Some(f) = flow {
         for b in &f.view.bcs {

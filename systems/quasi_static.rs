@@ -80,6 +80,8 @@ struct Structure {
 
 /// The quasi-static solver of a run (see the module documentation).
 pub struct QuasiStatic {
+    /// The force systems in the residual.
+    pub on: Systems,
     structure: Option<Structure>,
     /// Contact states and Cholesky values of the current numeric factor.
     factored: Option<Vec<State>>,
@@ -89,9 +91,11 @@ pub struct QuasiStatic {
     pub counts: QsCounts,
 }
 
-impl Default for QuasiStatic {
-    fn default() -> Self {
+impl QuasiStatic {
+    /// A solver whose residual includes the force systems `on`.
+    pub fn new(on: Systems) -> Self {
         QuasiStatic {
+            on,
             structure: None,
             factored: None,
             l_values: Vec::new(),
@@ -291,8 +295,8 @@ fn forces(v: &mut SolidView, p: &RunParams, on: Systems, joint0: &[crate::compon
     }
 }
 
-/// Which force systems the residual includes (the scene's schedule: switching `contact` off
-/// takes it out of the equilibrium too).
+/// Which force systems the residual includes (those the user did not switch off: without
+/// `contact` the joints carry nothing in the equilibrium either).
 #[derive(Clone, Copy, Debug)]
 pub struct Systems {
     pub load: bool,
@@ -305,11 +309,11 @@ pub fn solve(
     v: &mut SolidView,
     qs: &mut QuasiStatic,
     p: &RunParams,
-    on: Systems,
     step: u64,
     time: f64,
 ) -> Result<StepStats, RunError> {
     qs.structure(v, p).map_err(|e| fail(step, time, e))?;
+    let on = qs.on;
     let lf = p.solid.load_factor;
     for i in 0..v.n_nodes() {
         for d in 0..2 {

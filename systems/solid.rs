@@ -296,16 +296,3 @@ pub fn strain_energy(v: &SolidView, p: &SolidParams) -> f64 {
         .collect();
     partial.into_iter().sum()
 }
-
-/// The rock's part of the state: the dense view, the last step's statistics and the critical
-/// step of the current topology.
-pub struct SolidPart {
-    pub view: SolidView,
-    /// Statistics of the last `integrate`.
-    pub stats: StepStats,
-    /// Critical solid step (elements, joints, fluid stiffness; [`crate::stability::solid`]), s;
-    /// infinite without a solid.
-    pub dt_crit: f64,
-    /// `time.solid_scheme: QuasiStatic`: the equilibrium solver.
-    pub quasi_static: Option<crate::systems::quasi_static::QuasiStatic>,
-}

@@ -9,7 +9,7 @@ use crate::scenario::End;
 use crate::systems::flow::FlowPart;
 use crate::systems::fracture::FractureState;
 use crate::systems::monitor::Clock;
-use crate::systems::solid::SolidPart;
+use crate::systems::state::SolidPart;
 use crate::systems::sync;
 use crate::view::SolidView;
 

@@ -71,7 +71,9 @@ fn single_fracture_matches_the_cubic_law() {
         assert!(last.cell_array(a).is_some(), "{a}");
     }
     let csv = std::fs::read_to_string(out.join("network.csv")).unwrap();
-    assert!(csv.starts_with("x0,y0,x1,y1,aperture,pressure,flow_rate,kind,created_t\n"));
+    assert!(
+        csv.starts_with("x0,y0,x1,y1,aperture,opening,slip,pressure,flow_rate,kind,created_t\n")
+    );
     assert_eq!(csv.lines().count(), 41);
     assert!(csv.lines().nth(1).unwrap().ends_with(",preexisting,0"));
     for png in [

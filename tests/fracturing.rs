@@ -224,4 +224,42 @@ fn fracture_outputs_are_written() {
         get("created_t").iter().any(|&t| t > 0.0),
         "no cell created during the run"
     );
+    // Kinematics beside the hydraulic aperture: the mechanical opening delta_n and the slip
+    // delta_t (m). The aperture is max(delta_n, a_r): it equals the opening where the crack is
+    // open wider than a_r and a_r where it is not (closed cells show a negative or tiny
+    // opening that the aperture hides).
+    let (aperture, opening, slip) = (get("aperture"), get("opening"), get("slip"));
+    assert_eq!((opening.len(), slip.len()), (ncells, ncells));
+    for c in 0..ncells {
+        let want = opening[c].max(5e-4);
+        assert!(
+            (aperture[c] - want).abs() <= 1e-12,
+            "cell {c}: {} vs {want}",
+            aperture[c]
+        );
+        assert!(slip[c].is_finite());
+    }
+    assert!(
+        opening.iter().any(|&o| o < 5e-4),
+        "every cell wider than a_r"
+    );
+    let header = csv.lines().next().unwrap();
+    assert_eq!(
+        header,
+        "x0,y0,x1,y1,aperture,opening,slip,pressure,flow_rate,kind,created_t"
+    );
+    // The time series has the opened length and the largest opening.
+    let series = std::fs::read_to_string(out.join("timeseries.csv")).unwrap();
+    let cols: Vec<&str> = series.lines().next().unwrap().split(',').collect();
+    let last_row: Vec<f64> = series
+        .lines()
+        .last()
+        .unwrap()
+        .split(',')
+        .map(|x| x.parse().unwrap())
+        .collect();
+    let col = |n: &str| last_row[cols.iter().position(|c| *c == n).expect(n)];
+    let max_open = opening.iter().fold(0.0f64, |a, &b| a.max(b));
+    assert!((col("max_opening") - max_open).abs() <= 1e-12 * max_open.max(1e-300));
+    assert!(col("fracture_length") > 4.0, "{}", col("fracture_length"));
 }

@@ -144,6 +144,9 @@ pub struct FlowView {
     /// stress F_n/L (Pa, tension positive: contact compression is negative), shear stress
     /// F_t/L (Pa) and sliding flag (1 sliding, 0 not; NaN for a cell without a joint).
     pub joint_stress: Vec<[f64; 3]>,
+    /// Output only, from [`FlowView::attach_joints`]: per cell the joint's mechanical opening
+    /// delta_n and shear slip delta_t (m); a cell without a joint has its aperture and 0.
+    pub kinematics: Vec<[f64; 2]>,
 }
 
 impl FlowView {
@@ -368,7 +371,9 @@ impl FlowView {
         seen
     }
 
-    /// Fill `joint_stress` from the joints' components (state as of the last sync).
+    /// Fill `joint_stress` (normal stress, tension positive, and shear stress, Pa; 1 if the
+    /// joint slid since the last frame) and `kinematics` from the joints' components (state as
+    /// of the last sync).
     pub fn attach_joints(&mut self, model: &Model) {
         let index: std::collections::HashMap<Entity, usize> = self
             .cell_entity
@@ -377,14 +382,16 @@ impl FlowView {
             .map(|(i, &e)| (e, i))
             .collect();
         self.joint_stress = vec![[f64::NAN; 3]; self.n_cells()];
+        self.kinematics = self.aperture.iter().map(|&a| [a, 0.0]).collect();
         for (j, st) in model.world.query::<(&Joint, &JointState)>().iter() {
             if let Some(&c) = index.get(&j.cell) {
                 let len = self.length[c].max(f64::MIN_POSITIVE);
                 self.joint_stress[c] = [
                     -st.normal_force / len,
                     st.shear_force / len,
-                    if st.sliding { 1.0 } else { 0.0 },
+                    if st.slid { 1.0 } else { 0.0 },
                 ];
+                self.kinematics[c] = [st.opening, st.last_shear_offset];
             }
         }
     }

@@ -115,6 +115,13 @@ impl Outputs {
             arr("kind", &kind[..]),
             arr("created_t", &f.created_t[..]),
         ];
+        let kin: Vec<Vec<f64>> = (0..2)
+            .map(|k| f.kinematics.iter().map(|j| j[k]).collect())
+            .collect();
+        if f.kinematics.len() == f.n_cells() && f.n_cells() > 0 {
+            cell_data.push(arr("opening", &kin[0][..]));
+            cell_data.push(arr("slip", &kin[1][..]));
+        }
         if f.joint_stress.len() == f.n_cells() && f.n_cells() > 0 {
             cell_data.push(arr("joint_normal_stress", &joint[0][..]));
             cell_data.push(arr("joint_shear_stress", &joint[1][..]));
@@ -135,22 +142,29 @@ impl Outputs {
         Ok(())
     }
 
-    /// `network.csv`: one row per cell, `x0,y0,x1,y1,aperture,pressure,flow_rate,kind,created_t`.
+    /// `network.csv`: one row per cell,
+    /// `x0,y0,x1,y1,aperture,opening,slip,pressure,flow_rate,kind,created_t`: the hydraulic
+    /// aperture, the joint's mechanical opening delta_n and shear slip delta_t (m; a cell
+    /// without a joint: its aperture and 0), pressure (Pa), throughput (m^2/s), creation time (s).
     pub fn write_network_csv(&self, f: &FlowView) -> std::io::Result<()> {
-        let mut s = String::from("x0,y0,x1,y1,aperture,pressure,flow_rate,kind,created_t\n");
+        let mut s =
+            String::from("x0,y0,x1,y1,aperture,opening,slip,pressure,flow_rate,kind,created_t\n");
         for c in 0..f.n_cells() {
             let [a, b] = f.cell_nodes[c].map(|n| f.node_pos[n as usize]);
+            let kin = f.kinematics.get(c).copied().unwrap_or([f.aperture[c], 0.0]);
             let kind = match f.kind[c] {
                 CellKind::Preexisting => "preexisting",
                 CellKind::New => "new",
             };
             s += &format!(
-                "{},{},{},{},{},{},{},{},{}\n",
+                "{},{},{},{},{},{},{},{},{},{},{}\n",
                 a[0],
                 a[1],
                 b[0],
                 b[1],
                 f.aperture[c],
+                kin[0],
+                kin[1],
                 f.pressure[c],
                 f.flow_rate[c],
                 kind,
