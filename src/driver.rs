@@ -113,6 +113,9 @@ pub fn run_scenario(scenario: Scenario, opts: &RunOptions) -> Result<RunReport, 
         .collect();
     let timing_table = format_table(&rows);
     let mut summary = summary_json(&sim, &result, wall, &rows);
+    if let Some(c) = sim.quasi_static_counts() {
+        summary["quasi_static"] = json!(c);
+    }
     if let (Some(v), Some(o)) = (sim.fracture_view(), sim.output()) {
         o.write_network_csv(&v).map_err(DriverError::Output)?;
         let length: f64 = v.length.iter().sum();
@@ -255,6 +258,7 @@ fn summary_json(
     json!({
         "scenario": sim.params().name,
         "flow": flow,
+        "solid_scheme": if sim.quasi_static_counts().is_some() { "quasi_static" } else { "explicit" },
         "status": status,
         "finish": finish,
         "error": error,

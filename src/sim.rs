@@ -320,6 +320,10 @@ impl Simulation {
     pub fn stats(&self) -> &StepStats {
         &self.solid.stats
     }
+    /// What the quasi-static solver did (`None` with the explicit scheme).
+    pub fn quasi_static_counts(&self) -> Option<quasi_static::QsCounts> {
+        self.solid.quasi_static.as_ref().map(|q| q.counts)
+    }
     /// Critical solid step of the current topology, s.
     pub fn dt_crit(&self) -> f64 {
         self.solid.dt_crit

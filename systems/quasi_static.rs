@@ -269,6 +269,11 @@ impl QuasiStatic {
         Ok(())
     }
 
+    /// Drop the numeric factor, so the next iteration refactorises (benchmarks).
+    pub fn forget_factor(&mut self) {
+        self.factored = None;
+    }
+
     fn solve_in_place(&mut self, x: &mut [f64]) {
         let s = self.structure.as_mut().expect("structure");
         let llt = LltRef::<usize, f64>::new(&s.symbolic, &self.l_values);

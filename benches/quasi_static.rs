@@ -1,0 +1,75 @@
+//! The quasi-static scheme's linear algebra on the seed's 100 m block (20,000 elements, in-situ
+//! boundary displacements): one equilibrium step that refactorises (numeric Cholesky with the
+//! symbolic analysis reused, then a solve) and one that reuses the cached factor (solve only),
+//! each including its two force evaluations. The load factor alternates between 0.5 and 1, so
+//! every step has one Newton iteration.
+//!
+//! Run: `cargo bench --bench quasi_static`.
+
+use criterion::{Criterion, criterion_group, criterion_main};
+use hydrofrac::scenario::{Boundary, Damping, End, Material, MeshSpec, SolidScheme};
+use hydrofrac::sim::Simulation;
+use hydrofrac::systems::quasi_static::{QuasiStatic, Systems, solve};
+use hydrofrac::verify::solid_cases::scenario;
+use std::time::Duration;
+
+fn quasi_static(c: &mut Criterion) {
+    let mut sc = scenario(
+        "bench",
+        MeshSpec::Regular {
+            width: 100.0,
+            height: 100.0,
+            h: 1.0,
+            origin: [0.0, 0.0],
+        },
+        Material {
+            young: 20e9,
+            poisson: 0.2,
+            density: 2700.0,
+        },
+        Boundary::InSitu {
+            sxx: -20e6,
+            syy: -10e6,
+        },
+        End::Static {
+            tol: 1e-9,
+            min_steps: 1,
+        },
+        Damping::Local(0.8),
+    );
+    sc.time.solid_scheme = SolidScheme::QuasiStatic;
+    let sim = Simulation::new(sc, &[]).unwrap();
+    let mut v = sim.solid().clone();
+    let mut p = sim.params().clone();
+    assert_eq!(v.n_elems(), 20_000);
+    let mut qs = QuasiStatic::new(Systems {
+        load: true,
+        contact: true,
+    });
+    let mut group = c.benchmark_group("quasi_static_20k");
+    group
+        .sample_size(10)
+        .warm_up_time(Duration::from_millis(500))
+        .measurement_time(Duration::from_secs(3));
+    let mut k = 0u64;
+    let mut step = |qs: &mut QuasiStatic, refactor: bool| {
+        k += 1;
+        p.solid.load_factor = if k % 2 == 0 { 1.0 } else { 0.5 };
+        if refactor {
+            qs.forget_factor();
+        }
+        solve(&mut v, qs, &p, k, 0.0).unwrap()
+    };
+    step(&mut qs, true);
+    group.bench_function("factorise_and_solve", |b| b.iter(|| step(&mut qs, true)));
+    group.bench_function("solve_cached_factor", |b| b.iter(|| step(&mut qs, false)));
+    group.finish();
+    eprintln!("{:?}", qs.counts);
+}
+
+criterion_group! {
+    name = benches;
+    config = Criterion::default().without_plots();
+    targets = quasi_static
+}
+criterion_main!(benches);
