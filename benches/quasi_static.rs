@@ -54,7 +54,7 @@ fn quasi_static(c: &mut Criterion) {
     let mut k = 0u64;
     let mut step = |qs: &mut QuasiStatic, refactor: bool| {
         k += 1;
-        p.solid.load_factor = if k % 2 == 0 { 1.0 } else { 0.5 };
+        p.solid.load_factor = if k.is_multiple_of(2) { 1.0 } else { 0.5 };
         if refactor {
             qs.forget_factor();
         }
