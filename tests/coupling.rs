@@ -11,21 +11,11 @@ use hydrofrac::sim::{Finish, Simulation};
 use hydrofrac::systems::RunError;
 use hydrofrac::systems::SystemId;
 
+#[path = "support/scenes.rs"]
+mod scenes;
+
 fn scene(end: f64, extra: &str) -> Scenario {
-    let text = format!(
-        r#"(
-        name: "coupled",
-        mesh: Regular(width: 40.0, height: 30.0, h: 1.0),
-        material: (young: 20e9, poisson: 0.2, density: 2700.0),
-        boundary: InSitu(sxx: -20e6, syy: -10e6),
-        initial_state: InSitu,
-        fracture: Some((strength: Some(1e6), preexisting: [(from: (0.0, 15.0), to: (10.0, 15.0))],
-            friction_deg: 45.0, normal_stiffness: Some(20e9), shear_stiffness: Some(8.3e9))),
-        flow_boundaries: [(name: "pump", at: Node((0.0, 15.0)), kind: Pump(p_max: 30e6, q_half: 2.0))],
-        time: (end: Time({end}) {extra}),
-    )"#
-    );
-    Scenario::parse(&text, "coupled.ron").unwrap()
+    Scenario::parse(&scenes::pumped_fracture(end, extra), "coupled.ron").unwrap()
 }
 
 /// Mass balance over the whole coupled run (`docs/verification.md` R12): injected volume = change

@@ -4,6 +4,9 @@
 use hydrofrac::scenario::Scenario;
 use hydrofrac::sim::Simulation;
 
+#[path = "support/scenes.rs"]
+mod scenes;
+
 fn run(threads: usize) -> (Vec<[f64; 2]>, Vec<[f64; 3]>, f64) {
     let text = std::fs::read_to_string("scenarios/insitu_stress.ron").unwrap();
     let sc = Scenario::parse(&text, "insitu_stress.ron")
@@ -105,16 +108,7 @@ fn flow_one_and_two_threads_give_identical_bits() {
 /// inclined pre-existing crack on a graded mesh, split at setup, run twice in one process.
 #[test]
 fn splitting_unequal_elements_gives_the_same_bits_every_run() {
-    let text = r#"(
-        name: "inclined",
-        mesh: Graded(width: 40.0, height: 40.0, origin: (-20.0, -20.0), h: 0.2,
-                     fine: (-1.2, -0.6, 1.2, 0.6), ratio: 1.15),
-        material: (young: 20e9, poisson: 0.2, density: 2700.0),
-        boundary: InSitu(sxx: -10e6, syy: -20e6),
-        initial_state: InSitu,
-        fracture: Some((preexisting: [(from: (-0.94, -0.342), to: (0.94, 0.342))], friction_deg: 10.0)),
-        time: (end: Time(0.005)),
-    )"#;
+    let text = scenes::INCLINED_CRACK;
     let run = || {
         let mut sim = Simulation::new(Scenario::parse(text, "inclined.ron").unwrap(), &[]).unwrap();
         let mass: Vec<u64> = sim.solid().mass.iter().map(|m| m.to_bits()).collect();

@@ -4,6 +4,8 @@
 //! below it, the crack starts at the notch tip and runs straight along y = 5 (mode I), every new
 //! cell within one cell of the notch line, and the topology stays valid.
 
+#[path = "support/scenes.rs"]
+mod scenes;
 #[path = "support/vtu.rs"]
 mod vtu;
 
@@ -12,17 +14,7 @@ use hydrofrac::scenario::Scenario;
 use hydrofrac::sim::Simulation;
 
 fn plate(strength: f64) -> Simulation {
-    let text = format!(
-        r#"(
-        name: "notch",
-        mesh: Regular(width: 20.0, height: 10.0, h: 0.5),
-        material: (young: 20e9, poisson: 0.2, density: 2700.0),
-        boundary: Sides(top: Traction(normal: 2e6, shear: 0.0), bottom: Traction(normal: 2e6, shear: 0.0)),
-        pins: [(at: (20.0, 0.0), ux: 0.0, uy: 0.0), (at: (20.0, 10.0), ux: 0.0)],
-        fracture: Some((strength: {strength}, preexisting: [(from: (0.0, 5.0), to: (4.0, 5.0))])),
-        time: (end: Time(0.02)),
-    )"#
-    );
+    let text = scenes::notched_plate(&strength.to_string());
     let sc = Scenario::parse(&text, "notch.ron").unwrap();
     let mut sim = Simulation::new(sc, &[]).unwrap();
     sim.run(|_| {}).unwrap();

@@ -8,23 +8,11 @@
 use hydrofrac::scenario::Scenario;
 use hydrofrac::sim::{Finish, Simulation};
 
+#[path = "support/scenes.rs"]
+mod scenes;
+
 fn block(tau: f64, end: &str) -> Simulation {
-    let text = format!(
-        r#"(
-        name: "friction",
-        mesh: Regular(width: 8.0, height: 4.0, h: 1.0),
-        material: (young: 20e9, poisson: 0.2, density: 2700.0),
-        boundary: Sides(
-            bottom: Fixed,
-            top: Traction(normal: -10e6, shear: -{tau}),
-            left: Traction(normal: 0.0, shear: {tau}),
-            right: Traction(normal: 0.0, shear: {tau}),
-        ),
-        fracture: Some((preexisting: [(from: (0.0, 2.0), to: (8.0, 2.0))], friction_deg: 30.0)),
-        time: (end: {end}, max_steps: 400000),
-    )"#
-    );
-    let sc = Scenario::parse(&text, "friction.ron").unwrap();
+    let sc = Scenario::parse(&scenes::friction_block(tau, end), "friction.ron").unwrap();
     Simulation::new(sc, &[]).unwrap()
 }
 

@@ -10,6 +10,9 @@ use hydrofrac::output::Outputs;
 use hydrofrac::scenario::Scenario;
 use hydrofrac::sim::Simulation;
 
+#[path = "support/scenes.rs"]
+mod scenes;
+
 /// Steps, displacement and velocity bits, fluid excess-mass bits and the split count of a run.
 type Fingerprint = (u64, Vec<u64>, Vec<u64>, Vec<u64>, usize);
 
@@ -66,19 +69,7 @@ fn same_with_and_without_frames(text: &str, tag: &str) -> Fingerprint {
 
 #[test]
 fn frictional_static_run_is_the_same_with_frames() {
-    let text = r#"(
-        name: "friction",
-        mesh: Regular(width: 8.0, height: 4.0, h: 1.0),
-        material: (young: 20e9, poisson: 0.2, density: 2700.0),
-        boundary: Sides(
-            bottom: Fixed,
-            top: Traction(normal: -10e6, shear: -4.6e6),
-            left: Traction(normal: 0.0, shear: 4.6e6),
-            right: Traction(normal: 0.0, shear: 4.6e6),
-        ),
-        fracture: Some((preexisting: [(from: (0.0, 2.0), to: (8.0, 2.0))], friction_deg: 30.0)),
-        time: (end: Static(tol: 1e-9), max_steps: 400000),
-    )"#;
+    let text = &scenes::friction_block(4.6e6, "Static(tol: 1e-9)");
     let (steps, ..) = same_with_and_without_frames(text, "friction");
     assert!(steps > 100, "{steps} steps");
 }
@@ -88,47 +79,20 @@ fn frictional_static_run_is_the_same_with_frames() {
 /// compression with friction.
 #[test]
 fn inclined_crack_on_a_graded_mesh_is_the_same_with_frames() {
-    let text = r#"(
-        name: "inclined",
-        mesh: Graded(width: 40.0, height: 40.0, origin: (-20.0, -20.0), h: 0.2,
-                     fine: (-1.2, -0.6, 1.2, 0.6), ratio: 1.15),
-        material: (young: 20e9, poisson: 0.2, density: 2700.0),
-        boundary: InSitu(sxx: -10e6, syy: -20e6),
-        initial_state: InSitu,
-        fracture: Some((preexisting: [(from: (-0.94, -0.342), to: (0.94, 0.342))], friction_deg: 10.0)),
-        time: (end: Time(0.005)),
-    )"#;
+    let text = scenes::INCLINED_CRACK;
     same_with_and_without_frames(text, "inclined");
 }
 
 #[test]
 fn cracking_plate_is_the_same_with_frames() {
-    let text = r#"(
-        name: "notch",
-        mesh: Regular(width: 20.0, height: 10.0, h: 0.5),
-        material: (young: 20e9, poisson: 0.2, density: 2700.0),
-        boundary: Sides(top: Traction(normal: 2e6, shear: 0.0), bottom: Traction(normal: 2e6, shear: 0.0)),
-        pins: [(at: (20.0, 0.0), ux: 0.0, uy: 0.0), (at: (20.0, 10.0), ux: 0.0)],
-        fracture: Some((strength: Some(4e6), preexisting: [(from: (0.0, 5.0), to: (4.0, 5.0))])),
-        time: (end: Time(0.02)),
-    )"#;
+    let text = &scenes::notched_plate("Some(4e6)");
     let (.., splits) = same_with_and_without_frames(text, "notch");
     assert!(splits > 0, "the plate should crack");
 }
 
 #[test]
 fn coupled_fracture_is_the_same_with_frames() {
-    let text = r#"(
-        name: "coupled",
-        mesh: Regular(width: 40.0, height: 30.0, h: 1.0),
-        material: (young: 20e9, poisson: 0.2, density: 2700.0),
-        boundary: InSitu(sxx: -20e6, syy: -10e6),
-        initial_state: InSitu,
-        fracture: Some((strength: Some(1e6), preexisting: [(from: (0.0, 15.0), to: (10.0, 15.0))],
-            friction_deg: 45.0, normal_stiffness: Some(20e9), shear_stiffness: Some(8.3e9))),
-        flow_boundaries: [(name: "pump", at: Node((0.0, 15.0)), kind: Pump(p_max: 30e6, q_half: 2.0))],
-        time: (end: Time(0.01), flow_scheme: Implicit),
-    )"#;
+    let text = &scenes::pumped_fracture(0.01, ", flow_scheme: Implicit");
     let (_, _, _, excess, _) = same_with_and_without_frames(text, "coupled");
     assert!(!excess.is_empty());
 }

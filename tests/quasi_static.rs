@@ -11,6 +11,9 @@ use hydrofrac::scenario::Scenario;
 use hydrofrac::sim::{Finish, Simulation};
 use hydrofrac::systems::SystemId;
 
+#[path = "support/scenes.rs"]
+mod scenes;
+
 fn load(path: &str, sets: &[&str]) -> Scenario {
     let sets: Vec<String> = sets.iter().map(|s| s.to_string()).collect();
     Scenario::load(std::path::Path::new(path), &sets).unwrap()
@@ -83,21 +86,7 @@ fn joint_sticks_below_the_coulomb_limit() {
     let mu = 30f64.to_radians().tan();
     let sigma = 10e6;
     let tau = 0.8 * sigma * mu;
-    let text = format!(
-        r#"(
-        name: "friction",
-        mesh: Regular(width: 8.0, height: 4.0, h: 1.0),
-        material: (young: 20e9, poisson: 0.2, density: 2700.0),
-        boundary: Sides(
-            bottom: Fixed,
-            top: Traction(normal: -10e6, shear: -{tau}),
-            left: Traction(normal: 0.0, shear: {tau}),
-            right: Traction(normal: 0.0, shear: {tau}),
-        ),
-        fracture: Some((preexisting: [(from: (0.0, 2.0), to: (8.0, 2.0))], friction_deg: 30.0)),
-        time: (end: Static(tol: 1e-9)),
-    )"#
-    );
+    let text = scenes::friction_block(tau, "Static(tol: 1e-9)");
     let mut sim = qs(Scenario::parse(&text, "friction.ron").unwrap());
     assert_eq!(sim.run(|_| {}).unwrap(), Finish::Converged);
     let states = &sim.solid().joint_state;
