@@ -9,8 +9,9 @@
 //! displacement when closed, K_t t t^T when sticking (sliding joints carry mu F_n, bounded, and
 //! add no tangential stiffness: a modified Newton step there). The shear force's return map
 //! starts from the step-start state at every iteration, so iterates do not accumulate slip.
-//! Converged when the free-dof residual is below `tol` times the reactions-and-loads norm and
-//! the contact states did not change in the last iteration; after `freeze_after` iterations the
+//! Converged when the free-dof residual is below `tol` times the larger of the reactions-and-
+//! loads norm and the step's first residual, and the contact states did not change in the
+//! last iteration; after `freeze_after` iterations the
 //! states are frozen, so stick/slip cannot cycle.
 //!
 //! Linear algebra: faer's sparse Cholesky (AMD ordering). The symbolic analysis is kept while
@@ -334,6 +335,10 @@ pub fn solve(
     let mut states: Vec<State> = vec![State::Open; v.joint_nodes.len()];
     let mut prev: Option<Vec<State>> = None;
     let mut iterations = 0;
+    // The residual's scale: the reactions and loads, or the step's first unbalanced force when
+    // that is larger (a prescribed displacement into a stress-free state, e.g. a lifted block
+    // on an opening joint, ends with no reaction at all).
+    let mut first2 = None;
     let (res2, ref2) = loop {
         forces(v, p, on, &joint0);
         if on.contact {
@@ -365,6 +370,7 @@ pub fn solve(
                 }
             }
         }
+        let ref2 = ref2.max(*first2.get_or_insert(res2));
         let settled = prev.as_deref() == Some(&states[..]);
         if !res2.is_finite() {
             return Err(fail(step, time, "the residual is not finite".into()));

@@ -121,3 +121,43 @@ fn bad_combinations_are_refused_with_the_field() {
         assert!(e.contains("time.solid_scheme") && e.contains(why), "{e}");
     }
 }
+
+/// A contact state that changes inside the Newton iteration: the block's joint starts closed
+/// (touching faces carry the normal spring) and the prescribed lift of the top opens it, so the
+/// iteration has to drop the springs and re-solve. Closed form: the upper block moves up
+/// rigidly by the lift, every joint opens by exactly the lift, and no element is stressed.
+#[test]
+fn a_joint_that_opens_during_the_iteration_converges_to_the_rigid_lift() {
+    let lift = 1e-4;
+    let text = format!(
+        r#"(
+        name: "lift",
+        mesh: Regular(width: 8.0, height: 4.0, h: 1.0),
+        material: (young: 20e9, poisson: 0.2, density: 2700.0),
+        boundary: Sides(bottom: Fixed, top: Normal({lift})),
+        pins: [(at: (0.0, 4.0), ux: 0.0)],
+        fracture: Some((preexisting: [(from: (0.0, 2.0), to: (8.0, 2.0))])),
+        time: (end: Static(tol: 1e-9)),
+    )"#
+    );
+    let mut sim = qs(Scenario::parse(&text, "lift.ron").unwrap());
+    assert_eq!(sim.run(|_| {}).unwrap(), Finish::Converged);
+    let counts = sim.quasi_static_counts().unwrap();
+    assert!(counts.numeric_factorisations >= 2, "{counts:?}");
+    for (k, st) in sim.solid().joint_state.iter().enumerate() {
+        assert!(
+            (st.opening - lift).abs() <= 1e-9 * lift,
+            "joint {k}: {st:?}"
+        );
+        assert_eq!((st.normal_force, st.shear_force), (0.0, 0.0), "joint {k}");
+    }
+    let (_, min, max) = sim.solid().stress_summary(&sim.params().solid);
+    for k in 0..3 {
+        assert!(
+            min[k].abs().max(max[k].abs()) < 1.0,
+            "stress {k}: {} .. {} Pa",
+            min[k],
+            max[k]
+        );
+    }
+}
