@@ -379,12 +379,22 @@ pub fn solve(
             break (res2, ref2);
         }
         if iterations >= MAX_ITER {
+            let slip = v.joint_state.iter().filter(|s| s.sliding).count();
+            let hint = if slip > 0 {
+                format!(
+                    "; {slip} of {} joints slide: past the friction limit there may be no \
+                     static equilibrium (the explicit scheme follows the sliding)",
+                    states.len()
+                )
+            } else {
+                String::new()
+            };
             return Err(fail(
                 step,
                 time,
                 format!(
                     "no equilibrium after {MAX_ITER} Newton iterations: relative residual {:.3e} \
-                     (tolerance {:.1e})",
+                     (tolerance {:.1e}){hint}",
                     (res2 / ref2.max(f64::MIN_POSITIVE)).sqrt(),
                     qs.tol
                 ),

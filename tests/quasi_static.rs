@@ -161,3 +161,20 @@ fn a_joint_that_opens_during_the_iteration_converges_to_the_rigid_lift() {
         );
     }
 }
+
+/// Past the Coulomb limit the block has no static equilibrium: the solve stops with an error
+/// that names the step and says the joints slide, instead of iterating forever or writing NaN.
+#[test]
+fn sliding_past_the_friction_limit_is_a_clear_error() {
+    let tau = 1.2 * 10e6 * 30f64.to_radians().tan();
+    let text = scenes::friction_block(tau, "Static(tol: 1e-9)");
+    let mut sim = qs(Scenario::parse(&text, "friction.ron").unwrap());
+    let e = sim.run(|_| {}).expect_err("no equilibrium").to_string();
+    assert!(e.contains("step 1") && e.contains("joints slide"), "{e}");
+    assert!(
+        sim.solid()
+            .u
+            .iter()
+            .all(|u| u[0].is_finite() && u[1].is_finite())
+    );
+}
