@@ -15,7 +15,10 @@
 //!
 //! Every system is a function in this folder that takes what it reads and writes as explicit
 //! arguments; those that can fail return a [`RunError`]. A new system is one function here plus
-//! one line in [`SystemId::ORDER`] and in the step loop (`src/sim.rs`).
+//! one line in the `systems!` table below (its place in the order, name and doc line; the
+//! enum, the order, the names and the spans come from it), one arm in the step loop
+//! (`Simulation::step_once`, `src/sim.rs`: the arguments it takes) and one rule in
+//! `schedule::SceneData::has` (when the scene has data for it).
 
 pub mod coupling;
 pub mod flow;
@@ -30,95 +33,61 @@ pub mod sync;
 
 use crate::error::SetupError;
 
-/// A named system of the step.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub enum SystemId {
-    InternalForce,
-    ExternalLoad,
-    Contact,
-    FluidPressure,
-    Damping,
-    Solve,
-    Integrate,
-    FlowSubsteps,
-    FractureCriterion,
-    Split,
-    Monitor,
-    Output,
+/// The systems of the step, in order: one line each (variant, name, what it does). The macro
+/// makes the enum, [`SystemId::ORDER`], the names, the doc lines and the spans from this table.
+macro_rules! systems {
+    ($($id:ident => $name:literal, $doc:literal;)+) => {
+        /// A named system of the step.
+        #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+        pub enum SystemId {
+            $($id,)+
+        }
+
+        impl SystemId {
+            /// The step, in order.
+            pub const ORDER: [SystemId; [$($name),+].len()] = [$(SystemId::$id),+];
+
+            pub fn name(self) -> &'static str {
+                match self {
+                    $(SystemId::$id => $name,)+
+                }
+            }
+
+            /// One line on what the system does (shown by `hydrofrac systems` and in the
+            /// README).
+            pub fn doc(self) -> &'static str {
+                match self {
+                    $(SystemId::$id => $doc,)+
+                }
+            }
+
+            /// The system's span. Names are literals so the timing layer and Perfetto see them
+            /// as is.
+            pub fn span(self) -> tracing::Span {
+                match self {
+                    $(SystemId::$id => tracing::info_span!(target: "hydrofrac::system", $name),)+
+                }
+            }
+        }
+    };
+}
+
+systems! {
+    InternalForce => "internal_force", "CST stresses and nodal internal forces, gathered by node";
+    ExternalLoad => "external_load", "adds constant boundary tractions and body forces";
+    Contact => "contact", "joint contact: penalty normal and shear forces between sister faces, Coulomb friction";
+    FluidPressure => "fluid_pressure", "fluid pressure (mean of the last step's flow sub-steps) as traction on both faces of every fracture cell";
+    Damping => "damping", "local (Cundall) or viscous damping force for pseudo-static response";
+    Solve => "solve", "quasi-static scheme: equilibrium of internal force, loads and contact at the end of the step (Newton, sparse Cholesky)";
+    Integrate => "integrate", "central-difference update of velocity and displacement; prescribed displacements";
+    FlowSubsteps => "flow_substeps", "N explicit finite-volume steps of the fracture network (pairs, pump, rate, pressure), or one backward-Euler step";
+    FractureCriterion => "fracture_criterion", "marks internal edges whose normal stress reaches lambda*T0 (never changes topology)";
+    Split => "split", "node splitting at fracture-ready edges: daughters, sister edges, cells, joints (the only topology change)";
+    Monitor => "monitor", "advances the clock; blow-up detection (solid speed, cell mass, flow step bound); residual and end";
+    Output => "output", "ParaView frames and timeseries.csv rows at the scenario's intervals";
 }
 
 impl SystemId {
-    /// The step, in order.
-    pub const ORDER: [SystemId; 12] = [
-        SystemId::InternalForce,
-        SystemId::ExternalLoad,
-        SystemId::Contact,
-        SystemId::FluidPressure,
-        SystemId::Damping,
-        SystemId::Solve,
-        SystemId::Integrate,
-        SystemId::FlowSubsteps,
-        SystemId::FractureCriterion,
-        SystemId::Split,
-        SystemId::Monitor,
-        SystemId::Output,
-    ];
-
-    pub fn name(self) -> &'static str {
-        match self {
-            SystemId::InternalForce => "internal_force",
-            SystemId::ExternalLoad => "external_load",
-            SystemId::Contact => "contact",
-            SystemId::FluidPressure => "fluid_pressure",
-            SystemId::Damping => "damping",
-            SystemId::Solve => "solve",
-            SystemId::Integrate => "integrate",
-            SystemId::FlowSubsteps => "flow_substeps",
-            SystemId::FractureCriterion => "fracture_criterion",
-            SystemId::Split => "split",
-            SystemId::Monitor => "monitor",
-            SystemId::Output => "output",
-        }
-    }
-
-    /// One line on what the system does (shown by `hydrofrac systems` and in the README).
-    pub fn doc(self) -> &'static str {
-        match self {
-            SystemId::InternalForce => "CST stresses and nodal internal forces, gathered by node",
-            SystemId::ExternalLoad => "adds constant boundary tractions and body forces",
-            SystemId::Contact => {
-                "joint contact: penalty normal and shear forces between sister faces, Coulomb friction"
-            }
-            SystemId::FluidPressure => {
-                "fluid pressure (mean of the last step's flow sub-steps) as traction on both faces of every fracture cell"
-            }
-            SystemId::Damping => {
-                "local (Cundall) or viscous damping force for pseudo-static response"
-            }
-            SystemId::Solve => {
-                "quasi-static scheme: equilibrium of internal force, loads and contact at the end of the step (Newton, sparse Cholesky)"
-            }
-            SystemId::Integrate => {
-                "central-difference update of velocity and displacement; prescribed displacements"
-            }
-            SystemId::FlowSubsteps => {
-                "N explicit finite-volume steps of the fracture network (pairs, pump, rate, pressure), or one backward-Euler step"
-            }
-            SystemId::FractureCriterion => {
-                "marks internal edges whose normal stress reaches lambda*T0 (never changes topology)"
-            }
-            SystemId::Split => {
-                "node splitting at fracture-ready edges: daughters, sister edges, cells, joints (the only topology change)"
-            }
-            SystemId::Monitor => {
-                "advances the clock; blow-up detection (solid speed, cell mass, flow step bound); residual and end"
-            }
-            SystemId::Output => {
-                "ParaView frames and timeseries.csv rows at the scenario's intervals"
-            }
-        }
-    }
-
     /// Systems that cannot be switched off (the run would be unsafe or meaningless).
     pub fn required(self) -> bool {
         matches!(
@@ -129,34 +98,6 @@ impl SystemId {
 
     pub fn from_name(name: &str) -> Option<SystemId> {
         Self::ORDER.into_iter().find(|s| s.name() == name)
-    }
-
-    /// The system's span. Names are literals so the timing layer and Perfetto see them as is.
-    pub fn span(self) -> tracing::Span {
-        match self {
-            SystemId::InternalForce => {
-                tracing::info_span!(target: "hydrofrac::system", "internal_force")
-            }
-            SystemId::ExternalLoad => {
-                tracing::info_span!(target: "hydrofrac::system", "external_load")
-            }
-            SystemId::Contact => tracing::info_span!(target: "hydrofrac::system", "contact"),
-            SystemId::FluidPressure => {
-                tracing::info_span!(target: "hydrofrac::system", "fluid_pressure")
-            }
-            SystemId::Damping => tracing::info_span!(target: "hydrofrac::system", "damping"),
-            SystemId::Solve => tracing::info_span!(target: "hydrofrac::system", "solve"),
-            SystemId::Integrate => tracing::info_span!(target: "hydrofrac::system", "integrate"),
-            SystemId::FlowSubsteps => {
-                tracing::info_span!(target: "hydrofrac::system", "flow_substeps")
-            }
-            SystemId::FractureCriterion => {
-                tracing::info_span!(target: "hydrofrac::system", "fracture_criterion")
-            }
-            SystemId::Split => tracing::info_span!(target: "hydrofrac::system", "split"),
-            SystemId::Monitor => tracing::info_span!(target: "hydrofrac::system", "monitor"),
-            SystemId::Output => tracing::info_span!(target: "hydrofrac::system", "output"),
-        }
     }
 }
 
