@@ -334,17 +334,10 @@ pub struct InclinedBlock {
 /// Gravity g, m/s^2.
 pub const G: f64 = 9.81;
 
-/// The sticking block of [`inclined_block`] solved by the quasi-static scheme in one step,
-/// with the full rotated gravity. Statics of the upper block (mass M = rho 4 m x 1 m): the
-/// joints carry its weight, summed normal force M g cos psi and summed shear force
-/// M g sin psi. Returns (summed normal / M g cos psi - 1, summed |shear| / M g sin psi - 1,
-/// joints sliding, unknowns, wall s).
-pub fn inclined_block_quasi_static(
-    psi_deg: f64,
-    phi_deg: f64,
-    h: f64,
-) -> anyhow::Result<(f64, f64, usize, usize, f64)> {
-    let psi = psi_deg.to_radians();
+/// The rock of [`inclined_block`]: 4 m x 2 m, cell size `h`, base fixed, cut along y = 1 m,
+/// friction `phi_deg`, joints at [`BLOCK_JOINT_STIFFNESS`], body force `gravity` (m/s^2),
+/// relaxed to a static residual of 1e-9 with local damping.
+fn block_scenario(phi_deg: f64, h: f64, gravity: [f64; 2]) -> crate::scenario::Scenario {
     let mut sc = scenario(
         "inclined_block",
         MeshSpec::Regular {
@@ -366,12 +359,11 @@ pub fn inclined_block_quasi_static(
         },
         End::Static {
             tol: 1e-9,
-            min_steps: 1,
+            min_steps: 10,
         },
         Damping::Local(0.8),
     );
-    sc.gravity = Some([G * psi.sin(), -G * psi.cos()]);
-    sc.time.solid_scheme = crate::scenario::SolidScheme::QuasiStatic;
+    sc.gravity = Some(gravity);
     sc.fracture = Some(FractureSpec {
         strength: None,
         face_stress: Default::default(),
@@ -385,6 +377,22 @@ pub fn inclined_block_quasi_static(
         normal_stiffness: Some(BLOCK_JOINT_STIFFNESS),
         shear_stiffness: Some(BLOCK_JOINT_STIFFNESS),
     });
+    sc
+}
+
+/// The sticking block of [`inclined_block`] solved by the quasi-static scheme in one step,
+/// with the full rotated gravity. Statics of the upper block (mass M = rho 4 m x 1 m): the
+/// joints carry its weight, summed normal force M g cos psi and summed shear force
+/// M g sin psi. Returns (summed normal / M g cos psi - 1, summed |shear| / M g sin psi - 1,
+/// joints sliding, unknowns, wall s).
+pub fn inclined_block_quasi_static(
+    psi_deg: f64,
+    phi_deg: f64,
+    h: f64,
+) -> anyhow::Result<(f64, f64, usize, usize, f64)> {
+    let psi = psi_deg.to_radians();
+    let mut sc = block_scenario(phi_deg, h, [G * psi.sin(), -G * psi.cos()]);
+    sc.time.solid_scheme = crate::scenario::SolidScheme::QuasiStatic;
     let t0 = Instant::now();
     let mut sim = Simulation::new(sc, &[])?;
     sim.run(|_| {})?;
@@ -431,45 +439,7 @@ pub const BLOCK_JOINT_STIFFNESS: f64 = 2e8;
 pub fn inclined_block(psi_deg: f64, phi_deg: f64, h: f64) -> anyhow::Result<InclinedBlock> {
     let (psi, phi) = (psi_deg.to_radians(), phi_deg.to_radians());
     let (ramp, delay, window) = (0.05, 0.05, 0.1);
-    let mut sc = scenario(
-        "inclined_block",
-        MeshSpec::Regular {
-            width: 4.0,
-            height: 2.0,
-            h,
-            origin: [0.0, 0.0],
-        },
-        Material {
-            young: 20e9,
-            poisson: 0.2,
-            density: 2700.0,
-        },
-        Boundary::Sides {
-            left: SideBc::Free,
-            right: SideBc::Free,
-            bottom: SideBc::Fixed,
-            top: SideBc::Free,
-        },
-        End::Static {
-            tol: 1e-9,
-            min_steps: 10,
-        },
-        Damping::Local(0.8),
-    );
-    sc.gravity = Some([0.0, -G * psi.cos()]);
-    sc.fracture = Some(FractureSpec {
-        strength: None,
-        face_stress: Default::default(),
-        residual_aperture: 5e-4,
-        preexisting: vec![PreFracture {
-            from: [0.0, 1.0],
-            to: [4.0, 1.0],
-        }],
-        pressure: None,
-        friction_deg: phi_deg,
-        normal_stiffness: Some(BLOCK_JOINT_STIFFNESS),
-        shear_stiffness: Some(BLOCK_JOINT_STIFFNESS),
-    });
+    let sc = block_scenario(phi_deg, h, [0.0, -G * psi.cos()]);
     let t0 = Instant::now();
     let mut sim = Simulation::new(sc, &[])?;
     let finish = sim.run(|_| {})?;
