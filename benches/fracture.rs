@@ -7,11 +7,11 @@
 use criterion::{BatchSize, Criterion, criterion_group, criterion_main};
 use hydrofrac::mesh::TriMesh;
 use hydrofrac::model::Model;
-use hydrofrac::scenario::{Boundary, Damping, End, FractureSpec, Material, MeshSpec, PreFracture};
+use hydrofrac::scenario::{Damping, End, FractureSpec, Material, PreFracture};
 use hydrofrac::sim::Simulation;
 use hydrofrac::snap::{adjacency, snap_segment};
 use hydrofrac::split::open_edges;
-use hydrofrac::verify::solid_cases::scenario;
+use hydrofrac::verify::solid_cases::seed_block;
 use hydrofrac::view::SolidView;
 use std::time::Duration;
 
@@ -65,22 +65,7 @@ fn bench(c: &mut Criterion) {
     // Step with and without 1,000 joints (10 horizontal fractures across the block, closed by
     // the in-situ compression).
     let mk = |fractures: bool| {
-        let mut sc = scenario(
-            "bench",
-            MeshSpec::Regular {
-                width: 100.0,
-                height: 100.0,
-                h: 1.0,
-                origin: [0.0, 0.0],
-            },
-            ROCK,
-            Boundary::InSitu {
-                sxx: -20e6,
-                syy: -10e6,
-            },
-            End::Time(1e9),
-            Damping::Local(0.8),
-        );
+        let mut sc = seed_block(1.0, End::Time(1e9), Damping::Local(0.8));
         if fractures {
             sc.fracture = Some(FractureSpec {
                 strength: None,

@@ -7,30 +7,15 @@
 //! Run: `cargo bench --bench quasi_static`.
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use hydrofrac::scenario::{Boundary, Damping, End, Material, MeshSpec, SolidScheme};
+use hydrofrac::scenario::{Damping, End, SolidScheme};
 use hydrofrac::sim::Simulation;
 use hydrofrac::systems::quasi_static::{QuasiStatic, Systems, solve};
-use hydrofrac::verify::solid_cases::scenario;
+use hydrofrac::verify::solid_cases::seed_block;
 use std::time::Duration;
 
 fn quasi_static(c: &mut Criterion) {
-    let mut sc = scenario(
-        "bench",
-        MeshSpec::Regular {
-            width: 100.0,
-            height: 100.0,
-            h: 1.0,
-            origin: [0.0, 0.0],
-        },
-        Material {
-            young: 20e9,
-            poisson: 0.2,
-            density: 2700.0,
-        },
-        Boundary::InSitu {
-            sxx: -20e6,
-            syy: -10e6,
-        },
+    let mut sc = seed_block(
+        1.0,
         End::Static {
             tol: 1e-9,
             min_steps: 1,

@@ -9,9 +9,9 @@
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use hydrofrac::mesh::TriMesh;
 use hydrofrac::reference::FlatSolid;
-use hydrofrac::scenario::{Boundary, Damping, End, Material, MeshSpec};
+use hydrofrac::scenario::{Damping, End, Material};
 use hydrofrac::sim::Simulation;
-use hydrofrac::verify::solid_cases::scenario;
+use hydrofrac::verify::solid_cases::seed_block;
 use std::time::Duration;
 
 const ROCK: Material = Material {
@@ -37,22 +37,7 @@ fn solid_step(c: &mut Criterion) {
         let h = 100.0 / n as f64;
         let elems = 2 * n * n;
         group.throughput(Throughput::Elements(elems as u64));
-        let sc = scenario(
-            "bench",
-            MeshSpec::Regular {
-                width: 100.0,
-                height: 100.0,
-                h,
-                origin: [0.0, 0.0],
-            },
-            ROCK,
-            Boundary::InSitu {
-                sxx: -20e6,
-                syy: -10e6,
-            },
-            End::Time(1e9),
-            Damping::Local(0.8),
-        );
+        let sc = seed_block(h, End::Time(1e9), Damping::Local(0.8));
         let mut sim = Simulation::new(sc, &[]).unwrap();
         let mesh = TriMesh::regular(100.0, 100.0, h, [0.0, 0.0]).unwrap();
         let bcs: Vec<[Option<f64>; 2]> = (0..sim.solid().n_nodes())

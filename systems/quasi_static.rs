@@ -229,12 +229,9 @@ impl QuasiStatic {
             let f = joint_frame(v, k);
             // Springs on the faces' relative displacement delta = c_q - c_p, with
             // c = mean of the face's two nodes: coefficient c_j = -1/2, -1/2, 1/2, 1/2.
-            let mut dirs = vec![(p.joint.kn, f.n)];
-            if *st == State::Stick {
-                dirs.push((p.joint.kt, f.t));
-            }
+            let tangent = if *st == State::Stick { p.joint.kt } else { 0.0 };
             const C: [f64; 4] = [-0.5, -0.5, 0.5, 0.5];
-            for (kk, e) in dirs {
+            for (kk, e) in [(p.joint.kn, f.n), (tangent, f.t)] {
                 for a in 0..8 {
                     for b in 0..8 {
                         let slot = s.joint_slots[k][8 * a + b];

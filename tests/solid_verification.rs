@@ -48,27 +48,8 @@ fn manufactured_solution_converges_at_the_cst_rates() {
 /// growth (leapfrog energy constant to 1e-12 relative), and over-limit steps are caught.
 #[test]
 fn stability_1e5_steps_on_the_20000_element_mesh() {
-    use hydrofrac::scenario::{Boundary, Damping, End, Material, MeshSpec};
-    let sc = solid_cases::scenario(
-        "stability",
-        MeshSpec::Regular {
-            width: 100.0,
-            height: 100.0,
-            h: 1.0,
-            origin: [0.0, 0.0],
-        },
-        Material {
-            young: 20e9,
-            poisson: 0.2,
-            density: 2700.0,
-        },
-        Boundary::InSitu {
-            sxx: -20e6,
-            syy: -10e6,
-        },
-        End::Time(1e9),
-        Damping::None,
-    );
+    use hydrofrac::scenario::{Damping, End};
+    let sc = solid_cases::seed_block(1.0, End::Time(1e9), Damping::None);
     let (growth, _wall, nodes) = solid_cases::energy_growth(sc, 100_000).unwrap();
     assert_eq!(nodes, 101 * 101);
     assert!(

@@ -75,6 +75,28 @@ fn square(n: usize, side: f64, perturb: Option<(f64, u64)>) -> MeshSpec {
     }
 }
 
+/// The seed's block: 100 m x 100 m of granite-like rock (E = 20 GPa, nu = 0.2, 2700 kg/m^3)
+/// on the regular mesh of cell size `h` (m), under the in-situ stress -20 / -10 MPa by normal
+/// boundary displacements (20,000 elements at h = 1 m). Benchmarks and stability runs use it.
+pub fn seed_block(h: f64, end: End, damping: Damping) -> Scenario {
+    scenario(
+        "seed_block",
+        MeshSpec::Regular {
+            width: 100.0,
+            height: 100.0,
+            h,
+            origin: [0.0, 0.0],
+        },
+        ROCK,
+        Boundary::InSitu {
+            sxx: -20e6,
+            syy: -10e6,
+        },
+        end,
+        damping,
+    )
+}
+
 /// Both solid schemes, with the suffix of their metric names: the explicit relaxation (no
 /// suffix, as before) and the quasi-static solve (`_quasi_static`), side by side at every level.
 pub const SCHEMES: [(SolidScheme, &str); 2] = [
