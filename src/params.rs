@@ -48,6 +48,15 @@ pub struct TimeParams {
     pub max_steps: u64,
     pub max_substeps: u64,
     pub mass_scaling: bool,
+    /// Quasi-static coupled runs: the step adapts (see `time.solid_scheme`) within
+    /// [dt_min, dt_max] (s); `aim` is the time (s) the current step is meant to land on
+    /// exactly (the end or a figure time), if any.
+    pub adaptive: bool,
+    pub dt_min: f64,
+    pub dt_max: f64,
+    pub aim: Option<f64>,
+    /// Re-solves at the same time after splits, at most per step.
+    pub max_resolves: u64,
 }
 
 /// What is written and when.
@@ -99,6 +108,11 @@ impl RunParams {
         let f = sc.fracture.as_ref();
         let has_solid = sc.mesh.is_some();
         let t = &sc.time;
+        let coupled = has_solid && !sc.flow_boundaries.is_empty();
+        let (adaptive, end_time) = match t.end {
+            End::Time(te) => (t.solid_scheme == SolidScheme::QuasiStatic && coupled, te),
+            End::Static { .. } | End::SteadyDirect => (false, 1.0),
+        };
         RunParams {
             name: sc.name.clone(),
             solid: SolidParams {
@@ -133,7 +147,7 @@ impl RunParams {
             has_fractures: f.is_some(),
             face_pressure: f.and_then(|f| f.pressure),
             fluid: FlowParams::from(sc.fluid),
-            coupled: has_solid && !sc.flow_boundaries.is_empty(),
+            coupled,
             flow_boundaries: sc.flow_boundaries.clone(),
             bc_names: sc
                 .flow_boundaries
@@ -158,6 +172,11 @@ impl RunParams {
                 max_steps: t.max_steps,
                 max_substeps: t.max_substeps,
                 mass_scaling: t.mass_scaling,
+                adaptive,
+                dt_min: t.dt_min.unwrap_or(end_time * 1e-9),
+                dt_max: t.dt_max.unwrap_or(end_time / 50.0),
+                aim: None,
+                max_resolves: t.max_resolves,
             },
             output: OutputParams {
                 frame_every: sc.output.frame_every,

@@ -439,11 +439,28 @@ pub struct TimeControl {
     /// Time integration of the rock (default `Explicit`, the seed's central difference).
     /// `QuasiStatic`: equilibrium at the end of every step (Newton, sparse Cholesky) with the
     /// same forces, joints and friction; no inertia, no stability limit. `end: Static` is then
-    /// one solve; a timed run takes `time.dt` steps (default: the end time in 100 steps).
-    /// Not yet available with fracture flow (a network or flow boundaries) or a fracture
-    /// criterion (`fracture.strength`).
+    /// one solve. With fracture flow (flow boundaries on the rock's fractures) each step solves
+    /// the rock and the network's backward-Euler step together (one Newton iteration;
+    /// `time.flow_scheme` is then not used), and the step adapts: it starts at `time.dt`
+    /// (default: the end time / 1000), grows with easy steps, shrinks with hard ones or fast
+    /// pressure change or fracture growth, stays within [`time.dt_min`, `time.dt_max`], is
+    /// halved and retried when Newton fails, and lands on the end time and every
+    /// `output.figure_times`. After a split the step is solved again at the same time until
+    /// nothing more opens (at most `time.max_resolves` times). Without flow a timed run takes
+    /// `time.dt` steps (default: the end time in 100 steps).
     #[serde(default)]
     pub solid_scheme: SolidScheme,
+    /// Adaptive quasi-static step: the longest step, s (default: the end time / 50).
+    #[serde(default)]
+    pub dt_max: Option<f64>,
+    /// Adaptive quasi-static step: the shortest step a failing step may be halved to, s
+    /// (default: the end time x 1e-9).
+    #[serde(default)]
+    pub dt_min: Option<f64>,
+    /// Quasi-static scheme: the most re-solves at the same time after splits in one step
+    /// (default 200); reaching it is counted in `summary.json` (`resolve_cap_hits`).
+    #[serde(default = "default_max_resolves")]
+    pub max_resolves: u64,
     /// Hard cap on the number of steps.
     #[serde(default = "default_max_steps")]
     pub max_steps: u64,
@@ -460,6 +477,10 @@ pub struct TimeControl {
     /// change; the static answer (K u = f) does not, since body forces use the true density.
     #[serde(default)]
     pub mass_scaling: bool,
+}
+
+fn default_max_resolves() -> u64 {
+    200
 }
 
 fn default_max_substeps() -> u64 {
@@ -859,6 +880,21 @@ impl Scenario {
         if let Some(dt) = t.dt {
             positive("time.dt", dt, "the time step")?;
         }
+        if let Some(dt) = t.dt_max {
+            positive("time.dt_max", dt, "the longest adaptive step")?;
+        }
+        if let Some(dt) = t.dt_min {
+            positive("time.dt_min", dt, "the shortest adaptive step")?;
+            if t.dt_max.is_some_and(|m| m < dt) {
+                return Err(SetupError::invalid(
+                    "time.dt_min",
+                    "must not exceed time.dt_max",
+                ));
+            }
+        }
+        if t.max_resolves == 0 {
+            return Err(SetupError::invalid("time.max_resolves", "must be >= 1"));
+        }
         if let Some(dt) = t.flow_dt {
             positive("time.flow_dt", dt, "the flow step")?;
             if t.flow_scheme == FlowScheme::Implicit && self.mesh.is_some() {
@@ -875,12 +911,8 @@ impl Scenario {
         if t.solid_scheme == SolidScheme::QuasiStatic {
             let why = if self.mesh.is_none() {
                 Some("needs a rock mesh")
-            } else if self.network.is_some() || !self.flow_boundaries.is_empty() {
-                Some(
-                    "does not yet couple with fracture flow (a network or flow boundaries): use Explicit",
-                )
-            } else if self.fracture.as_ref().is_some_and(|f| f.strength.is_some()) {
-                Some("does not yet propagate fractures (fracture.strength): use Explicit")
+            } else if self.network.is_some() {
+                Some("couples with the rock's own fractures, not with a separate network")
             } else {
                 None
             };

@@ -114,6 +114,7 @@ pub fn quasi_static(
         QuasiStatic::new(Systems {
             load: user_on(SystemId::ExternalLoad),
             contact: user_on(SystemId::Contact),
+            fluid: user_on(SystemId::FluidPressure),
         })
     })
 }
@@ -184,10 +185,13 @@ pub fn time_step(
         FlowScheme::Implicit => 1.0,
     };
     let quasi_static = has_solid && t.solid_scheme == SolidScheme::QuasiStatic;
+    let adaptive = quasi_static && flow.as_ref().is_some_and(|f| f.coupling.is_some());
     let mut dt = match (t.dt, has_solid, flow_auto, t.flow_dt) {
         (Some(dt), _, _, _) => dt,
         // Quasi-static: no stability limit; a static run is one step, a timed one 100.
+        // Adaptive (coupled) runs start at a thousandth of the end time.
         (None, true, _, _) if quasi_static => match t.end {
+            End::Time(te) if adaptive => te / 1000.0,
             End::Time(te) => te / 100.0,
             End::Static { .. } | End::SteadyDirect => 1.0,
         },
@@ -197,6 +201,10 @@ pub fn time_step(
         (None, false, None, None) => unreachable!("validated: a mesh or a network"),
     };
     let steps_to_end = match t.end {
+        End::Time(te) if adaptive => {
+            dt = dt.min(te);
+            None
+        }
         End::Time(te) => {
             let n = (te / dt - 1e-9).ceil().max(1.0);
             dt = te / n;

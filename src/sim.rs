@@ -16,7 +16,7 @@ use crate::schedule::{Schedule, Status};
 use crate::systems::flow::FlowPart;
 use crate::systems::fracture::FractureState;
 use crate::systems::output::Scene;
-use crate::systems::quasi_static;
+use crate::systems::{quasi_static, quasi_static_flow};
 use crate::systems::solid::StepStats;
 use crate::systems::state::SolidPart;
 use crate::systems::{RunError, SystemId, coupling, flow, fracture, monitor, output, solid, split};
@@ -39,6 +39,18 @@ pub struct Simulation {
     output: Option<Outputs>,
     /// Pre-existing fractures as placed on the mesh.
     placed: Vec<Placed>,
+    /// The current quasi-static step's Newton iterations, relative pressure change and the
+    /// cells at its start (the adaptive step's input).
+    step_iterations: u64,
+    step_pressure_change: f64,
+    cells_at_start: usize,
+}
+
+/// The flow system's commit of a coupled quasi-static step of length `dt` (s).
+fn commit_step(qs: &quasi_static::QuasiStatic, f: &mut FlowPart, p: &RunParams, dt: f64) {
+    f.stats = quasi_static_flow::commit(&qs.rows, f, &p.fluid, dt);
+    f.dt = dt;
+    flow::steady_residual(f);
 }
 
 impl Simulation {
@@ -90,6 +102,9 @@ impl Simulation {
             schedule,
             output: None,
             placed,
+            step_iterations: 0,
+            step_pressure_change: 0.0,
+            cells_at_start: 0,
         })
     }
 
@@ -148,38 +163,27 @@ impl Simulation {
                 }
                 SystemId::Damping => solid::damping(v, &p.solid),
                 SystemId::Integrate => self.solid.stats = solid::integrate(v, &p.solid),
-                SystemId::Solve => {
-                    let qs = self
-                        .solid
-                        .quasi_static
-                        .as_mut()
-                        .expect("quasi-static scheme");
-                    let (step, t1) = (self.clock.step + 1, t0 + p.solid.dt);
-                    self.solid.stats = quasi_static::solve(v, qs, p, step, t1)?;
-                }
-                SystemId::FlowSubsteps => {
-                    if let Some(f) = self.flow.as_mut() {
-                        flow::flow_substeps(f, v, p, t0, self.clock.step + 1)?;
-                    }
-                }
-                SystemId::FractureCriterion => {
-                    if let Some(c) = p.criterion {
-                        self.fracture.ready_edges =
-                            fracture::fracture_criterion(v, c.strength, c.by_elements);
-                    }
-                }
+                SystemId::Solve => self.solve_step(t0)?,
+                SystemId::FlowSubsteps => self.flow_step(t0)?,
+                SystemId::FractureCriterion => self.criterion(),
                 SystemId::Split => {
-                    let t1 = t0 + p.solid.dt;
-                    let flow = self.flow.as_ref();
-                    if split::split(&mut self.model, v, flow, &mut self.fracture, p, t1) {
-                        self.rebuild_views_if_needed();
-                        let (m, s, c) = (&self.model, &mut self.solid, &mut self.clock);
-                        split::shorten_step(m, s, c, &mut self.params, t1);
+                    let t1 = self.step_end(t0);
+                    if self.split_now(t1) {
+                        if self.solid.quasi_static.is_some() {
+                            self.propagate(t1)?;
+                        } else {
+                            let (m, s, c) = (&self.model, &mut self.solid, &mut self.clock);
+                            split::shorten_step(m, s, c, &mut self.params, t1);
+                        }
                     }
                 }
                 SystemId::Monitor => {
                     let f = self.flow.as_ref();
                     monitor::monitor(&mut self.clock, t0, &self.solid, f, p)?;
+                    if p.time.adaptive && self.clock.finish.is_none() {
+                        let effort = self.effort();
+                        monitor::next_step(&self.clock, &mut self.params, effort);
+                    }
                 }
                 SystemId::Output => {
                     if let Some(out) = self.output.as_mut() {
@@ -202,6 +206,174 @@ impl Simulation {
             }
         }
         Ok(())
+    }
+
+    /// The end of the step that started at `t0`, s (exactly the aimed time when it lands on it).
+    fn step_end(&self, t0: f64) -> f64 {
+        let t1 = t0 + self.params.solid.dt;
+        match self.params.time.aim {
+            Some(a) if (t1 - a).abs() <= 1e-9 * self.params.solid.dt => a,
+            _ => t1,
+        }
+    }
+
+    /// `solve` (quasi-static) over the step from `t0`: an adaptive step whose Newton iteration
+    /// fails is halved and retried from the step's start (down to `time.dt_min`).
+    fn solve_step(&mut self, t0: f64) -> Result<(), RunError> {
+        let adaptive = self.params.time.adaptive;
+        let v = &self.solid.view;
+        let saved = adaptive.then(|| (v.u.clone(), v.joint_state.clone()));
+        self.cells_at_start = self.flow.as_ref().map_or(0, |f| f.view.n_cells());
+        loop {
+            let dt = self.params.solid.dt;
+            let Err(e) = self.solve_at(t0, dt) else {
+                let qs = self.solid.quasi_static.as_ref().expect("quasi-static scheme");
+                self.step_iterations = qs.counts.last_iterations;
+                self.step_pressure_change = qs.rows.pressure_change();
+                return Ok(());
+            };
+            let Some((u, js)) = saved.as_ref() else {
+                return Err(e);
+            };
+            let p = &mut self.params;
+            if 0.5 * dt < p.time.dt_min {
+                return Err(match e {
+                    RunError::QuasiStatic { step, time, why } => RunError::QuasiStatic {
+                        step,
+                        time,
+                        why: format!(
+                            "{why} (the step was halved down to time.dt_min = {dt:.3e} s)"
+                        ),
+                    },
+                    e => e,
+                });
+            }
+            if std::env::var_os("HF_DEBUG").is_some() {
+                eprintln!("quasi-static step from t = {t0:.6e} s failed at dt = {dt:.3e} s: {e}");
+            }
+            let v = &mut self.solid.view;
+            v.u.copy_from_slice(u);
+            v.joint_state.copy_from_slice(js);
+            p.solid.dt = 0.5 * dt;
+            p.time.aim = None;
+            let qs = self.solid.quasi_static.as_mut().expect("quasi-static scheme");
+            qs.counts.cutbacks += 1;
+        }
+    }
+
+    /// One quasi-static solve over [t0, t0 + dt] (dt = 0: again at t0, after a split), with
+    /// the network's rows when the run is coupled and `flow_substeps` is on.
+    fn solve_at(&mut self, t0: f64, dt: f64) -> Result<(), RunError> {
+        let p = &mut self.params;
+        p.solid.load_factor = crate::scenario::schedule_factor(&p.boundary_schedule, t0 + dt);
+        let p = &self.params;
+        let qs = self.solid.quasi_static.as_mut().expect("quasi-static scheme");
+        let faces = qs.on.fluid;
+        let flow_on = self.schedule.is_enabled(SystemId::FlowSubsteps);
+        let flow = self
+            .flow
+            .as_mut()
+            .filter(|f| f.coupling.is_some() && flow_on)
+            .map(|part| quasi_static_flow::FlowStep {
+                part,
+                specs: &p.flow_boundaries,
+                fluid: &p.fluid,
+                faces,
+                t0,
+                dt,
+            });
+        let (step, t1) = (self.clock.step + 1, t0 + dt);
+        self.solid.stats = quasi_static::solve(&mut self.solid.view, qs, flow, p, step, t1)?;
+        Ok(())
+    }
+
+    /// `flow_substeps` over the step from `t0` (of length `p.solid.dt`): the quasi-static
+    /// scheme commits its coupled solve, the explicit one steps the network.
+    fn flow_step(&mut self, t0: f64) -> Result<(), RunError> {
+        let Some(f) = self.flow.as_mut() else {
+            return Ok(());
+        };
+        let p = &self.params;
+        match self.solid.quasi_static.as_ref() {
+            Some(qs) if f.coupling.is_some() => {
+                commit_step(qs, f, p, p.solid.dt);
+                Ok(())
+            }
+            _ => flow::flow_substeps(f, &self.solid.view, p, t0, self.clock.step + 1),
+        }
+    }
+
+    /// `fracture_criterion`: mark the faces ready to split.
+    fn criterion(&mut self) {
+        if let Some(c) = self.params.criterion {
+            self.fracture.ready_edges =
+                fracture::fracture_criterion(&mut self.solid.view, c.strength, c.by_elements);
+        }
+    }
+
+    /// `split` at time `t1`; returns whether faces opened (the views are then rebuilt).
+    fn split_now(&mut self, t1: f64) -> bool {
+        let flow = self.flow.as_ref();
+        let (v, p) = (&mut self.solid.view, &self.params);
+        let opened = split::split(&mut self.model, v, flow, &mut self.fracture, p, t1);
+        if opened {
+            self.rebuild_views_if_needed();
+        }
+        opened
+    }
+
+    /// Quasi-static propagation: after a split at `t1`, the step is solved again at the same
+    /// time (no flow time passes: each cell keeps its mass, the new cells arrive empty), the
+    /// criterion checked and split again, until nothing more opens or `time.max_resolves`
+    /// re-solves were made (counted as a cap hit). Each pass runs under its systems' spans.
+    fn propagate(&mut self, t1: f64) -> Result<(), RunError> {
+        let cap = self.params.time.max_resolves;
+        let mut rounds = 0;
+        loop {
+            if rounds == cap {
+                tracing::warn!(
+                    "t = {t1:.6e} s: faces still open after time.max_resolves = {cap} \
+                     re-solves; the step ends here"
+                );
+                let qs = self.solid.quasi_static.as_mut().expect("quasi-static scheme");
+                qs.counts.resolve_cap_hits += 1;
+                break;
+            }
+            rounds += 1;
+            {
+                let _span = SystemId::Solve.span().entered();
+                self.solve_at(t1, 0.0)?;
+            }
+            if self.schedule.is_enabled(SystemId::FlowSubsteps)
+                && let (Some(f), Some(qs)) = (self.flow.as_mut(), self.solid.quasi_static.as_ref())
+                && f.coupling.is_some()
+            {
+                let _span = SystemId::FlowSubsteps.span().entered();
+                commit_step(qs, f, &self.params, 0.0);
+            }
+            if self.schedule.is_enabled(SystemId::FractureCriterion) {
+                let _span = SystemId::FractureCriterion.span().entered();
+                self.criterion();
+            }
+            let _span = SystemId::Split.span().entered();
+            if !self.split_now(t1) {
+                break;
+            }
+        }
+        let qs = self.solid.quasi_static.as_mut().expect("quasi-static scheme");
+        qs.counts.resolves += rounds;
+        qs.counts.max_resolves_in_step = qs.counts.max_resolves_in_step.max(rounds);
+        Ok(())
+    }
+
+    /// The effort of the current step (the adaptive step's input).
+    fn effort(&self) -> monitor::Effort {
+        let cells = self.flow.as_ref().map_or(0, |f| f.view.n_cells());
+        monitor::Effort {
+            iterations: self.step_iterations,
+            pressure_change: self.step_pressure_change,
+            new_cells: cells.saturating_sub(self.cells_at_start),
+        }
     }
 
     /// A frame and a series row now (the first one, and the steady solution).

@@ -61,7 +61,10 @@ impl FlowPart {
             residual: f64::INFINITY,
             network,
             coupling: coupled.then(Coupling::default),
-            implicit: (p.time.flow_scheme == FlowScheme::Implicit).then(ImplicitSolver::new),
+            // The quasi-static scheme's coupled step is backward Euler too (its pattern).
+            implicit: (p.time.flow_scheme == FlowScheme::Implicit
+                || p.time.solid_scheme == crate::scenario::SolidScheme::QuasiStatic)
+                .then(ImplicitSolver::new),
         }
     }
 
@@ -155,6 +158,12 @@ pub fn flow_substeps(
             }
         }
     }
+    steady_residual(f);
+    Ok(())
+}
+
+/// The steady residual ||net inflow per cell|| / sum |boundary rates| of the last step.
+pub fn steady_residual(f: &mut FlowPart) {
     let bc: f64 = f.view.bcs.iter().map(|b| b.rate.abs()).sum();
     let net = f.stats.net2.sqrt();
     f.residual = if bc > 0.0 {
@@ -164,7 +173,6 @@ pub fn flow_substeps(
     } else {
         f64::INFINITY
     };
-    Ok(())
 }
 
 /// `time.end: SteadyDirect`: solve the network's incompressible steady state directly and

@@ -26,6 +26,7 @@ pub mod fracture;
 pub mod monitor;
 pub mod output;
 pub mod quasi_static;
+pub mod quasi_static_flow;
 pub mod solid;
 pub mod split;
 pub mod state;

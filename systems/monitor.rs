@@ -48,6 +48,12 @@ pub fn monitor(
 ) -> Result<(), RunError> {
     clock.step += 1;
     clock.time = t0 + p.solid.dt;
+    // An adaptive step aimed at the end or a figure time lands on it exactly.
+    if let Some(aim) = p.time.aim
+        && (clock.time - aim).abs() <= 1e-9 * p.solid.dt
+    {
+        clock.time = aim;
+    }
     let (st, v) = (&solid.stats, &solid.view);
     let blow = |entity: String, quantity: &'static str, value: f64, why: String, dt: f64| {
         RunError::BlowUp {
@@ -141,8 +147,79 @@ pub fn monitor(
     {
         clock.finish = Some(Finish::EndTime);
     }
+    if let End::Time(te) = p.time.end
+        && p.time.adaptive
+        && clock.time >= te
+    {
+        clock.finish = Some(Finish::EndTime);
+    }
     if clock.finish.is_none() && clock.step >= p.time.max_steps {
         clock.finish = Some(Finish::MaxSteps);
     }
     Ok(())
+}
+
+/// How hard the last quasi-static step was: the adaptive step's input.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Effort {
+    /// Newton iterations of the step's solve (not of its re-solves after splits).
+    pub iterations: u64,
+    /// Largest cell pressure change over the step relative to the largest pressure.
+    pub pressure_change: f64,
+    /// Fracture cells the step's splits created.
+    pub new_cells: usize,
+}
+
+/// Newton iterations at or below which the step grows, and above which it shrinks.
+pub const NEWTON_EASY: u64 = 4;
+pub const NEWTON_HARD: u64 = 12;
+/// Growth factor of an easy step.
+pub const GROWTH: f64 = 1.5;
+/// Target relative pressure change per step.
+pub const PRESSURE_CHANGE: f64 = 0.2;
+/// Target number of new fracture cells per step.
+pub const NEW_CELLS: usize = 2;
+
+/// The next adaptive quasi-static step after the step that ended at `clock.time`: grown by
+/// [`GROWTH`] after an easy Newton solve, halved after a hard one, shortened so the pressure
+/// changes by about [`PRESSURE_CHANGE`] and at most [`NEW_CELLS`] cells open per step (never
+/// below half the last step), kept in [`dt_min`, `dt_max`], and landing exactly on the next
+/// figure time or the end (a step within twice its length of it is split in two equal ones).
+pub fn next_step(clock: &Clock, p: &mut RunParams, e: Effort) {
+    let dt = p.solid.dt;
+    let mut f = if e.iterations <= NEWTON_EASY {
+        GROWTH
+    } else if e.iterations <= NEWTON_HARD {
+        1.0
+    } else {
+        0.5
+    };
+    if e.pressure_change > 0.0 {
+        f = f.min((PRESSURE_CHANGE / e.pressure_change).max(0.5));
+    }
+    if e.new_cells > NEW_CELLS {
+        f = f.min((NEW_CELLS as f64 / e.new_cells as f64).max(0.5));
+    }
+    let mut next = (dt * f).clamp(p.time.dt_min, p.time.dt_max);
+    let t = clock.time;
+    let end = match p.time.end {
+        End::Time(te) => te,
+        End::Static { .. } | End::SteadyDirect => f64::INFINITY,
+    };
+    let target = p
+        .output
+        .figure_times
+        .iter()
+        .copied()
+        .filter(|&tf| tf > t)
+        .fold(end, f64::min);
+    p.time.aim = None;
+    let rem = target - t;
+    if rem <= next * (1.0 + 1e-9) {
+        next = rem;
+        p.time.aim = Some(target);
+    } else if rem < 2.0 * next {
+        next = 0.5 * rem;
+    }
+    p.solid.dt = next;
 }

@@ -23,7 +23,8 @@ use crate::element::element_stiffness;
 use crate::params::RunParams;
 use crate::sparse::SparsePattern;
 use crate::systems::RunError;
-use crate::systems::fracture::{contact, joint_frame};
+use crate::systems::fracture::{contact, fluid_pressure, joint_frame};
+use crate::systems::quasi_static_flow::{FlowRows, FlowStep};
 use crate::systems::solid::{StepStats, external_load, internal_force, strain_energy};
 use crate::view::SolidView;
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
@@ -38,6 +39,9 @@ use faer::{Conj, MatMut, Par, Side};
 pub const DEFAULT_TOL: f64 = 1e-10;
 /// Newton iterations before the run stops with an error.
 pub const MAX_ITER: usize = 60;
+/// Halvings the coupled line search tries after the full step and the first kink (the last
+/// is taken whatever its merit).
+pub const LINE_SEARCH_HALVINGS: i32 = 10;
 /// Iterations after which the contact states are frozen.
 pub const FREEZE_AFTER: usize = 30;
 
@@ -61,6 +65,15 @@ pub struct QsCounts {
     pub solves: u64,
     /// Newton iterations of the last step.
     pub last_iterations: u64,
+    /// Coupled runs: columns of K^-1 G solved (one per fracture cell and factorisation).
+    pub coupling_solves: u64,
+    /// Steps retried with half the step after Newton failed.
+    pub cutbacks: u64,
+    /// Re-solves at the same time after a split opened faces, their most in one step, and
+    /// the steps that reached the cap `time.max_resolves`.
+    pub resolves: u64,
+    pub max_resolves_in_step: u64,
+    pub resolve_cap_hits: u64,
 }
 
 /// Everything that depends on the topology (dof numbering, pattern, elastic values, symbolic
@@ -90,6 +103,8 @@ pub struct QuasiStatic {
     values: Vec<f64>,
     pub tol: f64,
     pub counts: QsCounts,
+    /// The network's rows of a coupled step.
+    pub rows: FlowRows,
 }
 
 impl QuasiStatic {
@@ -103,6 +118,7 @@ impl QuasiStatic {
             values: Vec::new(),
             tol: DEFAULT_TOL,
             counts: QsCounts::default(),
+            rows: FlowRows::default(),
         }
     }
 }
@@ -201,6 +217,7 @@ impl QuasiStatic {
         let mem = MemBuffer::try_new(req).map_err(|_| "out of memory for the workspace")?;
         self.counts.symbolic_factorisations += 1;
         self.factored = None;
+        self.rows.forget_w();
         self.structure = Some(Structure {
             generation: v.generation,
             dof,
@@ -284,6 +301,26 @@ impl QuasiStatic {
         );
         self.counts.solves += 1;
     }
+
+    /// Solve K_T X = B in place for the column-major `m` columns in the flow rows' W buffer.
+    fn solve_w(&mut self, m: usize) -> Result<(), String> {
+        let s = self.structure.as_mut().expect("structure");
+        if m == 0 {
+            return Ok(());
+        }
+        let req = s.symbolic.solve_in_place_scratch::<f64>(m, Par::Seq);
+        let mut mem = MemBuffer::try_new(req).map_err(|_| "out of memory for the workspace")?;
+        let llt = LltRef::<usize, f64>::new(&s.symbolic, &self.l_values);
+        let n = s.n;
+        llt.solve_in_place_with_conj(
+            Conj::No,
+            MatMut::from_column_major_slice_mut(self.rows.w_buffer(), n, m),
+            Par::Seq,
+            MemStack::new(&mut mem),
+        );
+        self.counts.coupling_solves += m as u64;
+        Ok(())
+    }
 }
 
 /// The forces at the current iterate, with the joints' return map restarted from `joint0`.
@@ -299,18 +336,24 @@ fn forces(v: &mut SolidView, p: &RunParams, on: Systems, joint0: &[crate::compon
 }
 
 /// Which force systems the residual includes (those the user did not switch off: without
-/// `contact` the joints carry nothing in the equilibrium either).
+/// `contact` the joints carry nothing in the equilibrium either, without `fluid_pressure` the
+/// fluid does not load the faces).
 #[derive(Clone, Copy, Debug)]
 pub struct Systems {
     pub load: bool,
     pub contact: bool,
+    pub fluid: bool,
 }
 
-/// `solve`: equilibrium at the end of the step (load factor already set). `step` and `time`
-/// name the step in errors. Velocities are set to zero (no inertia).
+/// `solve`: equilibrium at the end of the step (load factor already set); with `flow`, the
+/// network's backward-Euler step over the same step in the same Newton iteration
+/// ([`crate::systems::quasi_static_flow`]), the converged state left for the flow system's
+/// commit. `step` and `time` (the step's end) name the step in errors. Velocities are set to
+/// zero (no inertia).
 pub fn solve(
     v: &mut SolidView,
     qs: &mut QuasiStatic,
+    mut flow: Option<FlowStep>,
     p: &RunParams,
     step: u64,
     time: f64,
@@ -332,12 +375,16 @@ pub fn solve(
     let mut states: Vec<State> = vec![State::Open; v.joint_nodes.len()];
     let mut prev: Option<Vec<State>> = None;
     let mut iterations = 0;
+    if let Some(f) = flow.as_mut() {
+        qs.rows.begin(f, v);
+    }
     // The residual's scale: the reactions and loads, or the step's first unbalanced force when
     // that is larger (a prescribed displacement into a stress-free state, e.g. a lifted block
     // on an opening joint, ends with no reaction at all).
     let mut first2 = None;
+    let mut u_base = Vec::new();
     let (res2, ref2) = loop {
-        forces(v, p, on, &joint0);
+        let (res2, ref2, flow_ok) = evaluate(v, qs, &mut flow, p, &joint0, &mut rhs);
         if on.contact {
             for (st, js) in states.iter_mut().zip(&v.joint_state) {
                 if iterations <= FREEZE_AFTER {
@@ -351,60 +398,66 @@ pub fn solve(
                 }
             }
         }
-        let dof = &qs.structure.as_ref().expect("structure").dof;
-        let (mut res2, mut ref2) = (0.0, 0.0);
-        for i in 0..v.n_nodes() {
-            for d in 0..2 {
-                let f = v.force[i][d];
-                let l = lf * v.load[i][d];
-                ref2 += l * l;
-                match dof[2 * i + d] {
-                    NONE => ref2 += f * f,
-                    k => {
-                        rhs[k] = f;
-                        res2 += f * f;
-                    }
-                }
-            }
-        }
         let ref2 = ref2.max(*first2.get_or_insert(res2));
         let settled = prev.as_deref() == Some(&states[..]);
         if !res2.is_finite() {
             return Err(fail(step, time, "the residual is not finite".into()));
         }
-        if res2 <= qs.tol * qs.tol * ref2.max(f64::MIN_POSITIVE) && (settled || !on.contact) {
+        let tol2 = qs.tol * qs.tol * ref2.max(f64::MIN_POSITIVE);
+        if res2 <= tol2 && flow_ok && (settled || !on.contact) {
             break (res2, ref2);
         }
         if iterations >= MAX_ITER {
-            let slip = v.joint_state.iter().filter(|s| s.sliding).count();
-            let hint = if slip > 0 {
-                format!(
-                    "; {slip} of {} joints slide: past the friction limit there may be no \
-                     static equilibrium (the explicit scheme follows the sliding)",
-                    states.len()
-                )
-            } else {
-                String::new()
-            };
-            return Err(fail(
-                step,
-                time,
-                format!(
-                    "no equilibrium after {MAX_ITER} Newton iterations: relative residual {:.3e} \
-                     (tolerance {:.1e}){hint}",
-                    (res2 / ref2.max(f64::MIN_POSITIVE)).sqrt(),
-                    qs.tol
-                ),
-            ));
+            return Err(fail(step, time, not_converged(v, qs, &flow, res2, ref2)));
         }
         qs.factor(v, p, &states).map_err(|e| fail(step, time, e))?;
+        if let Some(f) = flow.as_ref() {
+            let id = qs.counts.numeric_factorisations;
+            if qs.rows.needs_w(id) {
+                let s = qs.structure.as_ref().expect("structure");
+                let m = qs
+                    .rows
+                    .load_g(f, v, &s.dof, s.n)
+                    .map_err(|e| fail(step, time, e))?;
+                qs.solve_w(m).map_err(|e| fail(step, time, e))?;
+                qs.rows.set_w_factor(id);
+            }
+        }
         qs.solve_in_place(&mut rhs);
         let dof = &qs.structure.as_ref().expect("structure").dof;
-        for i in 0..v.n_nodes() {
-            for d in 0..2 {
-                let k = dof[2 * i + d];
-                if k != NONE {
-                    v.u[i][d] += rhs[k];
+        if flow.is_none() {
+            add_update(v, dof, &rhs, 1.0);
+        } else {
+            // Coupled: the reduced system for dy, then a line search on the merit
+            // phi = |F|^2 / (tol^2 ref) + sum (r_c / allowed_c)^2 (Armijo, c = 1e-4): the full
+            // step, else the first kink of the pressure law on the way, else halving. The
+            // kinks (a cell filling or draining) would otherwise make Newton cycle.
+            let f = flow.as_mut().expect("coupled");
+            let s = qs.structure.as_ref().expect("structure");
+            qs.rows
+                .reduce_and_solve(f, v, &s.dof, s.n, &mut rhs)
+                .map_err(|e| fail(step, time, e))?;
+            let phi0 = res2 / tol2 + qs.rows.phi;
+            qs.rows.save_base();
+            u_base.clear();
+            u_base.extend_from_slice(&v.u);
+            let kink = qs.rows.first_kink();
+            let mut candidates = std::iter::once((1.0, None))
+                .chain(kink.map(|(a, c)| (a, Some(c))))
+                .chain((1..=LINE_SEARCH_HALVINGS).map(|k| (0.5f64.powi(k), None)));
+            let mut rhs_try = vec![0.0; n];
+            loop {
+                let Some((alpha, at)) = candidates.next() else {
+                    break;
+                };
+                v.u.copy_from_slice(&u_base);
+                let dof = &qs.structure.as_ref().expect("structure").dof;
+                add_update(v, dof, &rhs, alpha);
+                qs.rows.set_trial(alpha, at);
+                let (r2, _, _) = evaluate(v, qs, &mut flow, p, &joint0, &mut rhs_try);
+                let phi = r2 / tol2 + qs.rows.phi;
+                if phi <= (1.0 - 1e-4 * alpha) * phi0 {
+                    break;
                 }
             }
         }
@@ -424,4 +477,96 @@ pub fn solve(
         non_finite,
         ..StepStats::default()
     })
+}
+
+/// u += alpha du on the free dofs.
+fn add_update(v: &mut SolidView, dof: &[usize], du: &[f64], alpha: f64) {
+    for i in 0..v.n_nodes() {
+        for d in 0..2 {
+            let k = dof[2 * i + d];
+            if k != NONE {
+                v.u[i][d] += alpha * du[k];
+            }
+        }
+    }
+}
+
+/// The residual at the current iterate: the forces (rock, and the face pressures of the
+/// flow rows' pressures), the flow rows, the free dofs' forces into `rhs`; returns the sum of
+/// squared free-dof forces, of squared reactions and loads, and whether the flow rows are
+/// converged.
+fn evaluate(
+    v: &mut SolidView,
+    qs: &mut QuasiStatic,
+    flow: &mut Option<FlowStep>,
+    p: &RunParams,
+    joint0: &[crate::components::JointState],
+    rhs: &mut [f64],
+) -> (f64, f64, bool) {
+    let on = qs.on;
+    forces(v, p, on, joint0);
+    let flow_ok = match flow.as_mut() {
+        Some(f) => {
+            let ok = qs.rows.evaluate(f, v);
+            if on.fluid {
+                let c = f.part.coupling.as_ref().expect("coupled flow");
+                fluid_pressure(v, &c.joint_cell, &f.part.view.pressure);
+            }
+            ok
+        }
+        None => true,
+    };
+    let lf = p.solid.load_factor;
+    let dof = &qs.structure.as_ref().expect("structure").dof;
+    let (mut res2, mut ref2) = (0.0, 0.0);
+    for i in 0..v.n_nodes() {
+        for d in 0..2 {
+            let f = v.force[i][d];
+            let l = lf * v.load[i][d];
+            ref2 += l * l;
+            match dof[2 * i + d] {
+                NONE => ref2 += f * f,
+                k => {
+                    rhs[k] = f;
+                    res2 += f * f;
+                }
+            }
+        }
+    }
+    (res2, ref2, flow_ok)
+}
+
+/// The message of a step that did not converge: the rock's residual, the worst cell's, and a
+/// hint when joints slide.
+fn not_converged(
+    v: &SolidView,
+    qs: &QuasiStatic,
+    flow: &Option<FlowStep>,
+    res2: f64,
+    ref2: f64,
+) -> String {
+    let slip = v.joint_state.iter().filter(|s| s.sliding).count();
+    let hint = if slip > 0 {
+        format!(
+            "; {slip} of {} joints slide: past the friction limit there may be no static \
+             equilibrium (the explicit scheme follows the sliding)",
+            v.joint_nodes.len()
+        )
+    } else {
+        String::new()
+    };
+    let cell = match flow {
+        Some(f) if qs.rows.worst > 1.0 => format!(
+            "; {} has mass residual {:.3e} times its tolerance",
+            f.part.view.cell_label(qs.rows.worst_cell),
+            qs.rows.worst
+        ),
+        _ => String::new(),
+    };
+    format!(
+        "no equilibrium after {MAX_ITER} Newton iterations: relative residual {:.3e} \
+         (tolerance {:.1e}){cell}{hint}",
+        (res2 / ref2.max(f64::MIN_POSITIVE)).sqrt(),
+        qs.tol
+    )
 }

@@ -120,11 +120,11 @@ impl ImplicitError {
 }
 
 /// Everything that depends only on the sparsity pattern of the Jacobian.
-struct Pattern {
+pub(crate) struct Pattern {
     generation: u64,
     pairs: Vec<[u32; 2]>,
     bc_cells: Vec<Vec<u32>>,
-    sparse: SparsePattern,
+    pub(crate) sparse: SparsePattern,
     /// Value slot of the diagonal of each cell.
     diag: Vec<usize>,
     /// Value slots of each pair (i, j): entry (row i, col j) and (row j, col i).
@@ -287,6 +287,17 @@ impl ImplicitSolver {
         }
     }
 
+    /// The Jacobian's pattern for the view's network (rebuilt when the network changed): the
+    /// coupled quasi-static step assembles the flow rows with it.
+    pub(crate) fn pattern(&mut self, v: &FlowView) -> Result<&Pattern, ImplicitError> {
+        if !self.pattern.as_ref().is_some_and(|p| p.matches(v)) {
+            self.pattern = None;
+            self.pattern = Some(Pattern::build(v)?);
+            self.symbolic_count += 1;
+        }
+        Ok(self.pattern.as_ref().expect("built above"))
+    }
+
     /// How many symbolic factorisations were done so far (tests check reuse).
     pub fn symbolic_count(&self) -> usize {
         self.symbolic_count
@@ -296,7 +307,7 @@ impl ImplicitSolver {
 /// Pressures P = max(y, 0) into the view, pair fluxes, boundary flows at `t1`, net inflow per
 /// cell (m^2/s) into `net`, and the scaled residual r = y - y0 - w net (Pa) into `r`.
 #[allow(clippy::too_many_arguments)]
-fn residual(
+pub(crate) fn residual(
     v: &mut FlowView,
     specs: &[FlowBoundary],
     t1: f64,
@@ -329,7 +340,7 @@ const ROUND_OFF: f64 = 64.0 * f64::EPSILON;
 
 /// Per-cell allowed residual (Pa): tol K + 64 eps F_i K / (rho_r V_i) at the view's current
 /// pressures (see the module documentation).
-fn residual_scale(v: &FlowView, k: f64, tol: f64, w: &[f64], scale: &mut [f64]) {
+pub(crate) fn residual_scale(v: &FlowView, k: f64, tol: f64, w: &[f64], scale: &mut [f64]) {
     for i in 0..scale.len() {
         let pi = v.pressure[i];
         let mut s = 0.0;
@@ -353,7 +364,7 @@ fn residual_scale(v: &FlowView, k: f64, tol: f64, w: &[f64], scale: &mut [f64]) 
 }
 
 /// Largest |r_i| / scale_i (converged when <= 1), its cell, and sum (r_i / scale_i)^2.
-fn measure(r: &[f64], scale: &[f64]) -> (f64, usize, f64) {
+pub(crate) fn measure(r: &[f64], scale: &[f64]) -> (f64, usize, f64) {
     let (mut worst, mut cell, mut sum) = (0.0f64, 0usize, 0.0f64);
     for (i, (ri, si)) in r.iter().zip(scale).enumerate() {
         let x = ri / si;
@@ -367,7 +378,7 @@ fn measure(r: &[f64], scale: &[f64]) -> (f64, usize, f64) {
 }
 
 /// Jacobian dr/dy at the current iterate (the view holds its pressures and boundary state).
-fn assemble(
+pub(crate) fn assemble(
     v: &FlowView,
     specs: &[FlowBoundary],
     t1: f64,

@@ -1,0 +1,467 @@
+//! The network's rows of a coupled quasi-static step: the backward-Euler flow step and the
+//! rock's equilibrium solved together by one Newton iteration (`systems::quasi_static`), and
+//! the flow system's commit of the converged step (`flow_substeps` with the quasi-static
+//! scheme).
+//!
+//! Unknowns per cell: the pseudo-pressure y (Pa) of [`crate::flow::implicit`], so the cell
+//! pressure is P = max(y, 0) and the fluid mass m = rho_r V (1 + y/K) (kg/m). The cell's volume
+//! follows its joint: V(u) = L max(delta_n(u), a_r) (m^2, L the cell's length). The step's
+//! mass balance per cell, scaled by K / V^n (V^n the volume at the start of the step),
+//!
+//! ```text
+//! r_c = (V_c(u) / V_c^n) (K + y_c) - (K + y_c^n) - (dt K / V_c^n) N_c(P) = 0,
+//! ```
+//!
+//! N_c the net volumetric inflow (pairs and boundaries, m^2/s) at the end-of-step pressures and
+//! the start-of-step transmissibilities. With V = V^n it is the implicit flow step's residual.
+//! The rock's residual gains the face pressures: F(u, y) = F_rock(u) + G P(y), G the
+//! `fluid_pressure` map (P L n to each face, half to each node).
+//!
+//! Newton: with K_T the rock's tangent, W = K_T^-1 G (one column per cell with a joint, kept
+//! while the factor is), H = diag(dP/dy), A = dr/du (per cell (K + y)/V^n L d(delta_n)/du on
+//! its joint's 8 dofs when delta_n > a_r) and J = dr/dy (the implicit step's Jacobian plus
+//! V/V^n - 1 on the diagonal), the coupled linear system is reduced to the cells:
+//!
+//! ```text
+//! du0 = K_T^-1 F,   (J + A W H) dy = -(r + A du0),   du = du0 + W H dy.
+//! ```
+//!
+//! The reduced matrix is dense (cells x cells) and solved by LU with partial pivoting: the
+//! cells are few against the rock's dofs (Example I: tens to a hundred against 20,000). Why
+//! monolithic: the fluid is a spring K L / a on the faces, 100 times the joint penalty at the
+//! residual aperture, so a staggered (fixed-point) iteration between flow and rock multiplies
+//! its error by about that ratio each pass and diverges (measured: a factor ~2,000 on Example
+//! I); here the fluid's stiffness is in the Newton matrix.
+//!
+//! Transmissibilities are those of the start-of-step apertures (lagged): the Newton matrix is
+//! then exact and the step first order in time, like backward Euler itself; the adaptive step
+//! (see `sim::Simulation`) bounds the pressure change a step may make. Mass is conserved
+//! exactly whatever the residual: the commit moves each cell's volume to V(u) with its mass
+//! kept and adds dt rho_r N_c with the converged fluxes, as the implicit flow step does.
+
+use crate::flow::boundary::{FlowStats, MASS_ROUNDOFF, accumulate_boundary_volumes};
+use crate::flow::implicit::{assemble, measure, residual, residual_scale};
+use crate::flow::{FlowParams, kahan_add};
+use crate::scenario::FlowBoundary;
+use crate::systems::flow::FlowPart;
+use crate::systems::fracture::joint_frame;
+use crate::view::SolidView;
+
+/// Relative mass residual |R_c| / (rho_r V_c^n) the coupled step converges to (the rock's
+/// positions carry round-off of about 64 eps |x|, which is added per cell).
+pub const FLOW_TOL: f64 = 1e-10;
+/// Face coefficients of a joint's 4 nodes in delta = c_q - c_p (c the mean of a face's nodes).
+pub const FACE: [f64; 4] = [-0.5, -0.5, 0.5, 0.5];
+/// The most cells x rock dofs the dense K_T^-1 G may hold (2 GB of f64).
+pub const MAX_W_ENTRIES: usize = 250_000_000;
+
+/// Per-cell state and work arrays of the coupled step (no allocation per step while the
+/// network is unchanged).
+#[derive(Default)]
+pub struct FlowRows {
+    /// Pseudo-pressure at the iterate and at the start of the step, Pa.
+    pub y: Vec<f64>,
+    y0: Vec<f64>,
+    /// dt K / V^n, Pa s / m^2; V^n, m^2.
+    w: Vec<f64>,
+    v0: Vec<f64>,
+    /// The cell's volume L a(u) at the iterate, m^2, and whether it follows the joint
+    /// (delta_n > a_r).
+    pub vol: Vec<f64>,
+    active: Vec<bool>,
+    /// Net inflow (m^2/s), residual and allowed residual (Pa) at the iterate.
+    pub net: Vec<f64>,
+    r: Vec<f64>,
+    scale: Vec<f64>,
+    /// Flow Jacobian values in the implicit solver's pattern, and the reduced dense matrix
+    /// (column-major) with its right-hand side.
+    values: Vec<f64>,
+    s: Vec<f64>,
+    pub b: Vec<f64>,
+    /// W = K_T^-1 G, rock dofs x columns (column-major); `w_col[c]` is cell c's column
+    /// (`u32::MAX`: none); valid while the factor numbered `w_factor` is.
+    wmat: Vec<f64>,
+    w_col: Vec<u32>,
+    w_factor: Option<u64>,
+    /// Round-off allowance of the positions, m (64 eps max |x|).
+    dx: f64,
+    /// The worst cell's residual over its allowance (converged at <= 1) at the last iterate.
+    pub worst: f64,
+    pub worst_cell: usize,
+    /// Sum of (r_c / allowed_c)^2 at the last iterate (the line search's merit).
+    pub phi: f64,
+    /// The iterate and the Newton update of the line search (y, dy).
+    y_base: Vec<f64>,
+    /// Rows of A = dr/du: (rock dof, value) per cell.
+    a_rows: Vec<Vec<(usize, f64)>>,
+}
+
+/// What the coupled step needs of the flow: the flow part, the boundary specs, the fluid, and
+/// the step [t0, t0 + dt] (dt = 0 for a re-solve at the same time after a split).
+pub struct FlowStep<'a> {
+    pub part: &'a mut FlowPart,
+    pub specs: &'a [FlowBoundary],
+    pub fluid: &'a FlowParams,
+    /// Whether the face pressures load the rock (`fluid_pressure` not switched off).
+    pub faces: bool,
+    pub t0: f64,
+    pub dt: f64,
+}
+
+impl FlowRows {
+    /// Start a step: y^n from the cells' masses, the weights, y = y^n.
+    pub fn begin(&mut self, s: &mut FlowStep, solid: &SolidView) {
+        let fv = &s.part.view;
+        let nc = fv.n_cells();
+        let k = s.fluid.k;
+        for buf in [
+            &mut self.y,
+            &mut self.y0,
+            &mut self.w,
+            &mut self.v0,
+            &mut self.vol,
+            &mut self.net,
+            &mut self.r,
+            &mut self.scale,
+            &mut self.b,
+        ] {
+            buf.clear();
+            buf.resize(nc, 0.0);
+        }
+        self.active.clear();
+        self.active.resize(nc, false);
+        for c in 0..nc {
+            let v0 = fv.volume[c];
+            self.v0[c] = v0;
+            self.w[c] = s.dt * k / v0;
+            self.y0[c] = k * fv.excess[c] / (s.fluid.rho_r * v0);
+        }
+        self.y.copy_from_slice(&self.y0);
+        let xmax = solid
+            .x0
+            .iter()
+            .fold(0.0f64, |m, x| m.max(x[0].abs()).max(x[1].abs()));
+        self.dx = 64.0 * f64::EPSILON * xmax.max(1.0);
+    }
+
+    /// The flow rows at the rock's iterate: volumes, pressures (into the view), fluxes,
+    /// residual and the allowed residual per cell. Returns whether they are converged.
+    pub fn evaluate(&mut self, s: &mut FlowStep, solid: &SolidView) -> bool {
+        let c_map = s.part.coupling.as_ref().expect("coupled flow");
+        let fv = &mut s.part.view;
+        let k = s.fluid.k;
+        for c in 0..fv.n_cells() {
+            let j = c_map.cell_joint[c];
+            if j == u32::MAX {
+                self.vol[c] = self.v0[c];
+                self.active[c] = false;
+            } else {
+                let dn = joint_frame(solid, j as usize).dn;
+                self.vol[c] = fv.length[c] * crate::fractures::hydraulic_aperture(dn, c_map.a_r);
+                self.active[c] = dn > c_map.a_r;
+            }
+        }
+        // Transmissibilities at the mid-step apertures (a^n + a(u)) / 2.
+        for c in 0..fv.n_cells() {
+            fv.aperture[c] = 0.5 * (self.v0[c] + self.vol[c]) / fv.length[c];
+        }
+        fv.update_kappa(s.fluid);
+        let t1 = s.t0 + s.dt;
+        residual(
+            fv,
+            s.specs,
+            t1,
+            &self.y,
+            &self.y0,
+            &self.w,
+            &mut self.net,
+            &mut self.r,
+        );
+        residual_scale(fv, k, FLOW_TOL, &self.w, &mut self.scale);
+        for c in 0..fv.n_cells() {
+            let ratio = self.vol[c] / self.v0[c];
+            self.r[c] += (ratio - 1.0) * (k + self.y[c]);
+            // Round-off of delta_n from the positions moves V by L dx.
+            self.scale[c] += (k + self.y[c].abs()) * fv.length[c] * self.dx / self.v0[c];
+        }
+        let (worst, cell, phi) = measure(&self.r, &self.scale);
+        self.phi = phi;
+        self.worst = worst;
+        self.worst_cell = cell;
+        worst <= 1.0
+    }
+
+    /// Whether W = K_T^-1 G must be recomputed for the factor numbered `factor`.
+    pub fn needs_w(&self, factor: u64) -> bool {
+        self.w_factor != Some(factor)
+    }
+
+    /// The columns of G (face pressure to nodal force, per unit pressure) of every cell with a
+    /// joint, into the W buffer (to be solved in place by the caller); returns the number of
+    /// columns. `dof[2 i + d]` is node i's free dof (`usize::MAX`: prescribed), `n` their count.
+    pub fn load_g(
+        &mut self,
+        s: &FlowStep,
+        solid: &SolidView,
+        dof: &[usize],
+        n: usize,
+    ) -> Result<usize, String> {
+        let c_map = s.part.coupling.as_ref().expect("coupled flow");
+        let nc = s.part.view.n_cells();
+        self.w_col.clear();
+        self.w_col.resize(nc, u32::MAX);
+        let mut m = 0u32;
+        if s.faces {
+            for c in 0..nc {
+                if c_map.cell_joint[c] != u32::MAX {
+                    self.w_col[c] = m;
+                    m += 1;
+                }
+            }
+        }
+        let m = m as usize;
+        if m.saturating_mul(n) > MAX_W_ENTRIES {
+            return Err(format!(
+                "the coupled step holds K^-1 G densely: {m} fracture cells x {n} rock dofs is \
+                 above {MAX_W_ENTRIES} entries (use time.solid_scheme: Explicit)"
+            ));
+        }
+        self.wmat.clear();
+        self.wmat.resize(m * n, 0.0);
+        for c in 0..nc {
+            let col = self.w_col[c];
+            if col == u32::MAX {
+                continue;
+            }
+            let kj = c_map.cell_joint[c] as usize;
+            let f = joint_frame(solid, kj);
+            let g = &mut self.wmat[col as usize * n..(col as usize + 1) * n];
+            for (j, &node) in solid.joint_nodes[kj].iter().enumerate() {
+                for d in 0..2 {
+                    let k = dof[2 * node as usize + d];
+                    if k != usize::MAX {
+                        g[k] += FACE[j] * f.len * f.n[d];
+                    }
+                }
+            }
+        }
+        Ok(m)
+    }
+
+    /// The W buffer (G before the caller's solve, K_T^-1 G after) and its column count.
+    pub fn w_buffer(&mut self) -> &mut [f64] {
+        &mut self.wmat
+    }
+
+    /// Mark W as solved for the factor numbered `factor`.
+    pub fn set_w_factor(&mut self, factor: u64) {
+        self.w_factor = Some(factor);
+    }
+
+    /// Forget W (the network or the rock's dofs changed).
+    pub fn forget_w(&mut self) {
+        self.w_factor = None;
+    }
+
+    /// The reduced Newton system: given du0 = K_T^-1 F on the rock's free dofs, solve
+    /// (J + A W H) dy = -(r + A du0) for dy (into `self.b`) and add W H dy to du0 (making it
+    /// du). Errors: a singular reduced matrix.
+    pub fn reduce_and_solve(
+        &mut self,
+        s: &mut FlowStep,
+        solid: &SolidView,
+        dof: &[usize],
+        n: usize,
+        du: &mut [f64],
+    ) -> Result<(), String> {
+        let c_map = s.part.coupling.as_ref().expect("coupled flow");
+        let fv = &s.part.view;
+        let nc = fv.n_cells();
+        let k = s.fluid.k;
+        let solver = s.part.implicit.as_mut().expect("backward-Euler flow");
+        let pat = solver.pattern(fv).map_err(|e| e.to_string())?;
+        let t1 = s.t0 + s.dt;
+        assemble(fv, s.specs, t1, &self.y, &self.w, pat, &mut self.values);
+        self.s.clear();
+        self.s.resize(nc * nc, 0.0);
+        let (cp, ri) = (pat.sparse.col_ptr(), pat.sparse.row_idx());
+        for col in 0..nc {
+            for slot in cp[col]..cp[col + 1] {
+                self.s[col * nc + ri[slot]] += self.values[slot];
+            }
+        }
+        let h = |y: f64| if y >= 0.0 { 1.0 } else { 0.0 };
+        // A = dr/du, row by row: the volume term on the cell's own joint, and the mid-step
+        // transmissibilities' term on both cells' joints of each pair it belongs to.
+        self.a_rows.resize_with(nc, Vec::new);
+        self.a_rows.iter_mut().for_each(|r| r.clear());
+        let joint_dn = |c: usize, scale: f64, row: &mut Vec<(usize, f64)>| {
+            let kj = c_map.cell_joint[c] as usize;
+            let f = joint_frame(solid, kj);
+            for (j, &node) in solid.joint_nodes[kj].iter().enumerate() {
+                for d in 0..2 {
+                    let q = dof[2 * node as usize + d];
+                    if q != usize::MAX {
+                        row.push((q, scale * FACE[j] * f.n[d]));
+                    }
+                }
+            }
+        };
+        for c in 0..nc {
+            self.s[c * nc + c] += self.vol[c] / self.v0[c] - 1.0;
+            self.b[c] = -self.r[c];
+            if self.active[c] {
+                // (K + y_c) / V^n L d(delta_n)/du.
+                let coef = (k + self.y[c]) / self.v0[c] * fv.length[c];
+                joint_dn(c, coef, &mut self.a_rows[c]);
+            }
+        }
+        for (pk, pr) in fv.pairs.iter().enumerate() {
+            let (i, j) = (pr[0] as usize, pr[1] as usize);
+            let dp = fv.pressure[i] - fv.pressure[j];
+            if dp == 0.0 || s.dt == 0.0 {
+                continue;
+            }
+            // kappa = 1 / (6 mu (L_i / a_i^3 + L_j / a_j^3)) at the mid-step apertures:
+            // d kappa / d a_s = 18 mu kappa^2 L_s / a_s^4, and d a_s / du = d(delta_n)/du / 2.
+            let kap = fv.kappa[pk];
+            for side in [i, j] {
+                if !self.active[side] {
+                    continue;
+                }
+                let a = fv.aperture[side];
+                let dk = 18.0 * s.fluid.mu * kap * kap * fv.length[side] / (a * a * a * a) * 0.5;
+                // r_i = ... - w_i N_i with N_i = -q, N_j = +q, q = kappa (P_i - P_j).
+                joint_dn(side, self.w[i] * dp * dk, &mut self.a_rows[i]);
+                joint_dn(side, -self.w[j] * dp * dk, &mut self.a_rows[j]);
+            }
+        }
+        for c in 0..nc {
+            let row = &self.a_rows[c];
+            if row.is_empty() {
+                continue;
+            }
+            for &(q, a) in row {
+                self.b[c] -= a * du[q];
+            }
+            for c2 in 0..nc {
+                let col = self.w_col[c2];
+                if col == u32::MAX || h(self.y[c2]) == 0.0 {
+                    continue;
+                }
+                let wc = &self.wmat[col as usize * n..(col as usize + 1) * n];
+                let sum: f64 = row.iter().map(|&(q, a)| a * wc[q]).sum();
+                self.s[c2 * nc + c] += sum;
+            }
+        }
+        let lu = nalgebra::DMatrix::from_column_slice(nc, nc, &self.s).lu();
+        let rhs = nalgebra::DVector::from_column_slice(&self.b);
+        let dy = lu.solve(&rhs).ok_or_else(|| {
+            "the reduced flow-rock matrix is singular (a cell with no volume change, no flow \
+             and no compressibility)"
+                .to_string()
+        })?;
+        if let Some(c) = dy.iter().position(|x| !x.is_finite()) {
+            return Err(format!(
+                "the Newton update of {} is not finite",
+                fv.cell_label(c)
+            ));
+        }
+        for c in 0..nc {
+            self.b[c] = dy[c];
+            let col = self.w_col[c];
+            if col == u32::MAX || h(self.y[c]) == 0.0 {
+                continue;
+            }
+            let wc = &self.wmat[col as usize * n..(col as usize + 1) * n];
+            for (d, w) in du.iter_mut().zip(wc) {
+                *d += w * dy[c];
+            }
+        }
+        Ok(())
+    }
+
+    /// Largest change of a cell's pressure max(y, 0) over the step, relative to the largest
+    /// pressure at its start or end (0 when all are zero).
+    pub fn pressure_change(&self) -> f64 {
+        let (mut dp, mut pmax) = (0.0f64, 0.0f64);
+        for (y, y0) in self.y.iter().zip(&self.y0) {
+            let (p, p0) = (y.max(0.0), y0.max(0.0));
+            dp = dp.max((p - p0).abs());
+            pmax = pmax.max(p).max(p0);
+        }
+        if pmax > 0.0 { dp / pmax } else { 0.0 }
+    }
+
+    /// Keep the iterate y as the line search's base (after [`FlowRows::reduce_and_solve`],
+    /// which left dy in `b`).
+    pub fn save_base(&mut self) {
+        self.y_base.clear();
+        self.y_base.extend_from_slice(&self.y);
+    }
+
+    /// The smallest step fraction in (0, 1) at which a cell changes branch of the pressure
+    /// law (fills: y crosses 0 upwards, or drains), and that cell.
+    pub fn first_kink(&self) -> Option<(f64, usize)> {
+        let mut best: Option<(f64, usize)> = None;
+        for (c, (&y, &d)) in self.y_base.iter().zip(&self.b).enumerate() {
+            if (y < 0.0 && y + d >= 0.0) || (y > 0.0 && y + d < 0.0) {
+                let a = -y / d;
+                if a > 0.0 && a < 1.0 && best.is_none_or(|(b, _)| a < b) {
+                    best = Some((a, c));
+                }
+            }
+        }
+        best
+    }
+
+    /// y = base + alpha dy; at a kink step the kink's cell lands on its new branch (y = 0
+    /// when it fills, just below when it drains).
+    pub fn set_trial(&mut self, alpha: f64, kink: Option<usize>) {
+        for ((y, b), d) in self.y.iter_mut().zip(&self.y_base).zip(&self.b) {
+            *y = b + alpha * d;
+        }
+        if let Some(c) = kink {
+            self.y[c] = if self.b[c] > 0.0 {
+                0.0
+            } else {
+                -f64::MIN_POSITIVE
+            };
+        }
+    }
+}
+
+/// `flow_substeps` with the quasi-static scheme: commit the converged coupled step of length
+/// `dt` (s): each cell's volume moves to V(u) with its mass kept, the converged fluxes add
+/// dt rho_r N_c (Kahan-compensated), the boundaries' volumes advance by dt times their rates,
+/// the apertures become the end-of-step ones (transmissibilities of the next step) and the
+/// converged pressures the face load. Returns the step's statistics.
+pub fn commit(rows: &FlowRows, f: &mut FlowPart, fp: &FlowParams, dt: f64) -> FlowStats {
+    let v = &mut f.view;
+    let rho_dt = fp.rho_r * dt;
+    let mut st = FlowStats::default();
+    for c in 0..v.n_cells() {
+        v.set_volume_keep_mass(c, rows.vol[c], fp);
+        v.aperture[c] = rows.vol[c] / v.length[c];
+        let net = rows.net[c];
+        kahan_add(&mut v.excess[c], &mut v.excess_comp[c], rho_dt * net);
+        let mut through = v.bc_in[c].abs();
+        for &e in &v.inc[v.inc_ptr[c] as usize..v.inc_ptr[c + 1] as usize] {
+            through += v.pair_q[(e >> 1) as usize].abs();
+        }
+        v.flow_rate[c] = 0.5 * through;
+        st.net2 += net * net;
+        let m = v.excess[c];
+        if !(m >= -fp.rho_r * v.volume[c] * (1.0 + MASS_ROUNDOFF) && m.is_finite())
+            && st.bad_cell.is_none()
+        {
+            st.bad_cell = Some(c);
+        }
+    }
+    accumulate_boundary_volumes(v, dt);
+    v.update_kappa(fp);
+    if let Some(c) = f.coupling.as_mut() {
+        c.p_mean.copy_from_slice(&v.pressure);
+    }
+    st
+}
