@@ -174,7 +174,7 @@ impl RunParams {
                 mass_scaling: t.mass_scaling,
                 adaptive,
                 dt_min: t.dt_min.unwrap_or(end_time * 1e-9),
-                dt_max: t.dt_max.unwrap_or(end_time / 50.0),
+                dt_max: t.dt_max.unwrap_or(end_time / 100.0),
                 aim: None,
                 max_resolves: t.max_resolves,
             },

@@ -450,7 +450,7 @@ pub struct TimeControl {
     /// `time.dt` steps (default: the end time in 100 steps).
     #[serde(default)]
     pub solid_scheme: SolidScheme,
-    /// Adaptive quasi-static step: the longest step, s (default: the end time / 50).
+    /// Adaptive quasi-static step: the longest step, s (default: the end time / 100).
     #[serde(default)]
     pub dt_max: Option<f64>,
     /// Adaptive quasi-static step: the shortest step a failing step may be halved to, s

@@ -176,9 +176,9 @@ pub const NEWTON_HARD: u64 = 12;
 /// Growth factor of an easy step.
 pub const GROWTH: f64 = 1.5;
 /// Target relative pressure change per step.
-pub const PRESSURE_CHANGE: f64 = 0.2;
+pub const PRESSURE_CHANGE: f64 = 0.1;
 /// Target number of new fracture cells per step.
-pub const NEW_CELLS: usize = 2;
+pub const NEW_CELLS: usize = 1;
 
 /// The next adaptive quasi-static step after the step that ended at `clock.time`: grown by
 /// [`GROWTH`] after an easy Newton solve, halved after a hard one, shortened so the pressure

@@ -92,6 +92,8 @@ pub struct FlowRows {
     pub phi: f64,
     /// The iterate and the Newton update of the line search (y, dy).
     y_base: Vec<f64>,
+    /// Boundary transmissibilities at the start of the step, per boundary and cell.
+    bc_kappa0: Vec<Vec<f64>>,
     /// Rows of A = dr/du: (rock dof, value) per cell.
     a_rows: Vec<Vec<(usize, f64)>>,
 }
@@ -137,6 +139,21 @@ impl FlowRows {
             self.y0[c] = k * fv.excess[c] / (s.fluid.rho_r * v0);
         }
         self.y.copy_from_slice(&self.y0);
+        // Start-of-step transmissibilities of the boundaries (a failed attempt may have left
+        // the view's at a trial's apertures).
+        self.bc_kappa0 = fv
+            .bcs
+            .iter()
+            .map(|b| {
+                b.cells
+                    .iter()
+                    .map(|&c| {
+                        let (l, v0) = (fv.length[c as usize], self.v0[c as usize]);
+                        crate::flow::half_cell_kappa(l, v0 / l, s.fluid.mu)
+                    })
+                    .collect()
+            })
+            .collect();
         let xmax = solid
             .x0
             .iter()
@@ -166,6 +183,11 @@ impl FlowRows {
             fv.aperture[c] = 0.5 * (self.v0[c] + self.vol[c]) / fv.length[c];
         }
         fv.update_kappa(s.fluid);
+        // Boundary transmissibilities stay at the start-of-step apertures (the pump's
+        // operating point has no derivative in the Newton matrix with respect to them).
+        for (b, k0) in fv.bcs.iter_mut().zip(&self.bc_kappa0) {
+            b.kappa.copy_from_slice(k0);
+        }
         let t1 = s.t0 + s.dt;
         residual(
             fv,

@@ -110,7 +110,6 @@ fn joint_sticks_below_the_coulomb_limit() {
 #[test]
 fn bad_combinations_are_refused_with_the_field() {
     for (path, why) in [
-        ("scenarios/example1_cross.ron", "fracture flow"),
         ("scenarios/flow_network.ron", "rock mesh"),
     ] {
         let sets = ["time.solid_scheme=QuasiStatic".to_string()];
