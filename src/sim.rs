@@ -16,10 +16,10 @@ use crate::schedule::{Schedule, Status};
 use crate::systems::flow::FlowPart;
 use crate::systems::fracture::FractureState;
 use crate::systems::output::Scene;
-use crate::systems::{quasi_static, quasi_static_flow};
 use crate::systems::solid::StepStats;
 use crate::systems::state::SolidPart;
 use crate::systems::{RunError, SystemId, coupling, flow, fracture, monitor, output, solid, split};
+use crate::systems::{quasi_static, quasi_static_flow};
 use crate::view::SolidView;
 
 pub use crate::systems::monitor::{Clock, Finish, SPEED_LIMIT_FRACTION};
@@ -227,7 +227,11 @@ impl Simulation {
         loop {
             let dt = self.params.solid.dt;
             let Err(e) = self.solve_at(t0, dt) else {
-                let qs = self.solid.quasi_static.as_ref().expect("quasi-static scheme");
+                let qs = self
+                    .solid
+                    .quasi_static
+                    .as_ref()
+                    .expect("quasi-static scheme");
                 self.step_iterations = qs.counts.last_iterations;
                 self.step_pressure_change = qs.rows.pressure_change();
                 return Ok(());
@@ -256,7 +260,11 @@ impl Simulation {
             v.joint_state.copy_from_slice(js);
             p.solid.dt = 0.5 * dt;
             p.time.aim = None;
-            let qs = self.solid.quasi_static.as_mut().expect("quasi-static scheme");
+            let qs = self
+                .solid
+                .quasi_static
+                .as_mut()
+                .expect("quasi-static scheme");
             qs.counts.cutbacks += 1;
         }
     }
@@ -267,7 +275,11 @@ impl Simulation {
         let p = &mut self.params;
         p.solid.load_factor = crate::scenario::schedule_factor(&p.boundary_schedule, t0 + dt);
         let p = &self.params;
-        let qs = self.solid.quasi_static.as_mut().expect("quasi-static scheme");
+        let qs = self
+            .solid
+            .quasi_static
+            .as_mut()
+            .expect("quasi-static scheme");
         let faces = qs.on.fluid;
         let flow_on = self.schedule.is_enabled(SystemId::FlowSubsteps);
         let flow = self
@@ -335,7 +347,11 @@ impl Simulation {
                     "t = {t1:.6e} s: faces still open after time.max_resolves = {cap} \
                      re-solves; the step ends here"
                 );
-                let qs = self.solid.quasi_static.as_mut().expect("quasi-static scheme");
+                let qs = self
+                    .solid
+                    .quasi_static
+                    .as_mut()
+                    .expect("quasi-static scheme");
                 qs.counts.resolve_cap_hits += 1;
                 break;
             }
@@ -360,7 +376,11 @@ impl Simulation {
                 break;
             }
         }
-        let qs = self.solid.quasi_static.as_mut().expect("quasi-static scheme");
+        let qs = self
+            .solid
+            .quasi_static
+            .as_mut()
+            .expect("quasi-static scheme");
         qs.counts.resolves += rounds;
         qs.counts.max_resolves_in_step = qs.counts.max_resolves_in_step.max(rounds);
         Ok(())

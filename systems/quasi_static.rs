@@ -442,14 +442,11 @@ pub fn solve(
             u_base.clear();
             u_base.extend_from_slice(&v.u);
             let kink = qs.rows.first_kink();
-            let mut candidates = std::iter::once((1.0, None))
+            let candidates = std::iter::once((1.0, None))
                 .chain(kink.map(|(a, c)| (a, Some(c))))
                 .chain((1..=LINE_SEARCH_HALVINGS).map(|k| (0.5f64.powi(k), None)));
             let mut rhs_try = vec![0.0; n];
-            loop {
-                let Some((alpha, at)) = candidates.next() else {
-                    break;
-                };
+            for (alpha, at) in candidates {
                 v.u.copy_from_slice(&u_base);
                 let dof = &qs.structure.as_ref().expect("structure").dof;
                 add_update(v, dof, &rhs, alpha);

@@ -109,9 +109,7 @@ fn joint_sticks_below_the_coulomb_limit() {
 
 #[test]
 fn bad_combinations_are_refused_with_the_field() {
-    for (path, why) in [
-        ("scenarios/flow_network.ron", "rock mesh"),
-    ] {
+    for (path, why) in [("scenarios/flow_network.ron", "rock mesh")] {
         let sets = ["time.solid_scheme=QuasiStatic".to_string()];
         let e = match Scenario::load(std::path::Path::new(path), &sets) {
             Ok(_) => panic!("{path}: QuasiStatic accepted"),

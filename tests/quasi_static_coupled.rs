@@ -32,9 +32,17 @@ fn coupled_quasi_static_conserves_mass_across_splits() {
     }
     assert!(worst < 1e-9, "mass balance error {worst:e}");
     assert_eq!(sim.finish(), Some(Finish::EndTime));
-    assert_eq!(sim.time(), 0.13, "the adaptive step lands on the end time exactly");
+    assert_eq!(
+        sim.time(),
+        0.13,
+        "the adaptive step lands on the end time exactly"
+    );
     let q = sim.quasi_static_counts().unwrap();
-    assert!(sim.fracture().splits >= 2, "splits {}", sim.fracture().splits);
+    assert!(
+        sim.fracture().splits >= 2,
+        "splits {}",
+        sim.fracture().splits
+    );
     assert!(q.resolves >= 2, "no re-solve after the splits: {q:?}");
     assert_eq!(q.resolve_cap_hits, 0);
     let f = sim.flow().unwrap();
@@ -70,10 +78,13 @@ fn quasi_static_opens_the_cells_the_explicit_scheme_opens() {
             .filter(|&c| f.view.created_t[c] > 0.0)
             .map(|c| {
                 let [a, b] = f.view.cell_nodes[c].map(|n| f.view.node_ref[n as usize]);
-                ([a[0].min(b[0]), a[1]].map(|x| (x * 1e6).round() as i64), f.view.created_t[c])
+                (
+                    [a[0].min(b[0]), a[1]].map(|x| (x * 1e6).round() as i64),
+                    f.view.created_t[c],
+                )
             })
             .collect();
-        cells.sort_by(|p, q| p.0.cmp(&q.0));
+        cells.sort_by_key(|c| c.0);
         cells
     };
     let explicit = Scenario::parse(
@@ -102,12 +113,19 @@ fn injected_volume_converges_at_first_order_in_the_step() {
         let mut sim = Simulation::new(scene(0.06, &extra), &[]).unwrap();
         sim.run(|_| {}).unwrap();
         assert_eq!(sim.clock().step, (0.06 / dt).round() as u64, "fixed steps");
-        assert_eq!(sim.fracture().splits, 0, "the window is before the first split");
+        assert_eq!(
+            sim.fracture().splits,
+            0,
+            "the window is before the first split"
+        );
         sim.flow_balance().unwrap().0
     };
     let v: Vec<f64> = [2e-3, 1e-3, 5e-4].iter().map(|&dt| injected(dt)).collect();
     let ratio = (v[0] - v[1]) / (v[1] - v[2]);
-    assert!((1.6..=2.6).contains(&ratio), "injected volumes {v:?}: ratio {ratio}");
+    assert!(
+        (1.6..=2.6).contains(&ratio),
+        "injected volumes {v:?}: ratio {ratio}"
+    );
 }
 
 /// Determinism: the coupled quasi-static run (Newton, splits, re-solves) gives the same bits
@@ -134,7 +152,10 @@ fn coupled_quasi_static_is_deterministic_across_thread_counts() {
         })
     };
     let (a, b) = (run(1), run(2));
-    assert!(a.2 >= 1, "no split: the comparison would not cover topology changes");
+    assert!(
+        a.2 >= 1,
+        "no split: the comparison would not cover topology changes"
+    );
     assert_eq!(a, b);
 }
 

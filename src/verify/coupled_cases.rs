@@ -52,7 +52,10 @@ impl KgdRun {
 /// `scheme` (`Explicit` or `Implicit`).
 pub fn kgd_run(h: f64, scheme: &str) -> anyhow::Result<KgdRun> {
     let sets = match scheme {
-        "QuasiStatic" => vec![format!("mesh.h={h}"), "time.solid_scheme=QuasiStatic".into()],
+        "QuasiStatic" => vec![
+            format!("mesh.h={h}"),
+            "time.solid_scheme=QuasiStatic".into(),
+        ],
         _ => vec![format!("mesh.h={h}"), format!("time.flow_scheme={scheme}")],
     };
     let sc = Scenario::parse(KGD_RON, "scenarios/kgd.ron")?.with_overrides(&sets)?;

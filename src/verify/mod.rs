@@ -164,7 +164,7 @@ pub fn cases() -> Vec<Case> {
         },
         Case {
             name: "kgd",
-            about: "KGD fracture under constant injection against the viscosity-dominated solution, both flow schemes, h = 2 to 0.25 m (5 % at 0.25 m)",
+            about: "KGD fracture under constant injection against the viscosity-dominated solution, explicit (both flow schemes) and quasi-static, h = 2 to 0.25 m (5 % at 0.25 m)",
             run: coupled_cases::kgd,
         },
         Case {
