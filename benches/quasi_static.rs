@@ -30,6 +30,7 @@ fn quasi_static(c: &mut Criterion) {
     let mut qs = QuasiStatic::new(Systems {
         load: true,
         contact: true,
+        fluid: false,
     });
     let mut group = c.benchmark_group("quasi_static_20k");
     group
@@ -43,7 +44,7 @@ fn quasi_static(c: &mut Criterion) {
         if refactor {
             qs.forget_factor();
         }
-        solve(&mut v, qs, &p, k, 0.0).unwrap()
+        solve(&mut v, qs, None, &p, k, 0.0).unwrap()
     };
     step(&mut qs, true);
     group.bench_function("factorise_and_solve", |b| b.iter(|| step(&mut qs, true)));
