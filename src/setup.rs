@@ -172,8 +172,11 @@ pub fn build_flow(
 /// whole number of steps reaches it). The solid sets the step when there is one (`safety`
 /// times its critical step `dt_crit`, unless `time.dt` forces one); flow sub-steps fill it.
 /// Flow-only scenes take [`FLOW_ONLY_SUBSTEPS`] explicit sub-steps per step, or one implicit
-/// step of `time.flow_dt`. Sets the flow's sub-step count and length.
+/// step of `time.flow_dt`. An adaptive run (`resolved.adaptive`: quasi-static and coupled)
+/// starts at `time.dt` or a thousandth of the end time and has no step count. Sets the flow's
+/// sub-step count and length.
 pub fn time_step(
+    resolved: &crate::params::TimeParams,
     t: &TimeControl,
     has_solid: bool,
     dt_crit: f64,
@@ -185,7 +188,7 @@ pub fn time_step(
         FlowScheme::Implicit => 1.0,
     };
     let quasi_static = has_solid && t.solid_scheme == SolidScheme::QuasiStatic;
-    let adaptive = quasi_static && flow.as_ref().is_some_and(|f| f.coupling.is_some());
+    let adaptive = resolved.adaptive;
     let mut dt = match (t.dt, has_solid, flow_auto, t.flow_dt) {
         (Some(dt), _, _, _) => dt,
         // Quasi-static: no stability limit; a static run is one step, a timed one 100.

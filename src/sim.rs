@@ -39,10 +39,9 @@ pub struct Simulation {
     output: Option<Outputs>,
     /// Pre-existing fractures as placed on the mesh.
     placed: Vec<Placed>,
-    /// The current quasi-static step's Newton iterations, relative pressure change and the
-    /// cells at its start (the adaptive step's input).
-    step_iterations: u64,
-    step_pressure_change: f64,
+    /// How hard the current quasi-static step was (the adaptive step's input), and the cells
+    /// at its start.
+    effort: monitor::Effort,
     cells_at_start: usize,
 }
 
@@ -73,7 +72,7 @@ impl Simulation {
         };
         let mut flow = crate::setup::build_flow(&mut model, &scenario, &p)?;
         let (dt, steps_to_end) =
-            crate::setup::time_step(&scenario.time, has_solid, dt_crit, flow.as_mut());
+            crate::setup::time_step(&p.time, &scenario.time, has_solid, dt_crit, flow.as_mut());
         p.solid.dt = dt;
         let view = crate::setup::solid_view(&model, &p, dt_crit, flow.as_mut());
         let mut disabled = scenario.systems.disable.clone();
@@ -102,8 +101,7 @@ impl Simulation {
             schedule,
             output: None,
             placed,
-            step_iterations: 0,
-            step_pressure_change: 0.0,
+            effort: monitor::Effort::default(),
             cells_at_start: 0,
         })
     }
@@ -167,7 +165,7 @@ impl Simulation {
                 SystemId::FlowSubsteps => self.flow_step(t0)?,
                 SystemId::FractureCriterion => self.criterion(),
                 SystemId::Split => {
-                    let t1 = self.step_end(t0);
+                    let t1 = monitor::step_end(t0, &self.params);
                     if self.split_now(t1) {
                         if self.solid.quasi_static.is_some() {
                             self.propagate(t1)?;
@@ -181,8 +179,9 @@ impl Simulation {
                     let f = self.flow.as_ref();
                     monitor::monitor(&mut self.clock, t0, &self.solid, f, p)?;
                     if p.time.adaptive && self.clock.finish.is_none() {
-                        let effort = self.effort();
-                        monitor::next_step(&self.clock, &mut self.params, effort);
+                        let cells = self.flow.as_ref().map_or(0, |f| f.view.n_cells());
+                        self.effort.new_cells = cells.saturating_sub(self.cells_at_start);
+                        monitor::next_step(&self.clock, &mut self.params, self.effort);
                     }
                 }
                 SystemId::Output => {
@@ -208,15 +207,6 @@ impl Simulation {
         Ok(())
     }
 
-    /// The end of the step that started at `t0`, s (exactly the aimed time when it lands on it).
-    fn step_end(&self, t0: f64) -> f64 {
-        let t1 = t0 + self.params.solid.dt;
-        match self.params.time.aim {
-            Some(a) if (t1 - a).abs() <= 1e-9 * self.params.solid.dt => a,
-            _ => t1,
-        }
-    }
-
     /// `solve` (quasi-static) over the step from `t0`: an adaptive step whose Newton iteration
     /// fails is halved and retried from the step's start (down to `time.dt_min`).
     fn solve_step(&mut self, t0: f64) -> Result<(), RunError> {
@@ -232,8 +222,8 @@ impl Simulation {
                     .quasi_static
                     .as_ref()
                     .expect("quasi-static scheme");
-                self.step_iterations = qs.counts.last_iterations;
-                self.step_pressure_change = qs.rows.pressure_change();
+                self.effort.iterations = qs.counts.last_iterations;
+                self.effort.pressure_change = qs.rows.pressure_change();
                 return Ok(());
             };
             let Some((u, js)) = saved.as_ref() else {
@@ -252,9 +242,7 @@ impl Simulation {
                     e => e,
                 });
             }
-            if std::env::var_os("HF_DEBUG").is_some() {
-                eprintln!("quasi-static step from t = {t0:.6e} s failed at dt = {dt:.3e} s: {e}");
-            }
+            tracing::debug!("quasi-static step from t = {t0:.6e} s failed at dt = {dt:.3e} s: {e}");
             let v = &mut self.solid.view;
             v.u.copy_from_slice(u);
             v.joint_state.copy_from_slice(js);
@@ -384,16 +372,6 @@ impl Simulation {
         qs.counts.resolves += rounds;
         qs.counts.max_resolves_in_step = qs.counts.max_resolves_in_step.max(rounds);
         Ok(())
-    }
-
-    /// The effort of the current step (the adaptive step's input).
-    fn effort(&self) -> monitor::Effort {
-        let cells = self.flow.as_ref().map_or(0, |f| f.view.n_cells());
-        monitor::Effort {
-            iterations: self.step_iterations,
-            pressure_change: self.step_pressure_change,
-            new_cells: cells.saturating_sub(self.cells_at_start),
-        }
     }
 
     /// A frame and a series row now (the first one, and the steady solution).

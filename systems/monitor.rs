@@ -38,6 +38,16 @@ pub struct Clock {
     pub finish: Option<Finish>,
 }
 
+/// The end of the step that started at `t0`, s: t0 + dt, or exactly the time an adaptive step
+/// was aimed at (the end or a figure time) when it lands there.
+pub fn step_end(t0: f64, p: &RunParams) -> f64 {
+    let t1 = t0 + p.solid.dt;
+    match p.time.aim {
+        Some(aim) if (t1 - aim).abs() <= 1e-9 * p.solid.dt => aim,
+        _ => t1,
+    }
+}
+
 /// `monitor`: the step [t0, t0 + dt] is done; check it and decide whether the run ends.
 pub fn monitor(
     clock: &mut Clock,
@@ -47,13 +57,7 @@ pub fn monitor(
     p: &RunParams,
 ) -> Result<(), RunError> {
     clock.step += 1;
-    clock.time = t0 + p.solid.dt;
-    // An adaptive step aimed at the end or a figure time lands on it exactly.
-    if let Some(aim) = p.time.aim
-        && (clock.time - aim).abs() <= 1e-9 * p.solid.dt
-    {
-        clock.time = aim;
-    }
+    clock.time = step_end(t0, p);
     let (st, v) = (&solid.stats, &solid.view);
     let blow = |entity: String, quantity: &'static str, value: f64, why: String, dt: f64| {
         RunError::BlowUp {

@@ -382,9 +382,14 @@ pub fn solve(
     // that is larger (a prescribed displacement into a stress-free state, e.g. a lifted block
     // on an opening joint, ends with no reaction at all).
     let mut first2 = None;
-    let mut u_base = Vec::new();
+    let (mut u_base, mut rhs_try) = (Vec::new(), Vec::new());
+    // The coupled line search leaves the residual of the point it accepted.
+    let mut evaluated = None;
     let (res2, ref2) = loop {
-        let (res2, ref2, flow_ok) = evaluate(v, qs, &mut flow, p, &joint0, &mut rhs);
+        let (res2, ref2, flow_ok) = match evaluated.take() {
+            Some(e) => e,
+            None => evaluate(v, qs, &mut flow, p, &joint0, &mut rhs),
+        };
         if on.contact {
             for (st, js) in states.iter_mut().zip(&v.joint_state) {
                 if iterations <= FREEZE_AFTER {
@@ -445,18 +450,20 @@ pub fn solve(
             let candidates = std::iter::once((1.0, None))
                 .chain(kink.map(|(a, c)| (a, Some(c))))
                 .chain((1..=LINE_SEARCH_HALVINGS).map(|k| (0.5f64.powi(k), None)));
-            let mut rhs_try = vec![0.0; n];
+            rhs_try.resize(n, 0.0);
             for (alpha, at) in candidates {
                 v.u.copy_from_slice(&u_base);
                 let dof = &qs.structure.as_ref().expect("structure").dof;
                 add_update(v, dof, &rhs, alpha);
                 qs.rows.set_trial(alpha, at);
-                let (r2, _, _) = evaluate(v, qs, &mut flow, p, &joint0, &mut rhs_try);
-                let phi = r2 / tol2 + qs.rows.phi;
-                if phi <= (1.0 - 1e-4 * alpha) * phi0 {
+                let e = evaluate(v, qs, &mut flow, p, &joint0, &mut rhs_try);
+                evaluated = Some(e);
+                if e.0 / tol2 + qs.rows.phi <= (1.0 - 1e-4 * alpha) * phi0 {
                     break;
                 }
             }
+            // The iterate is the last trial: its residual is the next iteration's.
+            std::mem::swap(&mut rhs, &mut rhs_try);
         }
         prev = Some(states.clone());
         iterations += 1;

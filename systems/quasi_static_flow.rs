@@ -40,7 +40,9 @@
 //! kept and adds dt rho_r N_c with the converged fluxes, as the implicit flow step does.
 
 use crate::flow::boundary::{FlowStats, MASS_ROUNDOFF, accumulate_boundary_volumes};
-use crate::flow::implicit::{assemble, measure, residual, residual_scale};
+use crate::flow::implicit::{
+    assemble, first_kink, kink_landing, measure, residual, residual_scale,
+};
 use crate::flow::{FlowParams, kahan_add};
 use crate::scenario::FlowBoundary;
 use crate::systems::flow::FlowPart;
@@ -92,8 +94,6 @@ pub struct FlowRows {
     pub phi: f64,
     /// The iterate and the Newton update of the line search (y, dy).
     y_base: Vec<f64>,
-    /// Boundary transmissibilities at the start of the step, per boundary and cell.
-    bc_kappa0: Vec<Vec<f64>>,
     /// Rows of A = dr/du: (rock dof, value) per cell.
     a_rows: Vec<Vec<(usize, f64)>>,
 }
@@ -139,21 +139,13 @@ impl FlowRows {
             self.y0[c] = k * fv.excess[c] / (s.fluid.rho_r * v0);
         }
         self.y.copy_from_slice(&self.y0);
-        // Start-of-step transmissibilities of the boundaries (a failed attempt may have left
-        // the view's at a trial's apertures).
-        self.bc_kappa0 = fv
-            .bcs
-            .iter()
-            .map(|b| {
-                b.cells
-                    .iter()
-                    .map(|&c| {
-                        let (l, v0) = (fv.length[c as usize], self.v0[c as usize]);
-                        crate::flow::half_cell_kappa(l, v0 / l, s.fluid.mu)
-                    })
-                    .collect()
-            })
-            .collect();
+        // Boundary transmissibilities at the start-of-step apertures, for the whole step (a
+        // failed attempt may have left the view's at a trial's apertures).
+        let fv = &mut s.part.view;
+        for c in 0..nc {
+            fv.aperture[c] = self.v0[c] / fv.length[c];
+        }
+        fv.update_bc_kappa(s.fluid);
         let xmax = solid
             .x0
             .iter()
@@ -182,12 +174,9 @@ impl FlowRows {
         for c in 0..fv.n_cells() {
             fv.aperture[c] = 0.5 * (self.v0[c] + self.vol[c]) / fv.length[c];
         }
-        fv.update_kappa(s.fluid);
         // Boundary transmissibilities stay at the start-of-step apertures (the pump's
         // operating point has no derivative in the Newton matrix with respect to them).
-        for (b, k0) in fv.bcs.iter_mut().zip(&self.bc_kappa0) {
-            b.kappa.copy_from_slice(k0);
-        }
+        fv.update_pair_kappa(s.fluid);
         let t1 = s.t0 + s.dt;
         residual(
             fv,
@@ -256,16 +245,10 @@ impl FlowRows {
                 continue;
             }
             let kj = c_map.cell_joint[c] as usize;
-            let f = joint_frame(solid, kj);
+            let len = joint_frame(solid, kj).len;
             let g = &mut self.wmat[col as usize * n..(col as usize + 1) * n];
-            for (j, &node) in solid.joint_nodes[kj].iter().enumerate() {
-                for d in 0..2 {
-                    let k = dof[2 * node as usize + d];
-                    if k != usize::MAX {
-                        g[k] += FACE[j] * f.len * f.n[d];
-                    }
-                }
-            }
+            // The face pressure's force per unit pressure is len d(delta_n)/du.
+            opening_gradient(solid, kj, dof, |k, a| g[k] += len * a);
         }
         Ok(m)
     }
@@ -319,15 +302,7 @@ impl FlowRows {
         self.a_rows.iter_mut().for_each(|r| r.clear());
         let joint_dn = |c: usize, scale: f64, row: &mut Vec<(usize, f64)>| {
             let kj = c_map.cell_joint[c] as usize;
-            let f = joint_frame(solid, kj);
-            for (j, &node) in solid.joint_nodes[kj].iter().enumerate() {
-                for d in 0..2 {
-                    let q = dof[2 * node as usize + d];
-                    if q != usize::MAX {
-                        row.push((q, scale * FACE[j] * f.n[d]));
-                    }
-                }
-            }
+            opening_gradient(solid, kj, dof, |q, a| row.push((q, scale * a)));
         };
         for c in 0..nc {
             self.s[c * nc + c] += self.vol[c] / self.v0[c] - 1.0;
@@ -344,15 +319,14 @@ impl FlowRows {
             if dp == 0.0 || s.dt == 0.0 {
                 continue;
             }
-            // kappa = 1 / (6 mu (L_i / a_i^3 + L_j / a_j^3)) at the mid-step apertures:
-            // d kappa / d a_s = 18 mu kappa^2 L_s / a_s^4, and d a_s / du = d(delta_n)/du / 2.
+            // kappa at the mid-step apertures: d a_s / du = d(delta_n)/du / 2.
             let kap = fv.kappa[pk];
             for side in [i, j] {
                 if !self.active[side] {
                     continue;
                 }
-                let a = fv.aperture[side];
-                let dk = 18.0 * s.fluid.mu * kap * kap * fv.length[side] / (a * a * a * a) * 0.5;
+                let (l, a) = (fv.length[side], fv.aperture[side]);
+                let dk = 0.5 * crate::flow::pair_kappa_slope(kap, l, a, s.fluid.mu);
                 // r_i = ... - w_i N_i with N_i = -q, N_j = +q, q = kappa (P_i - P_j).
                 joint_dn(side, self.w[i] * dp * dk, &mut self.a_rows[i]);
                 joint_dn(side, -self.w[j] * dp * dk, &mut self.a_rows[j]);
@@ -422,19 +396,10 @@ impl FlowRows {
         self.y_base.extend_from_slice(&self.y);
     }
 
-    /// The smallest step fraction in (0, 1) at which a cell changes branch of the pressure
-    /// law (fills: y crosses 0 upwards, or drains), and that cell.
+    /// The first kink of the pressure law on the way, if before the full step
+    /// ([`crate::flow::implicit::first_kink`]).
     pub fn first_kink(&self) -> Option<(f64, usize)> {
-        let mut best: Option<(f64, usize)> = None;
-        for (c, (&y, &d)) in self.y_base.iter().zip(&self.b).enumerate() {
-            if (y < 0.0 && y + d >= 0.0) || (y > 0.0 && y + d < 0.0) {
-                let a = -y / d;
-                if a > 0.0 && a < 1.0 && best.is_none_or(|(b, _)| a < b) {
-                    best = Some((a, c));
-                }
-            }
-        }
-        best
+        first_kink(&self.y_base, &self.b).filter(|&(a, _)| a < 1.0)
     }
 
     /// y = base + alpha dy; at a kink step the kink's cell lands on its new branch (y = 0
@@ -444,11 +409,21 @@ impl FlowRows {
             *y = b + alpha * d;
         }
         if let Some(c) = kink {
-            self.y[c] = if self.b[c] > 0.0 {
-                0.0
-            } else {
-                -f64::MIN_POSITIVE
-            };
+            self.y[c] = kink_landing(self.b[c]);
+        }
+    }
+}
+
+/// d(delta_n)/du of joint `kj` on its free dofs: `push(dof, FACE[j] n[d])` for node j's
+/// component d (the frame's normal at the current positions; its own change is neglected).
+fn opening_gradient(solid: &SolidView, kj: usize, dof: &[usize], mut push: impl FnMut(usize, f64)) {
+    let n = joint_frame(solid, kj).n;
+    for (j, &node) in solid.joint_nodes[kj].iter().enumerate() {
+        for d in 0..2 {
+            let q = dof[2 * node as usize + d];
+            if q != usize::MAX {
+                push(q, FACE[j] * n[d]);
+            }
         }
     }
 }

@@ -11,6 +11,8 @@ use hydrofrac::sim::{Finish, Simulation};
 use hydrofrac::systems::RunError;
 use hydrofrac::systems::SystemId;
 
+#[path = "support/bits.rs"]
+mod bits;
 #[path = "support/scenes.rs"]
 mod scenes;
 
@@ -158,31 +160,8 @@ fn explicit_and_implicit_schemes_agree() {
 /// with 1 and 2 threads: displacements, fluid masses, the opened cells and the pump's volume.
 #[test]
 fn coupled_run_is_deterministic_across_thread_counts() {
-    let run = |threads: usize| {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap();
-        pool.install(|| {
-            let mut sim = Simulation::new(scene(0.1, ""), &[]).unwrap();
-            assert_eq!(sim.run(|_| {}).unwrap(), Finish::EndTime);
-            let f = sim.flow().unwrap();
-            let u: Vec<u64> = sim
-                .solid()
-                .u
-                .iter()
-                .flat_map(|x| x.map(f64::to_bits))
-                .collect();
-            let e: Vec<u64> = f.view.excess.iter().map(|x| x.to_bits()).collect();
-            (
-                u,
-                e,
-                sim.fracture().splits,
-                f.view.bcs[0].volume_in.to_bits(),
-            )
-        })
-    };
-    let (a, b) = (run(1), run(2));
+    let make = || Simulation::new(scene(0.1, ""), &[]).unwrap();
+    let (a, b) = (bits::run_bits(1, make), bits::run_bits(2, make));
     assert!(
         a.2 >= 1,
         "no split: the comparison would not cover topology changes"

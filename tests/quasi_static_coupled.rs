@@ -7,6 +7,8 @@
 use hydrofrac::scenario::Scenario;
 use hydrofrac::sim::{Finish, Simulation};
 
+#[path = "support/bits.rs"]
+mod bits;
 #[path = "support/scenes.rs"]
 mod scenes;
 
@@ -132,26 +134,8 @@ fn injected_volume_converges_at_first_order_in_the_step() {
 /// with 1 and 2 threads.
 #[test]
 fn coupled_quasi_static_is_deterministic_across_thread_counts() {
-    let run = |threads: usize| {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap();
-        pool.install(|| {
-            let mut sim = Simulation::new(scene(0.1, ""), &[]).unwrap();
-            assert_eq!(sim.run(|_| {}).unwrap(), Finish::EndTime);
-            let f = sim.flow().unwrap();
-            let u: Vec<u64> = sim
-                .solid()
-                .u
-                .iter()
-                .flat_map(|x| x.map(f64::to_bits))
-                .collect();
-            let e: Vec<u64> = f.view.excess.iter().map(|x| x.to_bits()).collect();
-            (u, e, sim.fracture().splits, sim.clock().step)
-        })
-    };
-    let (a, b) = (run(1), run(2));
+    let make = || Simulation::new(scene(0.1, ""), &[]).unwrap();
+    let (a, b) = (bits::run_bits(1, make), bits::run_bits(2, make));
     assert!(
         a.2 >= 1,
         "no split: the comparison would not cover topology changes"

@@ -377,6 +377,28 @@ pub(crate) fn measure(r: &[f64], scale: &[f64]) -> (f64, usize, f64) {
     (worst, cell, sum)
 }
 
+/// The smallest positive step fraction along `d` at which some y changes branch of the
+/// pressure law P = max(y, 0) (y < 0 reaching 0: the cell fills; y > 0 going below: it
+/// drains), and that cell.
+pub(crate) fn first_kink(y: &[f64], d: &[f64]) -> Option<(f64, usize)> {
+    let mut best: Option<(f64, usize)> = None;
+    for (i, (&yi, &di)) in y.iter().zip(d).enumerate() {
+        if (yi < 0.0 && yi + di >= 0.0) || (yi > 0.0 && yi + di < 0.0) {
+            let a = -yi / di;
+            if a > 0.0 && best.is_none_or(|(b, _)| a < b) {
+                best = Some((a, i));
+            }
+        }
+    }
+    best
+}
+
+/// Where a kink step puts its cell: on the branch the step was heading for (y = 0 when it
+/// fills, just below when it drains), so the next Jacobian takes that branch.
+pub(crate) fn kink_landing(d: f64) -> f64 {
+    if d > 0.0 { 0.0 } else { -f64::MIN_POSITIVE }
+}
+
 /// Jacobian dr/dy at the current iterate (the view holds its pressures and boundary state).
 pub(crate) fn assemble(
     v: &FlowView,
@@ -581,19 +603,7 @@ pub fn implicit_step(
         // that the next Jacobian takes the branch the step was heading for): up to there the
         // residual is smooth and the Newton model exact for the linear boundaries, so it
         // decreases, where halving alone would creep towards the kink; then halving from 1/2.
-        let mut kink = f64::INFINITY;
-        let mut kink_cell = usize::MAX;
-        for i in 0..n {
-            let (yi, di) = (s.y[i], s.delta[i]);
-            let crosses = (yi < 0.0 && yi + di >= 0.0) || (yi > 0.0 && yi + di < 0.0);
-            if crosses {
-                let a = -yi / di;
-                if a > 0.0 && a < kink {
-                    kink = a;
-                    kink_cell = i;
-                }
-            }
-        }
+        let (kink, kink_cell) = first_kink(&s.y, &s.delta).unwrap_or((f64::INFINITY, usize::MAX));
         let mut alpha = 1.0;
         let mut halving = 1.0;
         let mut tried_kink = false;
@@ -602,11 +612,7 @@ pub fn implicit_step(
                 s.y_try[i] = s.y[i] + alpha * s.delta[i];
             }
             if alpha == kink {
-                s.y_try[kink_cell] = if s.delta[kink_cell] > 0.0 {
-                    0.0
-                } else {
-                    -f64::MIN_POSITIVE
-                };
+                s.y_try[kink_cell] = kink_landing(s.delta[kink_cell]);
             }
             residual(
                 v,
