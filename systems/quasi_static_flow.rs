@@ -39,11 +39,11 @@
 //! exactly whatever the residual: the commit moves each cell's volume to V(u) with its mass
 //! kept and adds dt rho_r N_c with the converged fluxes, as the implicit flow step does.
 
-use crate::flow::boundary::{FlowStats, MASS_ROUNDOFF, accumulate_boundary_volumes};
+use crate::flow::FlowParams;
+use crate::flow::boundary::FlowStats;
 use crate::flow::implicit::{
-    assemble, first_kink, kink_landing, measure, residual, residual_scale,
+    apply_net_inflow, assemble, first_kink, kink_landing, measure, residual, residual_scale,
 };
-use crate::flow::{FlowParams, kahan_add};
 use crate::scenario::FlowBoundary;
 use crate::systems::flow::FlowPart;
 use crate::systems::fracture::joint_frame;
@@ -435,27 +435,11 @@ fn opening_gradient(solid: &SolidView, kj: usize, dof: &[usize], mut push: impl 
 /// converged pressures the face load. Returns the step's statistics.
 pub fn commit(rows: &FlowRows, f: &mut FlowPart, fp: &FlowParams, dt: f64) -> FlowStats {
     let v = &mut f.view;
-    let rho_dt = fp.rho_r * dt;
-    let mut st = FlowStats::default();
     for c in 0..v.n_cells() {
         v.set_volume_keep_mass(c, rows.vol[c], fp);
         v.aperture[c] = rows.vol[c] / v.length[c];
-        let net = rows.net[c];
-        kahan_add(&mut v.excess[c], &mut v.excess_comp[c], rho_dt * net);
-        let mut through = v.bc_in[c].abs();
-        for &e in &v.inc[v.inc_ptr[c] as usize..v.inc_ptr[c + 1] as usize] {
-            through += v.pair_q[(e >> 1) as usize].abs();
-        }
-        v.flow_rate[c] = 0.5 * through;
-        st.net2 += net * net;
-        let m = v.excess[c];
-        if !(m >= -fp.rho_r * v.volume[c] * (1.0 + MASS_ROUNDOFF) && m.is_finite())
-            && st.bad_cell.is_none()
-        {
-            st.bad_cell = Some(c);
-        }
     }
-    accumulate_boundary_volumes(v, dt);
+    let st = apply_net_inflow(v, fp, &rows.net, dt);
     v.update_kappa(fp);
     if let Some(c) = f.coupling.as_mut() {
         c.p_mean.copy_from_slice(&v.pressure);

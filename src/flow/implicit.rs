@@ -377,6 +377,40 @@ pub(crate) fn measure(r: &[f64], scale: &[f64]) -> (f64, usize, f64) {
     (worst, cell, sum)
 }
 
+/// The end of a backward-Euler step whose pressures, pair fluxes and boundary flows are in
+/// the view and whose net inflows (m^2/s) are `net`: each cell's excess mass gains
+/// dt rho_r net (Kahan-compensated), its throughput is half the sum of |fluxes|, the
+/// boundaries' volumes advance by dt times their rates. Returns the step's statistics (the
+/// first cell with negative or non-finite mass). Shared by the implicit step and the coupled
+/// quasi-static step's commit.
+pub(crate) fn apply_net_inflow(
+    v: &mut FlowView,
+    p: &FlowParams,
+    net: &[f64],
+    dt: f64,
+) -> FlowStats {
+    let rho_dt = p.rho_r * dt;
+    let mut st = FlowStats::default();
+    for (i, &q) in net.iter().enumerate() {
+        let mut through = v.bc_in[i].abs();
+        for &e in &v.inc[v.inc_ptr[i] as usize..v.inc_ptr[i + 1] as usize] {
+            through += v.pair_q[(e >> 1) as usize].abs();
+        }
+        kahan_add(&mut v.excess[i], &mut v.excess_comp[i], rho_dt * q);
+        v.flow_rate[i] = 0.5 * through;
+        st.net2 += q * q;
+        let m = v.excess[i];
+        if !(m >= -p.rho_r * v.volume[i] * (1.0 + crate::flow::boundary::MASS_ROUNDOFF)
+            && m.is_finite())
+            && st.bad_cell.is_none()
+        {
+            st.bad_cell = Some(i);
+        }
+    }
+    crate::flow::boundary::accumulate_boundary_volumes(v, dt);
+    st
+}
+
 /// The smallest positive step fraction along `d` at which some y changes branch of the
 /// pressure law P = max(y, 0) (y < 0 reaching 0: the cell fills; y > 0 going below: it
 /// drains), and that cell.
@@ -652,26 +686,7 @@ pub fn implicit_step(
     }
     // The view now holds the converged pressures, pair fluxes and boundary flows; update the
     // masses with exactly those fluxes and the boundary volumes with the same rates.
-    let rho_dt = params.rho_r * dt;
-    let mut st = FlowStats::default();
-    for i in 0..n {
-        let mut through = v.bc_in[i].abs();
-        for &e in &v.inc[v.inc_ptr[i] as usize..v.inc_ptr[i + 1] as usize] {
-            through += v.pair_q[(e >> 1) as usize].abs();
-        }
-        let net = s.net[i];
-        kahan_add(&mut v.excess[i], &mut v.excess_comp[i], rho_dt * net);
-        v.flow_rate[i] = 0.5 * through;
-        st.net2 += net * net;
-        let m = v.excess[i];
-        if !(m >= -params.rho_r * v.volume[i] * (1.0 + crate::flow::boundary::MASS_ROUNDOFF)
-            && m.is_finite())
-            && st.bad_cell.is_none()
-        {
-            st.bad_cell = Some(i);
-        }
-    }
-    crate::flow::boundary::accumulate_boundary_volumes(v, dt);
+    let st = apply_net_inflow(v, params, &s.net, dt);
     s.last_iterations = it;
     s.total_iterations += it as u64;
     s.steps += 1;
