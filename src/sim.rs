@@ -148,7 +148,10 @@ impl Simulation {
             if status != Status::Enabled {
                 continue;
             }
-            let _span = sys.span().entered();
+            // Quasi-static propagation runs after the `split` span closes: its re-solves run
+            // under their own systems' spans, so no time is counted twice.
+            let mut propagate_at = None;
+            let span = sys.span().entered();
             let (p, v) = (&mut self.params, &mut self.solid.view);
             match sys {
                 SystemId::InternalForce => solid::internal_force(v, &p.solid),
@@ -168,7 +171,7 @@ impl Simulation {
                     let t1 = monitor::step_end(t0, &self.params);
                     if self.split_now(t1) {
                         if self.solid.quasi_static.is_some() {
-                            self.propagate(t1)?;
+                            propagate_at = Some(t1);
                         } else {
                             let (m, s, c) = (&self.model, &mut self.solid, &mut self.clock);
                             split::shorten_step(m, s, c, &mut self.params, t1);
@@ -202,6 +205,10 @@ impl Simulation {
                         }
                     }
                 }
+            }
+            drop(span);
+            if let Some(t1) = propagate_at {
+                self.propagate(t1)?;
             }
         }
         Ok(())
@@ -493,6 +500,10 @@ impl Simulation {
     /// What the quasi-static solver did (`None` with the explicit scheme).
     pub fn quasi_static_counts(&self) -> Option<quasi_static::QsCounts> {
         self.solid.quasi_static.as_ref().map(|q| q.counts)
+    }
+    /// The quasi-static solver, to change its settings (tolerance, W updates) before a run.
+    pub fn quasi_static_mut(&mut self) -> Option<&mut quasi_static::QuasiStatic> {
+        self.solid.quasi_static.as_mut()
     }
     /// Critical solid step of the current topology, s.
     pub fn dt_crit(&self) -> f64 {

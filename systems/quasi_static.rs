@@ -44,6 +44,17 @@ pub const MAX_ITER: usize = 60;
 pub const LINE_SEARCH_HALVINGS: i32 = 10;
 /// Iterations after which the contact states are frozen.
 pub const FREEZE_AFTER: usize = 30;
+/// Low-rank updates of W in a row before it is solved again in full (bounds round-off drift).
+pub const MAX_W_UPDATES: usize = 16;
+/// Largest backward error |K_T W x - G x| / |G x| an updated W may have; above it, W is solved
+/// again in full. A full solve gives 1e-14; updates give 1e-15 to 4e-8 when K_T is well
+/// conditioned and 1e-7 to 4 where a soft mode (sliding or open joints around a block) makes
+/// the update cancel (measured on `kgd.ron` and `example1_cross.ron`). W only enters the
+/// Newton matrix, so 1e-7 costs no iterations.
+pub const W_UPDATE_TOL: f64 = 1e-7;
+/// Columns per block of a multi-column solve: fixed, so the bits do not depend on the number
+/// of threads that share the blocks.
+const SOLVE_BLOCK: usize = 8;
 
 const NONE: usize = usize::MAX;
 
@@ -65,8 +76,15 @@ pub struct QsCounts {
     pub solves: u64,
     /// Newton iterations of the last step.
     pub last_iterations: u64,
-    /// Coupled runs: columns of K^-1 G solved (one per fracture cell and factorisation).
+    /// Coupled runs: columns of K^-1 G solved (one per fracture cell and full rebuild of W,
+    /// one per changed joint spring and low-rank update of W).
     pub coupling_solves: u64,
+    /// Coupled runs: refactorisations after which W = K_T^-1 G was updated for the changed
+    /// joint springs instead of solved again column by column.
+    pub w_updates: u64,
+    /// Updates refused for their backward error (above [`W_UPDATE_TOL`]), W then solved in
+    /// full.
+    pub w_updates_refused: u64,
     /// Steps retried with half the step after Newton failed.
     pub cutbacks: u64,
     /// Re-solves at the same time after a split opened faces, their most in one step, and
@@ -88,8 +106,34 @@ struct Structure {
     k_el: Vec<f64>,
     /// Per joint, the slot of each (a, b) entry of its 8 x 8 block (dofs of its 4 nodes).
     joint_slots: Vec<[usize; 64]>,
+    /// Per joint, the unit normal and tangent its springs act along in K_T, its normal and its
+    /// length (m) in G: the geometry at the last refactorisation that was not followed by a
+    /// low-rank update of W (so along a chain of updates K_T changes only in the joints whose
+    /// states changed, and each update is exact).
+    joint_axes: Vec<[[f64; 2]; 2]>,
+    joint_normal: Vec<[f64; 2]>,
+    joint_len: Vec<f64>,
+    /// Per joint, the free dof of each of its 8 components (`NONE`: prescribed).
+    joint_dofs: Vec<[usize; 8]>,
     symbolic: SymbolicCholesky<usize>,
     mem: MemBuffer,
+}
+
+impl Structure {
+    /// Each joint's axes, normal and length from the current positions.
+    fn set_joint_geometry(&mut self, v: &SolidView) {
+        let frames = (0..v.joint_nodes.len()).map(|k| joint_frame(v, k));
+        (self.joint_axes, self.joint_normal, self.joint_len) = (
+            Vec::with_capacity(v.joint_nodes.len()),
+            Vec::with_capacity(v.joint_nodes.len()),
+            Vec::with_capacity(v.joint_nodes.len()),
+        );
+        for f in frames {
+            self.joint_axes.push([f.n, f.t]);
+            self.joint_normal.push(f.n);
+            self.joint_len.push(f.len);
+        }
+    }
 }
 
 /// The quasi-static solver of a run (see the module documentation).
@@ -101,6 +145,10 @@ pub struct QuasiStatic {
     factored: Option<Vec<State>>,
     l_values: Vec<f64>,
     values: Vec<f64>,
+    /// Low-rank updates of W since it was last solved in full, and how many are allowed in a
+    /// row (0: W solved in full after every refactorisation, for comparison).
+    w_updates: usize,
+    pub max_w_updates: usize,
     pub tol: f64,
     pub counts: QsCounts,
     /// The network's rows of a coupled step.
@@ -116,6 +164,8 @@ impl QuasiStatic {
             factored: None,
             l_values: Vec::new(),
             values: Vec::new(),
+            w_updates: 0,
+            max_w_updates: MAX_W_UPDATES,
             tol: DEFAULT_TOL,
             counts: QsCounts::default(),
             rows: FlowRows::default(),
@@ -215,6 +265,11 @@ impl QuasiStatic {
             symbolic.solve_in_place_scratch::<f64>(1, Par::Seq),
         ]);
         let mem = MemBuffer::try_new(req).map_err(|_| "out of memory for the workspace")?;
+        let joint_dofs = v
+            .joint_nodes
+            .iter()
+            .map(|j| std::array::from_fn(|i| dof[2 * j[i / 2] as usize + i % 2]))
+            .collect();
         self.counts.symbolic_factorisations += 1;
         self.factored = None;
         self.rows.forget_w();
@@ -225,36 +280,42 @@ impl QuasiStatic {
             pattern,
             k_el,
             joint_slots,
+            joint_axes: Vec::new(),
+            joint_normal: Vec::new(),
+            joint_len: Vec::new(),
+            joint_dofs,
             symbolic,
             mem,
         });
         Ok(())
     }
 
-    /// Numeric factor of K_T for the contact `states` (kept while they are unchanged).
-    fn factor(&mut self, v: &SolidView, p: &RunParams, states: &[State]) -> Result<(), String> {
+    /// Numeric factor of K_T for the contact `states` (kept while they are unchanged), with
+    /// the joints' geometry taken afresh from the current positions when `refresh`.
+    /// Returns the states of the factor it replaced, if it made a new one.
+    fn factor(
+        &mut self,
+        v: &SolidView,
+        p: &RunParams,
+        states: &[State],
+        refresh: bool,
+    ) -> Result<Option<Vec<State>>, String> {
         if self.factored.as_deref() == Some(states) {
-            return Ok(());
+            return Ok(None);
         }
         let s = self.structure.as_mut().expect("structure");
+        if refresh {
+            s.set_joint_geometry(v);
+        }
         self.values.clear();
         self.values.extend_from_slice(&s.k_el);
         for (k, st) in states.iter().enumerate() {
-            if *st == State::Open {
-                continue;
-            }
-            let f = joint_frame(v, k);
-            // Springs on the faces' relative displacement delta = c_q - c_p, with
-            // c = mean of the face's two nodes: coefficient c_j = -1/2, -1/2, 1/2, 1/2.
-            let tangent = if *st == State::Stick { p.joint.kt } else { 0.0 };
-            const C: [f64; 4] = [-0.5, -0.5, 0.5, 0.5];
-            for (kk, e) in [(p.joint.kn, f.n), (tangent, f.t)] {
-                for a in 0..8 {
-                    for b in 0..8 {
-                        let slot = s.joint_slots[k][8 * a + b];
+            for (kk, a) in joint_springs(p, &s.joint_axes[k], *st) {
+                for i in 0..8 {
+                    for j in 0..8 {
+                        let slot = s.joint_slots[k][8 * i + j];
                         if slot != NONE {
-                            let ka = C[a / 2] * C[b / 2] * kk * e[a % 2] * e[b % 2];
-                            self.values[slot] += ka;
+                            self.values[slot] += kk * a[i] * a[j];
                         }
                     }
                 }
@@ -274,14 +335,118 @@ impl QuasiStatic {
                 Default::default(),
             )
             .map_err(|e| {
-                format!(
-                    "the stiffness is not positive definite ({e:?}): the rock can move as a \
-                     rigid body (too few supports) or a block is held by open joints only"
-                )
+                let sliding = states.iter().filter(|s| **s == State::Slip).count();
+                if sliding > 0 {
+                    format!(
+                        "the stiffness is not positive definite ({e:?}) with {sliding} joints \
+                         in slip: the joints slide past the Coulomb limit and hold a block by \
+                         friction alone, which has no static equilibrium (use \
+                         time.solid_scheme: Explicit to follow the sliding)"
+                    )
+                } else {
+                    format!(
+                        "the stiffness is not positive definite ({e:?}): the rock can move as \
+                         a rigid body (too few supports) or a block is held by open joints only"
+                    )
+                }
             })?;
         self.counts.numeric_factorisations += 1;
-        self.factored = Some(states.to_vec());
-        Ok(())
+        Ok(self.factored.replace(states.to_vec()))
+    }
+
+    /// How well W solves K_T W = G: |K_T W x - G x| / |G x| for the fixed weights x of
+    /// [`FlowRows::w_combination`], given `gx` = G x. A full solve gives round-off (1e-14); a
+    /// low-rank update loses digits when K_T has a soft mode (a block held by sliding or open
+    /// joints), which this catches.
+    fn w_backward_error(&self, gx: &[f64], wx: &mut Vec<f64>) -> f64 {
+        let s = self.structure.as_ref().expect("structure");
+        self.rows.w_combination(s.n, wx);
+        let (ptr, idx) = (s.pattern.col_ptr(), s.pattern.row_idx());
+        let mut r: Vec<f64> = gx.iter().map(|g| -g).collect();
+        for j in 0..s.n {
+            for k in ptr[j]..ptr[j + 1] {
+                let (i, a) = (idx[k], self.values[k]);
+                r[i] += a * wx[j];
+                if i != j {
+                    r[j] += a * wx[i];
+                }
+            }
+        }
+        let norm = |v: &[f64]| v.iter().map(|x| x * x).sum::<f64>().sqrt();
+        norm(&r) / norm(gx).max(f64::MIN_POSITIVE)
+    }
+
+    /// After a refactorisation from the contact states `before` (factor number `before_id`)
+    /// to `now`, bring W = K_T^-1 G up to date without solving every column again:
+    /// K_new = K_old + sum_s dk_s a_s a_s^T over the joint springs that changed, so
+    /// K_new W_new = G = K_old W_old gives W_new = W_old - K_new^-1 (sum_s dk_s a_s a_s^T) W_old,
+    /// one solve per changed spring. Returns false (W left for a full solve) when W was not
+    /// that of the factor replaced, the change is not small against the columns, or
+    /// `max_w_updates` updates were made in a row.
+    fn update_w(
+        &mut self,
+        p: &RunParams,
+        before: &[State],
+        before_id: u64,
+        now: &[State],
+    ) -> Result<bool, String> {
+        if !self.rows.w_is_for(before_id) || self.w_updates >= self.max_w_updates {
+            return Ok(false);
+        }
+        let s = self.structure.as_ref().expect("structure");
+        let n = s.n;
+        let m = self.rows.w_columns(n);
+        let mut springs: Vec<(usize, f64, [f64; 8])> = Vec::new();
+        for (k, (b, a)) in before.iter().zip(now).enumerate() {
+            if b == a {
+                continue;
+            }
+            let old = joint_springs(p, &s.joint_axes[k], *b);
+            let new = joint_springs(p, &s.joint_axes[k], *a);
+            for (o, w) in old.iter().zip(&new) {
+                if o.0 != w.0 {
+                    springs.push((k, w.0 - o.0, w.1));
+                }
+            }
+        }
+        if 4 * springs.len() > m {
+            return Ok(false);
+        }
+        let ns = springs.len();
+        let mut z = vec![0.0; n * ns];
+        let mut at_dofs = Vec::with_capacity(ns);
+        for (j, (k, _, a)) in springs.iter().enumerate() {
+            let d = s.joint_dofs[*k];
+            for i in 0..8 {
+                if d[i] != NONE {
+                    z[j * n + d[i]] += a[i];
+                }
+            }
+            at_dofs.push(d);
+        }
+        solve_columns(s, &self.l_values, &mut z, ns)?;
+        let w = self.rows.w_buffer();
+        for c in 0..m {
+            let wc = &mut w[c * n..(c + 1) * n];
+            for (j, (_, dk, a)) in springs.iter().enumerate() {
+                let d = at_dofs[j];
+                let mut b = 0.0;
+                for i in 0..8 {
+                    if d[i] != NONE {
+                        b += a[i] * wc[d[i]];
+                    }
+                }
+                let coef = dk * b;
+                if coef != 0.0 {
+                    for (x, zj) in wc.iter_mut().zip(&z[j * n..(j + 1) * n]) {
+                        *x -= coef * zj;
+                    }
+                }
+            }
+        }
+        self.counts.coupling_solves += ns as u64;
+        self.w_updates += 1;
+        Ok(true)
     }
 
     /// Drop the numeric factor, so the next iteration refactorises (benchmarks).
@@ -304,23 +469,55 @@ impl QuasiStatic {
 
     /// Solve K_T X = B in place for the column-major `m` columns in the flow rows' W buffer.
     fn solve_w(&mut self, m: usize) -> Result<(), String> {
-        let s = self.structure.as_mut().expect("structure");
-        if m == 0 {
-            return Ok(());
-        }
-        let req = s.symbolic.solve_in_place_scratch::<f64>(m, Par::Seq);
-        let mut mem = MemBuffer::try_new(req).map_err(|_| "out of memory for the workspace")?;
-        let llt = LltRef::<usize, f64>::new(&s.symbolic, &self.l_values);
-        let n = s.n;
-        llt.solve_in_place_with_conj(
-            Conj::No,
-            MatMut::from_column_major_slice_mut(self.rows.w_buffer(), n, m),
-            Par::Seq,
-            MemStack::new(&mut mem),
-        );
+        let s = self.structure.as_ref().expect("structure");
+        solve_columns(s, &self.l_values, self.rows.w_buffer(), m)?;
         self.counts.coupling_solves += m as u64;
+        self.w_updates = 0;
         Ok(())
     }
+}
+
+/// Solve K_T X = B in place for the `m` column-major columns of `buf` with the factor
+/// `l_values`, in blocks of [`SOLVE_BLOCK`] columns shared among the threads.
+fn solve_columns(s: &Structure, l_values: &[f64], buf: &mut [f64], m: usize) -> Result<(), String> {
+    use rayon::prelude::*;
+    let n = s.n;
+    if m == 0 || n == 0 {
+        return Ok(());
+    }
+    let req = s
+        .symbolic
+        .solve_in_place_scratch::<f64>(SOLVE_BLOCK, Par::Seq);
+    let llt = LltRef::<usize, f64>::new(&s.symbolic, l_values);
+    buf[..n * m]
+        .par_chunks_mut(n * SOLVE_BLOCK)
+        .try_for_each(|block| {
+            let mut mem = MemBuffer::try_new(req).map_err(|_| "out of memory for the workspace")?;
+            let cols = block.len() / n;
+            llt.solve_in_place_with_conj(
+                Conj::No,
+                MatMut::from_column_major_slice_mut(block, n, cols),
+                Par::Seq,
+                MemStack::new(&mut mem),
+            );
+            Ok::<(), String>(())
+        })
+}
+
+/// The penalty springs of a joint in contact state `st` along its `axes` (normal, tangent):
+/// (stiffness N/m^2, coefficients on its 8 dofs). The springs act on the faces' relative
+/// displacement delta = c_q - c_p, c the mean of a face's two nodes: coefficient -1/2, -1/2,
+/// 1/2, 1/2 per node times the axis. Open: none; closed: K_n along n, and K_t along t when
+/// sticking (a sliding joint's shear is bounded, not a spring).
+fn joint_springs(p: &RunParams, axes: &[[f64; 2]; 2], st: State) -> [(f64, [f64; 8]); 2] {
+    const C: [f64; 4] = [-0.5, -0.5, 0.5, 0.5];
+    let along = |e: [f64; 2]| std::array::from_fn(|i| C[i / 2] * e[i % 2]);
+    let (kn, kt) = match st {
+        State::Open => (0.0, 0.0),
+        State::Stick => (p.joint.kn, p.joint.kt),
+        State::Slip => (p.joint.kn, 0.0),
+    };
+    [(kn, along(axes[0])), (kt, along(axes[1]))]
 }
 
 /// The forces at the current iterate, with the joints' return map restarted from `joint0`.
@@ -383,6 +580,7 @@ pub fn solve(
     // on an opening joint, ends with no reaction at all).
     let mut first2 = None;
     let (mut u_base, mut rhs_try) = (Vec::new(), Vec::new());
+    let (mut gx, mut wx) = (Vec::new(), Vec::new());
     // The coupled line search leaves the residual of the point it accepted.
     let mut evaluated = None;
     let (res2, ref2) = loop {
@@ -415,14 +613,52 @@ pub fn solve(
         if iterations >= MAX_ITER {
             return Err(fail(step, time, not_converged(v, qs, &flow, res2, ref2)));
         }
-        qs.factor(v, p, &states).map_err(|e| fail(step, time, e))?;
+        let before_id = qs.counts.numeric_factorisations;
+        // The joints' geometry stays that of the factor W was solved with while W may be
+        // updated (an exact low-rank change); otherwise it is taken afresh.
+        let may_update = flow.is_some()
+            && qs.factored.is_some()
+            && qs.rows.w_is_for(before_id)
+            && qs.w_updates < qs.max_w_updates;
+        let before = qs
+            .factor(v, p, &states, !may_update)
+            .map_err(|e| fail(step, time, e))?;
         if let Some(f) = flow.as_ref() {
             let id = qs.counts.numeric_factorisations;
-            if qs.rows.needs_w(id) {
+            let updated = match before {
+                Some(b) if id != before_id => {
+                    let ok = qs
+                        .update_w(p, &b, before_id, &states)
+                        .map_err(|e| fail(step, time, e))?;
+                    let s = qs.structure.as_ref().expect("structure");
+                    let accurate = ok && {
+                        qs.rows.g_combination(
+                            f,
+                            v,
+                            &s.dof,
+                            s.n,
+                            &s.joint_normal,
+                            &s.joint_len,
+                            &mut gx,
+                        );
+                        qs.w_backward_error(&gx, &mut wx) <= W_UPDATE_TOL
+                    };
+                    if ok && !accurate {
+                        qs.counts.w_updates_refused += 1;
+                    }
+                    if accurate {
+                        qs.counts.w_updates += 1;
+                        qs.rows.set_w_factor(id);
+                    }
+                    accurate
+                }
+                _ => false,
+            };
+            if !updated && qs.rows.needs_w(id) {
                 let s = qs.structure.as_ref().expect("structure");
                 let m = qs
                     .rows
-                    .load_g(f, v, &s.dof, s.n)
+                    .load_g(f, v, &s.dof, s.n, &s.joint_normal, &s.joint_len)
                     .map_err(|e| fail(step, time, e))?;
                 qs.solve_w(m).map_err(|e| fail(step, time, e))?;
                 qs.rows.set_w_factor(id);

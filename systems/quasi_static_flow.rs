@@ -210,12 +210,17 @@ impl FlowRows {
     /// The columns of G (face pressure to nodal force, per unit pressure) of every cell with a
     /// joint, into the W buffer (to be solved in place by the caller); returns the number of
     /// columns. `dof[2 i + d]` is node i's free dof (`usize::MAX`: prescribed), `n` their count.
+    /// `normal` and `len` are each joint's normal and length as the rock's tangent takes them
+    /// (frozen with the topology: G then changes only with it, so W = K_T^-1 G stays exact
+    /// under the low-rank updates of K_T; the residual uses the current geometry).
     pub fn load_g(
         &mut self,
         s: &FlowStep,
         solid: &SolidView,
         dof: &[usize],
         n: usize,
+        normal: &[[f64; 2]],
+        len: &[f64],
     ) -> Result<usize, String> {
         let c_map = s.part.coupling.as_ref().expect("coupled flow");
         let nc = s.part.view.n_cells();
@@ -245,17 +250,71 @@ impl FlowRows {
                 continue;
             }
             let kj = c_map.cell_joint[c] as usize;
-            let len = joint_frame(solid, kj).len;
+            let l = len[kj];
             let g = &mut self.wmat[col as usize * n..(col as usize + 1) * n];
             // The face pressure's force per unit pressure is len d(delta_n)/du.
-            opening_gradient(solid, kj, dof, |k, a| g[k] += len * a);
+            opening_gradient(solid, kj, normal[kj], dof, |k, a| g[k] += l * a);
         }
         Ok(m)
+    }
+
+    /// Weight of W's column `col` in the combinations [`FlowRows::g_combination`] and
+    /// [`FlowRows::w_combination`] (distinct weights, so no two columns' errors cancel).
+    fn weight(col: usize) -> f64 {
+        1.0 + (col % 7) as f64 / 7.0
+    }
+
+    /// G x for the weights x of [`FlowRows::weight`], over the columns of the last
+    /// [`FlowRows::load_g`] (same arguments), into `out` (length `n`).
+    #[allow(clippy::too_many_arguments)]
+    pub fn g_combination(
+        &self,
+        s: &FlowStep,
+        solid: &SolidView,
+        dof: &[usize],
+        n: usize,
+        normal: &[[f64; 2]],
+        len: &[f64],
+        out: &mut Vec<f64>,
+    ) {
+        let c_map = s.part.coupling.as_ref().expect("coupled flow");
+        out.clear();
+        out.resize(n, 0.0);
+        for (c, &col) in self.w_col.iter().enumerate() {
+            if col == u32::MAX {
+                continue;
+            }
+            let kj = c_map.cell_joint[c] as usize;
+            let x = Self::weight(col as usize) * len[kj];
+            opening_gradient(solid, kj, normal[kj], dof, |k, a| out[k] += x * a);
+        }
+    }
+
+    /// W x for the weights of [`FlowRows::weight`], into `out` (length `n`).
+    pub fn w_combination(&self, n: usize, out: &mut Vec<f64>) {
+        out.clear();
+        out.resize(n, 0.0);
+        for (col, wc) in self.wmat.chunks_exact(n.max(1)).enumerate() {
+            let x = Self::weight(col);
+            for (o, w) in out.iter_mut().zip(wc) {
+                *o += x * w;
+            }
+        }
     }
 
     /// The W buffer (G before the caller's solve, K_T^-1 G after) and its column count.
     pub fn w_buffer(&mut self) -> &mut [f64] {
         &mut self.wmat
+    }
+
+    /// Whether W is K_T^-1 G for the factor numbered `factor`.
+    pub fn w_is_for(&self, factor: u64) -> bool {
+        self.w_factor == Some(factor)
+    }
+
+    /// The number of columns of W for `n` rock dofs.
+    pub fn w_columns(&self, n: usize) -> usize {
+        self.wmat.len().checked_div(n).unwrap_or(0)
     }
 
     /// Mark W as solved for the factor numbered `factor`.
@@ -302,7 +361,8 @@ impl FlowRows {
         self.a_rows.iter_mut().for_each(|r| r.clear());
         let joint_dn = |c: usize, scale: f64, row: &mut Vec<(usize, f64)>| {
             let kj = c_map.cell_joint[c] as usize;
-            opening_gradient(solid, kj, dof, |q, a| row.push((q, scale * a)));
+            let normal = joint_frame(solid, kj).n;
+            opening_gradient(solid, kj, normal, dof, |q, a| row.push((q, scale * a)));
         };
         for c in 0..nc {
             self.s[c * nc + c] += self.vol[c] / self.v0[c] - 1.0;
@@ -414,10 +474,15 @@ impl FlowRows {
     }
 }
 
-/// d(delta_n)/du of joint `kj` on its free dofs: `push(dof, FACE[j] n[d])` for node j's
-/// component d (the frame's normal at the current positions; its own change is neglected).
-fn opening_gradient(solid: &SolidView, kj: usize, dof: &[usize], mut push: impl FnMut(usize, f64)) {
-    let n = joint_frame(solid, kj).n;
+/// d(delta_n)/du of joint `kj` on its free dofs along the normal `n`: `push(dof, FACE[j] n[d])`
+/// for node j's component d (the normal's own change is neglected).
+fn opening_gradient(
+    solid: &SolidView,
+    kj: usize,
+    n: [f64; 2],
+    dof: &[usize],
+    mut push: impl FnMut(usize, f64),
+) {
     for (j, &node) in solid.joint_nodes[kj].iter().enumerate() {
         for d in 0..2 {
             let q = dof[2 * node as usize + d];

@@ -13,8 +13,8 @@ use hydrofrac::verify::coupled_cases::kgd_run;
 
 #[test]
 fn kgd_converges_with_the_mesh() {
-    let coarse = kgd_run(2.0, "Implicit").unwrap();
-    let fine = kgd_run(1.0, "Implicit").unwrap();
+    let coarse = kgd_run(2.0, "Implicit", &[]).unwrap();
+    let fine = kgd_run(1.0, "Implicit", &[]).unwrap();
     for r in [&coarse, &fine] {
         assert!(r.balance < 1e-9, "mass balance {:e}", r.balance);
     }

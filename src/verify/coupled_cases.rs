@@ -49,15 +49,17 @@ impl KgdRun {
 }
 
 /// Run `scenarios/kgd.ron` (built into the binary) at mesh size `h` (m) with the flow scheme
-/// `scheme` (`Explicit` or `Implicit`).
-pub fn kgd_run(h: f64, scheme: &str) -> anyhow::Result<KgdRun> {
-    let sets = match scheme {
+/// `scheme` (`Explicit` or `Implicit` flow with the explicit rock, or `QuasiStatic`), with
+/// further `--set` overrides `extra` applied after those.
+pub fn kgd_run(h: f64, scheme: &str, extra: &[String]) -> anyhow::Result<KgdRun> {
+    let mut sets = match scheme {
         "QuasiStatic" => vec![
             format!("mesh.h={h}"),
             "time.solid_scheme=QuasiStatic".into(),
         ],
         _ => vec![format!("mesh.h={h}"), format!("time.flow_scheme={scheme}")],
     };
+    sets.extend_from_slice(extra);
     let sc = Scenario::parse(KGD_RON, "scenarios/kgd.ron")?.with_overrides(&sets)?;
     let mat = sc.material.expect("kgd has a material");
     let s0 = match sc.boundary {
@@ -133,7 +135,7 @@ pub fn kgd(quick: bool) -> anyhow::Result<CaseResult> {
         };
         let mut errs: Vec<[f64; 3]> = Vec::new();
         for (level, &h) in sizes.iter().enumerate() {
-            let r = kgd_run(h, scheme)?;
+            let r = kgd_run(h, scheme, &[])?;
             let e = r.errors();
             for (k, m) in ["length", "opening", "pressure"].iter().enumerate() {
                 res.rows.push(Row {

@@ -3,9 +3,10 @@
 //!
 //! Cases: solid (`docs/verification.md` R1-R4) `patch`, `insitu`, `mms`, `stability`; flow
 //! `cubic_law`, `diffusion`, `mass_balance`, `pump_curve`, `steady`, `flow_stability`; fracture
-//! (R5, R8) `sneddon`, `friction`; coupled (R6) `kgd`.
+//! (R5, R8) `sneddon`, `friction`; coupled (R6) `kgd`; the seed's Example I (R9) `example1`.
 
 pub mod coupled_cases;
+pub mod example_cases;
 pub mod flow_cases;
 pub mod fracture_cases;
 pub mod solid_cases;
@@ -41,6 +42,10 @@ pub struct Check {
 pub struct CaseResult {
     pub rows: Vec<Row>,
     pub checks: Vec<Check>,
+    /// Lines printed after the table (figures that are not errors).
+    pub notes: Vec<String>,
+    /// Further files the case writes into the verification folder: (name, contents).
+    pub files: Vec<(String, String)>,
 }
 
 impl CaseResult {
@@ -168,6 +173,11 @@ pub fn cases() -> Vec<Case> {
             run: coupled_cases::kgd,
         },
         Case {
+            name: "example1",
+            about: "the seed's Example I, cross and offset, explicit and quasi-static side by side: Fig. 7's outcome, the same cells, creation times and injected volume",
+            run: example_cases::example1,
+        },
+        Case {
             name: "friction",
             about: "block on a joint inclined at psi under gravity: slides at g (sin psi - cos psi tan phi) or sticks",
             run: fracture_cases::friction,
@@ -260,7 +270,13 @@ pub fn run_cases(names: &[String], out: &Path, quick: bool) -> anyhow::Result<bo
                 c.limit
             )?;
         }
+        for n in &res.notes {
+            writeln!(stdout, "  {n}")?;
+        }
         write_csv(out, case.name, &res)?;
+        for (name, text) in &res.files {
+            crate::output::write_atomic(&out.join(name), text.as_bytes())?;
+        }
         write_plot(out, case.name, &res)?;
         ok &= res.passed();
     }
