@@ -504,6 +504,110 @@ fn solve_columns(s: &Structure, l_values: &[f64], buf: &mut [f64], m: usize) -> 
         })
 }
 
+/// The sliding joints' Coulomb term of the tangent: a sliding joint carries F_t = mu F_n s
+/// (s the sign of its shear force), so dF_t/d(delta_n) = -mu K_n s and the tangent gains
+/// mu K_n s a_t a_n^T (a_n, a_t: the joint's normal and tangential coefficients on its 8 dofs,
+/// [`joint_springs`]). That term is unsymmetric, so the Cholesky factor holds the symmetric
+/// rest K_s, and solves with K_s + U V^T (U = [mu K_n s a_t], V = [a_n], one column per
+/// sliding joint) use Sherman-Morrison-Woodbury: x = y - Z (I + V^T Z)^-1 V^T y with
+/// y = K_s^-1 b and Z = K_s^-1 U. Without it the Newton direction turns wherever joints slide
+/// around a soft block (README, "Choosing the solid scheme").
+struct SlipTerm {
+    n: usize,
+    /// Z, column-major n x r.
+    z: Vec<f64>,
+    /// The 8 (dof, coefficient) entries of each column of V.
+    v: Vec<[(usize, f64); 8]>,
+    /// LU of the r x r capacitance I + V^T Z.
+    lu: nalgebra::LU<f64, nalgebra::Dyn, nalgebra::Dyn>,
+}
+
+impl SlipTerm {
+    /// The correction for the contact `states` at the current iterate; `None` when no joint
+    /// slides (or `mu` is zero).
+    fn new(
+        qs: &mut QuasiStatic,
+        sv: &SolidView,
+        p: &RunParams,
+        states: &[State],
+    ) -> Result<Option<Self>, String> {
+        let s = qs.structure.as_ref().expect("structure");
+        let n = s.n;
+        let mut cols = Vec::new();
+        for (k, st) in states.iter().enumerate() {
+            let sign = sv.joint_state[k].shear_force.signum();
+            if *st != State::Slip || p.joint.mu == 0.0 || sv.joint_state[k].shear_force == 0.0 {
+                continue;
+            }
+            let [(_, an), (_, at)] = joint_springs(p, &s.joint_axes[k], State::Stick);
+            let d = s.joint_dofs[k];
+            let mut u = [(NONE, 0.0); 8];
+            let mut vv = [(NONE, 0.0); 8];
+            for i in 0..8 {
+                if d[i] != NONE {
+                    u[i] = (d[i], p.joint.mu * p.joint.kn * sign * at[i]);
+                    vv[i] = (d[i], an[i]);
+                }
+            }
+            cols.push((u, vv));
+        }
+        if cols.is_empty() {
+            return Ok(None);
+        }
+        let r = cols.len();
+        let mut z = vec![0.0; n * r];
+        for (j, (u, _)) in cols.iter().enumerate() {
+            for &(d, a) in u {
+                if d != NONE {
+                    z[j * n + d] += a;
+                }
+            }
+        }
+        solve_columns(s, &qs.l_values, &mut z, r)?;
+        qs.counts.solves += r as u64;
+        let mut cap = nalgebra::DMatrix::<f64>::identity(r, r);
+        for (i, (_, vv)) in cols.iter().enumerate() {
+            for j in 0..r {
+                let zj = &z[j * n..(j + 1) * n];
+                cap[(i, j)] += vv
+                    .iter()
+                    .filter(|e| e.0 != NONE)
+                    .map(|&(d, a)| a * zj[d])
+                    .sum::<f64>();
+            }
+        }
+        Ok(Some(SlipTerm {
+            n,
+            z,
+            v: cols.into_iter().map(|c| c.1).collect(),
+            lu: cap.lu(),
+        }))
+    }
+
+    /// x <- (K_s + U V^T)^-1 b given x = K_s^-1 b.
+    fn apply(&self, x: &mut [f64]) {
+        let r = self.v.len();
+        let t = nalgebra::DVector::from_iterator(
+            r,
+            self.v.iter().map(|vv| {
+                vv.iter()
+                    .filter(|e| e.0 != NONE)
+                    .map(|&(d, a)| a * x[d])
+                    .sum::<f64>()
+            }),
+        );
+        let Some(y) = self.lu.solve(&t) else {
+            return;
+        };
+        for j in 0..r {
+            let zj = &self.z[j * self.n..(j + 1) * self.n];
+            for (xi, zi) in x.iter_mut().zip(zj) {
+                *xi -= y[j] * zi;
+            }
+        }
+    }
+}
+
 /// The penalty springs of a joint in contact state `st` along its `axes` (normal, tangent):
 /// (stiffness N/m^2, coefficients on its 8 dofs). The springs act on the faces' relative
 /// displacement delta = c_q - c_p, c the mean of a face's two nodes: coefficient -1/2, -1/2,
@@ -580,7 +684,7 @@ pub fn solve(
     // on an opening joint, ends with no reaction at all).
     let mut first2 = None;
     let (mut u_base, mut rhs_try) = (Vec::new(), Vec::new());
-    let (mut gx, mut wx) = (Vec::new(), Vec::new());
+    let (mut gx, mut wx, mut w_keep) = (Vec::new(), Vec::new(), Vec::new());
     // The coupled line search leaves the residual of the point it accepted.
     let mut evaluated = None;
     let (res2, ref2) = loop {
@@ -665,6 +769,16 @@ pub fn solve(
             }
         }
         qs.solve_in_place(&mut rhs);
+        // The sliding joints' Coulomb term (unsymmetric, left out of the Cholesky tangent)
+        // as a low-rank correction of the solves.
+        let slip = if on.contact {
+            SlipTerm::new(qs, v, p, &states).map_err(|e| fail(step, time, e))?
+        } else {
+            None
+        };
+        if let Some(c) = &slip {
+            c.apply(&mut rhs);
+        }
         let dof = &qs.structure.as_ref().expect("structure").dof;
         if flow.is_none() {
             add_update(v, dof, &rhs, 1.0);
@@ -675,9 +789,20 @@ pub fn solve(
             // kinks (a cell filling or draining) would otherwise make Newton cycle.
             let f = flow.as_mut().expect("coupled");
             let s = qs.structure.as_ref().expect("structure");
-            qs.rows
-                .reduce_and_solve(f, v, &s.dof, s.n, &mut rhs)
-                .map_err(|e| fail(step, time, e))?;
+            // W of the full tangent for this iteration only: the kept W is the Cholesky
+            // tangent's.
+            if let Some(c) = &slip {
+                w_keep.clear();
+                w_keep.extend_from_slice(qs.rows.w_buffer());
+                for col in qs.rows.w_buffer().chunks_exact_mut(s.n.max(1)) {
+                    c.apply(col);
+                }
+            }
+            let reduced = qs.rows.reduce_and_solve(f, v, &s.dof, s.n, &mut rhs);
+            if slip.is_some() {
+                qs.rows.w_buffer().copy_from_slice(&w_keep);
+            }
+            reduced.map_err(|e| fail(step, time, e))?;
             let phi0 = res2 / tol2 + qs.rows.phi;
             qs.rows.save_base();
             u_base.clear();
