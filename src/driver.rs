@@ -1,6 +1,7 @@
 //! `hydrofrac run`: load a scenario, run it with per-system timing, write the outputs.
 
 use crate::error::SetupError;
+use crate::output::folder::{FolderError, Plan};
 use crate::output::{Outputs, write_atomic};
 use crate::scenario::Scenario;
 use crate::schedule::Status;
@@ -23,6 +24,9 @@ pub struct RunOptions {
     /// Write a Chrome/Perfetto trace here.
     pub trace: Option<PathBuf>,
     pub quiet: bool,
+    /// Write into a non-empty folder that has no manifest (nothing in it is deleted; files
+    /// with the names the run writes are overwritten). See [`crate::output::folder`].
+    pub force: bool,
 }
 
 /// What a finished run reports.
@@ -42,6 +46,10 @@ pub enum DriverError {
     Run { error: RunError, out: String },
     #[error("{0}")]
     Output(std::io::Error),
+    #[error(transparent)]
+    Folder(#[from] FolderError),
+    #[error("--trace {}: {why}", .path.display())]
+    Trace { path: PathBuf, why: String },
 }
 
 /// Run a scenario file.
@@ -57,7 +65,24 @@ pub fn run_scenario(scenario: Scenario, opts: &RunOptions) -> Result<RunReport, 
         .clone()
         .unwrap_or_else(|| PathBuf::from("out").join(&scenario.name));
     let mut sim = Simulation::new(scenario, &opts.disable)?;
-    let outputs = Outputs::create(&out, &sim.params().output.fields, &sim.series_columns())
+    // Every path is checked before anything in the folder is removed or written.
+    let mut plan = Plan::check(&out, opts.force)?;
+    plan.require_folder("frames")?;
+    let trace = match &opts.trace {
+        Some(path) => Some(open_trace(path, &mut plan)?),
+        None => None,
+    };
+    let folder = plan.open()?;
+    let trace = match trace {
+        Some((file, rel)) => {
+            if let Some(rel) = &rel {
+                folder.claim(rel).map_err(DriverError::Output)?;
+            }
+            Some(truncate(file).map_err(DriverError::Output)?)
+        }
+        None => None,
+    };
+    let outputs = Outputs::new(folder, &sim.params().output.fields, &sim.series_columns())
         .map_err(DriverError::Output)?;
     if let Some(f) = sim.flow() {
         outputs
@@ -68,10 +93,10 @@ pub fn run_scenario(scenario: Scenario, opts: &RunOptions) -> Result<RunReport, 
 
     let timing = TimingLayer::default();
     let table = timing.table.clone();
-    let (chrome, _guard) = match &opts.trace {
+    let (chrome, _guard) = match trace {
         Some(file) => {
             let (layer, guard) = tracing_chrome::ChromeLayerBuilder::new()
-                .file(file)
+                .writer(file)
                 .include_args(true)
                 .build();
             (Some(layer), Some(guard))
@@ -122,7 +147,7 @@ pub fn run_scenario(scenario: Scenario, opts: &RunOptions) -> Result<RunReport, 
         summary["fractures"] = json!({"cells": v.n_cells(), "total_length": length,
             "new_cells": v.kind.iter().filter(|k| **k == crate::components::CellKind::New).count()});
         if let Err(e) =
-            crate::output::plots::fracture_figure(&sim.params().name, sim.time(), &v, &o.dir)
+            crate::output::plots::fracture_figure(&sim.params().name, sim.time(), &v, o.folder())
         {
             summary["warnings"] = json!([format!("figures not written: {e}")]);
         }
@@ -137,7 +162,7 @@ pub fn run_scenario(scenario: Scenario, opts: &RunOptions) -> Result<RunReport, 
             sim.time()
         );
         if let Err(e) = crate::output::plots::fracture_pressure_figure(
-            &o.dir.join("fractures_mesh.png"),
+            &o.claim("fractures_mesh.png").map_err(DriverError::Output)?,
             &title,
             sim.solid(),
             &v,
@@ -148,6 +173,10 @@ pub fn run_scenario(scenario: Scenario, opts: &RunOptions) -> Result<RunReport, 
         }
     }
     if sim.flow().is_some_and(|f| f.coupling.is_some()) {
+        if let Some(o) = sim.output() {
+            o.claim("fractures_pressure.png")
+                .map_err(DriverError::Output)?;
+        }
         sim.fracture_pressure_figure("fractures_pressure.png");
         let f = sim.flow().expect("coupled");
         let length: f64 = f.view.length.iter().sum();
@@ -158,13 +187,17 @@ pub fn run_scenario(scenario: Scenario, opts: &RunOptions) -> Result<RunReport, 
     if let (Some(f), Some(o)) = (sim.flow(), sim.output()) {
         o.write_network_csv(&f.view).map_err(DriverError::Output)?;
         if let Err(e) =
-            crate::output::plots::flow_figures(&f.view, sim.params(), sim.time(), &o.dir)
+            crate::output::plots::flow_figures(&f.view, sim.params(), sim.time(), o.folder())
         {
             summary["warnings"] = json!([format!("figures not written: {e}")]);
         }
     }
+    let summary_path = match sim.output() {
+        Some(o) => o.claim("summary.json").map_err(DriverError::Output)?,
+        None => out.join("summary.json"),
+    };
     write_atomic(
-        &out.join("summary.json"),
+        &summary_path,
         serde_json::to_string_pretty(&summary)
             .expect("json")
             .as_bytes(),
@@ -181,6 +214,46 @@ pub fn run_scenario(scenario: Scenario, opts: &RunOptions) -> Result<RunReport, 
         summary,
         timing_table,
     })
+}
+
+/// Open the `--trace` file before the folder is touched: an existing file must be a writable
+/// file (it is truncated only after every check passed), a new one is created in an existing
+/// folder. Returns the file and, when it lies in the output folder, its path there (kept out of
+/// the previous run's removal and listed in the manifest).
+fn open_trace(
+    path: &Path,
+    plan: &mut Plan,
+) -> Result<(std::fs::File, Option<String>), DriverError> {
+    let err = |why: String| DriverError::Trace {
+        path: path.to_path_buf(),
+        why,
+    };
+    if path.is_dir() {
+        return Err(err("is a folder, not a file".into()));
+    }
+    let parent = path.parent().filter(|p| !p.as_os_str().is_empty());
+    if let Some(dir) = parent
+        && !dir.is_dir()
+    {
+        return Err(err(format!("folder {} does not exist", dir.display())));
+    }
+    let file = std::fs::OpenOptions::new()
+        .write(true)
+        .create(true)
+        .truncate(false)
+        .open(path)
+        .map_err(|e| err(format!("cannot be written: {e}")))?;
+    let rel = plan.inside(path);
+    if let Some(r) = &rel {
+        plan.keep(r);
+    }
+    Ok((file, rel))
+}
+
+/// Empty the opened trace file (after the folder checks passed).
+fn truncate(file: std::fs::File) -> std::io::Result<std::fs::File> {
+    file.set_len(0)?;
+    Ok(file)
 }
 
 fn progress_bar(quiet: bool) -> ProgressBar {

@@ -1,8 +1,11 @@
 //! Output folder: ParaView frames (`frames/solid_NNNNN.vtu` and `solid.pvd`), `timeseries.csv`
 //! and `summary.json`. Every file is written so that a crash leaves the earlier ones readable:
 //! frames and the index are written to a temporary file and renamed, the time series is flushed
-//! row by row, and `summary.json` is written last (a stale one is removed at the start).
+//! row by row, and `summary.json` is written last (the previous run's is removed at the start).
+//! Every file is listed in the folder's manifest before it is written ([`folder`]): the next run
+//! removes exactly those, never a file it did not write.
 
+pub mod folder;
 pub mod plots;
 pub mod vtk;
 
@@ -18,6 +21,7 @@ use std::path::{Path, PathBuf};
 
 pub struct Outputs {
     pub dir: PathBuf,
+    folder: folder::Folder,
     pvd: vtk::PvdWriter,
     network_pvd: vtk::PvdWriter,
     series: BufWriter<File>,
@@ -31,40 +35,33 @@ pub struct Outputs {
 pub use crate::atomic::write as write_atomic;
 
 impl Outputs {
-    /// Prepare the folder: create it, check it is writable, and remove results of an earlier run
-    /// (`summary.json`, `timeseries.csv`, `solid.pvd`, `frames/`) so nothing stale passes for a
-    /// result of this one.
+    /// Prepare the folder `dir` ([`folder::Folder::prepare`]: a non-empty folder without a
+    /// manifest is refused; the previous run's listed files are removed) and start the outputs.
     pub fn create(dir: &Path, fields: &[Field], columns: &[String]) -> std::io::Result<Self> {
+        let f = folder::Folder::prepare(dir, false).map_err(std::io::Error::other)?;
+        Self::new(f, fields, columns)
+    }
+
+    /// Start the outputs in a prepared folder: `timeseries.csv` with its header `columns`.
+    pub fn new(
+        folder: folder::Folder,
+        fields: &[Field],
+        columns: &[String],
+    ) -> std::io::Result<Self> {
+        let dir = folder.dir.clone();
         let ctx = |e: std::io::Error, what: &str| {
             std::io::Error::new(e.kind(), format!("cannot {what} {}: {e}", dir.display()))
         };
-        std::fs::create_dir_all(dir).map_err(|e| ctx(e, "create output folder"))?;
-        let probe = dir.join(".hydrofrac-write-test");
-        File::create(&probe).map_err(|e| ctx(e, "write to output folder"))?;
-        let _ = std::fs::remove_file(&probe);
-        for stale in [
-            "summary.json",
-            "timeseries.csv",
-            "solid.pvd",
-            "network.pvd",
-            "network.csv",
-            "network_generated.csv",
-        ] {
-            let p = dir.join(stale);
-            if p.exists() {
-                std::fs::remove_file(&p).map_err(|e| ctx(e, "clean output folder"))?;
-            }
-        }
-        let frames = dir.join("frames");
-        if frames.exists() {
-            std::fs::remove_dir_all(&frames).map_err(|e| ctx(e, "clean output folder"))?;
-        }
-        std::fs::create_dir_all(&frames).map_err(|e| ctx(e, "create frames folder in"))?;
-        let mut series = BufWriter::new(File::create(dir.join("timeseries.csv"))?);
+        let path = folder
+            .claim("timeseries.csv")
+            .map_err(|e| ctx(e, "write to output folder"))?;
+        let mut series =
+            BufWriter::new(File::create(path).map_err(|e| ctx(e, "write to output folder"))?);
         writeln!(series, "{}", columns.join(","))?;
         series.flush()?;
         Ok(Outputs {
-            dir: dir.to_path_buf(),
+            dir: dir.clone(),
+            folder,
             pvd: vtk::PvdWriter::new(&dir.join("solid.pvd")),
             network_pvd: vtk::PvdWriter::new(&dir.join("network.pvd")),
             series,
@@ -72,6 +69,17 @@ impl Outputs {
             network_frames: 0,
             fields: fields.to_vec(),
         })
+    }
+
+    /// List `rel` (a `/`-separated path in the folder) in the manifest as this run's file and
+    /// return its full path: every writer calls this just before it writes.
+    pub fn claim(&self, rel: &str) -> std::io::Result<PathBuf> {
+        self.folder.claim(rel)
+    }
+
+    /// The folder with its manifest (for writers that claim their own files).
+    pub fn folder(&self) -> &folder::Folder {
+        &self.folder
     }
 
     /// Append one `timeseries.csv` row (the values of the columns given at creation).
@@ -127,8 +135,11 @@ impl Outputs {
             cell_data.push(arr("joint_shear_stress", &joint[1][..]));
             cell_data.push(arr("sliding", &joint[2][..]));
         }
+        if self.network_frames == 0 {
+            self.claim("network.pvd")?;
+        }
         vtk::write_vtu(
-            &self.dir.join("frames").join(&name),
+            &self.claim(&format!("frames/{name}"))?,
             &vtk::VtuPiece {
                 points: &points,
                 kind: vtk::CellKind::Line,
@@ -171,7 +182,7 @@ impl Outputs {
                 f.created_t[c]
             );
         }
-        write_atomic(&self.dir.join("network.csv"), s.as_bytes())
+        write_atomic(&self.claim("network.csv")?, s.as_bytes())
     }
 
     /// `network_generated.csv`: the fractures the network was cut from, `x0,y0,x1,y1,aperture`.
@@ -183,7 +194,7 @@ impl Outputs {
                 f.from[0], f.from[1], f.to[0], f.to[1], f.aperture
             );
         }
-        write_atomic(&self.dir.join("network_generated.csv"), s.as_bytes())
+        write_atomic(&self.claim("network_generated.csv")?, s.as_bytes())
     }
 
     /// Write one ParaView frame of the solid (reference positions; displacement to warp by).
@@ -229,8 +240,11 @@ impl Outputs {
             cell_data.push(arr("stress_zz", 1, &szz[..]));
         }
         let name = format!("solid_{:05}.vtu", self.frames);
+        if self.frames == 0 {
+            self.claim("solid.pvd")?;
+        }
         vtk::write_vtu(
-            &self.dir.join("frames").join(&name),
+            &self.claim(&format!("frames/{name}"))?,
             &vtk::VtuPiece {
                 points: &points,
                 kind: vtk::CellKind::Triangle,
