@@ -84,10 +84,15 @@ pub fn run_scenario(scenario: Scenario, opts: &RunOptions) -> Result<RunReport, 
     };
     let outputs = Outputs::new(folder, &sim.params().output.fields, &sim.series_columns())
         .map_err(DriverError::Output)?;
-    if let Some(f) = sim.flow() {
-        outputs
+    // Figures or tables that were not written (the run goes on): summary.json `warnings`.
+    let mut warnings: Vec<String> = Vec::new();
+    const NOT_FINITE: &str = "not written: the table has non-finite values";
+    if let Some(f) = sim.flow()
+        && !outputs
             .write_fractures_csv(&f.network.fractures)
-            .map_err(DriverError::Output)?;
+            .map_err(DriverError::Output)?
+    {
+        warnings.push(format!("network_generated.csv {NOT_FINITE}"));
     }
     sim.set_output(outputs);
 
@@ -142,14 +147,16 @@ pub fn run_scenario(scenario: Scenario, opts: &RunOptions) -> Result<RunReport, 
         summary["quasi_static"] = json!(c);
     }
     if let (Some(v), Some(o)) = (sim.fracture_view(), sim.output()) {
-        o.write_network_csv(&v).map_err(DriverError::Output)?;
+        if !o.write_network_csv(&v).map_err(DriverError::Output)? {
+            warnings.push(format!("network.csv {NOT_FINITE}"));
+        }
         let length: f64 = v.length.iter().sum();
         summary["fractures"] = json!({"cells": v.n_cells(), "total_length": length,
             "new_cells": v.kind.iter().filter(|k| **k == crate::components::CellKind::New).count()});
         if let Err(e) =
             crate::output::plots::fracture_figure(&sim.params().name, sim.time(), &v, o.folder())
         {
-            summary["warnings"] = json!([format!("figures not written: {e}")]);
+            warnings.push(format!("figures not written: {e}"));
         }
         // The seed's Fig. 7 view: the mesh with apertures magnified 20x, coloured by the
         // prescribed face pressure (zero without one).
@@ -169,7 +176,7 @@ pub fn run_scenario(scenario: Scenario, opts: &RunOptions) -> Result<RunReport, 
             20.0,
             None,
         ) {
-            summary["warnings"] = json!([format!("figures not written: {e}")]);
+            warnings.push(format!("figures not written: {e}"));
         }
     }
     if sim.flow().is_some_and(|f| f.coupling.is_some()) {
@@ -185,12 +192,17 @@ pub fn run_scenario(scenario: Scenario, opts: &RunOptions) -> Result<RunReport, 
             "max_aperture": f.view.aperture.iter().fold(0.0f64, |a, &b| a.max(b))});
     }
     if let (Some(f), Some(o)) = (sim.flow(), sim.output()) {
-        o.write_network_csv(&f.view).map_err(DriverError::Output)?;
+        if !o.write_network_csv(&f.view).map_err(DriverError::Output)? {
+            warnings.push(format!("network.csv {NOT_FINITE}"));
+        }
         if let Err(e) =
             crate::output::plots::flow_figures(&f.view, sim.params(), sim.time(), o.folder())
         {
-            summary["warnings"] = json!([format!("figures not written: {e}")]);
+            warnings.push(format!("figures not written: {e}"));
         }
+    }
+    if !warnings.is_empty() {
+        summary["warnings"] = json!(warnings);
     }
     let summary_path = match sim.output() {
         Some(o) => o.claim("summary.json").map_err(DriverError::Output)?,
@@ -316,7 +328,7 @@ fn summary_json(
             "cells": f.view.n_cells(),
             "pairs": f.view.pairs.len(),
             "dt": f.dt,
-            "dt_critical": f.dt_crit,
+            "dt_critical": finite(f.dt_crit),
             "substeps": f.substeps,
             "scheme": if f.implicit.is_some() { "implicit" } else { "explicit" },
             "newton_iterations": f.implicit.as_ref().map(|s| s.total_iterations),
@@ -328,7 +340,7 @@ fn summary_json(
             "mass_balance_error": err,
         })
     });
-    json!({
+    let mut s = json!({
         "scenario": sim.params().name,
         "flow": flow,
         "solid_scheme": if sim.quasi_static_counts().is_some() { "quasi_static" } else { "explicit" },
@@ -341,7 +353,7 @@ fn summary_json(
         "steps": sim.step(),
         "time": sim.time(),
         "dt": sim.params().solid.dt,
-        "dt_critical": sim.dt_crit(),
+        "dt_critical": finite(sim.dt_crit()),
         "wall_s": wall,
         "residual": sim.residual(),
         "kinetic_energy": sim.stats().kinetic,
@@ -355,5 +367,40 @@ fn summary_json(
         "stress_min": {"xx": min[0], "yy": min[1], "xy": min[2]},
         "stress_max": {"xx": max[0], "yy": max[1], "xy": max[2]},
         "systems": systems,
-    })
+    });
+    omit_if_null(&mut s, OPTIONAL);
+    if let Some(flow) = s.get_mut("flow") {
+        omit_if_null(flow, OPTIONAL_FLOW);
+    }
+    s
+}
+
+/// Fields of `summary.json` that do not apply to every run, omitted when they do not (a
+/// successful run's summary has no `null`): no `flow` without a network, no `finish` and
+/// `error` of the other outcome, no `dt_critical` without a stability bound (the implicit
+/// or quasi-static schemes, a scene without a solid), no `fracture_ready_edges` without a
+/// fracture criterion.
+const OPTIONAL: &[&str] = &[
+    "flow",
+    "finish",
+    "error",
+    "dt_critical",
+    "fracture_ready_edges",
+];
+/// The same in `summary.json`'s `flow`: `newton_iterations` (implicit only), `dt_critical`.
+const OPTIONAL_FLOW: &[&str] = &["newton_iterations", "dt_critical"];
+
+fn omit_if_null(v: &mut serde_json::Value, keys: &[&str]) {
+    if let Some(obj) = v.as_object_mut() {
+        for k in keys {
+            if obj.get(*k).is_some_and(|x| x.is_null()) {
+                obj.remove(*k);
+            }
+        }
+    }
+}
+
+/// A bound that may be infinite (no limit): `None` then, so the field is omitted.
+fn finite(x: f64) -> Option<f64> {
+    x.is_finite().then_some(x)
 }

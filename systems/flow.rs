@@ -34,8 +34,8 @@ pub struct FlowPart {
     pub stats: FlowStats,
     /// Fluid excess mass (above rho_r V) summed at the start, kg/m.
     pub initial_excess: f64,
-    /// Steady residual ||net inflow per cell|| / sum |boundary rates| (infinite before the first
-    /// step).
+    /// Steady residual of the last flow step ([`steady_residual`]); 1 before the first step
+    /// (nothing measured yet: no balance claimed, so a static run cannot end on it).
     pub residual: f64,
     /// Network volume sum a L at the start, m^2 (volumes change in coupled runs).
     pub initial_volume: f64,
@@ -64,7 +64,7 @@ impl FlowPart {
             substep_bound: f64::INFINITY,
             substeps: 1,
             stats: FlowStats::default(),
-            residual: f64::INFINITY,
+            residual: 1.0,
             network,
             coupling: coupled.then(Coupling::default),
             // The quasi-static scheme's coupled step is backward Euler too (its pattern).
@@ -210,16 +210,23 @@ pub fn check_substep(
     })
 }
 
-/// The steady residual ||net inflow per cell|| / sum |boundary rates| of the last step.
+/// The steady residual of the last step: ||net inflow per cell|| / sum |boundary rates|. With
+/// no boundary flow (a closed network, or rates that reached zero) the scale is the network's
+/// throughput sum of the cells' flow rates instead (m^2/s), and 0 when nothing flows at all;
+/// 1 when cells gain or lose fluid but neither scale is positive. Always finite for a finite
+/// state.
 pub fn steady_residual(f: &mut FlowPart) {
     let bc: f64 = f.view.bcs.iter().map(|b| b.rate.abs()).sum();
     let net = f.stats.net2.sqrt();
+    let through: f64 = f.view.flow_rate.iter().sum();
     f.residual = if bc > 0.0 {
         net / bc
     } else if net == 0.0 {
         0.0
+    } else if through > 0.0 {
+        net / through
     } else {
-        f64::INFINITY
+        1.0
     };
 }
 

@@ -157,7 +157,30 @@ impl Outputs {
     /// `x0,y0,x1,y1,aperture,opening,slip,pressure,flow_rate,kind,created_t`: the hydraulic
     /// aperture, the joint's mechanical opening delta_n and shear slip delta_t (m; a cell
     /// without a joint: its aperture and 0), pressure (Pa), throughput (m^2/s), creation time (s).
-    pub fn write_network_csv(&self, f: &FlowView) -> std::io::Result<()> {
+    ///
+    /// A table with a non-finite value (the state of a failed run) is not written: returns
+    /// `Ok(false)` and writes nothing.
+    pub fn write_network_csv(&self, f: &FlowView) -> std::io::Result<bool> {
+        let finite = (0..f.n_cells()).all(|c| {
+            let kin = f.kinematics.get(c).copied().unwrap_or([f.aperture[c], 0.0]);
+            let [a, b] = f.cell_nodes[c].map(|n| f.node_pos[n as usize]);
+            [
+                a[0],
+                a[1],
+                b[0],
+                b[1],
+                f.aperture[c],
+                kin[0],
+                kin[1],
+                f.pressure[c],
+            ]
+            .into_iter()
+            .chain([f.flow_rate[c], f.created_t[c]])
+            .all(f64::is_finite)
+        });
+        if !finite {
+            return Ok(false);
+        }
         let mut s =
             String::from("x0,y0,x1,y1,aperture,opening,slip,pressure,flow_rate,kind,created_t\n");
         for c in 0..f.n_cells() {
@@ -182,11 +205,21 @@ impl Outputs {
                 f.created_t[c]
             );
         }
-        write_atomic(&self.claim("network.csv")?, s.as_bytes())
+        write_atomic(&self.claim("network.csv")?, s.as_bytes())?;
+        Ok(true)
     }
 
     /// `network_generated.csv`: the fractures the network was cut from, `x0,y0,x1,y1,aperture`.
-    pub fn write_fractures_csv(&self, fractures: &[Fracture]) -> std::io::Result<()> {
+    /// Like `network.csv`, not written (`Ok(false)`) when a value is not finite.
+    pub fn write_fractures_csv(&self, fractures: &[Fracture]) -> std::io::Result<bool> {
+        let finite = fractures.iter().all(|f| {
+            [f.from[0], f.from[1], f.to[0], f.to[1], f.aperture]
+                .into_iter()
+                .all(f64::is_finite)
+        });
+        if !finite {
+            return Ok(false);
+        }
         let mut s = String::from("x0,y0,x1,y1,aperture\n");
         for f in fractures {
             s += &format!(
@@ -194,7 +227,8 @@ impl Outputs {
                 f.from[0], f.from[1], f.to[0], f.to[1], f.aperture
             );
         }
-        write_atomic(&self.claim("network_generated.csv")?, s.as_bytes())
+        write_atomic(&self.claim("network_generated.csv")?, s.as_bytes())?;
+        Ok(true)
     }
 
     /// Write one ParaView frame of the solid (reference positions; displacement to warp by).
