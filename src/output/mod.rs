@@ -292,3 +292,40 @@ impl Outputs {
         Ok(())
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Two cells; `p1` is the second one's pressure.
+    fn view(p1: f64) -> FlowView {
+        FlowView {
+            node_pos: vec![[0.0, 0.0], [1.0, 0.0], [2.0, 0.0]],
+            cell_nodes: vec![[0, 1], [1, 2]],
+            aperture: vec![1e-3, 1e-3],
+            pressure: vec![1e6, p1],
+            flow_rate: vec![0.0, 0.0],
+            kind: vec![CellKind::Preexisting, CellKind::New],
+            created_t: vec![0.0, 0.1],
+            cell_entity: vec![hecs::Entity::DANGLING; 2],
+            ..Default::default()
+        }
+    }
+
+    /// The state of a failed run (a NaN pressure) gives no `network.csv`, and nothing is listed
+    /// in the manifest for it; a finite state gives the table.
+    #[test]
+    fn network_csv_with_a_non_finite_value_is_not_written() {
+        let dir = std::env::temp_dir().join(format!("hydrofrac-netcsv-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        let out = Outputs::create(&dir, &[], &["step".into()]).unwrap();
+        assert!(!out.write_network_csv(&view(f64::NAN)).unwrap());
+        assert!(!dir.join("network.csv").exists());
+        let manifest = std::fs::read_to_string(dir.join(folder::MANIFEST)).unwrap();
+        assert!(!manifest.contains("network.csv"));
+        assert!(out.write_network_csv(&view(2e6)).unwrap());
+        let csv = std::fs::read_to_string(dir.join("network.csv")).unwrap();
+        assert_eq!(csv.lines().count(), 3);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}
