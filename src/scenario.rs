@@ -570,17 +570,16 @@ pub fn check_run_name(name: &str) -> Result<(), SetupError> {
         Some(format!("it is longer than {MAX_NAME_LEN} characters"))
     } else if name.starts_with('.') {
         Some("it starts with `.` (`..` and hidden folders are not allowed)".to_string())
-    } else if let Some(c) = name
-        .chars()
-        .find(|c| !(c.is_ascii_alphanumeric() || matches!(c, '-' | '_' | '.')))
-    {
-        Some(if c == '/' || c == '\\' {
-            format!("it contains the path separator {c:?}")
-        } else {
-            format!("it contains {c:?}")
-        })
     } else {
-        None
+        name.chars()
+            .find(|c| !(c.is_ascii_alphanumeric() || matches!(c, '-' | '_' | '.')))
+            .map(|c| {
+                if c == '/' || c == '\\' {
+                    format!("it contains the path separator {c:?}")
+                } else {
+                    format!("it contains {c:?}")
+                }
+            })
     };
     match why {
         None => Ok(()),
