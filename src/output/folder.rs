@@ -79,14 +79,6 @@ impl Plan {
                 why: "not a folder".into(),
             });
         }
-        // Writable: a probe file of our own name, created new (never over an existing file).
-        let probe = dir.join(format!(".hydrofrac-write-test-{}", std::process::id()));
-        OpenOptions::new()
-            .write(true)
-            .create_new(true)
-            .open(&probe)
-            .map_err(FolderError::io("write to output folder", dir))?;
-        let _ = fs::remove_file(&probe);
         let manifest = dir.join(MANIFEST);
         let previous = if manifest.is_file() {
             let text = fs::read_to_string(&manifest)
@@ -117,20 +109,32 @@ impl Plan {
             }
             Vec::new()
         };
+        // Writable, checked after any refusal (a refused folder is not touched): a probe file
+        // of our own name, created new (never over an existing file).
+        let probe = dir.join(format!(".hydrofrac-write-test-{}", std::process::id()));
+        OpenOptions::new()
+            .write(true)
+            .create_new(true)
+            .open(&probe)
+            .map_err(FolderError::io("write to output folder", dir))?;
+        let _ = fs::remove_file(&probe);
         Ok(Plan {
             dir: dir.to_path_buf(),
             previous,
         })
     }
 
-    /// Refuse a folder whose `rel` (a sub-folder the run writes into) exists but is not a
-    /// folder: caught now rather than at the first frame.
+    /// Refuse a folder whose `rel` (a sub-folder the run writes into) exists but is not a real
+    /// folder (a file, or a link that would lead the writes elsewhere): caught now rather than
+    /// at the first frame.
     pub fn require_folder(&self, rel: &str) -> Result<(), FolderError> {
         let p = self.dir.join(rel);
-        if p.exists() && !p.is_dir() {
+        if fs::symlink_metadata(&p).is_ok_and(|m| !m.is_dir()) {
             return Err(FolderError::NotUsable {
                 dir: self.dir.clone(),
-                why: format!("{rel} exists and is not a folder (the run writes its frames there)"),
+                why: format!(
+                    "{rel} exists and is not a folder (or is a link; the run writes its frames there)"
+                ),
             });
         }
         Ok(())
@@ -172,6 +176,9 @@ impl Plan {
         files.sort();
         for rel in files {
             let path = self.dir.join(rel);
+            if !real_folders_between(&self.dir, rel) {
+                continue;
+            }
             for p in [Some(path.clone()), crate::atomic::tmp_path(&path).ok()]
                 .into_iter()
                 .flatten()
@@ -185,7 +192,13 @@ impl Plan {
         // Deepest first, and only when empty: a folder that holds anything else stays.
         dirs.sort_by_key(|d| std::cmp::Reverse(d.matches('/').count()));
         for rel in dirs {
-            let _ = fs::remove_dir(self.dir.join(rel.trim_end_matches('/')));
+            let rel = rel.trim_end_matches('/');
+            let path = self.dir.join(rel);
+            if real_folders_between(&self.dir, rel)
+                && fs::symlink_metadata(&path).is_ok_and(|m| m.is_dir())
+            {
+                let _ = fs::remove_dir(path);
+            }
         }
         let path = self.dir.join(MANIFEST);
         let mut w = BufWriter::new(
@@ -202,6 +215,17 @@ impl Plan {
             }),
         })
     }
+}
+
+/// Whether every folder between `dir` and `rel` is a real folder, not a link: a listed
+/// `frames/x.vtu` is never removed through a `frames` that was replaced by a link elsewhere.
+fn real_folders_between(dir: &Path, rel: &str) -> bool {
+    let mut p = dir.to_path_buf();
+    let parts: Vec<&str> = rel.split('/').collect();
+    parts[..parts.len() - 1].iter().all(|part| {
+        p.push(part);
+        fs::symlink_metadata(&p).is_ok_and(|m| m.is_dir())
+    })
 }
 
 /// A relative path with only normal components (no `..`, root or prefix) and `/` separators:
@@ -334,5 +358,29 @@ mod tests {
         for good in ["summary.json", "frames/", "frames/solid_00000.vtu"] {
             assert!(safe_relative(good), "{good}");
         }
+    }
+
+    /// A listed file behind a folder that was replaced by a link is not removed (the link
+    /// points outside the output folder), and `frames` as a link is refused up front.
+    #[cfg(unix)]
+    #[test]
+    fn nothing_is_removed_through_a_link() {
+        let base = std::env::temp_dir().join(format!("hydrofrac-link-{}", std::process::id()));
+        let _ = fs::remove_dir_all(&base);
+        let (out, elsewhere) = (base.join("out"), base.join("elsewhere"));
+        fs::create_dir_all(&out).unwrap();
+        fs::create_dir_all(&elsewhere).unwrap();
+        fs::write(elsewhere.join("a.vtu"), "mine").unwrap();
+        std::os::unix::fs::symlink(&elsewhere, out.join("frames")).unwrap();
+        fs::write(
+            out.join(MANIFEST),
+            format!("{HEADER}\nframes/\nframes/a.vtu\n"),
+        )
+        .unwrap();
+        let plan = Plan::check(&out, false).unwrap();
+        assert!(plan.require_folder("frames").is_err());
+        plan.open().unwrap();
+        assert_eq!(fs::read_to_string(elsewhere.join("a.vtu")).unwrap(), "mine");
+        fs::remove_dir_all(&base).unwrap();
     }
 }
