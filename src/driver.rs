@@ -1,6 +1,7 @@
 //! `hydrofrac run`: load a scenario, run it with per-system timing, write the outputs.
 
 use crate::error::SetupError;
+use crate::output::folder::{FolderError, Plan};
 use crate::output::{Outputs, write_atomic};
 use crate::scenario::Scenario;
 use crate::schedule::Status;
@@ -23,6 +24,9 @@ pub struct RunOptions {
     /// Write a Chrome/Perfetto trace here.
     pub trace: Option<PathBuf>,
     pub quiet: bool,
+    /// Write into a non-empty folder that has no manifest (nothing in it is deleted; files
+    /// with the names the run writes are overwritten). See [`crate::output::folder`].
+    pub force: bool,
 }
 
 /// What a finished run reports.
@@ -42,6 +46,10 @@ pub enum DriverError {
     Run { error: RunError, out: String },
     #[error("{0}")]
     Output(std::io::Error),
+    #[error(transparent)]
+    Folder(#[from] FolderError),
+    #[error("--trace {}: {why}", .path.display())]
+    Trace { path: PathBuf, why: String },
 }
 
 /// Run a scenario file.
@@ -57,21 +65,43 @@ pub fn run_scenario(scenario: Scenario, opts: &RunOptions) -> Result<RunReport, 
         .clone()
         .unwrap_or_else(|| PathBuf::from("out").join(&scenario.name));
     let mut sim = Simulation::new(scenario, &opts.disable)?;
-    let outputs = Outputs::create(&out, &sim.params().output.fields, &sim.series_columns())
+    // Every path is checked before anything in the folder is removed or written.
+    let mut plan = Plan::check(&out, opts.force)?;
+    plan.require_folder("frames")?;
+    let trace = match &opts.trace {
+        Some(path) => Some(open_trace(path, &mut plan)?),
+        None => None,
+    };
+    let folder = plan.open()?;
+    let trace = match trace {
+        Some((file, rel)) => {
+            if let Some(rel) = &rel {
+                folder.claim(rel).map_err(DriverError::Output)?;
+            }
+            Some(truncate(file).map_err(DriverError::Output)?)
+        }
+        None => None,
+    };
+    let outputs = Outputs::new(folder, &sim.params().output.fields, &sim.series_columns())
         .map_err(DriverError::Output)?;
-    if let Some(f) = sim.flow() {
-        outputs
+    // Figures or tables that were not written (the run goes on): summary.json `warnings`.
+    let mut warnings: Vec<String> = Vec::new();
+    const NOT_FINITE: &str = "not written: the table has non-finite values";
+    if let Some(f) = sim.flow()
+        && !outputs
             .write_fractures_csv(&f.network.fractures)
-            .map_err(DriverError::Output)?;
+            .map_err(DriverError::Output)?
+    {
+        warnings.push(format!("network_generated.csv {NOT_FINITE}"));
     }
     sim.set_output(outputs);
 
     let timing = TimingLayer::default();
     let table = timing.table.clone();
-    let (chrome, _guard) = match &opts.trace {
+    let (chrome, _guard) = match trace {
         Some(file) => {
             let (layer, guard) = tracing_chrome::ChromeLayerBuilder::new()
-                .file(file)
+                .writer(file)
                 .include_args(true)
                 .build();
             (Some(layer), Some(guard))
@@ -117,14 +147,16 @@ pub fn run_scenario(scenario: Scenario, opts: &RunOptions) -> Result<RunReport, 
         summary["quasi_static"] = json!(c);
     }
     if let (Some(v), Some(o)) = (sim.fracture_view(), sim.output()) {
-        o.write_network_csv(&v).map_err(DriverError::Output)?;
+        if !o.write_network_csv(&v).map_err(DriverError::Output)? {
+            warnings.push(format!("network.csv {NOT_FINITE}"));
+        }
         let length: f64 = v.length.iter().sum();
         summary["fractures"] = json!({"cells": v.n_cells(), "total_length": length,
             "new_cells": v.kind.iter().filter(|k| **k == crate::components::CellKind::New).count()});
         if let Err(e) =
-            crate::output::plots::fracture_figure(&sim.params().name, sim.time(), &v, &o.dir)
+            crate::output::plots::fracture_figure(&sim.params().name, sim.time(), &v, o.folder())
         {
-            summary["warnings"] = json!([format!("figures not written: {e}")]);
+            warnings.push(format!("figures not written: {e}"));
         }
         // The seed's Fig. 7 view: the mesh with apertures magnified 20x, coloured by the
         // prescribed face pressure (zero without one).
@@ -137,17 +169,21 @@ pub fn run_scenario(scenario: Scenario, opts: &RunOptions) -> Result<RunReport, 
             sim.time()
         );
         if let Err(e) = crate::output::plots::fracture_pressure_figure(
-            &o.dir.join("fractures_mesh.png"),
+            &o.claim("fractures_mesh.png").map_err(DriverError::Output)?,
             &title,
             sim.solid(),
             &v,
             20.0,
             None,
         ) {
-            summary["warnings"] = json!([format!("figures not written: {e}")]);
+            warnings.push(format!("figures not written: {e}"));
         }
     }
     if sim.flow().is_some_and(|f| f.coupling.is_some()) {
+        if let Some(o) = sim.output() {
+            o.claim("fractures_pressure.png")
+                .map_err(DriverError::Output)?;
+        }
         sim.fracture_pressure_figure("fractures_pressure.png");
         let f = sim.flow().expect("coupled");
         let length: f64 = f.view.length.iter().sum();
@@ -156,15 +192,24 @@ pub fn run_scenario(scenario: Scenario, opts: &RunOptions) -> Result<RunReport, 
             "max_aperture": f.view.aperture.iter().fold(0.0f64, |a, &b| a.max(b))});
     }
     if let (Some(f), Some(o)) = (sim.flow(), sim.output()) {
-        o.write_network_csv(&f.view).map_err(DriverError::Output)?;
+        if !o.write_network_csv(&f.view).map_err(DriverError::Output)? {
+            warnings.push(format!("network.csv {NOT_FINITE}"));
+        }
         if let Err(e) =
-            crate::output::plots::flow_figures(&f.view, sim.params(), sim.time(), &o.dir)
+            crate::output::plots::flow_figures(&f.view, sim.params(), sim.time(), o.folder())
         {
-            summary["warnings"] = json!([format!("figures not written: {e}")]);
+            warnings.push(format!("figures not written: {e}"));
         }
     }
+    if !warnings.is_empty() {
+        summary["warnings"] = json!(warnings);
+    }
+    let summary_path = match sim.output() {
+        Some(o) => o.claim("summary.json").map_err(DriverError::Output)?,
+        None => out.join("summary.json"),
+    };
     write_atomic(
-        &out.join("summary.json"),
+        &summary_path,
         serde_json::to_string_pretty(&summary)
             .expect("json")
             .as_bytes(),
@@ -181,6 +226,46 @@ pub fn run_scenario(scenario: Scenario, opts: &RunOptions) -> Result<RunReport, 
         summary,
         timing_table,
     })
+}
+
+/// Open the `--trace` file before the folder is touched: an existing file must be a writable
+/// file (it is truncated only after every check passed), a new one is created in an existing
+/// folder. Returns the file and, when it lies in the output folder, its path there (kept out of
+/// the previous run's removal and listed in the manifest).
+fn open_trace(
+    path: &Path,
+    plan: &mut Plan,
+) -> Result<(std::fs::File, Option<String>), DriverError> {
+    let err = |why: String| DriverError::Trace {
+        path: path.to_path_buf(),
+        why,
+    };
+    if path.is_dir() {
+        return Err(err("is a folder, not a file".into()));
+    }
+    let parent = path.parent().filter(|p| !p.as_os_str().is_empty());
+    if let Some(dir) = parent
+        && !dir.is_dir()
+    {
+        return Err(err(format!("folder {} does not exist", dir.display())));
+    }
+    let file = std::fs::OpenOptions::new()
+        .write(true)
+        .create(true)
+        .truncate(false)
+        .open(path)
+        .map_err(|e| err(format!("cannot be written: {e}")))?;
+    let rel = plan.inside(path);
+    if let Some(r) = &rel {
+        plan.keep(r);
+    }
+    Ok((file, rel))
+}
+
+/// Empty the opened trace file (after the folder checks passed).
+fn truncate(file: std::fs::File) -> std::io::Result<std::fs::File> {
+    file.set_len(0)?;
+    Ok(file)
 }
 
 fn progress_bar(quiet: bool) -> ProgressBar {
@@ -243,7 +328,7 @@ fn summary_json(
             "cells": f.view.n_cells(),
             "pairs": f.view.pairs.len(),
             "dt": f.dt,
-            "dt_critical": f.dt_crit,
+            "dt_critical": finite(f.dt_crit),
             "substeps": f.substeps,
             "scheme": if f.implicit.is_some() { "implicit" } else { "explicit" },
             "newton_iterations": f.implicit.as_ref().map(|s| s.total_iterations),
@@ -255,7 +340,7 @@ fn summary_json(
             "mass_balance_error": err,
         })
     });
-    json!({
+    let mut s = json!({
         "scenario": sim.params().name,
         "flow": flow,
         "solid_scheme": if sim.quasi_static_counts().is_some() { "quasi_static" } else { "explicit" },
@@ -268,7 +353,7 @@ fn summary_json(
         "steps": sim.step(),
         "time": sim.time(),
         "dt": sim.params().solid.dt,
-        "dt_critical": sim.dt_crit(),
+        "dt_critical": finite(sim.dt_crit()),
         "wall_s": wall,
         "residual": sim.residual(),
         "kinetic_energy": sim.stats().kinetic,
@@ -282,5 +367,40 @@ fn summary_json(
         "stress_min": {"xx": min[0], "yy": min[1], "xy": min[2]},
         "stress_max": {"xx": max[0], "yy": max[1], "xy": max[2]},
         "systems": systems,
-    })
+    });
+    omit_if_null(&mut s, OPTIONAL);
+    if let Some(flow) = s.get_mut("flow") {
+        omit_if_null(flow, OPTIONAL_FLOW);
+    }
+    s
+}
+
+/// Fields of `summary.json` that do not apply to every run, omitted when they do not (a
+/// successful run's summary has no `null`): no `flow` without a network, no `finish` and
+/// `error` of the other outcome, no `dt_critical` without a stability bound (the implicit
+/// or quasi-static schemes, a scene without a solid), no `fracture_ready_edges` without a
+/// fracture criterion.
+const OPTIONAL: &[&str] = &[
+    "flow",
+    "finish",
+    "error",
+    "dt_critical",
+    "fracture_ready_edges",
+];
+/// The same in `summary.json`'s `flow`: `newton_iterations` (implicit only), `dt_critical`.
+const OPTIONAL_FLOW: &[&str] = &["newton_iterations", "dt_critical"];
+
+fn omit_if_null(v: &mut serde_json::Value, keys: &[&str]) {
+    if let Some(obj) = v.as_object_mut() {
+        for k in keys {
+            if obj.get(*k).is_some_and(|x| x.is_null()) {
+                obj.remove(*k);
+            }
+        }
+    }
+}
+
+/// A bound that may be infinite (no limit): `None` then, so the field is omitted.
+fn finite(x: f64) -> Option<f64> {
+    x.is_finite().then_some(x)
 }

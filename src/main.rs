@@ -23,7 +23,9 @@ enum Command {
     Run {
         /// Scenario file, e.g. scenarios/insitu_stress.ron
         scenario: PathBuf,
-        /// Output folder [default: out/<scenario name>]
+        /// Output folder [default: out/<scenario name>]. The run lists every file it writes
+        /// in the folder's hydrofrac-manifest.txt; a run into a folder with a manifest
+        /// removes the files listed there (and nothing else) before it writes
         #[arg(long)]
         out: Option<PathBuf>,
         /// Switch a system off (repeatable); see `hydrofrac systems`
@@ -38,17 +40,27 @@ enum Command {
         /// No progress bar and no timing table
         #[arg(long)]
         quiet: bool,
+        /// Write into a non-empty folder that has no hydrofrac-manifest.txt (refused without
+        /// it). Nothing in the folder is deleted; files with the names the run writes are
+        /// overwritten and listed in the manifest as the run's (the next run removes them)
+        #[arg(long)]
+        force: bool,
     },
     /// Run verification cases at several resolutions: error and wall time (CSV + PNG).
     Verify {
         /// Cases to run [default: all]
         cases: Vec<String>,
-        /// Output folder
+        /// Output folder (same rules as `run --out`: a manifest lists what it wrote)
         #[arg(long, default_value = "out/verify")]
         out: PathBuf,
         /// Fewer and smaller resolutions (seconds instead of minutes)
         #[arg(long)]
         quick: bool,
+        /// Write into a non-empty folder that has no hydrofrac-manifest.txt (refused without
+        /// it). Nothing in the folder is deleted; files with the names the run writes are
+        /// overwritten and listed in the manifest as the run's (the next run removes them)
+        #[arg(long)]
+        force: bool,
     },
     /// List the systems of a step in order.
     Systems,
@@ -74,6 +86,7 @@ fn real_main() -> Result<ExitCode> {
             set,
             trace,
             quiet,
+            force,
         } => {
             let opts = RunOptions {
                 out,
@@ -81,6 +94,7 @@ fn real_main() -> Result<ExitCode> {
                 set,
                 trace,
                 quiet,
+                force,
             };
             let report = run_file(&scenario, &opts)?;
             if !quiet {
@@ -105,8 +119,25 @@ fn real_main() -> Result<ExitCode> {
             }
             Ok(ExitCode::SUCCESS)
         }
-        Command::Verify { cases, out, quick } => {
-            let ok = hydrofrac::verify::run_cases(&cases, &out, quick)?;
+        Command::Verify {
+            cases,
+            out,
+            quick,
+            force,
+        } => {
+            let known = hydrofrac::verify::cases();
+            if cases.iter().any(|n| !known.iter().any(|c| c.name == n)) {
+                // `run_cases` names the unknown case (and the valid ones) before it writes
+                // anything: the folder is not touched.
+                hydrofrac::verify::run_cases(&cases, &out, quick)?;
+            }
+            // The cases write their files by name; what is new or changed afterwards is
+            // listed in the manifest as this run's.
+            let folder = hydrofrac::output::folder::Folder::prepare(&out, force)?;
+            let before = folder.snapshot();
+            let result = hydrofrac::verify::run_cases(&cases, &out, quick);
+            folder.adopt_changed(&before)?;
+            let ok = result?;
             Ok(if ok {
                 ExitCode::SUCCESS
             } else {

@@ -556,6 +556,44 @@ impl Default for Damping {
     }
 }
 
+/// Longest run name, characters: a folder name every file system takes.
+pub const MAX_NAME_LEN: usize = 100;
+
+/// The run name is the default output folder `out/<name>`, so it must be one safe folder name:
+/// 1 to [`MAX_NAME_LEN`] ASCII letters, digits, `-`, `_` or `.`, not starting with `.` (no
+/// `..`, no hidden folder), no path separator, not absolute. Another folder is chosen with
+/// `--out`, not through the name.
+pub fn check_run_name(name: &str) -> Result<(), SetupError> {
+    let why = if name.is_empty() {
+        Some("it is empty".to_string())
+    } else if name.len() > MAX_NAME_LEN {
+        Some(format!("it is longer than {MAX_NAME_LEN} characters"))
+    } else if name.starts_with('.') {
+        Some("it starts with `.` (`..` and hidden folders are not allowed)".to_string())
+    } else {
+        name.chars()
+            .find(|c| !(c.is_ascii_alphanumeric() || matches!(c, '-' | '_' | '.')))
+            .map(|c| {
+                if c == '/' || c == '\\' {
+                    format!("it contains the path separator {c:?}")
+                } else {
+                    format!("it contains {c:?}")
+                }
+            })
+    };
+    match why {
+        None => Ok(()),
+        Some(why) => Err(SetupError::invalid(
+            "name",
+            format!(
+                "{name:?} is the default output folder out/<name>, so it must be a plain folder \
+                 name of ASCII letters, digits, `-`, `_` or `.` (not starting with `.`, at most \
+                 {MAX_NAME_LEN} characters), but {why}; choose another folder with --out"
+            ),
+        )),
+    }
+}
+
 /// Systems switched off for an ablation run (names as in the README's system table).
 #[derive(Clone, Debug, Default, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
@@ -755,6 +793,7 @@ impl Scenario {
                 ))
             }
         };
+        check_run_name(&self.name)?;
         // Mesh.
         if let Some(mesh) = &self.mesh
             && let (Some((w, hgt)), Some(h)) = (mesh.size(), mesh.h())

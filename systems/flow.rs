@@ -24,13 +24,18 @@ pub struct FlowPart {
     /// Flow sub-step, s, and sub-steps per step.
     pub dt: f64,
     pub substeps: u64,
-    /// Explicit critical flow step, s.
+    /// Explicit critical flow step, s (at the current network: a split rebuilds the view and
+    /// this bound with it).
     pub dt_crit: f64,
+    /// The explicit stability bound the last flow step's sub-step was chosen under and checked
+    /// against, s: computed at that step's state, before any split of the same step changed the
+    /// network (infinite for the implicit scheme).
+    pub substep_bound: f64,
     pub stats: FlowStats,
     /// Fluid excess mass (above rho_r V) summed at the start, kg/m.
     pub initial_excess: f64,
-    /// Steady residual ||net inflow per cell|| / sum |boundary rates| (infinite before the first
-    /// step).
+    /// Steady residual of the last flow step ([`steady_residual`]); 1 before the first step
+    /// (nothing measured yet: no balance claimed, so a static run cannot end on it).
     pub residual: f64,
     /// Network volume sum a L at the start, m^2 (volumes change in coupled runs).
     pub initial_volume: f64,
@@ -56,9 +61,10 @@ impl FlowPart {
             initial_volume: view.volume.iter().sum(),
             view,
             dt: 0.0,
+            substep_bound: f64::INFINITY,
             substeps: 1,
             stats: FlowStats::default(),
-            residual: f64::INFINITY,
+            residual: 1.0,
             network,
             coupling: coupled.then(Coupling::default),
             // The quasi-static scheme's coupled step is backward Euler too (its pattern).
@@ -98,7 +104,8 @@ impl FlowPart {
 /// `monitor`); implicit: one backward-Euler step. Coupled runs exchange apertures and face
 /// pressures with the rock ([`Coupling`]). `step` is the number of the step being taken (for
 /// error messages). Errors: a coupled explicit step that needs more than `time.max_substeps`
-/// sub-steps, an implicit step whose Newton iteration fails.
+/// sub-steps, an explicit sub-step above the stability bound it was chosen under
+/// ([`check_substep`]: a forced `time.flow_dt`), an implicit step whose Newton iteration fails.
 pub fn flow_substeps(
     f: &mut FlowPart,
     solid: &SolidView,
@@ -147,10 +154,18 @@ pub fn flow_substeps(
         f.substeps = r.substeps;
         f.dt = r.dt;
         f.dt_crit = r.dt_crit;
+        f.substep_bound = r.dt_crit;
+        if f.implicit.is_none() {
+            check_substep(f, fp, Some(r.critical_cell), step, t0 + dt)?;
+        }
     } else if let Some(solver) = f.implicit.as_mut() {
         f.dt = dt;
         f.stats = implicit_step(&mut f.view, fp, specs, dt, t0, solver).map_err(implicit_error)?;
     } else {
+        // Fixed apertures: the bound of the network as it is, the one the sub-step was chosen
+        // from at setup (or a forced `time.flow_dt` that may exceed it).
+        f.substep_bound = f.dt_crit;
+        check_substep(f, fp, None, step, t0 + dt)?;
         for k in 0..f.substeps {
             f.stats = flow_step(&mut f.view, fp, specs, f.dt, t0 + k as f64 * f.dt);
             if f.stats.bad_cell.is_some() {
@@ -162,16 +177,56 @@ pub fn flow_substeps(
     Ok(())
 }
 
-/// The steady residual ||net inflow per cell|| / sum |boundary rates| of the last step.
+/// The one check of an explicit flow sub-step: `f.dt` must not exceed `f.substep_bound`, the
+/// bound it was chosen under at the same state (relative slack 1e-9 for the rounding of
+/// dt / N). Above it the scheme oscillates, and the P = 0 floor of unfilled cells can hold the
+/// oscillation bounded, so it would not show up as a blow-up by itself. `cell` is the cell
+/// that set the bound when known (else the network's critical cell now); `time` is the end of
+/// the step, s.
+pub fn check_substep(
+    f: &FlowPart,
+    fp: &FlowParams,
+    cell: Option<usize>,
+    step: u64,
+    time: f64,
+) -> Result<(), RunError> {
+    if f.dt <= f.substep_bound * (1.0 + 1e-9) {
+        return Ok(());
+    }
+    let c = cell
+        .or_else(|| f.view.critical_cell(fp).map(|c| c.0))
+        .unwrap_or(0);
+    Err(RunError::BlowUp {
+        step,
+        time,
+        entity: f.view.cell_label(c),
+        quantity: "flow step",
+        value: f.dt,
+        why: format!(
+            "above the cell's stability bound V/(K sum kappa) = {:.4e} s: unstable",
+            f.substep_bound
+        ),
+        dt: f.dt,
+    })
+}
+
+/// The steady residual of the last step: ||net inflow per cell|| / sum |boundary rates|. With
+/// no boundary flow (a closed network, or rates that reached zero) the scale is the network's
+/// throughput sum of the cells' flow rates instead (m^2/s), and 0 when nothing flows at all;
+/// 1 when cells gain or lose fluid but neither scale is positive. Always finite for a finite
+/// state.
 pub fn steady_residual(f: &mut FlowPart) {
     let bc: f64 = f.view.bcs.iter().map(|b| b.rate.abs()).sum();
     let net = f.stats.net2.sqrt();
+    let through: f64 = f.view.flow_rate.iter().sum();
     f.residual = if bc > 0.0 {
         net / bc
     } else if net == 0.0 {
         0.0
+    } else if through > 0.0 {
+        net / through
     } else {
-        f64::INFINITY
+        1.0
     };
 }
 

@@ -48,14 +48,18 @@ pub fn output(
         .figure_times
         .iter()
         .find(|&&tf| tf > t0 && tf <= clock.time)
+        && flow.as_ref().is_some_and(|f| f.coupling.is_some())
     {
+        // Listed in the manifest before it is drawn (only coupled runs draw it).
+        let name = format!("fractures_pressure_t{tf}s.png");
+        out.claim(&name)?;
         fracture_pressure_figure(
             model,
             &scene.solid.view,
             flow,
             p,
             &out.dir,
-            &format!("fractures_pressure_t{tf}s.png"),
+            &name,
             clock.time,
         );
     }

@@ -1,8 +1,11 @@
 //! Output folder: ParaView frames (`frames/solid_NNNNN.vtu` and `solid.pvd`), `timeseries.csv`
 //! and `summary.json`. Every file is written so that a crash leaves the earlier ones readable:
 //! frames and the index are written to a temporary file and renamed, the time series is flushed
-//! row by row, and `summary.json` is written last (a stale one is removed at the start).
+//! row by row, and `summary.json` is written last (the previous run's is removed at the start).
+//! Every file is listed in the folder's manifest before it is written ([`folder`]): the next run
+//! removes exactly those, never a file it did not write.
 
+pub mod folder;
 pub mod plots;
 pub mod vtk;
 
@@ -18,6 +21,7 @@ use std::path::{Path, PathBuf};
 
 pub struct Outputs {
     pub dir: PathBuf,
+    folder: folder::Folder,
     pvd: vtk::PvdWriter,
     network_pvd: vtk::PvdWriter,
     series: BufWriter<File>,
@@ -31,40 +35,33 @@ pub struct Outputs {
 pub use crate::atomic::write as write_atomic;
 
 impl Outputs {
-    /// Prepare the folder: create it, check it is writable, and remove results of an earlier run
-    /// (`summary.json`, `timeseries.csv`, `solid.pvd`, `frames/`) so nothing stale passes for a
-    /// result of this one.
+    /// Prepare the folder `dir` ([`folder::Folder::prepare`]: a non-empty folder without a
+    /// manifest is refused; the previous run's listed files are removed) and start the outputs.
     pub fn create(dir: &Path, fields: &[Field], columns: &[String]) -> std::io::Result<Self> {
+        let f = folder::Folder::prepare(dir, false).map_err(std::io::Error::other)?;
+        Self::new(f, fields, columns)
+    }
+
+    /// Start the outputs in a prepared folder: `timeseries.csv` with its header `columns`.
+    pub fn new(
+        folder: folder::Folder,
+        fields: &[Field],
+        columns: &[String],
+    ) -> std::io::Result<Self> {
+        let dir = folder.dir.clone();
         let ctx = |e: std::io::Error, what: &str| {
             std::io::Error::new(e.kind(), format!("cannot {what} {}: {e}", dir.display()))
         };
-        std::fs::create_dir_all(dir).map_err(|e| ctx(e, "create output folder"))?;
-        let probe = dir.join(".hydrofrac-write-test");
-        File::create(&probe).map_err(|e| ctx(e, "write to output folder"))?;
-        let _ = std::fs::remove_file(&probe);
-        for stale in [
-            "summary.json",
-            "timeseries.csv",
-            "solid.pvd",
-            "network.pvd",
-            "network.csv",
-            "network_generated.csv",
-        ] {
-            let p = dir.join(stale);
-            if p.exists() {
-                std::fs::remove_file(&p).map_err(|e| ctx(e, "clean output folder"))?;
-            }
-        }
-        let frames = dir.join("frames");
-        if frames.exists() {
-            std::fs::remove_dir_all(&frames).map_err(|e| ctx(e, "clean output folder"))?;
-        }
-        std::fs::create_dir_all(&frames).map_err(|e| ctx(e, "create frames folder in"))?;
-        let mut series = BufWriter::new(File::create(dir.join("timeseries.csv"))?);
+        let path = folder
+            .claim("timeseries.csv")
+            .map_err(|e| ctx(e, "write to output folder"))?;
+        let mut series =
+            BufWriter::new(File::create(path).map_err(|e| ctx(e, "write to output folder"))?);
         writeln!(series, "{}", columns.join(","))?;
         series.flush()?;
         Ok(Outputs {
-            dir: dir.to_path_buf(),
+            dir: dir.clone(),
+            folder,
             pvd: vtk::PvdWriter::new(&dir.join("solid.pvd")),
             network_pvd: vtk::PvdWriter::new(&dir.join("network.pvd")),
             series,
@@ -72,6 +69,17 @@ impl Outputs {
             network_frames: 0,
             fields: fields.to_vec(),
         })
+    }
+
+    /// List `rel` (a `/`-separated path in the folder) in the manifest as this run's file and
+    /// return its full path: every writer calls this just before it writes.
+    pub fn claim(&self, rel: &str) -> std::io::Result<PathBuf> {
+        self.folder.claim(rel)
+    }
+
+    /// The folder with its manifest (for writers that claim their own files).
+    pub fn folder(&self) -> &folder::Folder {
+        &self.folder
     }
 
     /// Append one `timeseries.csv` row (the values of the columns given at creation).
@@ -127,8 +135,11 @@ impl Outputs {
             cell_data.push(arr("joint_shear_stress", &joint[1][..]));
             cell_data.push(arr("sliding", &joint[2][..]));
         }
+        if self.network_frames == 0 {
+            self.claim("network.pvd")?;
+        }
         vtk::write_vtu(
-            &self.dir.join("frames").join(&name),
+            &self.claim(&format!("frames/{name}"))?,
             &vtk::VtuPiece {
                 points: &points,
                 kind: vtk::CellKind::Line,
@@ -146,7 +157,30 @@ impl Outputs {
     /// `x0,y0,x1,y1,aperture,opening,slip,pressure,flow_rate,kind,created_t`: the hydraulic
     /// aperture, the joint's mechanical opening delta_n and shear slip delta_t (m; a cell
     /// without a joint: its aperture and 0), pressure (Pa), throughput (m^2/s), creation time (s).
-    pub fn write_network_csv(&self, f: &FlowView) -> std::io::Result<()> {
+    ///
+    /// A table with a non-finite value (the state of a failed run) is not written: returns
+    /// `Ok(false)` and writes nothing.
+    pub fn write_network_csv(&self, f: &FlowView) -> std::io::Result<bool> {
+        let finite = (0..f.n_cells()).all(|c| {
+            let kin = f.kinematics.get(c).copied().unwrap_or([f.aperture[c], 0.0]);
+            let [a, b] = f.cell_nodes[c].map(|n| f.node_pos[n as usize]);
+            [
+                a[0],
+                a[1],
+                b[0],
+                b[1],
+                f.aperture[c],
+                kin[0],
+                kin[1],
+                f.pressure[c],
+            ]
+            .into_iter()
+            .chain([f.flow_rate[c], f.created_t[c]])
+            .all(f64::is_finite)
+        });
+        if !finite {
+            return Ok(false);
+        }
         let mut s =
             String::from("x0,y0,x1,y1,aperture,opening,slip,pressure,flow_rate,kind,created_t\n");
         for c in 0..f.n_cells() {
@@ -171,11 +205,21 @@ impl Outputs {
                 f.created_t[c]
             );
         }
-        write_atomic(&self.dir.join("network.csv"), s.as_bytes())
+        write_atomic(&self.claim("network.csv")?, s.as_bytes())?;
+        Ok(true)
     }
 
     /// `network_generated.csv`: the fractures the network was cut from, `x0,y0,x1,y1,aperture`.
-    pub fn write_fractures_csv(&self, fractures: &[Fracture]) -> std::io::Result<()> {
+    /// Like `network.csv`, not written (`Ok(false)`) when a value is not finite.
+    pub fn write_fractures_csv(&self, fractures: &[Fracture]) -> std::io::Result<bool> {
+        let finite = fractures.iter().all(|f| {
+            [f.from[0], f.from[1], f.to[0], f.to[1], f.aperture]
+                .into_iter()
+                .all(f64::is_finite)
+        });
+        if !finite {
+            return Ok(false);
+        }
         let mut s = String::from("x0,y0,x1,y1,aperture\n");
         for f in fractures {
             s += &format!(
@@ -183,7 +227,8 @@ impl Outputs {
                 f.from[0], f.from[1], f.to[0], f.to[1], f.aperture
             );
         }
-        write_atomic(&self.dir.join("network_generated.csv"), s.as_bytes())
+        write_atomic(&self.claim("network_generated.csv")?, s.as_bytes())?;
+        Ok(true)
     }
 
     /// Write one ParaView frame of the solid (reference positions; displacement to warp by).
@@ -229,8 +274,11 @@ impl Outputs {
             cell_data.push(arr("stress_zz", 1, &szz[..]));
         }
         let name = format!("solid_{:05}.vtu", self.frames);
+        if self.frames == 0 {
+            self.claim("solid.pvd")?;
+        }
         vtk::write_vtu(
-            &self.dir.join("frames").join(&name),
+            &self.claim(&format!("frames/{name}"))?,
             &vtk::VtuPiece {
                 points: &points,
                 kind: vtk::CellKind::Triangle,
@@ -242,5 +290,42 @@ impl Outputs {
         self.pvd.add(time, &format!("frames/{name}"))?;
         self.frames += 1;
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Two cells; `p1` is the second one's pressure.
+    fn view(p1: f64) -> FlowView {
+        FlowView {
+            node_pos: vec![[0.0, 0.0], [1.0, 0.0], [2.0, 0.0]],
+            cell_nodes: vec![[0, 1], [1, 2]],
+            aperture: vec![1e-3, 1e-3],
+            pressure: vec![1e6, p1],
+            flow_rate: vec![0.0, 0.0],
+            kind: vec![CellKind::Preexisting, CellKind::New],
+            created_t: vec![0.0, 0.1],
+            cell_entity: vec![hecs::Entity::DANGLING; 2],
+            ..Default::default()
+        }
+    }
+
+    /// The state of a failed run (a NaN pressure) gives no `network.csv`, and nothing is listed
+    /// in the manifest for it; a finite state gives the table.
+    #[test]
+    fn network_csv_with_a_non_finite_value_is_not_written() {
+        let dir = std::env::temp_dir().join(format!("hydrofrac-netcsv-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        let out = Outputs::create(&dir, &[], &["step".into()]).unwrap();
+        assert!(!out.write_network_csv(&view(f64::NAN)).unwrap());
+        assert!(!dir.join("network.csv").exists());
+        let manifest = std::fs::read_to_string(dir.join(folder::MANIFEST)).unwrap();
+        assert!(!manifest.contains("network.csv"));
+        assert!(out.write_network_csv(&view(2e6)).unwrap());
+        let csv = std::fs::read_to_string(dir.join("network.csv")).unwrap();
+        assert_eq!(csv.lines().count(), 3);
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 }

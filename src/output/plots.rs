@@ -2,16 +2,17 @@
 //! and the boundary pressures and rates against time.
 
 use crate::flow::FlowView;
+use crate::output::folder::Folder;
 use crate::params::RunParams;
 use crate::plot::{ColourScale, Segment, Series, fracture_map, lines, network};
 use crate::view::SolidView;
 use std::path::Path;
 
 /// `network_pressure.png`, `network_flow.png` and `boundaries.png` for a scene with a network.
-pub fn flow_figures(v: &FlowView, p: &RunParams, time: f64, dir: &Path) -> anyhow::Result<()> {
+pub fn flow_figures(v: &FlowView, p: &RunParams, time: f64, dir: &Folder) -> anyhow::Result<()> {
     network_figures(v, p, time, dir)?;
     // Boundary pressures and rates from the time series.
-    let text = std::fs::read_to_string(dir.join("timeseries.csv"))?;
+    let text = std::fs::read_to_string(dir.dir.join("timeseries.csv"))?;
     let mut rows = text.lines();
     let header: Vec<&str> = rows.next().unwrap_or("").split(',').collect();
     let data: Vec<Vec<f64>> = rows
@@ -42,14 +43,14 @@ pub fn flow_figures(v: &FlowView, p: &RunParams, time: f64, dir: &Path) -> anyho
     }
     if !pressure.is_empty() {
         lines(
-            &dir.join("boundary_pressure.png"),
+            &dir.claim("boundary_pressure.png")?,
             "Boundary pressure",
             "time [s]",
             "pressure [MPa]",
             &pressure,
         )?;
         lines(
-            &dir.join("boundary_rate.png"),
+            &dir.claim("boundary_rate.png")?,
             "Boundary rate into the network",
             "time [s]",
             "rate [m^2/s]",
@@ -61,7 +62,7 @@ pub fn flow_figures(v: &FlowView, p: &RunParams, time: f64, dir: &Path) -> anyho
 
 /// The network coloured by pressure (linear, MPa) and by flow rate (log, m^2/s), line width
 /// growing with aperture, boundaries marked.
-fn network_figures(v: &FlowView, p: &RunParams, time: f64, dir: &Path) -> anyhow::Result<()> {
+fn network_figures(v: &FlowView, p: &RunParams, time: f64, dir: &Folder) -> anyhow::Result<()> {
     let segments: Vec<Segment> = v
         .cell_nodes
         .iter()
@@ -104,7 +105,7 @@ fn network_figures(v: &FlowView, p: &RunParams, time: f64, dir: &Path) -> anyhow
     let mpa: Vec<f64> = v.pressure.iter().map(|p| p / 1e6).collect();
     let t = time;
     network(
-        &dir.join("network_pressure.png"),
+        &dir.claim("network_pressure.png")?,
         &format!("{}: fluid pressure at t = {t:.4e} s", p.name),
         &segments,
         &mpa,
@@ -114,7 +115,7 @@ fn network_figures(v: &FlowView, p: &RunParams, time: f64, dir: &Path) -> anyhow
         &markers,
     )?;
     network(
-        &dir.join("network_flow.png"),
+        &dir.claim("network_flow.png")?,
         &format!("{}: flow rate at t = {t:.4e} s", p.name),
         &segments,
         &v.flow_rate,
@@ -129,7 +130,7 @@ fn network_figures(v: &FlowView, p: &RunParams, time: f64, dir: &Path) -> anyhow
 /// `fractures.png` for a rock scene with fractures: the fracture cells drawn with line width
 /// growing with the hydraulic aperture and coloured by it (mm), like the seed's Fig. 7 (which
 /// magnifies apertures 20x in the mesh instead).
-pub fn fracture_figure(name: &str, time: f64, view: &FlowView, dir: &Path) -> anyhow::Result<()> {
+pub fn fracture_figure(name: &str, time: f64, view: &FlowView, dir: &Folder) -> anyhow::Result<()> {
     let segments: Vec<Segment> = view
         .cell_nodes
         .iter()
@@ -146,7 +147,7 @@ pub fn fracture_figure(name: &str, time: f64, view: &FlowView, dir: &Path) -> an
         .collect();
     let mm: Vec<f64> = view.aperture.iter().map(|a| a * 1e3).collect();
     network(
-        &dir.join("fractures.png"),
+        &dir.claim("fractures.png")?,
         &format!("{name}: fracture apertures at t = {time:.4e} s"),
         &segments,
         &mm,

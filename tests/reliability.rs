@@ -1,0 +1,320 @@
+//! The user's files are safe and outputs are finite (README "Reliability"): the binary run as a
+//! user would, into folders that hold someone else's files, twice into one folder, with bad run
+//! names and bad `--trace` paths, and a scan of every text output of successful runs for
+//! `inf`, `NaN` and `null`.
+
+#[path = "support/finite.rs"]
+mod finite;
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_hydrofrac"))
+}
+
+fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+fn scenario(name: &str) -> String {
+    root().join("scenarios").join(name).display().to_string()
+}
+
+fn tmp(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("hydrofrac-rel-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    d
+}
+
+fn run(args: &[&str]) -> Output {
+    bin().args(args).output().expect("binary runs")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// A refusal: non-zero exit that is not a panic (101), one `error: ` line containing `needles`.
+fn assert_refused(o: &Output, needles: &[&str]) {
+    let e = stderr(o);
+    assert!(!o.status.success(), "expected failure: {e}");
+    assert_ne!(o.status.code(), Some(101), "panic: {e}");
+    assert!(!e.contains("panicked"), "panic: {e}");
+    let first = e.lines().next().unwrap_or("");
+    assert!(first.starts_with("error: "), "{e}");
+    for n in needles {
+        assert!(first.contains(n), "`{n}` not in: {first}");
+    }
+}
+
+/// Every file under `dir` (relative path, `/`-separated) with its bytes.
+fn files(dir: &Path) -> BTreeMap<String, Vec<u8>> {
+    let mut out = BTreeMap::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for p in std::fs::read_dir(&d).unwrap().map(|e| e.unwrap().path()) {
+            if p.is_dir() {
+                stack.push(p);
+            } else {
+                let rel = p
+                    .strip_prefix(dir)
+                    .unwrap()
+                    .to_string_lossy()
+                    .replace('\\', "/");
+                out.insert(rel, std::fs::read(&p).unwrap());
+            }
+        }
+    }
+    out
+}
+
+/// The manifest's listed files (folders, ending in `/`, left out).
+fn listed(dir: &Path) -> Vec<String> {
+    std::fs::read_to_string(dir.join("hydrofrac-manifest.txt"))
+        .unwrap()
+        .lines()
+        .skip(1)
+        .filter(|l| !l.ends_with('/'))
+        .map(str::to_string)
+        .collect()
+}
+
+fn put(dir: &Path, rel: &str, text: &str) {
+    let p = dir.join(rel);
+    std::fs::create_dir_all(p.parent().unwrap()).unwrap();
+    std::fs::write(p, text).unwrap();
+}
+
+/// Someone else's files in the folder (no manifest): a run is refused without `--force` (the
+/// message names the folder and `--force`), and with `--force` it writes alongside them; neither
+/// that run nor the next one into the folder deletes or changes them, including one inside
+/// `frames/` (the old cleaning deleted the whole `frames/` tree). Exact byte comparison.
+#[test]
+fn foreign_files_are_never_deleted_or_changed() {
+    let out = tmp("foreign");
+    put(&out, "notes.txt", "my notes\n");
+    put(&out, "frames/mine.vtu", "<my own frame/>\n");
+    put(&out, "scenario_copy.ron", "(name: \"x\")\n");
+    let before = files(&out);
+    let args = |force: bool| {
+        let mut a = vec![
+            "run".to_string(),
+            scenario("flow_junction.ron"),
+            "--out".into(),
+            out.display().to_string(),
+            "--quiet".into(),
+        ];
+        if force {
+            a.push("--force".into());
+        }
+        a
+    };
+    let o = bin().args(args(false)).output().unwrap();
+    assert_refused(&o, &[&out.display().to_string(), "--force", "--out"]);
+    assert_eq!(files(&out), before, "a refused run changed the folder");
+    for _ in 0..2 {
+        let o = bin().args(args(true)).output().unwrap();
+        assert!(o.status.success(), "{}", stderr(&o));
+        let now = files(&out);
+        for (rel, bytes) in &before {
+            assert_eq!(now.get(rel), Some(bytes), "{rel} changed or deleted");
+        }
+        assert!(now.contains_key("summary.json"));
+        for rel in listed(&out) {
+            assert!(!before.contains_key(&rel), "{rel} listed as the run's");
+        }
+    }
+}
+
+/// A second run into a folder removes exactly the first run's files it does not write again:
+/// a coupled run's solid frames and figures (`fractures_pressure.png`, `solid.pvd`) do not stay
+/// next to a flow-only run's results, a file the user added in between stays byte-identical,
+/// and afterwards every file in the folder is either listed in the manifest (and exists) or is
+/// the user's.
+#[test]
+fn second_run_removes_only_the_first_runs_files() {
+    let out = tmp("second");
+    let o = run(&[
+        "run",
+        &scenario("example1_cross.ron"),
+        "--out",
+        out.to_str().unwrap(),
+        "--set",
+        "time.end=Time(0.005)",
+        "--set",
+        "output.frame_every=100",
+        "--quiet",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let first = files(&out);
+    assert!(first.contains_key("fractures_pressure.png"));
+    assert!(first.keys().any(|k| k.starts_with("frames/solid_")));
+    put(&out, "frames/user.txt", "kept\n");
+    let o = run(&[
+        "run",
+        &scenario("flow_junction.ron"),
+        "--out",
+        out.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let second = files(&out);
+    assert_eq!(second["frames/user.txt"], b"kept\n");
+    for stale in ["fractures_pressure.png", "fractures_mesh.png", "solid.pvd"] {
+        assert!(!second.contains_key(stale), "stale {stale} stayed");
+    }
+    assert!(!second.keys().any(|k| k.starts_with("frames/solid_")));
+    let list = listed(&out);
+    for rel in &list {
+        assert!(second.contains_key(rel), "listed {rel} missing");
+    }
+    for rel in second.keys() {
+        assert!(
+            list.contains(rel) || rel == "frames/user.txt" || rel == "hydrofrac-manifest.txt",
+            "{rel} is neither listed nor the user's"
+        );
+    }
+}
+
+/// Run names that are not one plain folder name (separators, `..`, absolute, empty, unsafe or
+/// non-ASCII characters, too long) are refused: non-zero exit that is not a panic, the message
+/// names the field `name` and `--out`, and nothing is created, neither in the working folder
+/// (an empty temporary folder that must stay empty) nor where the name points.
+#[test]
+fn bad_run_names_are_refused_and_create_nothing() {
+    let cwd = tmp("names");
+    std::fs::create_dir_all(&cwd).unwrap();
+    let abs = tmp("names-absolute");
+    let long = "a".repeat(101);
+    let names = [
+        "../escape",
+        "../../escape",
+        "..",
+        ".",
+        "",
+        "a/b",
+        "a\\b",
+        abs.to_str().unwrap(),
+        "x:y",
+        "semi;colon",
+        "with space",
+        "tab\there",
+        "caf\u{e9}",
+        ".hidden",
+        &long,
+    ];
+    for name in names {
+        let set = format!("name={}", serde_json::to_string(name).unwrap());
+        let o = bin()
+            .current_dir(&cwd)
+            .args([
+                "run",
+                &scenario("flow_junction.ron"),
+                "--quiet",
+                "--set",
+                &set,
+            ])
+            .output()
+            .unwrap();
+        assert_refused(&o, &["name", "--out"]);
+        assert_eq!(
+            std::fs::read_dir(&cwd).unwrap().count(),
+            0,
+            "name {name:?} created something in the working folder"
+        );
+        assert!(!abs.exists(), "name {name:?} wrote outside out/");
+        assert!(!cwd.parent().unwrap().join("escape").exists());
+    }
+}
+
+/// A `--trace` path that cannot be written (its folder does not exist; it is a folder) fails
+/// with an error naming `--trace` before anything is removed: the previous run's outputs stay
+/// byte-identical (the old engine panicked after it had cleaned the folder).
+#[test]
+fn bad_trace_path_fails_before_touching_the_folder() {
+    let out = tmp("trace");
+    let args = |trace: &str| {
+        vec![
+            "run".to_string(),
+            scenario("flow_junction.ron"),
+            "--out".into(),
+            out.display().to_string(),
+            "--quiet".into(),
+            "--trace".into(),
+            trace.to_string(),
+        ]
+    };
+    let good = out.join("trace.json").display().to_string();
+    let o = bin().args(args(&good)).output().unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(listed(&out).contains(&"trace.json".to_string()));
+    let before = files(&out);
+    let missing = tmp("trace-missing").join("sub").join("t.json");
+    for bad in [missing.display().to_string(), out.display().to_string()] {
+        let o = bin().args(args(&bad)).output().unwrap();
+        assert_refused(&o, &["--trace"]);
+        assert_eq!(files(&out), before, "--trace {bad} changed the folder");
+    }
+    assert!(!missing.parent().unwrap().exists());
+}
+
+/// Successful runs write only finite numbers: no `inf`, `NaN` or `null` token in any csv, json,
+/// vtu or pvd file (exact: one token fails). Shipped scenarios shortened with `--set` (each
+/// well under a second here), both flow schemes of the coupled Example I, and a shut-in network
+/// whose only boundary rate drops to zero (it wrote `inf` residuals before).
+#[test]
+fn successful_runs_write_only_finite_values() {
+    let shutin =
+        std::env::temp_dir().join(format!("hydrofrac-rel-{}-shutin.ron", std::process::id()));
+    std::fs::write(
+        &shutin,
+        r#"(
+        name: "shutin",
+        network: (fractures: [(from: (0.0, 0.0), to: (10.0, 0.0), aperture: 1e-4)], cell_length: 0.5),
+        initial_fluid: Full(0.0),
+        flow_boundaries: [(name: "inlet", at: Node((0.0, 0.0)), kind: Rate(1e-6),
+            schedule: [(0.0, 1.0), (0.05, 1.0), (0.051, 0.0)])],
+        time: (end: Time(0.2)),
+        output: (frame_every: 50, series_every: 10),
+    )"#,
+    )
+    .unwrap();
+    let short = "time.end=Time(0.004)";
+    let cases: Vec<(String, Vec<&str>)> = vec![
+        (scenario("flow_junction.ron"), vec![]),
+        (scenario("flow_single_fracture.ron"), vec![]),
+        (scenario("insitu_stress.ron"), vec!["mesh.h=4"]),
+        (scenario("example1_cross.ron"), vec![short]),
+        (
+            scenario("example1_cross.ron"),
+            vec![short, "time.flow_scheme=Explicit"],
+        ),
+        (scenario("example1_offset.ron"), vec![short]),
+        (scenario("kgd.ron"), vec![short]),
+        (shutin.display().to_string(), vec![]),
+    ];
+    for (k, (file, sets)) in cases.iter().enumerate() {
+        let out = tmp(&format!("finite-{k}"));
+        let mut args = vec![
+            "run".to_string(),
+            file.clone(),
+            "--out".into(),
+            out.display().to_string(),
+            "--quiet".into(),
+        ];
+        for s in sets {
+            args.push("--set".into());
+            args.push(s.to_string());
+        }
+        let o = bin().args(&args).output().unwrap();
+        assert!(o.status.success(), "{file} {sets:?}: {}", stderr(&o));
+        assert!(
+            finite::text_outputs(&out).len() >= 3,
+            "{file}: too few outputs"
+        );
+        let bad = finite::non_finite_tokens(&out);
+        assert!(bad.is_empty(), "{file} {sets:?}: {bad:?}");
+    }
+}
