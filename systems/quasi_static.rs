@@ -8,7 +8,7 @@
 //! per joint, the penalty springs of its contact state: K_n n n^T on the faces' relative
 //! displacement when closed, K_t t t^T when sticking; sliding joints carry mu F_n s and add
 //! no tangential spring, but their Coulomb term mu K_n s a_t a_n^T (unsymmetric) is added to
-//! every solve by Sherman-Morrison-Woodbury over the symmetric factor ([`SlipTerm`]). The shear force's return map
+//! every solve by Sherman-Morrison-Woodbury over the symmetric factor (`SlipTerm`). The shear force's return map
 //! starts from the step-start state at every iteration, so iterates do not accumulate slip.
 //! Converged when the free-dof residual is below `tol` times the larger of the reactions-and-
 //! loads norm and the step's first residual, and the contact states did not change in the

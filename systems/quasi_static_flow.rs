@@ -264,7 +264,7 @@ impl FlowRows {
         1.0 + (col % 7) as f64 / 7.0
     }
 
-    /// G x for the weights x of [`FlowRows::weight`], over the columns of the last
+    /// G x for the weights x of `FlowRows::weight`, over the columns of the last
     /// [`FlowRows::load_g`] (same arguments), into `out` (length `n`).
     #[allow(clippy::too_many_arguments)]
     pub fn g_combination(
@@ -290,7 +290,7 @@ impl FlowRows {
         }
     }
 
-    /// W x for the weights of [`FlowRows::weight`], into `out` (length `n`).
+    /// W x for the weights of `FlowRows::weight`, into `out` (length `n`).
     pub fn w_combination(&self, n: usize, out: &mut Vec<f64>) {
         out.clear();
         out.resize(n, 0.0);
