@@ -211,8 +211,8 @@ impl FlowRows {
     /// joint, into the W buffer (to be solved in place by the caller); returns the number of
     /// columns. `dof[2 i + d]` is node i's free dof (`usize::MAX`: prescribed), `n` their count.
     /// `normal` and `len` are each joint's normal and length as the rock's tangent takes them
-    /// (frozen with the topology: G then changes only with it, so W = K_T^-1 G stays exact
-    /// under the low-rank updates of K_T; the residual uses the current geometry).
+    /// (kept along a chain of low-rank updates of K_T, so W = K_T^-1 G stays exact under
+    /// them; the residual uses the current geometry).
     pub fn load_g(
         &mut self,
         s: &FlowStep,
@@ -244,17 +244,16 @@ impl FlowRows {
         }
         self.wmat.clear();
         self.wmat.resize(m * n, 0.0);
-        for c in 0..nc {
-            let col = self.w_col[c];
-            if col == u32::MAX {
-                continue;
-            }
-            let kj = c_map.cell_joint[c] as usize;
-            let l = len[kj];
-            let g = &mut self.wmat[col as usize * n..(col as usize + 1) * n];
-            // The face pressure's force per unit pressure is len d(delta_n)/du.
-            opening_gradient(solid, kj, normal[kj], dof, |k, a| g[k] += l * a);
-        }
+        let w = &mut self.wmat;
+        g_entries(
+            &self.w_col,
+            &c_map.cell_joint,
+            solid,
+            dof,
+            normal,
+            len,
+            |col, k, a| w[col * n + k] += a,
+        );
         Ok(m)
     }
 
@@ -280,14 +279,15 @@ impl FlowRows {
         let c_map = s.part.coupling.as_ref().expect("coupled flow");
         out.clear();
         out.resize(n, 0.0);
-        for (c, &col) in self.w_col.iter().enumerate() {
-            if col == u32::MAX {
-                continue;
-            }
-            let kj = c_map.cell_joint[c] as usize;
-            let x = Self::weight(col as usize) * len[kj];
-            opening_gradient(solid, kj, normal[kj], dof, |k, a| out[k] += x * a);
-        }
+        g_entries(
+            &self.w_col,
+            &c_map.cell_joint,
+            solid,
+            dof,
+            normal,
+            len,
+            |col, k, a| out[k] += Self::weight(col) * a,
+        );
     }
 
     /// W x for the weights of `FlowRows::weight`, into `out` (length `n`).
@@ -471,6 +471,29 @@ impl FlowRows {
         if let Some(c) = kink {
             self.y[c] = kink_landing(self.b[c]);
         }
+    }
+}
+
+/// The entries of G: `push(col, dof, value)` for each cell with a W column `w_col[c]` (its
+/// joint `cell_joint[c]`): the face pressure's force per unit pressure, len d(delta_n)/du.
+fn g_entries(
+    w_col: &[u32],
+    cell_joint: &[u32],
+    solid: &SolidView,
+    dof: &[usize],
+    normal: &[[f64; 2]],
+    len: &[f64],
+    mut push: impl FnMut(usize, usize, f64),
+) {
+    for (c, &col) in w_col.iter().enumerate() {
+        if col == u32::MAX {
+            continue;
+        }
+        let kj = cell_joint[c] as usize;
+        let l = len[kj];
+        opening_gradient(solid, kj, normal[kj], dof, |k, a| {
+            push(col as usize, k, l * a)
+        });
     }
 }
 
