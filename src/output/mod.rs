@@ -161,48 +161,38 @@ impl Outputs {
     /// A table with a non-finite value (the state of a failed run) is not written: returns
     /// `Ok(false)` and writes nothing.
     pub fn write_network_csv(&self, f: &FlowView) -> std::io::Result<bool> {
-        let finite = (0..f.n_cells()).all(|c| {
-            let kin = f.kinematics.get(c).copied().unwrap_or([f.aperture[c], 0.0]);
-            let [a, b] = f.cell_nodes[c].map(|n| f.node_pos[n as usize]);
-            [
-                a[0],
-                a[1],
-                b[0],
-                b[1],
-                f.aperture[c],
-                kin[0],
-                kin[1],
-                f.pressure[c],
-            ]
-            .into_iter()
-            .chain([f.flow_rate[c], f.created_t[c]])
-            .all(f64::is_finite)
-        });
-        if !finite {
+        // x0, y0, x1, y1, aperture, opening, slip, pressure, flow_rate, created_t per cell.
+        let rows: Vec<[f64; 10]> = (0..f.n_cells())
+            .map(|c| {
+                let kin = f.kinematics.get(c).copied().unwrap_or([f.aperture[c], 0.0]);
+                let [a, b] = f.cell_nodes[c].map(|n| f.node_pos[n as usize]);
+                [
+                    a[0],
+                    a[1],
+                    b[0],
+                    b[1],
+                    f.aperture[c],
+                    kin[0],
+                    kin[1],
+                    f.pressure[c],
+                    f.flow_rate[c],
+                    f.created_t[c],
+                ]
+            })
+            .collect();
+        if !rows.iter().flatten().all(|x| x.is_finite()) {
             return Ok(false);
         }
         let mut s =
             String::from("x0,y0,x1,y1,aperture,opening,slip,pressure,flow_rate,kind,created_t\n");
-        for c in 0..f.n_cells() {
-            let [a, b] = f.cell_nodes[c].map(|n| f.node_pos[n as usize]);
-            let kin = f.kinematics.get(c).copied().unwrap_or([f.aperture[c], 0.0]);
+        for (c, r) in rows.iter().enumerate() {
             let kind = match f.kind[c] {
                 CellKind::Preexisting => "preexisting",
                 CellKind::New => "new",
             };
             s += &format!(
                 "{},{},{},{},{},{},{},{},{},{},{}\n",
-                a[0],
-                a[1],
-                b[0],
-                b[1],
-                f.aperture[c],
-                kin[0],
-                kin[1],
-                f.pressure[c],
-                f.flow_rate[c],
-                kind,
-                f.created_t[c]
+                r[0], r[1], r[2], r[3], r[4], r[5], r[6], r[7], r[8], kind, r[9]
             );
         }
         write_atomic(&self.claim("network.csv")?, s.as_bytes())?;
