@@ -12,9 +12,9 @@
 //!
 //! Both runs also check the mass balance (1e-9). About 60 s each in release mode.
 
-use hydrofrac::flow::FlowView;
 use hydrofrac::scenario::Scenario;
 use hydrofrac::sim::{Finish, Simulation};
+use hydrofrac::verify::example_cases::cells;
 use std::path::Path;
 
 fn run(name: &str) -> Simulation {
@@ -29,28 +29,6 @@ fn run(name: &str) -> Simulation {
     sim
 }
 
-/// (x range, y range, aperture m, pressure Pa, created s) of a cell, reference geometry.
-type CellRow = ([f64; 2], [f64; 2], f64, f64, f64);
-
-fn cells(v: &FlowView) -> Vec<CellRow> {
-    (0..v.n_cells())
-        .map(|c| {
-            let [a, b] = v.cell_nodes[c].map(|n| v.node_ref[n as usize]);
-            (
-                [a[0].min(b[0]), a[0].max(b[0])],
-                [a[1].min(b[1]), a[1].max(b[1])],
-                v.aperture[c],
-                v.pressure[c],
-                v.created_t[c],
-            )
-        })
-        .collect()
-}
-
-fn vertical(c: &CellRow) -> bool {
-    (c.0[0] - 16.0).abs() < 1e-6 && (c.0[1] - 16.0).abs() < 1e-6
-}
-
 #[test]
 fn friction_45_degrees_crosses() {
     let sim = run("example1_cross.ron");
@@ -58,14 +36,17 @@ fn friction_45_degrees_crosses() {
     let cs = cells(&f.view);
     let beyond = cs
         .iter()
-        .filter(|c| c.4 > 0.0 && c.0[0] >= 17.0 - 1e-6 && (c.1[0] - 50.0).abs() < 0.5)
+        .filter(|c| c.created > 0.0 && c.x[0] >= 17.0 - 1e-6 && (c.y[0] - 50.0).abs() < 0.5)
         .count();
     assert!(beyond >= 1, "no new fracture past x = 17 m at y = 50 m");
-    let vert: Vec<_> = cs.iter().filter(|c| vertical(c)).collect();
+    let vert: Vec<_> = cs.iter().filter(|c| c.vertical()).collect();
     assert_eq!(vert.len(), 8);
     // "Mostly closed" (`docs/verification.md` R9): at least 6 of the 8 cells at the residual
     // aperture; measured 8 of 8.
-    let closed = vert.iter().filter(|c| c.2 <= 5e-4 * (1.0 + 1e-9)).count();
+    let closed = vert
+        .iter()
+        .filter(|c| c.aperture <= 5e-4 * (1.0 + 1e-9))
+        .count();
     assert!(
         closed >= 6,
         "vertical fracture open: {closed} of 8 cells closed"
@@ -73,7 +54,7 @@ fn friction_45_degrees_crosses() {
     // No branch along the vertical fracture's tips.
     assert!(
         !cs.iter()
-            .any(|c| c.4 > 0.0 && (c.1[0] - 50.0).abs() > 1.5 && c.0[0] >= 15.0),
+            .any(|c| c.created > 0.0 && (c.y[0] - 50.0).abs() > 1.5 && c.x[0] >= 15.0),
         "a fracture left the y = 50 m line"
     );
 }
@@ -85,20 +66,20 @@ fn friction_3_degrees_offsets() {
     let cs = cells(&f.view);
     assert!(
         !cs.iter()
-            .any(|c| c.4 > 0.0 && c.0[0] >= 16.0 - 1e-6 && (c.1[0] - 50.0).abs() < 0.5),
+            .any(|c| c.created > 0.0 && c.x[0] >= 16.0 - 1e-6 && (c.y[0] - 50.0).abs() < 0.5),
         "a fracture started on the far side at y = 50 m"
     );
-    let vert: Vec<_> = cs.iter().filter(|c| vertical(c)).collect();
+    let vert: Vec<_> = cs.iter().filter(|c| c.vertical()).collect();
     assert!(
-        vert.iter().all(|c| c.3 > 10e6),
+        vert.iter().all(|c| c.pressure > 10e6),
         "fluid did not fill the vertical fracture"
     );
     for (lo, hi) in [(45.5, 48.5), (51.5, 54.5)] {
         assert!(
-            cs.iter().any(|c| c.4 > 0.0
-                && c.0[0] >= 16.0 - 1e-6
-                && (c.1[1] - c.1[0]).abs() < 1e-6
-                && (lo..=hi).contains(&c.1[0])),
+            cs.iter().any(|c| c.created > 0.0
+                && c.x[0] >= 16.0 - 1e-6
+                && (c.y[1] - c.y[0]).abs() < 1e-6
+                && (lo..=hi).contains(&c.y[0])),
             "no horizontal fracture from the vertical fracture's tip region y in [{lo}, {hi}]"
         );
     }
