@@ -69,6 +69,7 @@ fn bench(c: &mut Criterion) {
         if fractures {
             sc.fracture = Some(FractureSpec {
                 strength: None,
+                criterion: None,
                 face_stress: Default::default(),
                 residual_aperture: 5e-4,
                 preexisting: (1..=10)

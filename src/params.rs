@@ -6,7 +6,8 @@ use crate::element::SolidParams;
 use crate::flow::FlowParams;
 use crate::scenario::SolidScheme;
 use crate::scenario::{
-    DEFAULT_RESIDUAL_APERTURE, End, FaceStress, Field, FlowBoundary, FlowScheme, Material, Scenario,
+    CriterionSpec, DEFAULT_RESIDUAL_APERTURE, End, FaceStress, Field, FlowBoundary, FlowScheme,
+    Material, Scenario,
 };
 
 /// Joint constants: penalty stiffnesses K_n, K_t (Pa) and the friction coefficient tan(phi).
@@ -24,11 +25,16 @@ impl JointParams {
     }
 }
 
-/// The fracture criterion (seed (7), `docs/seed-method.md`).
+/// The fracture criterion (seed (7), `docs/seed-method.md`; toughness:
+/// `systems::toughness`).
 #[derive(Clone, Copy, Debug)]
 pub struct CriterionParams {
-    /// lambda*T0, Pa (tension positive).
-    pub strength: f64,
+    /// The strength test's threshold lambda*T0, Pa (tension positive): every face under
+    /// `Strength`, the faces away from the tips under `Toughness` (`None`: no initiation).
+    pub strength: Option<f64>,
+    /// K_Ic, Pa sqrt(m): the tips grow by linear elastic fracture mechanics (`None`: the
+    /// strength test everywhere, the seed's criterion).
+    pub toughness: Option<f64>,
     /// Face stress from the two elements beside the edge (`FaceStress::Elements`) instead of
     /// the edge's patch.
     pub by_elements: bool,
@@ -138,12 +144,21 @@ impl RunParams {
             },
             residual_aperture: f.map_or(DEFAULT_RESIDUAL_APERTURE, |f| f.residual_aperture),
             criterion: f
-                .and_then(|f| f.strength.map(|s| (s, f.face_stress)))
-                .filter(|_| has_solid)
-                .map(|(strength, face)| CriterionParams {
-                    strength,
-                    by_elements: face == FaceStress::Elements,
-                }),
+                .and_then(|f| {
+                    let (strength, toughness) = match (f.criterion, f.strength) {
+                        (Some(CriterionSpec::Toughness { k_ic, initiation }), _) => {
+                            (initiation, Some(k_ic))
+                        }
+                        (Some(CriterionSpec::Strength(s)), _) | (None, Some(s)) => (Some(s), None),
+                        (None, None) => return None,
+                    };
+                    Some(CriterionParams {
+                        strength,
+                        toughness,
+                        by_elements: f.face_stress == FaceStress::Elements,
+                    })
+                })
+                .filter(|_| has_solid),
             has_fractures: f.is_some(),
             face_pressure: f.and_then(|f| f.pressure),
             fluid: FlowParams::from(sc.fluid),

@@ -233,6 +233,13 @@ pub struct FractureSpec {
     /// `None`: no criterion, only the pre-existing fractures.
     #[serde(default)]
     pub strength: Option<f64>,
+    /// The criterion by name: `Some(Strength(lambda_t0))` is the same as `strength`;
+    /// `Some(Toughness(k_ic: ..., initiation: ...))` grows fractures at their tips when the
+    /// equivalent stress intensity reaches K_Ic (Pa sqrt(m)), with the strength test (Pa,
+    /// optional) starting new fractures away from the tips (`systems::toughness`). Give either
+    /// this or `strength`, not both.
+    #[serde(default)]
+    pub criterion: Option<CriterionSpec>,
     /// Which stress the criterion reads on a face: `Patch` (default), the area-weighted mean of
     /// the elements touching the edge's ends that lie alongside it, or `Elements`, the mean of
     /// the two elements beside the edge. See `systems::fracture::fracture_criterion`.
@@ -257,6 +264,24 @@ pub struct FractureSpec {
     pub normal_stiffness: Option<f64>,
     #[serde(default)]
     pub shear_stiffness: Option<f64>,
+}
+
+/// The fracture criterion (`fracture.criterion`).
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq)]
+pub enum CriterionSpec {
+    /// The seed's: a face opens when its normal stress reaches lambda*T0, Pa (tension
+    /// positive; as `fracture.strength`).
+    Strength(f64),
+    /// Linear elastic fracture mechanics at the tips: a tip grows by one edge, in the direction
+    /// of the maximum hoop stress, when K_eq >= `k_ic` (Pa sqrt(m)). `initiation` (Pa, tension
+    /// positive): the strength test on faces away from every tip, so fractures can also start
+    /// where there is no tip; `None`: only tips grow.
+    #[serde(rename_all = "snake_case")]
+    Toughness {
+        k_ic: f64,
+        #[serde(default)]
+        initiation: Option<f64>,
+    },
 }
 
 /// The stress the fracture criterion reads on a face.
@@ -1033,6 +1058,28 @@ impl Scenario {
                 // May be negative: a criterion calibrated at mesh size h under a confining
                 // stress s0 is lambda*T0 = c K_Ic / sqrt(h) - s0 (see scenarios/kgd.ron).
                 finite("fracture.strength", st)?;
+            }
+            match f.criterion {
+                Some(_) if f.strength.is_some() => {
+                    return Err(SetupError::invalid(
+                        "fracture.criterion",
+                        "give either fracture.strength or fracture.criterion, not both",
+                    ));
+                }
+                Some(CriterionSpec::Strength(st)) => finite("fracture.criterion", st)?,
+                Some(CriterionSpec::Toughness { k_ic, initiation }) => {
+                    finite("fracture.criterion.k_ic", k_ic)?;
+                    if k_ic < 0.0 {
+                        return Err(SetupError::invalid(
+                            "fracture.criterion.k_ic",
+                            format!("the fracture toughness must be >= 0 Pa sqrt(m), got {k_ic}"),
+                        ));
+                    }
+                    if let Some(st) = initiation {
+                        finite("fracture.criterion.initiation", st)?;
+                    }
+                }
+                None => {}
             }
             positive(
                 "fracture.residual_aperture",

@@ -312,10 +312,51 @@ impl Simulation {
 
     /// `fracture_criterion`: mark the faces ready to split.
     fn criterion(&mut self) {
-        if let Some(c) = self.params.criterion {
-            self.fracture.ready_edges =
-                fracture::fracture_criterion(&mut self.solid.view, c.strength, c.by_elements);
+        let Some(c) = self.params.criterion else {
+            return;
+        };
+        if let Some(k_ic) = c.toughness {
+            self.measure_tips();
+            self.fracture.tips.mark(&mut self.solid.view, k_ic);
         }
+        let (v, fr) = (&mut self.solid.view, &mut self.fracture);
+        let skip = c.toughness.map(|_| &fr.tips.near_tip[..]);
+        if let Some(strength) = c.strength {
+            fracture::fracture_criterion(
+                v,
+                strength,
+                c.by_elements,
+                Some(&mut fr.screen),
+                skip,
+                &mut fr.strength_counts,
+            );
+        }
+        fr.ready_edges = v.edge_ready.iter().filter(|r| **r).count();
+    }
+
+    /// K_I, K_II and the growth direction at every fracture tip of the current state
+    /// (`systems::toughness`), whatever the criterion; the faces carry their cell's pressure in
+    /// coupled runs (the quasi-static solve's, or the explicit step's mean), else
+    /// `fracture.pressure`.
+    pub fn measure_tips(&mut self) -> &[crate::systems::toughness::TipState] {
+        let p = &self.params;
+        let m = p.material;
+        let e_prime = m.young / (1.0 - m.poisson * m.poisson);
+        let quasi_static = self.solid.quasi_static.is_some();
+        let flow = self.flow.as_ref();
+        let joint_pressure = |k: usize| -> f64 {
+            match flow.and_then(|f| f.coupling.as_ref().map(|c| (f, c))) {
+                Some((f, c)) => match c.joint_cell[k] {
+                    u32::MAX => 0.0,
+                    cell if quasi_static => f.view.pressure[cell as usize],
+                    cell => c.p_mean[cell as usize],
+                },
+                None => p.face_pressure.unwrap_or(0.0),
+            }
+        };
+        let tips = &mut self.fracture.tips;
+        tips.measure(&self.solid.view, &p.solid, e_prime, joint_pressure);
+        &tips.state
     }
 
     /// `split` at time `t1`; returns whether faces opened (the views are then rebuilt).

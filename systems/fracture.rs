@@ -14,8 +14,7 @@ pub fn normal_stress(s: [f64; 3], n: [f64; 2]) -> f64 {
     s[0] * n[0] * n[0] + s[1] * n[1] * n[1] + 2.0 * s[2] * n[0] * n[1]
 }
 
-/// `fracture_criterion`: sigma_n of every internal edge, marking edges with sigma_n >= `strength`
-/// (lambda*T0, Pa). Marks stay once set. Returns the number of fracture-ready edges.
+/// The face stress of internal edge `k` that the criterion reads, [sxx, syy, sxy], Pa.
 ///
 /// The face stress (`by_elements = false`, the default) is the area-weighted mean stress of the
 /// edge's patch: the elements touching either end of the edge whose centroid lies alongside it
@@ -25,40 +24,117 @@ pub fn normal_stress(s: [f64; 3], n: [f64; 2]) -> f64 {
 /// the singular sigma_yy peaks, about 60 degrees off the crack line) turns tensile, so with the
 /// mean of only the two elements beside the edge (`by_elements = true`) fractures branch off one
 /// row beside the crack instead of running ahead (seen on Example I).
-pub fn fracture_criterion(v: &mut SolidView, strength: f64, by_elements: bool) -> usize {
-    let (stress, elems, normals, ptr, patch) = (
-        &v.stress,
-        &v.edge_elems,
-        &v.edge_normal,
-        &v.patch_ptr,
-        &v.patch,
-    );
-    v.edge_sigma_n
-        .par_iter_mut()
-        .zip(v.edge_ready.par_iter_mut())
-        .enumerate()
-        .with_min_len(4096)
-        .for_each(|(k, (sn, ready))| {
-            let mean = if by_elements {
-                let [a, b] = elems[k].map(|e| stress[e as usize]);
-                [
-                    0.5 * (a[0] + b[0]),
-                    0.5 * (a[1] + b[1]),
-                    0.5 * (a[2] + b[2]),
-                ]
-            } else {
-                let mut m = [0.0; 3];
-                for &(e, w) in &patch[ptr[k] as usize..ptr[k + 1] as usize] {
-                    let s = stress[e as usize];
-                    m[0] += w * s[0];
-                    m[1] += w * s[1];
-                    m[2] += w * s[2];
+#[inline]
+fn face_stress(v: &SolidView, k: usize, by_elements: bool) -> [f64; 3] {
+    if by_elements {
+        let [a, b] = v.edge_elems[k].map(|e| v.stress[e as usize]);
+        [
+            0.5 * (a[0] + b[0]),
+            0.5 * (a[1] + b[1]),
+            0.5 * (a[2] + b[2]),
+        ]
+    } else {
+        let mut m = [0.0; 3];
+        for &(e, w) in &v.patch[v.patch_ptr[k] as usize..v.patch_ptr[k + 1] as usize] {
+            let s = v.stress[e as usize];
+            m[0] += w * s[0];
+            m[1] += w * s[1];
+            m[2] += w * s[2];
+        }
+        m
+    }
+}
+
+/// Largest principal stress of `s` = [sxx, syy, sxy], Pa, raised by 1e-9 of the components'
+/// size so that it bounds n.s.n and any weighted mean of such values under rounding.
+#[inline]
+fn principal_bound(s: [f64; 3]) -> f64 {
+    let c = 0.5 * (s[0] + s[1]);
+    let r = (0.5 * (s[0] - s[1])).hypot(s[2]);
+    c + r + 1e-9 * (s[0].abs() + s[1].abs() + 2.0 * s[2].abs())
+}
+
+/// Work counts of the strength test.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct StrengthCounts {
+    /// Faces whose stress was evaluated, and faces screened out by the bound, summed over
+    /// passes.
+    pub evaluated: u64,
+    pub screened: u64,
+}
+
+/// `fracture_criterion`'s strength test: sigma_n of every internal edge, marking edges with
+/// sigma_n >= `strength` (lambda*T0, Pa; seed (7)). Marks stay once set. Returns the number of
+/// fracture-ready edges.
+///
+/// **Screening** (`screen`: scratch per node): no face stress can exceed the largest principal
+/// stress of the elements it averages, and those all touch one of the edge's two nodes. So each
+/// element's largest principal stress is computed once, each node keeps the largest of its
+/// elements', and an edge whose two nodes' bounds are below the strength cannot be marked: its
+/// face stress is not evaluated and `edge_sigma_n` holds that bound instead. The marks are
+/// exactly those of the full evaluation (`screen = None`; `tests/fracture_criterion.rs`).
+/// `skip_node`: faces touching a node marked there are not tested (the toughness criterion's
+/// tip neighbourhoods).
+pub fn fracture_criterion(
+    v: &mut SolidView,
+    strength: f64,
+    by_elements: bool,
+    screen: Option<&mut Vec<f64>>,
+    skip_node: Option<&[bool]>,
+    counts: &mut StrengthCounts,
+) -> usize {
+    let bound: Option<&[f64]> = match screen {
+        Some(node_max) => {
+            let (stress, ptr, inc) = (&v.stress, &v.inc_ptr, &v.inc);
+            node_max.resize(v.x0.len(), 0.0);
+            node_max
+                .par_iter_mut()
+                .enumerate()
+                .with_min_len(4096)
+                .for_each(|(i, m)| {
+                    *m = inc[ptr[i] as usize..ptr[i + 1] as usize]
+                        .iter()
+                        .map(|&c| principal_bound(stress[(c / 6) as usize]))
+                        .fold(f64::NEG_INFINITY, f64::max);
+                });
+            Some(node_max)
+        }
+        None => None,
+    };
+    let (evaluated, screened): (u64, u64) = {
+        let mut sn = std::mem::take(&mut v.edge_sigma_n);
+        let mut ready = std::mem::take(&mut v.edge_ready);
+        let view = &*v;
+        let r = sn
+            .par_iter_mut()
+            .zip(ready.par_iter_mut())
+            .enumerate()
+            .with_min_len(4096)
+            .map(|(k, (sn, ready))| {
+                let [a, b] = view.edge_nodes[k];
+                if let Some(skip) = skip_node
+                    && (skip[a as usize] || skip[b as usize])
+                {
+                    return (0, 0);
                 }
-                m
-            };
-            *sn = normal_stress(mean, normals[k]);
-            *ready |= *sn >= strength;
-        });
+                if let Some(m) = bound {
+                    let ub = m[a as usize].max(m[b as usize]);
+                    if ub < strength {
+                        *sn = ub;
+                        return (0, 1);
+                    }
+                }
+                *sn = normal_stress(face_stress(view, k, by_elements), view.edge_normal[k]);
+                *ready |= *sn >= strength;
+                (1, 0)
+            })
+            .reduce(|| (0, 0), |x, y| (x.0 + y.0, x.1 + y.1));
+        v.edge_sigma_n = sn;
+        v.edge_ready = ready;
+        r
+    };
+    counts.evaluated += evaluated;
+    counts.screened += screened;
     v.edge_ready.iter().filter(|r| **r).count()
 }
 
@@ -173,4 +249,9 @@ pub struct FractureState {
     /// ready edge with both ends interior waits for the fracture to reach it, so `split` retries
     /// only when the ready set or the topology changed.
     pub last_idle_split: Option<(usize, u64)>,
+    /// The toughness criterion's tips (`systems::toughness`).
+    pub tips: crate::systems::toughness::Tips,
+    /// Scratch of the strength test's screening (one bound per node) and its counts.
+    pub screen: Vec<f64>,
+    pub strength_counts: StrengthCounts,
 }

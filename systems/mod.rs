@@ -31,6 +31,7 @@ pub mod solid;
 pub mod split;
 pub mod state;
 pub mod sync;
+pub mod toughness;
 
 use crate::error::SetupError;
 

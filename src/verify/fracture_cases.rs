@@ -34,6 +34,10 @@ pub struct CrackRun {
     /// Degrees of freedom (2 per node).
     pub unknowns: usize,
     pub steps: u64,
+    /// K_I and K_II at the crack's tips (left, right), Pa sqrt(m), by the virtual crack
+    /// closure technique (`systems/toughness.rs`).
+    pub k1: [f64; 2],
+    pub k2: [f64; 2],
 }
 
 /// Parity of the diagonal pattern of the graded mesh at the crack: the regular and graded
@@ -42,19 +46,20 @@ pub struct CrackRun {
 /// patterns differ by up to 1.3 % in area at a/h = 10 (measured), so a domain-size study must
 /// compare meshes of the same parity.
 pub fn crack_parity(a: f64, h: f64, r: f64) -> anyhow::Result<usize> {
-    let m = crate::mesh::TriMesh::graded(
-        2.0 * r,
-        2.0 * r,
-        [-r, -r],
-        h,
-        [-1.2 * a, -0.2 * a, 1.2 * a, 0.2 * a],
-        1.15,
-    )?;
+    mesh_parity(h, r, [-1.2 * a, -0.2 * a, 1.2 * a, 0.2 * a])
+}
+
+/// The diagonal parity at the corner of the fine box `fine` ([x0, y0, x1, y1], m) of the
+/// graded mesh (growth 1.15) of fine size `h` in the square of half-width `r` (see
+/// [`crack_parity`]).
+pub fn mesh_parity(h: f64, r: f64, fine: [f64; 4]) -> anyhow::Result<usize> {
+    let m = crate::mesh::TriMesh::graded(2.0 * r, 2.0 * r, [-r, -r], h, fine, 1.15)?;
     let row = m.nodes.iter().take_while(|x| x[1] == m.nodes[0][1]).count();
+    let tol = 1e-9 * r;
     let k = m
         .nodes
         .iter()
-        .position(|x| (x[0] + 1.2 * a).abs() < 1e-9 * a && (x[1] + 0.2 * a).abs() < 1e-9 * a)
+        .position(|x| (x[0] - fine[0]).abs() < tol && (x[1] - fine[1]).abs() < tol)
         .ok_or_else(|| anyhow::anyhow!("no node at the fine box corner"))?;
     Ok((k % row + k / row) % 2)
 }
@@ -103,6 +108,7 @@ pub fn pressurised_crack(
     sc.time.max_steps = 20_000_000;
     sc.fracture = Some(FractureSpec {
         strength: None,
+        criterion: None,
         face_stress: Default::default(),
         residual_aperture: 5e-4,
         preexisting: vec![PreFracture {
@@ -143,10 +149,17 @@ pub fn pressurised_crack(
         area += w * len;
         wmax = wmax.max(w);
     }
+    let wall_s = t0.elapsed().as_secs_f64();
+    let mut tips = sim.measure_tips().to_vec();
+    anyhow::ensure!(tips.len() == 2, "sneddon: {} crack tips, not 2", tips.len());
+    let x = |t: &crate::systems::toughness::TipState| sim.solid().x0[t.node as usize][0];
+    tips.sort_by(|a, b| x(a).total_cmp(&x(b)));
     Ok(CrackRun {
         area,
         wmax,
-        wall_s: t0.elapsed().as_secs_f64(),
+        k1: [tips[0].k1, tips[1].k1],
+        k2: [tips[0].k2, tips[1].k2],
+        wall_s,
         unknowns: 2 * sim.solid().n_nodes(),
         steps: sim.step(),
     })
@@ -366,6 +379,7 @@ fn block_scenario(phi_deg: f64, h: f64, gravity: [f64; 2]) -> crate::scenario::S
     sc.gravity = Some(gravity);
     sc.fracture = Some(FractureSpec {
         strength: None,
+        criterion: None,
         face_stress: Default::default(),
         residual_aperture: 5e-4,
         preexisting: vec![PreFracture {

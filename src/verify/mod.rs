@@ -3,12 +3,13 @@
 //!
 //! Cases: solid (`docs/verification.md` R1-R4) `patch`, `insitu`, `mms`, `stability`; flow
 //! `cubic_law`, `diffusion`, `mass_balance`, `pump_curve`, `steady`, `flow_stability`; fracture
-//! (R5, R8) `sneddon`, `friction`; coupled (R6) `kgd`; the seed's Example I (R9) `example1`.
+//! (R5, R7b, R8) `sneddon`, `sif`, `friction`; coupled (R6) `kgd`; the seed's Example I (R9) `example1`.
 
 pub mod coupled_cases;
 pub mod example_cases;
 pub mod flow_cases;
 pub mod fracture_cases;
+pub mod sif_cases;
 pub mod solid_cases;
 
 use crate::plot::{Series, loglog};
@@ -166,6 +167,11 @@ pub fn cases() -> Vec<Case> {
             name: "sneddon",
             about: "pressurised pre-existing crack on a graded mesh against Sneddon's opening",
             run: fracture_cases::sneddon,
+        },
+        Case {
+            name: "sif",
+            about: "K_I, K_II of static cracks (J domain integral): pressurised horizontal and 45-degree cracks, a 45-degree crack under remote tension, a/h = 10 to 40",
+            run: sif_cases::sif,
         },
         Case {
             name: "kgd",
