@@ -66,7 +66,9 @@ pub struct TipGeometry {
     /// Unit direction of the fracture at the tip (reference geometry) and its left normal.
     pub dir: [f64; 2],
     pub left: [f64; 2],
-    /// Radius R of the J-integral's disc, m.
+    /// Length of the joint behind, m.
+    pub b: f64,
+    /// Radius R of the integrals' disc, m.
     pub radius: f64,
     /// The intact edges at the tip (view indices) with their unit directions away from it.
     pub ahead: Vec<(u32, [f64; 2])>,
@@ -376,6 +378,7 @@ impl Tips {
                 q_upper,
                 dir,
                 left,
+                b,
                 radius,
                 ahead,
                 elements,
@@ -552,6 +555,30 @@ impl Tips {
                 }
             })
             .collect();
+    }
+
+    /// The tracked tip of every tip of the last [`Tips::measure`]: the point at distance s
+    /// ahead of the pair behind, along the fracture, where the toughness asymptote
+    /// w = (K' / E') s^(1/2), K' = 4 sqrt(2 / pi) K_Ic, gives the pair's opening w:
+    /// s = (E' w / K')^2, at most the edge length b (m; the mesh tip). It moves inside the
+    /// element as the fracture fills between two openings of the edge ahead, so lengths are
+    /// not quantised to h. Returns (tip node, tracked position in the reference geometry).
+    pub fn tracked(&self, v: &SolidView, k_ic: f64, e_prime: f64) -> Vec<(u32, [f64; 2])> {
+        let k_prime = 4.0 * (2.0 / PI).sqrt() * k_ic;
+        self.geometry
+            .iter()
+            .zip(&self.state)
+            .map(|(t, st)| {
+                let w = st.delta[0].max(0.0);
+                let s = if k_prime > 0.0 {
+                    ((e_prime * w / k_prime).powi(2)).min(t.b)
+                } else {
+                    t.b
+                };
+                let xb = v.x0[t.behind[0] as usize];
+                (t.node, [xb[0] + s * t.dir[0], xb[1] + s * t.dir[1]])
+            })
+            .collect()
     }
 
     /// Mark, at every tip whose K_eq reaches `k_ic` (Pa sqrt(m)), the intact edge closest in

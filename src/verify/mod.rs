@@ -179,6 +179,11 @@ pub fn cases() -> Vec<Case> {
             run: coupled_cases::kgd,
         },
         Case {
+            name: "kgd_k",
+            about: "toughness-dominated KGD grown by the toughness criterion (quasi-static rock), h = 2 to 0.5 m, two times, against the similarity solution",
+            run: coupled_cases::kgd_k,
+        },
+        Case {
             name: "example1",
             about: "the seed's Example I, cross and offset, explicit and quasi-static side by side: Fig. 7's outcome, the same cells, creation times and injected volume",
             run: example_cases::example1,
