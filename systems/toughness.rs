@@ -7,26 +7,31 @@
 //! are found from the joints once per topology generation ([`Tips::refresh`]); a step then
 //! costs O(tips).
 //!
-//! **Stress intensity: J by the domain integral, split by the offsets behind the tip.** With
-//! local axes x1 along the fracture direction `dir` at the tip (from the node pair behind to
-//! the tip) and x2 its left normal, a weight q that is 1 at the tip and falls linearly to 0 at
-//! distance R (nodal values q = max(0, 1 - r / R), interpolated in each triangle), the
-//! J-integral (Rice 1968) in its domain form (Shih, Moran & Nakamura 1986) is
-//!   J = sum over elements A_e (sigma_ij u_j,1 - W delta_1i) q,i
-//!       - sum over fracture faces in the disc  integral of t_j u_j,1 q ds,
-//! with W = sigma_ij u_i,j / 2 and t the traction the face carries (fluid pressure and contact
-//! forces). Each CST has constant stress, strain and grad q, so the element sum is exact for
-//! the discrete fields; on a face u,1 is the derivative along it. The reference configuration
-//! is stress-free (an in-situ state is a displacement field), so the total fields enter and J
-//! needs no correction for the in-situ stress. In plane strain J = (K_I^2 + K_II^2) / E'.
-//! Near the tip delta_t / delta_n = K_II / K_I (both grow as sqrt(r)), so with
-//! phi = atan2(delta_t, delta_n) of the pair behind (delta_n: opening along x2, delta_t: slip of
-//! the upper face along x1):
-//!   K_I = sqrt(E' J) cos(phi),  K_II = sqrt(E' J) sin(phi).
-//! R = 3 edge lengths at the tip: the disc then holds about 2 rings of elements on each side.
+//! **Stress intensity: the interaction integral** (`docs/toughness.md` derives it). Local
+//! axes: x1 along the fracture direction `dir` at the tip (from the node pair behind to the
+//! tip), x2 its left normal. A weight q is 1 at the tip and falls linearly to 0 at distance R
+//! (nodal values q = max(0, 1 - r / R), interpolated in each triangle). With the auxiliary
+//! near-tip field of unit K_I or K_II (Williams' first term: sigma^a, u^a), the interaction
+//! integral in its domain form (Yau, Wang & Corten 1980; Shih & Asaro 1988)
+//!   M = sum over elements of the area integral of
+//!         (sigma_ij u^a_j,1 + sigma^a_ij u_j,1 - sigma_ij eps^a_ij delta_1i) q,i
+//!       - sum over the fracture faces in the disc of the integral of t_j u^a_j,1 q ds
+//! gives K_I = E' M(I) / 2 and K_II = E' M(II) / 2 (plane strain, E' = E / (1 - nu^2); t the
+//! traction the face carries: fluid pressure and contact forces). Each CST has constant
+//! sigma, grad u and grad q; the auxiliary field is integrated with a 3-point rule, and on the
+//! faces (along the crack behind the tip, where u^a = +-C sqrt(r)) exactly. The reference
+//! configuration is stress-free (an in-situ state is a displacement field), so the total
+//! fields enter with no in-situ correction. J, the same domain integral with the actual field
+//! alone, is kept as a diagnostic.
+//!
+//! **The disc**: R = [`RADIUS_EDGES`] edge lengths at the tip, shrunk to stay inside the outer
+//! boundary and off every other fracture (and off this one where it is not straight behind
+//! the tip): their tractions and faces are not in the single-crack integral.
 //! A node-force estimate (the virtual crack closure technique, F delta / (2 a)) was tried
-//! first: it changed by 3 % with the diagonal pattern at the tip (K_I/p sqrt(pi a) = 0.991 at a
-//! degree-4 tip node, 0.961-0.969 at a degree-8 one, a/h = 10-40), so it was not kept.
+//! first: it changed by 3 % with the diagonal pattern at the tip (K_I / p sqrt(pi a) = 0.991
+//! at a degree-4 tip node, 0.961-0.969 at a degree-8 one, a/h = 10-40). J split by the ratio
+//! of the offsets behind the tip was tried next: the mode split was 11 % off (the linear
+//! elements under-represent the slip more than the opening). Neither was kept.
 //!
 //! **Direction and equivalent K** (maximum hoop stress, Erdogan & Sih 1963): the fracture grows
 //! at theta_c = 2 atan((K_I - sqrt(K_I^2 + 8 K_II^2)) / (4 K_II)) from `dir` (counter-clockwise
@@ -46,10 +51,11 @@ use crate::element::{SolidParams, cst_stress};
 use crate::view::SolidView;
 use std::f64::consts::PI;
 
-/// The J-integral's disc radius, in edge lengths at the tip (the shortest of the joint behind
-/// and the intact edges there). On Sneddon's crack (a/h = 10-40, regular mesh at the crack)
-/// K_I / p sqrt(pi a) was 0.962-0.971 at 3, 0.968-0.978 at 5 and 0.969-0.983 at 8 edge
-/// lengths: the nearest elements carry most of the linear elements' stiffness error.
+/// The integrals' disc radius, in edge lengths at the tip (the shortest of the joint behind
+/// and the intact edges there). On Sneddon's crack (J, a/h = 10-40, regular mesh at the
+/// crack) K_I / p sqrt(pi a) was 0.962-0.971 at 3, 0.968-0.978 at 5, 0.969-0.983 at 8 and
+/// 0.980-0.987 at 12 edge lengths (a/h = 20-80): the elements nearest the tip carry most of
+/// the linear elements' stiffness error, and a wider disc weighs them less.
 pub const RADIUS_EDGES: f64 = 10.0;
 
 /// One tip's geometry, fixed for a topology generation.
@@ -246,6 +252,17 @@ impl Tips {
         shared.sort_by_key(|s| (s.0, s.1));
         // Element sides inside the rock: the internal edges and the joints' faces (the others
         // lie on the outer boundary).
+        let faces: std::collections::HashSet<(u32, u32)> = v
+            .joint_nodes
+            .iter()
+            .filter(|_| !shared.is_empty())
+            .flat_map(|j| {
+                [
+                    (j[0].min(j[1]), j[0].max(j[1])),
+                    (j[2].min(j[3]), j[2].max(j[3])),
+                ]
+            })
+            .collect();
         let inner: std::collections::HashSet<(u32, u32)> = if shared.is_empty() {
             Default::default()
         } else {
@@ -313,8 +330,15 @@ impl Tips {
                 let y = v.x0[i as usize];
                 (1.0 - (y[0] - x[0]).hypot(y[1] - x[1]) / radius).max(0.0)
             };
-            // The disc must not reach the outer boundary (its tractions are not in J): it
-            // shrinks to just inside the nearest boundary node.
+            // The disc must not reach the outer boundary (its tractions are not in J) nor
+            // another fracture (the near-tip field is then not the single crack's, and its
+            // faces are not along x1): it shrinks to just inside the nearest such node.
+            let behind_line = |i: u32| {
+                let y = v.x0[i as usize];
+                let d = [y[0] - x[0], y[1] - x[1]];
+                (dir[0] * d[1] - dir[1] * d[0]).abs() <= 1e-6 * b
+                    && d[0] * dir[0] + d[1] * dir[1] <= 1e-9 * b
+            };
             let mut seen_e: Vec<u32>;
             let mut seen_n: Vec<u32>;
             loop {
@@ -330,7 +354,13 @@ impl Tips {
                         let c = v.conn[e as usize];
                         for (m, &j) in c.iter().enumerate() {
                             let k = c[(m + 1) % 3];
-                            if !inner.contains(&(j.min(k), j.max(k))) {
+                            let side = (j.min(k), j.max(k));
+                            // An outer boundary side, or a face of another fracture (or of
+                            // this one off the straight line behind the tip).
+                            let foreign = !inner.contains(&side)
+                                || (faces.contains(&side)
+                                    && ![j, k].iter().all(|&i| behind_line(i)));
+                            if foreign {
                                 for y in [j, k].map(|i| v.x0[i as usize]) {
                                     nearest = nearest.min((y[0] - x[0]).hypot(y[1] - x[1]));
                                 }

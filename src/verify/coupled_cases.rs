@@ -24,6 +24,8 @@ use crate::sim::{Finish, Simulation};
 use std::time::Instant;
 
 const KGD_RON: &str = include_str!("../../scenarios/kgd.ron");
+/// K_Ic of the `kgd` case's toughness-criterion runs, Pa sqrt(m).
+pub const KGD_TOUGHNESS: f64 = 2.4e6;
 const KGD_K_RON: &str = include_str!("../../scenarios/kgd_toughness.ron");
 
 /// One KGD run at the end time: half-length (m), well opening (m), net well pressure (Pa),
@@ -64,6 +66,9 @@ pub fn kgd_run(h: f64, scheme: &str, extra: &[String]) -> anyhow::Result<KgdRun>
 pub enum Regime {
     /// Viscosity-dominated (zero toughness).
     Viscosity,
+    /// `scenarios/kgd.ron` grown by the toughness criterion at K_Ic (Pa sqrt(m)) instead of
+    /// its strength criterion, against the viscosity-dominated solution.
+    ViscosityToughness(f64),
     /// Toughness-dominated (zero viscosity) at K_Ic, Pa sqrt(m):
     /// l = 0.9324 (E' Q0 t / K')^(2/3), w0 = 0.6828 (K'^2 Q0 t / E'^2)^(1/3),
     /// p = 0.18317 (K'^4 / (E' Q0 t))^(1/3), K' = 4 sqrt(2/pi) K_Ic.
@@ -74,6 +79,17 @@ pub enum Regime {
 /// viscosity-dominated; above about 4: toughness-dominated; Detournay 2004).
 pub fn dimensionless_toughness(k_ic: f64, e_prime: f64, mu: f64, q0: f64) -> f64 {
     4.0 * (2.0 / std::f64::consts::PI).sqrt() * k_ic / (e_prime.powi(3) * 12.0 * mu * q0).powf(0.25)
+}
+
+/// The toughness-dominated KGD solution (l, w0, p0) at time t (s) for E' (Pa), Q0 (m^2/s),
+/// K_Ic (Pa sqrt(m)) (`docs/verification.md` R7).
+pub fn toughness_vertex(e_prime: f64, q0: f64, t: f64, k_ic: f64) -> [f64; 3] {
+    let kp = 4.0 * (2.0 / std::f64::consts::PI).sqrt() * k_ic;
+    [
+        0.9324 * (e_prime * q0 * t / kp).powf(2.0 / 3.0),
+        0.6828 * (kp * kp * q0 * t / (e_prime * e_prime)).powf(1.0 / 3.0),
+        0.18317 * (kp.powi(4) / (e_prime * q0 * t)).powf(1.0 / 3.0),
+    ]
 }
 
 /// [`kgd_run`] against the similarity solution of `regime`.
@@ -93,6 +109,15 @@ pub fn kgd_run_in(
     sets.extend_from_slice(extra);
     let sc = match regime {
         Regime::Viscosity => Scenario::parse(KGD_RON, "scenarios/kgd.ron")?,
+        Regime::ViscosityToughness(k_ic) => {
+            let from = "strength: Some(0.1e6),";
+            anyhow::ensure!(KGD_RON.contains(from), "kgd.ron: no `{from}` to replace");
+            let text = KGD_RON.replace(
+                from,
+                &format!("criterion: Some(Toughness(k_ic: {k_ic:e})),"),
+            );
+            Scenario::parse(&text, "scenarios/kgd.ron (toughness criterion)")?
+        }
         Regime::Toughness(_) => Scenario::parse(KGD_K_RON, "scenarios/kgd_toughness.ron")?,
     }
     .with_overrides(&sets)?;
@@ -153,12 +178,7 @@ pub fn kgd_run_in(
     let mu_prime = 12.0 * mu;
     let q0 = 2.0 * q_half;
     let exact = if let Regime::Toughness(k_ic) = regime {
-        let kp = 4.0 * (2.0 / std::f64::consts::PI).sqrt() * k_ic;
-        [
-            0.9324 * (e_prime * q0 * t_end / kp).powf(2.0 / 3.0),
-            0.6828 * (kp * kp * q0 * t_end / (e_prime * e_prime)).powf(1.0 / 3.0),
-            0.18317 * (kp.powi(4) / (e_prime * q0 * t_end)).powf(1.0 / 3.0),
-        ]
+        toughness_vertex(e_prime, q0, t_end, k_ic)
     } else {
         [
             0.61524 * (e_prime * q0.powi(3) * t_end.powi(4) / mu_prime).powf(1.0 / 6.0),
@@ -187,14 +207,30 @@ pub fn kgd(quick: bool) -> anyhow::Result<CaseResult> {
     let mut res = CaseResult::default();
     let mut lengths = Vec::new();
     let mut by_scheme: Vec<(&str, f64, [f64; 3])> = Vec::new();
-    for scheme in ["Explicit", "Implicit", "QuasiStatic"] {
+    for scheme in [
+        "Explicit",
+        "Implicit",
+        "QuasiStatic",
+        "QuasiStaticToughness",
+    ] {
         let suffix = match scheme {
             "QuasiStatic" => "quasi_static".to_string(),
+            "QuasiStaticToughness" => "quasi_static_toughness".to_string(),
             s => s.to_lowercase(),
         };
         let mut errs: Vec<[f64; 3]> = Vec::new();
         for (level, &h) in sizes.iter().enumerate() {
-            let r = kgd_run(h, scheme, &[])?;
+            let r = match scheme {
+                // The toughness criterion at a rock's K_Ic = 2.4 MPa sqrt(m): dimensionless
+                // toughness 0.2, near the viscosity vertex.
+                "QuasiStaticToughness" => kgd_run_in(
+                    h,
+                    "QuasiStatic",
+                    &[],
+                    Regime::ViscosityToughness(KGD_TOUGHNESS),
+                )?,
+                _ => kgd_run(h, scheme, &[])?,
+            };
             let e = r.errors();
             for (k, m) in ["length", "opening", "pressure"].iter().enumerate() {
                 res.rows.push(Row {
@@ -247,6 +283,15 @@ pub fn kgd(quick: bool) -> anyhow::Result<CaseResult> {
             1.0,
         );
         let e: Vec<[f64; 3]> = by_scheme.iter().filter(|x| x.1 == h).map(|x| x.2).collect();
+        // The toughness criterion at a small K_Ic removes most of the strength criterion's
+        // mesh-dependent toughness: every error at or below the strength criterion's.
+        for (k, m) in ["length", "opening", "pressure"].iter().enumerate() {
+            res.check_max(
+                format!("{m} |error| toughness - strength criterion (quasi-static), h = {h} m"),
+                e[3][k].abs() - e[2][k].abs(),
+                0.0,
+            );
+        }
         // The quasi-static rock has no inertia (nor the explicit run's local damping 0.8):
         // its errors differ from the explicit scheme's by that, plus its first-order step
         // error (README, "Choosing the solid scheme"); 2 points of relative error at h <= 1 m.
@@ -345,5 +390,97 @@ pub fn kgd_k(quick: bool) -> anyhow::Result<CaseResult> {
         sum_tracked / sum_mesh,
         0.8,
     );
+    Ok(res)
+}
+
+/// `kgd_mk`: the M-K transition. `scenarios/kgd.ron` grown by the toughness criterion at the
+/// K_Ic that gives dimensionless toughness K = 0.2, 1, 2, 4, 8 (h = 1 m), and K = 2 at
+/// h = 2, 1, 0.5 m, against both vertex solutions. Viscosity and toughness both take energy,
+/// so a fracture between the vertices is shorter than either vertex's and needs more pressure
+/// than either (checked at K = 2 within 3 %, the coarse-mesh error of each vertex); as K
+/// grows the solution leaves the viscosity vertex and approaches the toughness one, the trend
+/// of the universal (M-K) solution (Garagash & Detournay 2005; checked: l / l_M falls and
+/// p / p_K falls with K).
+pub fn kgd_mk(quick: bool) -> anyhow::Result<CaseResult> {
+    let sc = Scenario::parse(KGD_RON, "scenarios/kgd.ron")?;
+    let mat = sc.material.expect("kgd has a material");
+    let e_prime = mat.young / (1.0 - mat.poisson * mat.poisson);
+    let mu = sc.fluid.viscosity;
+    let (q0, t_end) = (0.2, 3.25);
+    let scale = (e_prime.powi(3) * 12.0 * mu * q0).powf(0.25);
+    let k_ic_of = |kd: f64| kd * scale / (4.0 * (2.0 / std::f64::consts::PI).sqrt());
+    let mut res = CaseResult::default();
+    let ks: &[f64] = if quick {
+        &[0.2, 2.0, 8.0]
+    } else {
+        &[0.2, 1.0, 2.0, 4.0, 8.0]
+    };
+    let mut sweep = Vec::new();
+    for &kd in ks {
+        let k_ic = k_ic_of(kd);
+        let r = kgd_run_in(1.0, "QuasiStatic", &[], Regime::ViscosityToughness(k_ic))?;
+        let tv = toughness_vertex(e_prime, q0, t_end, k_ic);
+        let (l_m, l_k, p_m, p_k) = (
+            r.l / r.exact[0],
+            r.l / tv[0],
+            r.p0 / r.exact[2],
+            r.p0 / tv[2],
+        );
+        res.notes.push(format!(
+            "K = {kd}: K_Ic = {:.2} MPa sqrt(m); l / l_M = {l_m:.3}, l / l_K = {l_k:.3}, p / p_M = {p_m:.3}, p / p_K = {p_k:.3}, w0 / w_M = {:.3}, w0 / w_K = {:.3} ({:.1} s)",
+            1e-6 * k_ic, r.w0 / r.exact[1], r.w0 / tv[1], r.wall
+        ));
+        res.check_max(format!("mass balance, K = {kd}"), r.balance, 1e-9);
+        sweep.push((kd, l_m, p_k));
+    }
+    for w in sweep.windows(2) {
+        res.check_max(
+            format!("l / l_M from K = {} to {}: rises by", w[0].0, w[1].0),
+            w[1].1 - w[0].1,
+            0.0,
+        );
+        if w[0].0 >= 1.0 {
+            res.check_max(
+                format!("p / p_K from K = {} to {}: rises by", w[0].0, w[1].0),
+                w[1].2 - w[0].2,
+                0.0,
+            );
+        }
+    }
+    let sizes: &[f64] = if quick { &[2.0, 1.0] } else { &[2.0, 1.0, 0.5] };
+    let k_ic = k_ic_of(2.0);
+    for (level, &h) in sizes.iter().enumerate() {
+        let r = kgd_run_in(h, "QuasiStatic", &[], Regime::ViscosityToughness(k_ic))?;
+        let tv = toughness_vertex(e_prime, q0, t_end, k_ic);
+        let l_min = r.exact[0].min(tv[0]);
+        let p_max = r.exact[2].max(tv[2]);
+        for (m, v) in [
+            ("length_vs_viscosity_vertex", r.l / r.exact[0] - 1.0),
+            ("length_vs_toughness_vertex", r.l / tv[0] - 1.0),
+            ("pressure_vs_viscosity_vertex", r.p0 / r.exact[2] - 1.0),
+            ("pressure_vs_toughness_vertex", r.p0 / tv[2] - 1.0),
+        ] {
+            res.rows.push(Row {
+                case: "kgd_mk",
+                level,
+                h,
+                unknowns: r.unknowns,
+                metric: m.into(),
+                error: v.abs(),
+                wall_s: r.wall,
+            });
+        }
+        res.check_max(
+            format!("K = 2, h = {h} m: l / min(l_M, l_K)"),
+            r.l / l_min,
+            1.03,
+        );
+        res.check_range(
+            format!("K = 2, h = {h} m: p / max(p_M, p_K)"),
+            r.p0 / p_max,
+            0.97,
+            10.0,
+        );
+    }
     Ok(res)
 }

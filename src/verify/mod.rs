@@ -184,6 +184,11 @@ pub fn cases() -> Vec<Case> {
             run: coupled_cases::kgd_k,
         },
         Case {
+            name: "kgd_mk",
+            about: "KGD between the viscosity and toughness vertices (dimensionless toughness 0.2 to 8, toughness criterion): bounded by both vertices, the M-K trend",
+            run: coupled_cases::kgd_mk,
+        },
+        Case {
             name: "example1",
             about: "the seed's Example I, cross and offset, explicit and quasi-static side by side: Fig. 7's outcome, the same cells, creation times and injected volume",
             run: example_cases::example1,
