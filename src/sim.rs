@@ -316,17 +316,20 @@ impl Simulation {
             return;
         };
         if let Some(k_ic) = c.toughness {
-            self.measure_tips();
+            self.measure_tips_screened(Some(k_ic));
             self.fracture.tips.mark(&mut self.solid.view, k_ic);
         }
         let (v, fr) = (&mut self.solid.view, &mut self.fracture);
+        // The explicit scheme's element stresses come from the displacements before this
+        // step's `integrate`; the quasi-static solve leaves them at its solution.
+        let stress_lags = self.solid.quasi_static.is_none();
         let skip = c.toughness.map(|_| &fr.tips.near_tip[..]);
         if let Some(strength) = c.strength {
             fracture::fracture_criterion(
                 v,
                 strength,
                 c.by_elements,
-                Some(&mut fr.screen),
+                Some((&mut fr.screen, &self.params.solid, stress_lags)),
                 skip,
                 &mut fr.strength_counts,
             );
@@ -339,6 +342,15 @@ impl Simulation {
     /// coupled runs (the quasi-static solve's, or the explicit step's mean), else
     /// `fracture.pressure`.
     pub fn measure_tips(&mut self) -> &[crate::systems::toughness::TipState] {
+        self.measure_tips_screened(None)
+    }
+
+    /// [`Simulation::measure_tips`], passing over tips whose displacement-correlation estimate
+    /// is below `DC_SCREEN` times `k_ic` (the criterion's screen).
+    fn measure_tips_screened(
+        &mut self,
+        k_ic: Option<f64>,
+    ) -> &[crate::systems::toughness::TipState] {
         let p = &self.params;
         let m = p.material;
         let e_prime = m.young / (1.0 - m.poisson * m.poisson);
@@ -355,7 +367,7 @@ impl Simulation {
             }
         };
         let tips = &mut self.fracture.tips;
-        tips.measure(&self.solid.view, &p.solid, e_prime, joint_pressure);
+        tips.measure(&self.solid.view, &p.solid, e_prime, joint_pressure, k_ic);
         &tips.state
     }
 
@@ -530,6 +542,11 @@ impl Simulation {
     }
     pub fn fracture(&self) -> &FractureState {
         &self.fracture
+    }
+
+    /// The fracture systems' state, to change (e.g. `tips.no_screen` for a comparison).
+    pub fn fracture_mut(&mut self) -> &mut FractureState {
+        &mut self.fracture
     }
     pub fn placed(&self) -> &[Placed] {
         &self.placed

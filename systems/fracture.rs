@@ -45,97 +45,178 @@ fn face_stress(v: &SolidView, k: usize, by_elements: bool) -> [f64; 3] {
     }
 }
 
-/// Largest principal stress of `s` = [sxx, syy, sxy], Pa, raised by 1e-9 of the components'
-/// size so that it bounds n.s.n and any weighted mean of such values under rounding.
-#[inline]
-fn principal_bound(s: [f64; 3]) -> f64 {
-    let c = 0.5 * (s[0] + s[1]);
-    let r = (0.5 * (s[0] - s[1])).hypot(s[2]);
-    c + r + 1e-9 * (s[0].abs() + s[1].abs() + 2.0 * s[2].abs())
+/// The normal stress n.sigma.n the strength test reads on internal edge `k`, Pa.
+pub fn face_normal_stress(v: &SolidView, k: usize, by_elements: bool) -> f64 {
+    normal_stress(face_stress(v, k, by_elements), v.edge_normal[k])
 }
 
 /// Work counts of the strength test.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct StrengthCounts {
-    /// Faces whose stress was evaluated, and faces screened out by the bound, summed over
-    /// passes.
+    /// Face stresses evaluated, and faces passed over by the screen, summed over passes.
     pub evaluated: u64,
     pub screened: u64,
 }
 
-/// `fracture_criterion`'s strength test: sigma_n of every internal edge, marking edges with
+/// A face's due point: evaluate it again once the accumulated displacement bound reaches
+/// `at` (m).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Due {
+    at: f64,
+    edge: u32,
+}
+impl Eq for Due {}
+impl Ord for Due {
+    fn cmp(&self, o: &Self) -> std::cmp::Ordering {
+        // Reversed: the standard max-heap then pops the earliest due point first.
+        o.at.total_cmp(&self.at).then(o.edge.cmp(&self.edge))
+    }
+}
+impl PartialOrd for Due {
+    fn partial_cmp(&self, o: &Self) -> Option<std::cmp::Ordering> {
+        Some(self.cmp(o))
+    }
+}
+
+/// The strength test's screen: which faces can have reached the strength since they were last
+/// evaluated.
+///
+/// A CST's stress is D B u, so between two passes every stress component of element e changes
+/// by at most (lambda + 2G, lambda, G combined) (2 lambda + 3 G) S_e du, with
+/// S_e = sum over its nodes of |dN/dx| + |dN/dy| and du the largest nodal displacement change
+/// (either component); a face's normal stress, a convex combination of such stresses
+/// projected on a unit normal, by the same bound with S = max S_e. So a face evaluated with
+/// margin m = strength - sigma_n cannot reach the strength before the accumulated
+/// (2 lambda + 3 G) S du reaches m: it is due then, and only due faces are evaluated
+/// (a binary heap by due point). A topology change (split) evaluates every face again. The
+/// marks are exactly those of the full evaluation (`tests/fracture_criterion.rs`).
+#[derive(Clone, Debug, Default)]
+pub struct StrengthScreen {
+    generation: Option<u64>,
+    /// Displacements at the last pass, m.
+    u_ref: Vec<[f64; 2]>,
+    /// Accumulated largest displacement change, m: after the last pass and before it.
+    acc: f64,
+    acc_before: f64,
+    /// Stress change per metre of displacement change, Pa/m: (2 lambda + 3 G) max S_e.
+    rate: f64,
+    due: std::collections::BinaryHeap<Due>,
+}
+
+/// `fracture_criterion`'s strength test: sigma_n of internal edges, marking edges with
 /// sigma_n >= `strength` (lambda*T0, Pa; seed (7)). Marks stay once set. Returns the number of
 /// fracture-ready edges.
 ///
-/// **Screening** (`screen`: scratch per node): no face stress can exceed the largest principal
-/// stress of the elements it averages, and those all touch one of the edge's two nodes. So each
-/// element's largest principal stress is computed once, each node keeps the largest of its
-/// elements', and an edge whose two nodes' bounds are below the strength cannot be marked: its
-/// face stress is not evaluated and `edge_sigma_n` holds that bound instead. The marks are
-/// exactly those of the full evaluation (`screen = None`; `tests/fracture_criterion.rs`).
-/// `skip_node`: faces touching a node marked there are not tested (the toughness criterion's
-/// tip neighbourhoods).
+/// `screen = None` evaluates every face (`edge_sigma_n` then holds every face's stress);
+/// with a screen only the faces that can have reached the strength are evaluated
+/// ([`StrengthScreen`]; `edge_sigma_n` holds each face's value at its last evaluation).
+/// `stress_lags`: the element stresses were computed from the displacements of the previous
+/// pass (the explicit scheme's `internal_force` runs before `integrate`), so the bound is the
+/// one accumulated up to that pass. `skip_node`: faces touching a node marked there are not
+/// tested (the toughness criterion's tip neighbourhoods).
+#[allow(clippy::too_many_arguments)]
 pub fn fracture_criterion(
     v: &mut SolidView,
     strength: f64,
     by_elements: bool,
-    screen: Option<&mut Vec<f64>>,
+    screen: Option<(&mut StrengthScreen, &crate::element::SolidParams, bool)>,
     skip_node: Option<&[bool]>,
     counts: &mut StrengthCounts,
 ) -> usize {
-    let bound: Option<&[f64]> = match screen {
-        Some(node_max) => {
-            let (stress, ptr, inc) = (&v.stress, &v.inc_ptr, &v.inc);
-            node_max.resize(v.x0.len(), 0.0);
-            node_max
-                .par_iter_mut()
-                .enumerate()
-                .with_min_len(4096)
-                .for_each(|(i, m)| {
-                    *m = inc[ptr[i] as usize..ptr[i + 1] as usize]
-                        .iter()
-                        .map(|&c| principal_bound(stress[(c / 6) as usize]))
-                        .fold(f64::NEG_INFINITY, f64::max);
-                });
-            Some(node_max)
-        }
-        None => None,
+    let skipped = |v: &SolidView, k: usize| {
+        let [a, b] = v.edge_nodes[k];
+        skip_node.is_some_and(|s| s[a as usize] || s[b as usize])
     };
-    let (evaluated, screened): (u64, u64) = {
-        let mut sn = std::mem::take(&mut v.edge_sigma_n);
-        let mut ready = std::mem::take(&mut v.edge_ready);
-        let view = &*v;
-        let r = sn
-            .par_iter_mut()
-            .zip(ready.par_iter_mut())
-            .enumerate()
-            .with_min_len(4096)
-            .map(|(k, (sn, ready))| {
-                let [a, b] = view.edge_nodes[k];
-                if let Some(skip) = skip_node
-                    && (skip[a as usize] || skip[b as usize])
-                {
-                    return (0, 0);
-                }
-                if let Some(m) = bound {
-                    let ub = m[a as usize].max(m[b as usize]);
-                    if ub < strength {
-                        *sn = ub;
-                        return (0, 1);
-                    }
-                }
-                *sn = normal_stress(face_stress(view, k, by_elements), view.edge_normal[k]);
-                *ready |= *sn >= strength;
-                (1, 0)
+    let Some((sc, p, stress_lags)) = screen else {
+        let (evaluated, _) = evaluate_all(v, strength, by_elements, &skipped);
+        counts.evaluated += evaluated;
+        return v.edge_ready.iter().filter(|r| **r).count();
+    };
+    // The displacement change since the last pass.
+    let du = if sc.u_ref.len() == v.u.len() {
+        v.u.iter()
+            .zip(&sc.u_ref)
+            .map(|(a, b)| (a[0] - b[0]).abs().max((a[1] - b[1]).abs()))
+            .fold(0.0, f64::max)
+    } else {
+        f64::INFINITY
+    };
+    sc.u_ref.clone_from(&v.u);
+    sc.acc_before = sc.acc;
+    sc.acc += du;
+    let now = if stress_lags { sc.acc_before } else { sc.acc };
+    if sc.generation != Some(v.generation) || !now.is_finite() {
+        // Every face again (new topology, or the first pass).
+        sc.generation = Some(v.generation);
+        (sc.acc, sc.acc_before) = (0.0, 0.0);
+        let s_max = v
+            .geom
+            .iter()
+            .map(|g| g[1..].iter().map(|x| x.abs()).sum::<f64>())
+            .fold(0.0, f64::max);
+        sc.rate = (2.0 * p.lam + 3.0 * p.g) * s_max;
+        let (evaluated, _) = evaluate_all(v, strength, by_elements, &skipped);
+        counts.evaluated += evaluated;
+        sc.due = (0..v.edge_nodes.len())
+            .filter(|&k| !v.edge_ready[k] && !skipped(v, k))
+            .map(|k| Due {
+                at: (strength - v.edge_sigma_n[k]) / sc.rate,
+                edge: k as u32,
             })
-            .reduce(|| (0, 0), |x, y| (x.0 + y.0, x.1 + y.1));
-        v.edge_sigma_n = sn;
-        v.edge_ready = ready;
-        r
-    };
+            .collect();
+        return v.edge_ready.iter().filter(|r| **r).count();
+    }
+    let mut evaluated = 0;
+    while let Some(d) = sc.due.peek().copied() {
+        if d.at > now {
+            break;
+        }
+        sc.due.pop();
+        let k = d.edge as usize;
+        let sn = normal_stress(face_stress(v, k, by_elements), v.edge_normal[k]);
+        v.edge_sigma_n[k] = sn;
+        evaluated += 1;
+        if sn >= strength {
+            v.edge_ready[k] = true;
+        } else {
+            sc.due.push(Due {
+                at: now + (strength - sn) / sc.rate,
+                edge: d.edge,
+            });
+        }
+    }
     counts.evaluated += evaluated;
-    counts.screened += screened;
+    counts.screened += sc.due.len() as u64;
     v.edge_ready.iter().filter(|r| **r).count()
+}
+
+/// Evaluate every face not skipped, in parallel; returns (evaluated, skipped).
+fn evaluate_all(
+    v: &mut SolidView,
+    strength: f64,
+    by_elements: bool,
+    skipped: &(dyn Fn(&SolidView, usize) -> bool + Sync),
+) -> (u64, u64) {
+    let mut sn = std::mem::take(&mut v.edge_sigma_n);
+    let mut ready = std::mem::take(&mut v.edge_ready);
+    let view = &*v;
+    let r = sn
+        .par_iter_mut()
+        .zip(ready.par_iter_mut())
+        .enumerate()
+        .with_min_len(4096)
+        .map(|(k, (sn, ready))| {
+            if skipped(view, k) {
+                return (0, 1);
+            }
+            *sn = normal_stress(face_stress(view, k, by_elements), view.edge_normal[k]);
+            *ready |= *sn >= strength;
+            (1, 0)
+        })
+        .reduce(|| (0, 0), |x, y| (x.0 + y.0, x.1 + y.1));
+    v.edge_sigma_n = sn;
+    v.edge_ready = ready;
+    r
 }
 
 /// Current geometry of joint `k`: face p's unit tangent t (from its first node to its second),
@@ -251,7 +332,7 @@ pub struct FractureState {
     pub last_idle_split: Option<(usize, u64)>,
     /// The toughness criterion's tips (`systems::toughness`).
     pub tips: crate::systems::toughness::Tips,
-    /// Scratch of the strength test's screening (one bound per node) and its counts.
-    pub screen: Vec<f64>,
+    /// The strength test's screen and its counts.
+    pub screen: StrengthScreen,
     pub strength_counts: StrengthCounts,
 }

@@ -80,8 +80,15 @@ pub struct TipGeometry {
     pub ahead: Vec<(u32, [f64; 2])>,
     /// The elements in the disc with grad q (global axes, 1/m).
     pub elements: Vec<(u32, [f64; 2])>,
+    /// Per element, the auxiliary fields integrated over it (they depend on the geometry
+    /// only), per mode I, II: integral of u^a_j,1 (j = 1, 2), of sigma^a_ij q,i (j = 1, 2),
+    /// and q,1 times the integral of eps^a (11, 22, 12); local axes.
+    aux: Vec<[[f64; 7]; 2]>,
     /// The joints with a node in the disc, with q at their two ends (a, b).
     pub faces: Vec<(usize, [f64; 2])>,
+    /// Per face: the integral of q / (2 sqrt r) dr along it, and +1 when its face q is the
+    /// upper one (-1 otherwise).
+    face_aux: Vec<(f64, f64)>,
 }
 
 /// What the criterion measured at one tip in the last evaluation.
@@ -98,6 +105,9 @@ pub struct TipState {
     pub delta: [f64; 2],
     /// The J-integral, J/m^2.
     pub j: f64,
+    /// The displacement-correlation screen passed this tip over (K_dc < `DC_SCREEN` K_Ic):
+    /// the integrals were not evaluated and the K fields are 0.
+    pub screened: bool,
 }
 
 /// The tips of the current topology and what was measured at them.
@@ -108,9 +118,22 @@ pub struct Tips {
     pub state: Vec<TipState>,
     /// Per node: within two element rings of a tip (the strength test skips faces touching it).
     pub near_tip: Vec<bool>,
-    /// Tip evaluations so far (one per tip per criterion pass).
+    /// Tip evaluations so far (one per tip per criterion pass), and those of them that the
+    /// displacement-correlation screen passed over (`measure`).
     pub evaluations: u64,
+    pub screened: u64,
+    /// Skip the integrals at tips whose displacement-correlation estimate is below
+    /// [`DC_SCREEN`] K_Ic (default on; off to compare).
+    pub no_screen: bool,
 }
+
+/// A tip's integrals are evaluated only when the displacement-correlation estimate from the
+/// pair behind, K_dc = (E' / 8) sqrt(2 pi / b) |delta| (|delta| the offset's length), reaches
+/// this fraction of K_Ic. On linear elements K_dc under-estimates K: the pair one edge behind
+/// opens 0.79 of the exact opening (Sneddon, a/h = 10-40), and slip less; so a tip at K_Ic
+/// has K_dc of about 0.7 K_Ic, above 0.5. `tests/toughness.rs` checks the screened run is the
+/// unscreened one to the bit.
+pub const DC_SCREEN: f64 = 0.5;
 
 /// theta_c and K_eq of the maximum hoop stress criterion (module documentation).
 pub fn max_hoop_stress(k1: f64, k2: f64) -> (f64, f64) {
@@ -152,6 +175,14 @@ fn rotate_tensor(t: [[f64; 2]; 2], d1: [f64; 2]) -> [[f64; 2]; 2] {
     }
     out
 }
+
+/// The 3-point rule inside a triangle (barycentric points, equal weights A/3), exact for
+/// quadratics; it avoids the vertices, where the auxiliary field is singular at the tip.
+const QUADRATURE: [[f64; 3]; 3] = [
+    [2.0 / 3.0, 1.0 / 6.0, 1.0 / 6.0],
+    [1.0 / 6.0, 2.0 / 3.0, 1.0 / 6.0],
+    [1.0 / 6.0, 1.0 / 6.0, 2.0 / 3.0],
+];
 
 /// Williams' mode of the auxiliary field.
 #[derive(Clone, Copy)]
@@ -233,7 +264,7 @@ fn auxiliary(
 
 impl Tips {
     /// Find the tips of the view's topology (once per generation): O(joints + internal edges).
-    pub fn refresh(&mut self, v: &SolidView) {
+    pub fn refresh(&mut self, v: &SolidView, p: &SolidParams) {
         if self.generation == Some(v.generation) {
             return;
         }
@@ -401,6 +432,64 @@ impl Tips {
                 .filter(|(_, jn)| jn.iter().any(|i| seen_n.binary_search(i).is_ok()))
                 .map(|(k, jn)| (k, [q(jn[0]), q(jn[1])]))
                 .collect();
+            let rot = |w: [f64; 2]| {
+                [
+                    w[0] * dir[0] + w[1] * dir[1],
+                    w[0] * left[0] + w[1] * left[1],
+                ]
+            };
+            let local = |y: [f64; 2]| rot([y[0] - x[0], y[1] - x[1]]);
+            let aux = elements
+                .iter()
+                .map(|&(e, gq)| {
+                    let (g, c) = (&v.geom[e as usize], v.conn[e as usize]);
+                    let xs = c.map(|i| local(v.x0[i as usize]));
+                    let side = if xs.iter().map(|y| y[1]).sum::<f64>() >= 0.0 {
+                        1.0
+                    } else {
+                        -1.0
+                    };
+                    let ql = rot(gq);
+                    let w = g[0] / 3.0;
+                    let mut out = [[0.0; 7]; 2];
+                    for bary in QUADRATURE {
+                        let y = [0, 1]
+                            .map(|d| bary[0] * xs[0][d] + bary[1] * xs[1][d] + bary[2] * xs[2][d]);
+                        for (m, mode) in [Mode::I, Mode::II].into_iter().enumerate() {
+                            let (sa, ha) = auxiliary(mode, y, side, p);
+                            let o = &mut out[m];
+                            for j in 0..2 {
+                                o[j] += w * ha[j][0];
+                                o[2 + j] += w * (sa[0][j] * ql[0] + sa[1][j] * ql[1]);
+                            }
+                            o[4] += w * ql[0] * ha[0][0];
+                            o[5] += w * ql[0] * ha[1][1];
+                            o[6] += w * ql[0] * 0.5 * (ha[0][1] + ha[1][0]);
+                        }
+                    }
+                    out
+                })
+                .collect();
+            let face_aux = faces
+                .iter()
+                .map(|&(k, qab)| {
+                    let jn = v.joint_nodes[k];
+                    let (ya, yb) = (local(v.x0[jn[0] as usize]), local(v.x0[jn[1] as usize]));
+                    let (ra, rb) = (ya[0].hypot(ya[1]), yb[0].hypot(yb[1]));
+                    let (r0, r1, q0, q1) = if ra <= rb {
+                        (ra, rb, qab[0], qab[1])
+                    } else {
+                        (rb, ra, qab[1], qab[0])
+                    };
+                    let beta = if r1 > r0 { (q1 - q0) / (r1 - r0) } else { 0.0 };
+                    let alpha = q0 - beta * r0;
+                    let iq = alpha * (r1.sqrt() - r0.sqrt())
+                        + beta * (r1.powf(1.5) - r0.powf(1.5)) / 3.0;
+                    // Face q is upper when p's outward normal (towards q) points up.
+                    let n = crate::systems::fracture::joint_frame(v, k).n;
+                    (iq, if rot(n)[1] >= 0.0 { 1.0 } else { -1.0 })
+                })
+                .collect();
             geometry.push(TipGeometry {
                 node,
                 joint,
@@ -412,7 +501,9 @@ impl Tips {
                 radius,
                 ahead,
                 elements,
+                aux,
                 faces,
+                face_aux,
             });
         }
         // Two element rings around every tip.
@@ -448,14 +539,32 @@ impl Tips {
         p: &SolidParams,
         e_prime: f64,
         joint_pressure: impl Fn(usize) -> f64,
+        screen_below: Option<f64>,
     ) {
-        self.refresh(v);
+        self.refresh(v, p);
         self.evaluations += self.geometry.len() as u64;
+        let screen_below = screen_below.filter(|_| !self.no_screen);
+        let mut screened = 0;
         self.state = self
             .geometry
             .iter()
             .map(|t| {
                 let (d1, d2) = (t.dir, t.left);
+                let (up, lo) = (v.u[t.behind[0] as usize], v.u[t.behind[1] as usize]);
+                let du = [up[0] - lo[0], up[1] - lo[1]];
+                let delta = [du[0] * d2[0] + du[1] * d2[1], du[0] * d1[0] + du[1] * d1[1]];
+                if let Some(k_ic) = screen_below {
+                    let k_dc = 0.125 * e_prime * (2.0 * PI / t.b).sqrt() * delta[0].hypot(delta[1]);
+                    if k_dc < DC_SCREEN * k_ic {
+                        screened += 1;
+                        return TipState {
+                            node: t.node,
+                            delta,
+                            screened: true,
+                            ..Default::default()
+                        };
+                    }
+                }
                 let xt = v.x0[t.node as usize];
                 // Local coordinates of a reference point.
                 let local = |y: [f64; 2]| {
@@ -465,7 +574,7 @@ impl Tips {
                 let rot = |w: [f64; 2]| [w[0] * d1[0] + w[1] * d1[1], w[0] * d2[0] + w[1] * d2[1]];
                 // [J, M_I, M_II]
                 let mut m = [0.0; 3];
-                for &(e, gq) in &t.elements {
+                for (&(e, gq), aux) in t.elements.iter().zip(&t.aux) {
                     let (g, c) = (&v.geom[e as usize], v.conn[e as usize]);
                     let ue = c.map(|i| v.u[i as usize]);
                     let sg = cst_stress(g, ue, p);
@@ -484,55 +593,26 @@ impl Tips {
                         * (sig[0][0] * h[0][0]
                             + sig[1][1] * h[1][1]
                             + sig[0][1] * (h[0][1] + h[1][0]));
-                    let area = g[0];
                     // J: (sigma_ij u_j,1 - W delta_1i) q,i
-                    let mut jj = -w * q[0];
-                    for i in 0..2 {
-                        for jx in 0..2 {
-                            jj += sig[i][jx] * h[jx][0] * q[i];
-                        }
-                    }
-                    m[0] += area * jj;
-                    // Interaction with the auxiliary fields, 3-point rule inside the element.
-                    let xs = c.map(|i| local(v.x0[i as usize]));
-                    let side = {
-                        let cy = (xs[0][1] + xs[1][1] + xs[2][1]) / 3.0;
-                        if cy >= 0.0 { 1.0 } else { -1.0 }
-                    };
-                    for bary in [
-                        [2.0 / 3.0, 1.0 / 6.0, 1.0 / 6.0],
-                        [1.0 / 6.0, 2.0 / 3.0, 1.0 / 6.0],
-                        [1.0 / 6.0, 1.0 / 6.0, 2.0 / 3.0],
-                    ] {
-                        let y = [0, 1]
-                            .map(|d| bary[0] * xs[0][d] + bary[1] * xs[1][d] + bary[2] * xs[2][d]);
-                        for (mode, slot) in [(Mode::I, 1), (Mode::II, 2)] {
-                            let (sa, ha) = auxiliary(mode, y, side, p);
-                            // sigma_ij u^a_j,1 + sigma^a_ij u_j,1 - sigma_ij eps^a_ij delta_1i
-                            let ea = [
-                                [ha[0][0], 0.5 * (ha[0][1] + ha[1][0])],
-                                [0.5 * (ha[0][1] + ha[1][0]), ha[1][1]],
-                            ];
-                            let wi = sig[0][0] * ea[0][0]
-                                + sig[1][1] * ea[1][1]
-                                + 2.0 * sig[0][1] * ea[0][1];
-                            let mut mm = -wi * q[0];
-                            for i in 0..2 {
-                                for jx in 0..2 {
-                                    mm += (sig[i][jx] * ha[jx][0] + sa[i][jx] * h[jx][0]) * q[i];
-                                }
-                            }
-                            m[slot] += area / 3.0 * mm;
-                        }
+                    let sq = [
+                        sig[0][0] * q[0] + sig[1][0] * q[1],
+                        sig[0][1] * q[0] + sig[1][1] * q[1],
+                    ];
+                    m[0] += g[0] * (sq[0] * h[0][0] + sq[1] * h[1][0] - w * q[0]);
+                    // M: sigma_ij q,i int(u^a_j,1) + int(sigma^a_ij q,i) u_j,1 - sigma_ij q,1 int(eps^a_ij)
+                    for (mode, o) in aux.iter().enumerate() {
+                        m[1 + mode] +=
+                            sq[0] * o[0] + sq[1] * o[1] + o[2] * h[0][0] + o[3] * h[1][0]
+                                - (sig[0][0] * o[4] + sig[1][1] * o[5] + 2.0 * sig[0][1] * o[6]);
                     }
                 }
-                // Faces: - integral of t_j u_j,1 q ds (J) and t_j u^a_j,1 q ds (M). On a face
+                // Faces: - integral of t_j u_j,1 q ds (J) and of t_j u^a_j,1 q ds (M). On a face
                 // along the crack behind the tip u^a = s C sqrt(r) e (s = +1 upper, -1 lower;
                 // C = (kappa + 1) / (2 G sqrt(2 pi)); e = x2 for mode I, x1 for mode II), so
-                // u^a,1 = -s C / (2 sqrt r) e, integrated exactly against the linear q.
+                // u^a,1 = -s C / (2 sqrt r) e, integrated against q at refresh (`face_aux`).
                 let nu = p.lam / (2.0 * (p.lam + p.g));
                 let cc = (4.0 - 4.0 * nu) / (2.0 * p.g * (2.0 * PI).sqrt());
-                for &(k, qab) in &t.faces {
+                for (&(k, qab), &(iq, q_side)) in t.faces.iter().zip(&t.face_aux) {
                     let jf = crate::systems::fracture::joint_frame(v, k);
                     let pr = joint_pressure(k);
                     let st = &v.joint_state[k];
@@ -546,19 +626,6 @@ impl Tips {
                     let tau = [yb[0] - ya[0], yb[1] - ya[1]];
                     let len2 = tau[0] * tau[0] + tau[1] * tau[1];
                     let qm = 0.5 * (qab[0] + qab[1]) * len2.sqrt();
-                    // Face q is upper when p's outward normal (towards q) points up.
-                    let q_side = if rot(jf.n)[1] >= 0.0 { 1.0 } else { -1.0 };
-                    let (ra, rb) = (ya[0].hypot(ya[1]), yb[0].hypot(yb[1]));
-                    // integral of q / (2 sqrt r) dr over the face, q linear in r.
-                    let (r0, r1, q0, q1) = if ra <= rb {
-                        (ra, rb, qab[0], qab[1])
-                    } else {
-                        (rb, ra, qab[1], qab[0])
-                    };
-                    let beta = if r1 > r0 { (q1 - q0) / (r1 - r0) } else { 0.0 };
-                    let alpha = q0 - beta * r0;
-                    let iq = alpha * (r1.sqrt() - r0.sqrt())
-                        + beta * (r1.powf(1.5) - r0.powf(1.5)) / 3.0;
                     for (sgn, na, nb, side) in [(1.0, qa, qb, q_side), (-1.0, pa, pb, -q_side)] {
                         let t_f = [sgn * tq[0], sgn * tq[1]];
                         let du = rot([0, 1].map(|d| v.u[nb as usize][d] - v.u[na as usize][d]));
@@ -569,9 +636,6 @@ impl Tips {
                     }
                 }
                 let j = m[0];
-                let (up, lo) = (v.u[t.behind[0] as usize], v.u[t.behind[1] as usize]);
-                let du = [up[0] - lo[0], up[1] - lo[1]];
-                let delta = [du[0] * d2[0] + du[1] * d2[1], du[0] * d1[0] + du[1] * d1[1]];
                 let (k1, k2) = (0.5 * e_prime * m[1], 0.5 * e_prime * m[2]);
                 let (theta, k_eq) = max_hoop_stress(k1, k2);
                 TipState {
@@ -582,9 +646,11 @@ impl Tips {
                     k_eq,
                     delta,
                     j,
+                    screened: false,
                 }
             })
             .collect();
+        self.screened += screened;
     }
 
     /// The tracked tip of every tip of the last [`Tips::measure`]: the point at distance s

@@ -136,3 +136,31 @@ fn strength_criterion_by_name_is_the_old_field() {
         .expect("refused");
     assert!(err.to_string().contains("fracture.criterion"), "{err}");
 }
+
+/// The displacement-correlation screen (`DC_SCREEN`) skips the integrals at tips far from
+/// K_Ic without changing the run: the toughness KGD at h = 2 m gives the same displacements to
+/// the bit with and without it, and the screen did pass tips over.
+#[test]
+fn the_tip_screen_changes_nothing() {
+    let src = std::fs::read_to_string("scenarios/kgd_toughness.ron").unwrap();
+    let run = |screen: bool| {
+        let sc = Scenario::parse(&src, "kgd_toughness.ron")
+            .unwrap()
+            .with_overrides(&["time.end=Time(60.0)".into()])
+            .unwrap();
+        let mut sim = Simulation::new(sc, &[]).unwrap();
+        sim.fracture_mut().tips.no_screen = !screen;
+        sim.run(|_| {}).unwrap();
+        let t = &sim.fracture().tips;
+        (
+            sim.solid().u.clone(),
+            sim.solid().joint_nodes.len(),
+            t.screened,
+            t.evaluations,
+        )
+    };
+    let (a, b) = (run(true), run(false));
+    assert_eq!((a.0, a.1), (b.0, b.1));
+    assert_eq!(b.2, 0);
+    assert!(a.2 > 0 && a.2 < a.3, "screened {} of {}", a.2, a.3);
+}
