@@ -30,6 +30,9 @@ pub struct RunOptions {
     /// Stop between steps when this is set (the binary's SIGINT/SIGTERM handlers): the run
     /// ends as `interrupted` with its outputs finished ([`Simulation::set_stop`]).
     pub stop: Option<crate::sim::StopFlag>,
+    /// Refuse a scenario whose mesh and network need more memory than this, bytes (estimated
+    /// before anything is allocated, [`crate::resources`]). Default: the machine's memory.
+    pub max_memory: Option<u64>,
 }
 
 /// What a finished run reports.
@@ -80,6 +83,12 @@ pub fn run_scenario(scenario: Scenario, opts: &RunOptions) -> Result<RunReport, 
         .out
         .clone()
         .unwrap_or_else(|| PathBuf::from("out").join(&scenario.name));
+    let (limit, source) = match opts.max_memory {
+        Some(b) => (b, "set by --max-memory"),
+        None => crate::resources::default_limit(),
+    };
+    scenario.validate()?;
+    crate::resources::check(&scenario, limit, source)?;
     let mut sim = Simulation::new(scenario, &opts.disable)?;
     if let Some(stop) = &opts.stop {
         sim.set_stop(stop.clone());

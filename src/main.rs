@@ -48,6 +48,11 @@ enum Command {
         /// overwritten and listed in the manifest as the run's (the next run removes them)
         #[arg(long)]
         force: bool,
+        /// Refuse a scenario whose mesh and network would need more memory than SIZE (bytes,
+        /// or with KiB, MiB, GiB, TiB: 8GiB), estimated before anything is allocated
+        /// [default: the machine's memory, MemTotal of /proc/meminfo, else 16GiB]
+        #[arg(long, value_name = "SIZE", value_parser = hydrofrac::resources::parse_size)]
+        max_memory: Option<u64>,
     },
     /// Run verification cases at several resolutions: error and wall time (CSV + PNG).
     Verify {
@@ -150,6 +155,7 @@ fn real_main() -> Result<ExitCode> {
             trace,
             quiet,
             force,
+            max_memory,
         } => {
             let opts = RunOptions {
                 out,
@@ -159,6 +165,7 @@ fn real_main() -> Result<ExitCode> {
                 quiet,
                 force,
                 stop: Some(install_stop_handlers()?),
+                max_memory,
             };
             let report = run_file(&scenario, &opts)?;
             let code = report.interrupted_by.map_or(ExitCode::SUCCESS, signal_exit);

@@ -81,7 +81,7 @@ impl Simulation {
         };
         let mut flow = crate::setup::build_flow(&mut model, &scenario, &p)?;
         let (dt, steps_to_end) =
-            crate::setup::time_step(&p.time, &scenario.time, has_solid, dt_crit, flow.as_mut());
+            crate::setup::time_step(&p.time, &scenario.time, has_solid, dt_crit, flow.as_mut())?;
         p.solid.dt = dt;
         let view = crate::setup::solid_view(&model, &p, dt_crit, flow.as_mut());
         let mut disabled = scenario.systems.disable.clone();
