@@ -209,7 +209,7 @@ impl NetworkSpec {
         if !(self.cell_length.is_finite() && self.cell_length > 0.0) {
             return bad(
                 "network.cell_length",
-                format!("must be > 0, got {}", self.cell_length),
+                format!("must be a finite number > 0, got {}", self.cell_length),
             );
         }
         for (i, f) in self.fractures.iter().enumerate() {
@@ -220,7 +220,7 @@ impl NetworkSpec {
             if !(f.aperture.is_finite() && f.aperture > 0.0) {
                 return bad(
                     &format!("{field}.aperture"),
-                    format!("must be > 0, got {}", f.aperture),
+                    format!("must be a finite number > 0, got {}", f.aperture),
                 );
             }
             if f.from == f.to {

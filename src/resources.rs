@@ -199,7 +199,7 @@ pub fn check(sc: &Scenario, limit: u64, source: &str) -> Result<(), SetupError> 
         && let Some(c) = mesh_counts(mesh)
     {
         let bytes = mesh_bytes(&c, sc.time.solid_scheme);
-        if !(bytes <= limit as f64) {
+        if bytes.is_nan() || bytes > limit as f64 {
             let field = if matches!(mesh, MeshSpec::Gmsh { .. }) {
                 "mesh.file"
             } else {
@@ -215,7 +215,7 @@ pub fn check(sc: &Scenario, limit: u64, source: &str) -> Result<(), SetupError> 
     if let Some(n) = &sc.network {
         let cells = n.cell_estimate();
         let bytes = cells * BYTES_PER_CELL;
-        if !(bytes <= limit as f64) {
+        if bytes.is_nan() || bytes > limit as f64 {
             return Err(refuse(
                 "network.cell_length",
                 format!(

@@ -839,6 +839,20 @@ impl Scenario {
             finite("mesh.origin", origin[1])?;
             finite("mesh.origin", origin[0] + w)?;
             finite("mesh.origin", origin[1] + hgt)?;
+            // Node coordinates must resolve the cells: far from 0 (1e308, or 1e12 with h = 1 mm)
+            // neighbouring nodes round to the same position.
+            let far = [origin[0], origin[1], origin[0] + w, origin[1] + hgt]
+                .iter()
+                .fold(0.0f64, |m, x| m.max(x.abs()));
+            if far * 1e-10 > h {
+                return Err(SetupError::invalid(
+                    "mesh.origin",
+                    format!(
+                        "coordinates up to {far:e} m cannot resolve cells of h = {h} m in double \
+                         precision; move the origin nearer 0"
+                    ),
+                ));
+            }
             if let MeshSpec::Graded { fine, ratio, .. } = *mesh {
                 finite("mesh.ratio", ratio)?;
                 if !(1.0..=10.0).contains(&ratio) {
@@ -1335,6 +1349,36 @@ mod tests {
             let e = sc.validate().unwrap_err().to_string();
             assert!(e.contains(field), "{e}");
         }
+    }
+
+    /// A byte-order mark before the scenario is skipped (it failed at 1:1).
+    #[test]
+    fn a_byte_order_mark_is_accepted() {
+        let sc = Scenario::parse(&format!("\u{feff}{GOOD}"), "bom.ron").unwrap();
+        assert_eq!(sc, Scenario::parse(GOOD, "good.ron").unwrap());
+    }
+
+    /// A NaN of the file is reported as the file's value when an override touches another
+    /// field (the JSON the overrides go through turns it into `null`), and an override of that
+    /// very field replaces it.
+    #[test]
+    fn a_non_finite_value_of_the_file_is_not_blamed_on_an_override() {
+        let sc = Scenario::parse(&GOOD.replace("young: 20e9", "young: NaN"), "nan.ron").unwrap();
+        let e = sc
+            .with_overrides(&["damping=None".into()])
+            .unwrap_err()
+            .to_string();
+        assert!(e.starts_with("invalid material.young:"), "{e}");
+        assert!(e.contains("scenario file"), "{e}");
+        let o = sc.with_overrides(&["material.young=3e10".into()]).unwrap();
+        assert_eq!(o.material.unwrap().young, 3e10);
+        // A bad override (of a field read before: the JSON fields are read in alphabetical
+        // order) is still the override's.
+        let e = sc
+            .with_overrides(&["damping=Wild".into()])
+            .unwrap_err()
+            .to_string();
+        assert!(e.starts_with("--set"), "{e}");
     }
 
     #[test]

@@ -401,7 +401,7 @@ fn a_signal_stops_the_run_and_finishes_the_outputs() {
         let reason = s["reason"].as_str().unwrap();
         assert!(reason.contains(name), "{reason}");
         let steps = s["steps"].as_u64().unwrap();
-        assert!(steps >= 20 && steps < 60_000, "steps {steps}");
+        assert!((20..60_000).contains(&steps), "steps {steps}");
         assert_eq!(temporaries(&out), Vec::<String>::new(), "{name}");
         for rel in listed(&out) {
             assert!(out.join(&rel).is_file(), "{name}: listed {rel} missing");
