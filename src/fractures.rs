@@ -91,6 +91,22 @@ pub fn open_preexisting(
                 by_pair.get(&(a.min(b), a.max(b))).copied()
             })
             .collect();
+        let internal = edges.iter().any(|&e| {
+            model
+                .world
+                .get::<&EdgeElems>(e)
+                .is_ok_and(|l| !l.is_external())
+        });
+        if !edges.is_empty() && !internal {
+            return Err(SetupError::invalid(
+                &field,
+                format!(
+                    "lies along the domain boundary ({where_}): its {} mesh edges are boundary \
+                     edges, which cannot open",
+                    edges.len()
+                ),
+            ));
+        }
         placed.push(Placed {
             from: pf.from,
             to: pf.to,

@@ -82,10 +82,24 @@ fn main() -> ExitCode {
         Err(e) if is_broken_pipe(&e) => ExitCode::SUCCESS,
         Err(e) => {
             // Never panics: a closed stderr loses the message, the exit status stays.
-            let _ = writeln!(std::io::stderr(), "error: {e:#}");
+            let _ = writeln!(std::io::stderr(), "error: {}", one_line(&e));
             ExitCode::FAILURE
         }
     }
+}
+
+/// The error and its causes in one line, `a: b: c`, leaving out a cause whose text the line
+/// already holds (a message that quotes its source, as most here do, is not repeated).
+fn one_line(e: &anyhow::Error) -> String {
+    let mut line = e.to_string();
+    for cause in e.chain().skip(1) {
+        let m = cause.to_string();
+        if !line.contains(&m) {
+            line += ": ";
+            line += &m;
+        }
+    }
+    line
 }
 
 fn is_broken_pipe(e: &anyhow::Error) -> bool {

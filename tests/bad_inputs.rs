@@ -50,6 +50,8 @@ const fn edit(
 }
 
 const KGD: &str = "kgd.ron";
+/// The in-situ scene's mesh, to replace by a Gmsh file.
+const REGULAR: &str = "Regular(width: 100.0, height: 100.0, h: 1.0)";
 const EX1: &str = "example1_cross.ron";
 const INSITU: &str = "insitu_stress.ron";
 const NET: &str = "flow_network.ron";
@@ -236,6 +238,46 @@ const CASES: &[Case] = &[
             "Gmsh(file: \"no_such_mesh.msh\")",
         )],
         &["mesh.file"],
+    ),
+    edit(
+        INSITU,
+        &[(REGULAR, "Gmsh(file: \"empty.msh\")")],
+        &["mesh.file", "empty file"],
+    ),
+    edit(
+        INSITU,
+        &[(REGULAR, "Gmsh(file: \"garbage.msh\")")],
+        &["mesh.file", "$MeshFormat"],
+    ),
+    edit(
+        INSITU,
+        &[(REGULAR, "Gmsh(file: \"bad_ref.msh\")")],
+        &["mesh.file", "refers to node 9"],
+    ),
+    edit(
+        INSITU,
+        &[(REGULAR, "Gmsh(file: \"no_triangles.msh\")")],
+        &["mesh.file", "no 3-node triangles"],
+    ),
+    edit(
+        INSITU,
+        &[(REGULAR, "Gmsh(file: \"flat.msh\")")],
+        &["mesh.file", "degenerate triangle"],
+    ),
+    edit(
+        INSITU,
+        &[(REGULAR, "Gmsh(file: \"nan.msh\")")],
+        &["mesh.file", "non-finite coordinate"],
+    ),
+    edit(
+        INSITU,
+        &[(REGULAR, "Gmsh(file: \"short.msh\")")],
+        &["mesh.file", "fewer entries than declared"],
+    ),
+    edit(
+        INSITU,
+        &[(REGULAR, "Gmsh(file: \"folder.msh\")")],
+        &["mesh.file", "cannot read"],
     ),
     // --- Material.
     set(
@@ -527,6 +569,27 @@ const CASES: &[Case] = &[
             "(from: (16.0, 46.0), to: (16.1, 46.1))",
         )],
         &["fracture.preexisting[1]", "shorter than one mesh edge"],
+    ),
+    set(
+        EX1,
+        &[
+            "--set",
+            "fracture.preexisting=[{\"from\":[0,0],\"to\":[100,0]}]",
+        ],
+        &["fracture.preexisting[0]", "domain boundary", "cannot open"],
+    ),
+    set(
+        INSITU,
+        &["--set", "pins=[{\"at\":[500,500],\"ux\":0}]"],
+        &["pins[0].at", "from the nearest node"],
+    ),
+    edit(
+        INSITU,
+        &[(
+            "systems: (disable: [])",
+            "systems: (disable: [\"warp_drive\"])",
+        )],
+        &["unknown system `warp_drive`"],
     ),
     edit(
         SNEDDON,
@@ -847,6 +910,36 @@ const CASES: &[Case] = &[
     ),
 ];
 
+/// Bad Gmsh files, written beside the scenarios (a mesh path is relative to the scenario).
+const MESH_FILES: &[(&str, &str)] = &[
+    ("empty.msh", ""),
+    ("garbage.msh", "\u{7f}ELF\u{0}\u{1}binary garbage\n"),
+    (
+        "bad_ref.msh",
+        "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n3\n1 0 0 0\n2 1 0 0\n3 0 1 0\n$EndNodes\n\
+         $Elements\n1\n1 2 2 0 1 1 2 9\n$EndElements\n",
+    ),
+    (
+        "no_triangles.msh",
+        "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n3\n1 0 0 0\n2 1 0 0\n3 0 1 0\n$EndNodes\n\
+         $Elements\n0\n$EndElements\n",
+    ),
+    (
+        "flat.msh",
+        "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n3\n1 0 0 0\n2 1 0 0\n3 2 0 0\n$EndNodes\n\
+         $Elements\n1\n1 2 2 0 1 1 2 3\n$EndElements\n",
+    ),
+    (
+        "nan.msh",
+        "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n3\n1 0 0 0\n2 1 0 0\n3 NaN 1 0\n$EndNodes\n\
+         $Elements\n1\n1 2 2 0 1 1 2 3\n$EndElements\n",
+    ),
+    (
+        "short.msh",
+        "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n99999999999\n1 0 0 0\n$EndNodes\n",
+    ),
+];
+
 fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
 }
@@ -883,6 +976,10 @@ fn scenario_file(case: &Case, k: usize, dir: &Path) -> PathBuf {
 #[test]
 fn every_bad_input_is_refused_with_a_clear_message() {
     let files = tmp("files");
+    for (name, text) in MESH_FILES {
+        std::fs::write(files.join(name), text).unwrap();
+    }
+    std::fs::create_dir_all(files.join("folder.msh")).unwrap();
     let cwd = tmp("cwd");
     let limit = Duration::from_secs(30);
     let mut failures = Vec::new();
