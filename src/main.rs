@@ -216,7 +216,16 @@ fn real_main() -> Result<ExitCode> {
             let before = folder.snapshot();
             let result = hydrofrac::verify::run_cases(&cases, &out, quick);
             folder.adopt_changed(&before)?;
-            let ok = result?;
+            // A closed stdout stops the cases at their next line: not a quiet success here.
+            let ok = result.map_err(|e| {
+                if is_broken_pipe(&e) {
+                    anyhow::anyhow!(
+                        "stdout was closed: the verification stopped before it finished"
+                    )
+                } else {
+                    e
+                }
+            })?;
             Ok(if ok {
                 ExitCode::SUCCESS
             } else {

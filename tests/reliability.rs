@@ -439,18 +439,33 @@ fn a_signal_stops_the_run_and_finishes_the_outputs() {
 /// A closed stdout (`hydrofrac run ... | head -1` after head has gone, or `hydrofrac systems`
 /// into a closed pipe) is not a panic: the run finishes, writes its outputs and exits 0 with
 /// nothing on stderr about a broken pipe (`println!` panicked with "failed printing to
-/// stdout").
+/// stdout"). `verify`, whose cases stop at their first line, exits 1 with a message instead of
+/// a quiet success.
 #[test]
 fn a_closed_stdout_is_not_a_panic() {
     let out = tmp("pipe");
-    for args in [
-        vec![
-            "run".to_string(),
-            scenario("flow_junction.ron"),
-            "--out".into(),
-            out.display().to_string(),
-        ],
-        vec!["systems".to_string()],
+    let verify_out = tmp("pipe-verify");
+    for (args, code) in [
+        (
+            vec![
+                "run".to_string(),
+                scenario("flow_junction.ron"),
+                "--out".into(),
+                out.display().to_string(),
+            ],
+            0,
+        ),
+        (vec!["systems".to_string()], 0),
+        (
+            vec![
+                "verify".to_string(),
+                "patch".into(),
+                "--quick".into(),
+                "--out".into(),
+                verify_out.display().to_string(),
+            ],
+            1,
+        ),
     ] {
         let mut child = bin()
             .args(&args)
@@ -465,7 +480,10 @@ fn a_closed_stdout_is_not_a_panic() {
         std::io::Read::read_to_string(child.stderr.as_mut().unwrap(), &mut err).unwrap();
         assert!(!err.contains("panicked"), "{args:?}: {err}");
         assert!(!err.contains("Broken pipe"), "{args:?}: {err}");
-        assert_eq!(status.code(), Some(0), "{args:?}: {err}");
+        assert_eq!(status.code(), Some(code), "{args:?}: {err}");
+        if code != 0 {
+            assert!(err.starts_with("error: stdout was closed"), "{err}");
+        }
     }
     assert!(out.join("summary.json").is_file());
 }
