@@ -6,7 +6,7 @@
 //! The estimate counts nodes, triangles and edges of the mesh and cells of the network and
 //! charges each a measured size (bytes): the model's components, the dense views, the frames
 //! being written and, for the quasi-static scheme, the sparse factor. The sizes are rounded
-//! up from peak resident sizes of release runs (explicit solid: about 950 bytes per triangle;
+//! up from peak resident sizes of release runs (explicit solid: about 1,000 bytes per triangle;
 //! quasi-static: about 2,000; network cells: 850 explicit, 1,200 implicit), so the estimate is
 //! meant to be on the high side by a few tens of percent, not exact.
 //!
@@ -21,11 +21,11 @@ pub const FALLBACK_LIMIT: u64 = 16 << 30;
 
 /// Bytes per mesh node (positions, displacements, velocities, forces, masses, boundary flags in
 /// the components and the view).
-pub const BYTES_PER_NODE: f64 = 400.0;
+pub const BYTES_PER_NODE: f64 = 500.0;
 /// Bytes per triangle (connectivity, geometry, stresses, frame data).
-pub const BYTES_PER_TRIANGLE: f64 = 600.0;
+pub const BYTES_PER_TRIANGLE: f64 = 800.0;
 /// Bytes per mesh edge (the edge table, fracture criterion and split bookkeeping).
-pub const BYTES_PER_EDGE: f64 = 200.0;
+pub const BYTES_PER_EDGE: f64 = 250.0;
 /// Extra bytes per node with the quasi-static scheme (the stiffness matrix and its sparse
 /// Cholesky factor).
 pub const BYTES_PER_NODE_QUASI_STATIC: f64 = 2500.0;
@@ -180,6 +180,21 @@ pub fn mesh_bytes(c: &MeshCounts, scheme: SolidScheme) -> f64 {
         SolidScheme::Explicit => 0.0,
     };
     c.nodes * (BYTES_PER_NODE + qs) + c.triangles * BYTES_PER_TRIANGLE + c.edges * BYTES_PER_EDGE
+}
+
+/// Estimated memory of a scenario's mesh and network, bytes (0 for a part it does not have, or
+/// a Gmsh file that cannot be read).
+pub fn estimate(sc: &Scenario) -> (f64, f64) {
+    let mesh = sc
+        .mesh
+        .as_ref()
+        .and_then(mesh_counts)
+        .map_or(0.0, |c| mesh_bytes(&c, sc.time.solid_scheme));
+    let network = sc
+        .network
+        .as_ref()
+        .map_or(0.0, |n| n.cell_estimate() * BYTES_PER_CELL);
+    (mesh, network)
 }
 
 /// Refuse a scenario whose mesh or network would need more than `limit` bytes (`source`: where
