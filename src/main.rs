@@ -77,9 +77,6 @@ enum Command {
 fn main() -> ExitCode {
     match real_main() {
         Ok(code) => code,
-        // A closed stdout (`hydrofrac ... | head -1`): the work is done, the rest of the
-        // report has no reader; a quiet exit, not a panic.
-        Err(e) if is_broken_pipe(&e) => ExitCode::SUCCESS,
         Err(e) => {
             // Never panics: a closed stderr loses the message, the exit status stays.
             let _ = writeln!(std::io::stderr(), "error: {}", one_line(&e));
@@ -235,7 +232,12 @@ fn real_main() -> Result<ExitCode> {
         Command::Systems => {
             let mut out = std::io::stdout().lock();
             for s in hydrofrac::systems::SystemId::ORDER {
-                writeln!(out, "{:<16} {}", s.name(), s.doc())?;
+                // A closed stdout (`hydrofrac systems | head -1`): the rest has no reader; a
+                // quiet exit, not a panic.
+                match writeln!(out, "{:<16} {}", s.name(), s.doc()) {
+                    Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => break,
+                    r => r?,
+                }
             }
             Ok(ExitCode::SUCCESS)
         }

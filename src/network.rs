@@ -9,6 +9,10 @@ use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
+/// Most fractures in a network (given plus generated): the intersection search compares every
+/// pair (1e5 fractures: 5e9 pairs, tens of seconds).
+pub const MAX_FRACTURES: usize = 100_000;
+
 /// Snapping distance as a fraction of the cell length.
 pub const SNAP: f64 = 0.3;
 
@@ -267,13 +271,13 @@ impl NetworkSpec {
         }
         let total =
             self.fractures.len() as f64 + self.random.as_ref().map_or(0.0, |r| r.count as f64);
-        if total > crate::resources::MAX_FRACTURES as f64 {
+        if total > MAX_FRACTURES as f64 {
             return bad(
                 "network.random.count",
                 format!(
                     "{total:.3e} fractures is more than the {} this engine takes (the \
                      intersection search compares every pair)",
-                    crate::resources::MAX_FRACTURES
+                    MAX_FRACTURES
                 ),
             );
         }

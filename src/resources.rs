@@ -14,6 +14,8 @@
 //! that cannot be read), or `hydrofrac run --max-memory SIZE` ([`parse_size`]).
 
 use crate::error::SetupError;
+pub use crate::network::MAX_FRACTURES;
+pub use crate::scenario::MeshCounts;
 use crate::scenario::{MeshSpec, Scenario, SolidScheme};
 
 /// The limit when the machine's memory cannot be read, bytes (16 GiB).
@@ -31,13 +33,7 @@ pub const BYTES_PER_EDGE: f64 = 250.0;
 pub const BYTES_PER_NODE_QUASI_STATIC: f64 = 2500.0;
 /// Bytes per network cell (cells, nodes, pairs, flow state, the implicit scheme's matrix).
 pub const BYTES_PER_CELL: f64 = 1500.0;
-/// Bytes per triangle of an imported Gmsh file, per byte of the file: a triangle takes 20 or
-/// more bytes of text (with its share of the nodes), so `file size / 20` triangles at most.
-pub const GMSH_BYTES_PER_TRIANGLE: f64 = 20.0;
-
-/// Most fractures in a network (given plus generated): the intersection search compares every
-/// pair (1e5 fractures: 5e9 pairs, tens of seconds).
-pub const MAX_FRACTURES: usize = 100_000;
+pub use crate::scenario::GMSH_BYTES_PER_TRIANGLE;
 
 /// The machine's memory, bytes: `MemTotal` of `/proc/meminfo` (Linux), `None` elsewhere.
 pub fn machine_memory() -> Option<u64> {
@@ -105,74 +101,6 @@ pub fn format_size(bytes: f64) -> String {
     }
 }
 
-/// Counts of a mesh before it is built (estimates for graded and imported meshes).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct MeshCounts {
-    pub nodes: f64,
-    pub triangles: f64,
-    pub edges: f64,
-}
-
-impl MeshCounts {
-    fn from_grid(nx: f64, ny: f64) -> Self {
-        MeshCounts {
-            nodes: (nx + 1.0) * (ny + 1.0),
-            triangles: 2.0 * nx * ny,
-            edges: nx * (ny + 1.0) + ny * (nx + 1.0) + nx * ny,
-        }
-    }
-    fn from_triangles(t: f64) -> Self {
-        MeshCounts {
-            nodes: 0.5 * t + 1.0,
-            triangles: t,
-            edges: 1.5 * t + 1.0,
-        }
-    }
-}
-
-/// Nodes, triangles and edges a mesh will have: exact for regular and perturbed meshes, an
-/// upper bound for graded ones, from the file size for Gmsh files (`None` when the file
-/// cannot be read: reading it reports that). Reads the scenario's (finite, positive) sizes;
-/// non-finite ones give infinite counts.
-pub fn mesh_counts(mesh: &MeshSpec) -> Option<MeshCounts> {
-    match *mesh {
-        MeshSpec::Regular {
-            width, height, h, ..
-        }
-        | MeshSpec::Perturbed {
-            width, height, h, ..
-        } => Some(MeshCounts::from_grid(
-            (width / h).round(),
-            (height / h).round(),
-        )),
-        MeshSpec::Graded {
-            width,
-            height,
-            h,
-            fine,
-            ratio,
-            ..
-        } => {
-            // Cells that grow by `ratio` from h across a length l: at most
-            // ln(1 + l (ratio - 1) / h) / ln(ratio) (l / h for ratio 1).
-            let grow = |l: f64| {
-                if ratio > 1.0 {
-                    (1.0 + l * (ratio - 1.0) / h).ln() / ratio.ln()
-                } else {
-                    l / h
-                }
-            };
-            let nx = ((fine[2] - fine[0]) / h + 2.0 * grow(width)).ceil();
-            let ny = ((fine[3] - fine[1]) / h + 2.0 * grow(height)).ceil();
-            Some(MeshCounts::from_grid(nx, ny))
-        }
-        MeshSpec::Gmsh { ref file } => {
-            let len = std::fs::metadata(file).ok()?.len() as f64;
-            Some(MeshCounts::from_triangles(len / GMSH_BYTES_PER_TRIANGLE))
-        }
-    }
-}
-
 /// Estimated memory of a mesh, bytes.
 pub fn mesh_bytes(c: &MeshCounts, scheme: SolidScheme) -> f64 {
     let qs = match scheme {
@@ -188,7 +116,7 @@ pub fn estimate(sc: &Scenario) -> (f64, f64) {
     let mesh = sc
         .mesh
         .as_ref()
-        .and_then(mesh_counts)
+        .and_then(MeshSpec::counts)
         .map_or(0.0, |c| mesh_bytes(&c, sc.time.solid_scheme));
     let network = sc
         .network
@@ -211,7 +139,7 @@ pub fn check(sc: &Scenario, limit: u64, source: &str) -> Result<(), SetupError> 
         )
     };
     if let Some(mesh) = &sc.mesh
-        && let Some(c) = mesh_counts(mesh)
+        && let Some(c) = mesh.counts()
     {
         let bytes = mesh_bytes(&c, sc.time.solid_scheme);
         if bytes.is_nan() || bytes > limit as f64 {
@@ -287,7 +215,7 @@ mod tests {
             h: 1.0,
             origin: [0.0, 0.0],
         };
-        let c = mesh_counts(&spec).unwrap();
+        let c = spec.counts().unwrap();
         let m = crate::setup::build_mesh(&spec).unwrap();
         assert_eq!(c.nodes, m.nodes.len() as f64);
         assert_eq!(c.triangles, m.triangles.len() as f64);
@@ -306,7 +234,7 @@ mod tests {
             fine: [-6.0, -2.0, 6.0, 2.0],
             ratio: 1.2,
         };
-        let c = mesh_counts(&spec).unwrap();
+        let c = spec.counts().unwrap();
         let m = crate::setup::build_mesh(&spec).unwrap();
         let t = m.triangles.len() as f64;
         assert!(

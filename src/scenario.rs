@@ -106,6 +106,49 @@ pub enum MeshSpec {
 }
 
 impl MeshSpec {
+    /// Nodes, triangles and edges a mesh will have: exact for regular and perturbed meshes, an
+    /// upper bound for graded ones, from the file size for Gmsh files (`None` when the file
+    /// cannot be read: reading it reports that). Reads the scenario's (finite, positive) sizes;
+    /// non-finite ones give infinite counts.
+    pub fn counts(&self) -> Option<MeshCounts> {
+        match *self {
+            MeshSpec::Regular {
+                width, height, h, ..
+            }
+            | MeshSpec::Perturbed {
+                width, height, h, ..
+            } => Some(MeshCounts::from_grid(
+                (width / h).round(),
+                (height / h).round(),
+            )),
+            MeshSpec::Graded {
+                width,
+                height,
+                h,
+                fine,
+                ratio,
+                ..
+            } => {
+                // Cells that grow by `ratio` from h across a length l: at most
+                // ln(1 + l (ratio - 1) / h) / ln(ratio) (l / h for ratio 1).
+                let grow = |l: f64| {
+                    if ratio > 1.0 {
+                        (1.0 + l * (ratio - 1.0) / h).ln() / ratio.ln()
+                    } else {
+                        l / h
+                    }
+                };
+                let nx = ((fine[2] - fine[0]) / h + 2.0 * grow(width)).ceil();
+                let ny = ((fine[3] - fine[1]) / h + 2.0 * grow(height)).ceil();
+                Some(MeshCounts::from_grid(nx, ny))
+            }
+            MeshSpec::Gmsh { ref file } => {
+                let len = std::fs::metadata(file).ok()?.len() as f64;
+                Some(MeshCounts::from_triangles(len / GMSH_BYTES_PER_TRIANGLE))
+            }
+        }
+    }
+
     /// Nominal cell size, m (`None` for an imported mesh).
     pub fn h(&self) -> Option<f64> {
         match self {
@@ -125,6 +168,35 @@ impl MeshSpec {
         }
     }
 }
+
+/// Counts of a mesh before it is built (estimates for graded and imported meshes).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MeshCounts {
+    pub nodes: f64,
+    pub triangles: f64,
+    pub edges: f64,
+}
+
+impl MeshCounts {
+    fn from_grid(nx: f64, ny: f64) -> Self {
+        MeshCounts {
+            nodes: (nx + 1.0) * (ny + 1.0),
+            triangles: 2.0 * nx * ny,
+            edges: nx * (ny + 1.0) + ny * (nx + 1.0) + nx * ny,
+        }
+    }
+    fn from_triangles(t: f64) -> Self {
+        MeshCounts {
+            nodes: 0.5 * t + 1.0,
+            triangles: t,
+            edges: 1.5 * t + 1.0,
+        }
+    }
+}
+
+/// Bytes of an imported Gmsh file per triangle, at least: a triangle takes 20 or more bytes of
+/// text (with its share of the nodes), so a file has at most `size / 20` triangles.
+pub const GMSH_BYTES_PER_TRIANGLE: f64 = 20.0;
 
 /// Linear elastic rock.
 #[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq)]
@@ -891,7 +963,7 @@ impl Scenario {
                     ));
                 }
             }
-            let cells = crate::resources::mesh_counts(mesh).map_or(0.0, |c| c.triangles);
+            let cells = mesh.counts().map_or(0.0, |c| c.triangles);
             if cells > 5.0e7 {
                 return Err(SetupError::invalid(
                     "mesh.h",
