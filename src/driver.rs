@@ -27,6 +27,12 @@ pub struct RunOptions {
     /// Write into a non-empty folder that has no manifest (nothing in it is deleted; files
     /// with the names the run writes are overwritten). See [`crate::output::folder`].
     pub force: bool,
+    /// Stop between steps when this is set (the binary's SIGINT/SIGTERM handlers): the run
+    /// ends as `interrupted` with its outputs finished ([`Simulation::set_stop`]).
+    pub stop: Option<crate::sim::StopFlag>,
+    /// Refuse a scenario whose mesh and network need more memory than this, bytes (estimated
+    /// before anything is allocated, [`crate::resources`]). Default: the machine's memory.
+    pub max_memory: Option<u64>,
 }
 
 /// What a finished run reports.
@@ -35,6 +41,19 @@ pub struct RunReport {
     pub out: PathBuf,
     pub summary: serde_json::Value,
     pub timing_table: String,
+    /// The signal number that stopped the run between steps, if one did (`summary.json`
+    /// `status` is then `interrupted`).
+    pub interrupted_by: Option<usize>,
+}
+
+/// The name of a signal number the run may be stopped by: `SIGINT`, `SIGTERM`, else
+/// `signal N`.
+pub fn signal_name(sig: usize) -> String {
+    match sig {
+        2 => "SIGINT".into(),
+        15 => "SIGTERM".into(),
+        n => format!("signal {n}"),
+    }
 }
 
 /// Errors of a run, with the output folder when one was prepared (earlier outputs stay there).
@@ -64,7 +83,16 @@ pub fn run_scenario(scenario: Scenario, opts: &RunOptions) -> Result<RunReport, 
         .out
         .clone()
         .unwrap_or_else(|| PathBuf::from("out").join(&scenario.name));
+    let (limit, source) = match opts.max_memory {
+        Some(b) => (b, "set by --max-memory"),
+        None => crate::resources::default_limit(),
+    };
+    scenario.validate()?;
+    crate::resources::check(&scenario, limit, source)?;
     let mut sim = Simulation::new(scenario, &opts.disable)?;
+    if let Some(stop) = &opts.stop {
+        sim.set_stop(stop.clone());
+    }
     // Every path is checked before anything in the folder is removed or written.
     let mut plan = Plan::check(&out, opts.force)?;
     plan.require_folder("frames")?;
@@ -98,10 +126,14 @@ pub fn run_scenario(scenario: Scenario, opts: &RunOptions) -> Result<RunReport, 
 
     let timing = TimingLayer::default();
     let table = timing.table.clone();
+    let trace_error = TraceError::default();
     let (chrome, _guard) = match trace {
         Some(file) => {
             let (layer, guard) = tracing_chrome::ChromeLayerBuilder::new()
-                .writer(file)
+                .writer(TraceWriter {
+                    file,
+                    error: trace_error.clone(),
+                })
                 .include_args(true)
                 .build();
             (Some(layer), Some(guard))
@@ -143,6 +175,14 @@ pub fn run_scenario(scenario: Scenario, opts: &RunOptions) -> Result<RunReport, 
         .collect();
     let timing_table = format_table(&rows);
     let mut summary = summary_json(&sim, &result, wall, &rows);
+    if let Some(sig) = sim.interrupted_by() {
+        summary["status"] = json!("interrupted");
+        summary["reason"] = json!(format!(
+            "interrupted by {} at the end of step {}",
+            signal_name(sig),
+            sim.step()
+        ));
+    }
     if let Some(c) = sim.quasi_static_counts() {
         summary["quasi_static"] = json!(c);
     }
@@ -201,6 +241,12 @@ pub fn run_scenario(scenario: Scenario, opts: &RunOptions) -> Result<RunReport, 
             warnings.push(format!("figures not written: {e}"));
         }
     }
+    if let (Some(e), Some(path)) = (trace_error.lock().expect("trace error").take(), &opts.trace) {
+        warnings.push(format!(
+            "trace {} is incomplete: writing it failed: {e}",
+            path.display()
+        ));
+    }
     if !warnings.is_empty() {
         summary["warnings"] = json!(warnings);
     }
@@ -215,6 +261,9 @@ pub fn run_scenario(scenario: Scenario, opts: &RunOptions) -> Result<RunReport, 
             .as_bytes(),
     )
     .map_err(DriverError::Output)?;
+    if let Some(o) = sim.output() {
+        o.folder().remove_temporaries();
+    }
     if let Err(e) = result {
         return Err(DriverError::Run {
             error: e,
@@ -225,6 +274,7 @@ pub fn run_scenario(scenario: Scenario, opts: &RunOptions) -> Result<RunReport, 
         out,
         summary,
         timing_table,
+        interrupted_by: sim.interrupted_by(),
     })
 }
 
@@ -262,10 +312,57 @@ fn open_trace(
     Ok((file, rel))
 }
 
-/// Empty the opened trace file (after the folder checks passed).
+/// Empty the opened trace file (after the folder checks passed); a device (`/dev/null`) is
+/// written as it is.
 fn truncate(file: std::fs::File) -> std::io::Result<std::fs::File> {
-    file.set_len(0)?;
+    if file.metadata()?.is_file() {
+        file.set_len(0)?;
+    }
     Ok(file)
+}
+
+/// The first error writing the trace file, if any.
+type TraceError = std::sync::Arc<std::sync::Mutex<Option<std::io::Error>>>;
+
+/// The trace file as tracing-chrome's writer thread sees it: that thread unwraps every write,
+/// so a failing write (a full disk) would panic it. Here the first error is kept (reported as
+/// a `summary.json` warning) and every write from then on is dropped as if it succeeded: the
+/// run goes on, the trace file is left incomplete.
+struct TraceWriter {
+    file: std::fs::File,
+    error: TraceError,
+}
+
+impl TraceWriter {
+    /// `op` on the file, unless a write failed before; its error is kept and hidden (the call
+    /// "succeeds" with `n`), except an interruption, which the caller retries.
+    fn guard(
+        &mut self,
+        op: impl FnOnce(&mut std::fs::File) -> std::io::Result<usize>,
+        n: usize,
+    ) -> std::io::Result<usize> {
+        let mut err = self.error.lock().expect("trace error");
+        if err.is_some() {
+            return Ok(n);
+        }
+        match op(&mut self.file) {
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => Err(e),
+            Err(e) => {
+                *err = Some(e);
+                Ok(n)
+            }
+            ok => ok,
+        }
+    }
+}
+
+impl std::io::Write for TraceWriter {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        self.guard(|f| f.write(buf), buf.len())
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.guard(|f| f.flush().map(|()| 0), 0).map(|_| ())
+    }
 }
 
 fn progress_bar(quiet: bool) -> ProgressBar {

@@ -53,12 +53,35 @@ pub fn open_preexisting(
     }
     let mut placed = Vec::new();
     let mut ready = Vec::new();
+    let [x0, y0, x1, y1] = mesh.bbox;
+    let tol = 1e-9 * (x1 - x0).abs().max((y1 - y0).abs());
+    let domain = [x0 - tol, y0 - tol, x1 + tol, y1 + tol];
+    let inside = |p: [f64; 2]| {
+        p[0] >= domain[0] && p[0] <= domain[2] && p[1] >= domain[1] && p[1] <= domain[3]
+    };
     for (i, pf) in spec.preexisting.iter().enumerate() {
+        let field = format!("fracture.preexisting[{i}]");
+        let where_ = format!(
+            "from {:?} to {:?} m, the domain is [{x0}, {x1}] x [{y0}, {y1}] m",
+            pf.from, pf.to
+        );
+        let (mut a, mut b) = (pf.from, pf.to);
+        if !crate::network::clip(&mut a, &mut b, domain) {
+            return Err(SetupError::invalid(
+                &field,
+                format!("lies outside the domain ({where_})"),
+            ));
+        }
         let path = snap_segment(mesh, &adj, pf.from, pf.to).ok_or_else(|| {
-            SetupError::invalid(
-                &format!("fracture.preexisting[{i}]"),
-                "is shorter than one mesh edge (both ends snap to the same node)",
-            )
+            let why = if inside(pf.from) && inside(pf.to) {
+                "is shorter than one mesh edge (both ends snap to the same node)".to_string()
+            } else {
+                format!(
+                    "has an end outside the domain and both ends snap to the same node \
+                     ({where_})"
+                )
+            };
+            SetupError::invalid(&field, why)
         })?;
         let edges: Vec<Entity> = path
             .nodes
@@ -68,6 +91,22 @@ pub fn open_preexisting(
                 by_pair.get(&(a.min(b), a.max(b))).copied()
             })
             .collect();
+        let internal = edges.iter().any(|&e| {
+            model
+                .world
+                .get::<&EdgeElems>(e)
+                .is_ok_and(|l| !l.is_external())
+        });
+        if !edges.is_empty() && !internal {
+            return Err(SetupError::invalid(
+                &field,
+                format!(
+                    "lies along the domain boundary ({where_}): its {} mesh edges are boundary \
+                     edges, which cannot open",
+                    edges.len()
+                ),
+            ));
+        }
         placed.push(Placed {
             from: pf.from,
             to: pf.to,

@@ -28,6 +28,7 @@ pub mod output;
 pub mod params;
 pub mod plot;
 pub mod reference;
+pub mod resources;
 pub mod scenario;
 pub mod schedule;
 pub mod setup;

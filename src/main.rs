@@ -3,8 +3,11 @@
 use anyhow::Result;
 use clap::{Parser, Subcommand};
 use hydrofrac::driver::{RunOptions, run_file};
+use std::io::Write;
 use std::path::PathBuf;
 use std::process::ExitCode;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, AtomicUsize};
 
 #[derive(Parser)]
 #[command(
@@ -45,6 +48,11 @@ enum Command {
         /// overwritten and listed in the manifest as the run's (the next run removes them)
         #[arg(long)]
         force: bool,
+        /// Refuse a scenario whose mesh and network would need more memory than SIZE (bytes,
+        /// or with KiB, MiB, GiB, TiB: 8GiB), estimated before anything is allocated
+        /// [default: the machine's memory, MemTotal of /proc/meminfo, else 16GiB]
+        #[arg(long, value_name = "SIZE", value_parser = hydrofrac::resources::parse_size)]
+        max_memory: Option<u64>,
     },
     /// Run verification cases at several resolutions: error and wall time (CSV + PNG).
     Verify {
@@ -70,10 +78,81 @@ fn main() -> ExitCode {
     match real_main() {
         Ok(code) => code,
         Err(e) => {
-            eprintln!("error: {e:#}");
+            // Never panics: a closed stderr loses the message, the exit status stays.
+            let _ = writeln!(std::io::stderr(), "error: {}", one_line(&e));
             ExitCode::FAILURE
         }
     }
+}
+
+/// The error and its causes in one line, `a: b: c`, leaving out a cause whose text the line
+/// already holds (a message that quotes its source, as most here do, is not repeated).
+fn one_line(e: &anyhow::Error) -> String {
+    let mut line = e.to_string();
+    for cause in e.chain().skip(1) {
+        let m = cause.to_string();
+        if !line.contains(&m) {
+            line += ": ";
+            line += &m;
+        }
+    }
+    line
+}
+
+fn is_broken_pipe(e: &anyhow::Error) -> bool {
+    e.chain().any(|c| {
+        c.downcast_ref::<std::io::Error>()
+            .is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe)
+    })
+}
+
+/// Exit status of a run stopped by signal `sig`: 128 + the signal number, as a shell reports
+/// a process killed by it (130 for SIGINT, 143 for SIGTERM).
+fn signal_exit(sig: usize) -> ExitCode {
+    ExitCode::from(u8::try_from(128 + sig).unwrap_or(1))
+}
+
+/// SIGINT and SIGTERM set the returned flag to the signal's number; the run checks it between
+/// steps and ends as `interrupted` with its outputs finished. A second signal while the run is
+/// finishing ends the process at once with status 128 + the signal number (its outputs may
+/// then be incomplete: a frame or figure being written stays as a `*.tmp.*` file, which the
+/// next run into the folder removes).
+fn install_stop_handlers() -> Result<hydrofrac::sim::StopFlag> {
+    use signal_hook::consts::{SIGINT, SIGTERM};
+    let stop = Arc::new(AtomicUsize::new(0));
+    let armed = Arc::new(AtomicBool::new(false));
+    for sig in [SIGINT, SIGTERM] {
+        // The order matters: the shutdown checks `armed` before the first signal sets it.
+        signal_hook::flag::register_conditional_shutdown(sig, 128 + sig, armed.clone())?;
+        signal_hook::flag::register(sig, armed.clone())?;
+        signal_hook::flag::register_usize(sig, stop.clone(), sig as usize)?;
+    }
+    Ok(stop)
+}
+
+/// The one-line result, the timing table and the folder, on stdout.
+fn print_report(report: &hydrofrac::driver::RunReport) -> std::io::Result<()> {
+    let s = &report.summary;
+    let mut out = std::io::stdout().lock();
+    writeln!(
+        out,
+        "{}: {} after {} steps, t = {:.6e} s, {} elements, wall {:.2} s ({})",
+        s["scenario"].as_str().unwrap_or(""),
+        s["status"].as_str().unwrap_or(""),
+        s["steps"],
+        s["time"].as_f64().unwrap_or(0.0),
+        s["elements"],
+        s["wall_s"].as_f64().unwrap_or(0.0),
+        s["finish"].as_str().unwrap_or(""),
+    )?;
+    if s["finish"] == "max_steps" {
+        let _ = writeln!(
+            std::io::stderr(),
+            "warning: stopped at time.max_steps before the end condition was met"
+        );
+    }
+    writeln!(out, "{}", report.timing_table)?;
+    writeln!(out, "outputs in {}", report.out.display())
 }
 
 fn real_main() -> Result<ExitCode> {
@@ -87,6 +166,7 @@ fn real_main() -> Result<ExitCode> {
             trace,
             quiet,
             force,
+            max_memory,
         } => {
             let opts = RunOptions {
                 out,
@@ -95,29 +175,25 @@ fn real_main() -> Result<ExitCode> {
                 trace,
                 quiet,
                 force,
+                stop: Some(install_stop_handlers()?),
+                max_memory,
             };
             let report = run_file(&scenario, &opts)?;
-            if !quiet {
-                let s = &report.summary;
-                println!(
-                    "{}: {} after {} steps, t = {:.6e} s, {} elements, wall {:.2} s ({})",
-                    s["scenario"].as_str().unwrap_or(""),
-                    s["status"].as_str().unwrap_or(""),
-                    s["steps"],
-                    s["time"].as_f64().unwrap_or(0.0),
-                    s["elements"],
-                    s["wall_s"].as_f64().unwrap_or(0.0),
-                    s["finish"].as_str().unwrap_or(""),
+            let code = report.interrupted_by.map_or(ExitCode::SUCCESS, signal_exit);
+            if let Some(reason) = report.summary["reason"].as_str() {
+                let _ = writeln!(
+                    std::io::stderr(),
+                    "{reason}: outputs finished in {}",
+                    report.out.display()
                 );
-                if s["finish"] == "max_steps" {
-                    eprintln!(
-                        "warning: stopped at time.max_steps before the end condition was met"
-                    );
-                }
-                println!("{}", report.timing_table);
-                println!("outputs in {}", report.out.display());
             }
-            Ok(ExitCode::SUCCESS)
+            if !quiet && let Err(e) = print_report(&report) {
+                // A closed stdout: the run is done and its outputs are written.
+                if e.kind() != std::io::ErrorKind::BrokenPipe {
+                    return Err(e.into());
+                }
+            }
+            Ok(code)
         }
         Command::Verify {
             cases,
@@ -137,7 +213,16 @@ fn real_main() -> Result<ExitCode> {
             let before = folder.snapshot();
             let result = hydrofrac::verify::run_cases(&cases, &out, quick);
             folder.adopt_changed(&before)?;
-            let ok = result?;
+            // A closed stdout stops the cases at their next line: not a quiet success here.
+            let ok = result.map_err(|e| {
+                if is_broken_pipe(&e) {
+                    anyhow::anyhow!(
+                        "stdout was closed: the verification stopped before it finished"
+                    )
+                } else {
+                    e
+                }
+            })?;
             Ok(if ok {
                 ExitCode::SUCCESS
             } else {
@@ -145,8 +230,14 @@ fn real_main() -> Result<ExitCode> {
             })
         }
         Command::Systems => {
+            let mut out = std::io::stdout().lock();
             for s in hydrofrac::systems::SystemId::ORDER {
-                println!("{:<16} {}", s.name(), s.doc());
+                // A closed stdout (`hydrofrac systems | head -1`): the rest has no reader; a
+                // quiet exit, not a panic.
+                match writeln!(out, "{:<16} {}", s.name(), s.doc()) {
+                    Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => break,
+                    r => r?,
+                }
             }
             Ok(ExitCode::SUCCESS)
         }

@@ -335,6 +335,21 @@ impl Model {
                     ),
                 ));
             }
+            if let Some(other) = spawned.iter().find(|b: &&FlowBc| b.target == target) {
+                let what = if matches!(target, FlowBcTarget::Node(_)) {
+                    "node"
+                } else {
+                    "cell"
+                };
+                return Err(SetupError::invalid(
+                    &format!("flow_boundaries[{i}].at"),
+                    format!(
+                        "({}, {}) is the network {what} of flow_boundaries[{}] too: two \
+                         boundaries on one {what} contradict each other",
+                        p[0], p[1], other.index
+                    ),
+                ));
+            }
             spawned.push(FlowBc {
                 index: i,
                 target,

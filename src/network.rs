@@ -9,6 +9,10 @@ use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
+/// Most fractures in a network (given plus generated): the intersection search compares every
+/// pair (1e5 fractures: 5e9 pairs, tens of seconds).
+pub const MAX_FRACTURES: usize = 100_000;
+
 /// Snapping distance as a fraction of the cell length.
 pub const SNAP: f64 = 0.3;
 
@@ -140,7 +144,7 @@ pub fn lattice(n: usize, aperture: impl Fn(usize) -> f64) -> Vec<Fracture> {
 }
 
 /// Clip segment a-b to a box [xmin, ymin, xmax, ymax]; false when nothing is left.
-fn clip(a: &mut [f64; 2], b: &mut [f64; 2], bx: [f64; 4]) -> bool {
+pub(crate) fn clip(a: &mut [f64; 2], b: &mut [f64; 2], bx: [f64; 4]) -> bool {
     let d = [b[0] - a[0], b[1] - a[1]];
     let (mut t0, mut t1) = (0.0f64, 1.0f64);
     for (p, q) in [
@@ -209,7 +213,7 @@ impl NetworkSpec {
         if !(self.cell_length.is_finite() && self.cell_length > 0.0) {
             return bad(
                 "network.cell_length",
-                format!("must be > 0, got {}", self.cell_length),
+                format!("must be a finite number > 0, got {}", self.cell_length),
             );
         }
         for (i, f) in self.fractures.iter().enumerate() {
@@ -220,7 +224,7 @@ impl NetworkSpec {
             if !(f.aperture.is_finite() && f.aperture > 0.0) {
                 return bad(
                     &format!("{field}.aperture"),
-                    format!("must be > 0, got {}", f.aperture),
+                    format!("must be a finite number > 0, got {}", f.aperture),
                 );
             }
             if f.from == f.to {
@@ -228,12 +232,24 @@ impl NetworkSpec {
             }
         }
         if let Some(r) = &self.random {
+            let finite = |field: &str, v: &[f64]| -> Result<(), SetupError> {
+                match v.iter().find(|x| !x.is_finite()) {
+                    Some(x) => bad(field, format!("{x} is not a finite number")),
+                    None => Ok(()),
+                }
+            };
             if r.angles_deg.is_empty() {
                 return bad(
                     "network.random.angles_deg",
                     "needs at least one family".into(),
                 );
             }
+            finite("network.random.angles_deg", &r.angles_deg)?;
+            finite("network.random.origin", &r.origin)?;
+            finite("network.random.size", &r.size)?;
+            finite("network.random.length", &r.length)?;
+            finite("network.random.aperture", &r.aperture)?;
+            finite("network.random.jitter_deg", &[r.jitter_deg])?;
             if !(r.size[0] > 0.0 && r.size[1] > 0.0) {
                 return bad("network.random.size", "must be positive".into());
             }
@@ -243,11 +259,61 @@ impl NetworkSpec {
             if !(r.aperture[0] > 0.0 && r.aperture[1] >= r.aperture[0]) {
                 return bad("network.random.aperture", "needs 0 < min <= max".into());
             }
+            if !(0.0..=90.0).contains(&r.jitter_deg) {
+                return bad(
+                    "network.random.jitter_deg",
+                    format!("must be in [0, 90] degrees, got {}", r.jitter_deg),
+                );
+            }
+            // The origin plus the size must stay finite too (1e308 + 1e308 is not).
+            let far = [r.origin[0] + r.size[0], r.origin[1] + r.size[1]];
+            finite("network.random.size", &far)?;
+        }
+        let total =
+            self.fractures.len() as f64 + self.random.as_ref().map_or(0.0, |r| r.count as f64);
+        if total > MAX_FRACTURES as f64 {
+            return bad(
+                "network.random.count",
+                format!(
+                    "{total:.3e} fractures is more than the {} this engine takes (the \
+                     intersection search compares every pair)",
+                    MAX_FRACTURES
+                ),
+            );
         }
         if self.fractures.is_empty() && self.random.as_ref().is_none_or(|r| r.count == 0) {
             return bad("network", "has no fractures".into());
         }
         Ok(())
+    }
+
+    /// An upper estimate of the cells [`NetworkSpec::discretise`] makes, from the scenario
+    /// alone (nothing generated): every fracture's length over `cell_length`, rounded up, plus
+    /// two cells per intersection; a random family counts `count` fractures of the longest
+    /// length (or the box diagonal, when shorter) and the expected intersections of as many
+    /// random segments in the box, n^2 L^2 / (pi A). Infinite for non-finite input.
+    pub fn cell_estimate(&self) -> f64 {
+        let c = self.cell_length;
+        let n = self.fractures.len() as f64;
+        let mut cells: f64 = self
+            .fractures
+            .iter()
+            .map(|f| {
+                ((f.to[0] - f.from[0]).hypot(f.to[1] - f.from[1]) / c)
+                    .ceil()
+                    .max(1.0)
+            })
+            .sum();
+        cells += n * (n - 1.0).max(0.0);
+        if let Some(r) = &self.random {
+            let m = r.count as f64;
+            let diag = r.size[0].hypot(r.size[1]);
+            let l = r.length[1].min(diag);
+            cells += m * (l / c).ceil().max(1.0);
+            let expected = m * m * l * l / (std::f64::consts::PI * r.size[0] * r.size[1]);
+            cells += 2.0 * expected.min(0.5 * m * m) + 2.0 * m * n;
+        }
+        if cells.is_nan() { f64::INFINITY } else { cells }
     }
 
     /// Cut the fractures at their intersections and into cells of about `cell_length`.

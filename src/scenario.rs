@@ -106,6 +106,49 @@ pub enum MeshSpec {
 }
 
 impl MeshSpec {
+    /// Nodes, triangles and edges a mesh will have: exact for regular and perturbed meshes, an
+    /// upper bound for graded ones, from the file size for Gmsh files (`None` when the file
+    /// cannot be read: reading it reports that). Reads the scenario's (finite, positive) sizes;
+    /// non-finite ones give infinite counts.
+    pub fn counts(&self) -> Option<MeshCounts> {
+        match *self {
+            MeshSpec::Regular {
+                width, height, h, ..
+            }
+            | MeshSpec::Perturbed {
+                width, height, h, ..
+            } => Some(MeshCounts::from_grid(
+                (width / h).round(),
+                (height / h).round(),
+            )),
+            MeshSpec::Graded {
+                width,
+                height,
+                h,
+                fine,
+                ratio,
+                ..
+            } => {
+                // Cells that grow by `ratio` from h across a length l: at most
+                // ln(1 + l (ratio - 1) / h) / ln(ratio) (l / h for ratio 1).
+                let grow = |l: f64| {
+                    if ratio > 1.0 {
+                        (1.0 + l * (ratio - 1.0) / h).ln() / ratio.ln()
+                    } else {
+                        l / h
+                    }
+                };
+                let nx = ((fine[2] - fine[0]) / h + 2.0 * grow(width)).ceil();
+                let ny = ((fine[3] - fine[1]) / h + 2.0 * grow(height)).ceil();
+                Some(MeshCounts::from_grid(nx, ny))
+            }
+            MeshSpec::Gmsh { ref file } => {
+                let len = std::fs::metadata(file).ok()?.len() as f64;
+                Some(MeshCounts::from_triangles(len / GMSH_BYTES_PER_TRIANGLE))
+            }
+        }
+    }
+
     /// Nominal cell size, m (`None` for an imported mesh).
     pub fn h(&self) -> Option<f64> {
         match self {
@@ -125,6 +168,35 @@ impl MeshSpec {
         }
     }
 }
+
+/// Counts of a mesh before it is built (estimates for graded and imported meshes).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MeshCounts {
+    pub nodes: f64,
+    pub triangles: f64,
+    pub edges: f64,
+}
+
+impl MeshCounts {
+    fn from_grid(nx: f64, ny: f64) -> Self {
+        MeshCounts {
+            nodes: (nx + 1.0) * (ny + 1.0),
+            triangles: 2.0 * nx * ny,
+            edges: nx * (ny + 1.0) + ny * (nx + 1.0) + nx * ny,
+        }
+    }
+    fn from_triangles(t: f64) -> Self {
+        MeshCounts {
+            nodes: 0.5 * t + 1.0,
+            triangles: t,
+            edges: 1.5 * t + 1.0,
+        }
+    }
+}
+
+/// Bytes of an imported Gmsh file per triangle, at least: a triangle takes 20 or more bytes of
+/// text (with its share of the nodes), so a file has at most `size / 20` triangles.
+pub const GMSH_BYTES_PER_TRIANGLE: f64 = 20.0;
 
 /// Linear elastic rock.
 #[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq)]
@@ -698,8 +770,11 @@ impl Scenario {
         Ok(sc)
     }
 
-    /// Parse RON text. Errors carry file, line, column and the field path.
+    /// Parse RON text (a leading byte-order mark is skipped). Errors carry file, line, column
+    /// and the field path.
     pub fn parse(text: &str, file: &str) -> Result<Self, SetupError> {
+        // A UTF-8 byte-order mark (some Windows editors write one) is not part of the RON.
+        let text = text.strip_prefix('\u{feff}').unwrap_or(text);
         let opts = ron::Options::default()
             .with_default_extension(ron::extensions::Extensions::IMPLICIT_SOME);
         let syntax = |e: ron::error::SpannedError, field: String| SetupError::Syntax {
@@ -745,6 +820,7 @@ impl Scenario {
             spec: String::new(),
             why: e.to_string(),
         })?;
+        let original = root.clone();
         for spec in overrides {
             let err = |why: String| SetupError::Override {
                 spec: spec.clone(),
@@ -789,9 +865,25 @@ impl Scenario {
             }
             *node = value;
         }
-        serde_path_to_error::deserialize(root).map_err(|e| SetupError::Override {
-            spec: overrides.join(" "),
-            why: format!("field `{}`: {}", e.path(), e.inner()),
+        serde_path_to_error::deserialize(root).map_err(|e| {
+            // The overrides travel through JSON, which has no NaN or infinity: a non-finite
+            // number of the file comes back as `null` and fails here, though no override is to
+            // blame. When the file's own values fail at the same field, say so.
+            let path = e.path().to_string();
+            let from_file = serde_path_to_error::deserialize::<_, Scenario>(original)
+                .err()
+                .is_some_and(|o| o.path().to_string() == path);
+            if from_file {
+                SetupError::invalid(
+                    &display_path(&path),
+                    "is not a finite number (NaN or inf in the scenario file)",
+                )
+            } else {
+                SetupError::Override {
+                    spec: overrides.join(" "),
+                    why: format!("field `{path}`: {}", e.inner()),
+                }
+            }
         })
     }
 
@@ -834,17 +926,69 @@ impl Scenario {
                     ),
                 ));
             }
-            // A graded mesh has the fine box's cells plus, along each axis, the cells that grow
-            // by `ratio` from h across at most the domain on both sides.
-            let cells = match *mesh {
-                MeshSpec::Graded { fine, ratio, .. } if ratio > 1.0 => {
-                    let grow = |l: f64| (1.0 + l * (ratio - 1.0) / h).ln() / ratio.ln();
-                    let nx = (fine[2] - fine[0]) / h + 2.0 * grow(w);
-                    let ny = (fine[3] - fine[1]) / h + 2.0 * grow(hgt);
-                    nx.ceil() * ny.ceil() * 2.0
-                }
-                _ => (w / h).round() * (hgt / h).round() * 2.0,
+            let origin = match *mesh {
+                MeshSpec::Regular { origin, .. }
+                | MeshSpec::Perturbed { origin, .. }
+                | MeshSpec::Graded { origin, .. } => origin,
+                MeshSpec::Gmsh { .. } => [0.0; 2],
             };
+            finite("mesh.origin", origin[0])?;
+            finite("mesh.origin", origin[1])?;
+            finite("mesh.origin", origin[0] + w)?;
+            finite("mesh.origin", origin[1] + hgt)?;
+            // Node coordinates must resolve the cells: far from 0 (1e308, or 1e12 with h = 1 mm)
+            // neighbouring nodes round to the same position.
+            let far = [origin[0], origin[1], origin[0] + w, origin[1] + hgt]
+                .iter()
+                .fold(0.0f64, |m, x| m.max(x.abs()));
+            if far * 1e-10 > h {
+                return Err(SetupError::invalid(
+                    "mesh.origin",
+                    format!(
+                        "coordinates up to {far:e} m cannot resolve cells of h = {h} m in double \
+                         precision; move the origin nearer 0"
+                    ),
+                ));
+            }
+            if let MeshSpec::Graded { fine, ratio, .. } = *mesh {
+                finite("mesh.ratio", ratio)?;
+                if !(1.0..=10.0).contains(&ratio) {
+                    return Err(SetupError::invalid(
+                        "mesh.ratio",
+                        format!(
+                            "the growth ratio of the cells must be in [1, 10] (1: uniform), \
+                             got {ratio}"
+                        ),
+                    ));
+                }
+                for v in fine {
+                    finite("mesh.fine", v)?;
+                }
+                let (x1, y1) = (origin[0] + w, origin[1] + hgt);
+                let tol = 1e-9 * w.max(hgt);
+                if !(fine[0] < fine[2] && fine[1] < fine[3]) {
+                    return Err(SetupError::invalid(
+                        "mesh.fine",
+                        format!(
+                            "the fine box (x0, y0, x1, y1) = {fine:?} m needs x0 < x1 and y0 < y1"
+                        ),
+                    ));
+                }
+                if fine[0] < origin[0] - tol
+                    || fine[1] < origin[1] - tol
+                    || fine[2] > x1 + tol
+                    || fine[3] > y1 + tol
+                {
+                    return Err(SetupError::invalid(
+                        "mesh.fine",
+                        format!(
+                            "the fine box {fine:?} m is not inside the domain [{}, {}, {x1}, {y1}] m",
+                            origin[0], origin[1]
+                        ),
+                    ));
+                }
+            }
+            let cells = mesh.counts().map_or(0.0, |c| c.triangles);
             if cells > 5.0e7 {
                 return Err(SetupError::invalid(
                     "mesh.h",
@@ -995,7 +1139,20 @@ impl Scenario {
         }
         match t.end {
             End::Time(te) => positive("time.end", te, "the end time")?,
-            End::Static { tol, .. } => positive("time.end.tol", tol, "the residual tolerance")?,
+            End::Static { tol, min_steps } => {
+                positive("time.end.tol", tol, "the residual tolerance")?;
+                if min_steps > t.max_steps {
+                    return Err(SetupError::invalid(
+                        "time.end.min_steps",
+                        format!(
+                            "{min_steps} steps before the residual is checked (default 10) is \
+                             more than time.max_steps = {}: the run could never converge; lower \
+                             time.end.min_steps or raise time.max_steps",
+                            t.max_steps
+                        ),
+                    ));
+                }
+            }
             End::SteadyDirect => {
                 if self.mesh.is_some() || self.network.is_none() {
                     return Err(SetupError::invalid(
@@ -1088,6 +1245,22 @@ impl Scenario {
             )?;
             if let Some(p) = f.pressure {
                 finite("fracture.pressure", p)?;
+            }
+            finite("fracture.friction_deg", f.friction_deg)?;
+            if !(0.0..90.0).contains(&f.friction_deg) {
+                return Err(SetupError::invalid(
+                    "fracture.friction_deg",
+                    format!(
+                        "the joint friction angle must be in [0, 90) degrees, got {}",
+                        f.friction_deg
+                    ),
+                ));
+            }
+            if let Some(k) = f.normal_stiffness {
+                positive("fracture.normal_stiffness", k, "the joint normal stiffness")?;
+            }
+            if let Some(k) = f.shear_stiffness {
+                positive("fracture.shear_stiffness", k, "the joint shear stiffness")?;
             }
             for (i, pf) in f.preexisting.iter().enumerate() {
                 for v in [pf.from[0], pf.from[1], pf.to[0], pf.to[1]] {
@@ -1183,6 +1356,34 @@ impl Scenario {
                 finite(&format!("{field}.schedule"), *f)?;
             }
         }
+        let mut names: Vec<(String, usize)> = Vec::new();
+        for (i, b) in self.flow_boundaries.iter().enumerate() {
+            let name = if b.name.is_empty() {
+                format!("bc{i}")
+            } else {
+                b.name.clone()
+            };
+            if let Some((_, j)) = names.iter().find(|(n, _)| *n == name) {
+                return Err(SetupError::invalid(
+                    &format!("flow_boundaries[{i}].name"),
+                    format!(
+                        "{name:?} is also the name of flow_boundaries[{j}] (unnamed ones are \
+                         bc<index>); names label the outputs and must differ"
+                    ),
+                ));
+            }
+            names.push((name, i));
+        }
+        for (k, &tf) in self.output.figure_times.iter().enumerate() {
+            let field = format!("output.figure_times[{k}]");
+            finite(&field, tf)?;
+            if tf < 0.0 {
+                return Err(SetupError::invalid(
+                    &field,
+                    format!("a figure time must be >= 0 s, got {tf}"),
+                ));
+            }
+        }
         if self.output.series_every == 0 {
             return Err(SetupError::invalid(
                 "output.series_every",
@@ -1191,6 +1392,15 @@ impl Scenario {
         }
         Ok(())
     }
+}
+
+/// A serde path as the scenario's fields are named in messages: enum variant wrappers left out
+/// (`mesh.Graded.ratio` is `mesh.ratio`, as `--set` and the validation name it).
+fn display_path(path: &str) -> String {
+    path.split('.')
+        .filter(|k| !k.starts_with(|c: char| c.is_ascii_uppercase()))
+        .collect::<Vec<_>>()
+        .join(".")
 }
 
 /// Read an override VALUE: JSON (`3e10`, `true`, `[1, 2]`, `{"Time": 5.0}`), a newtype variant
@@ -1258,6 +1468,36 @@ mod tests {
             let e = sc.validate().unwrap_err().to_string();
             assert!(e.contains(field), "{e}");
         }
+    }
+
+    /// A byte-order mark before the scenario is skipped (it failed at 1:1).
+    #[test]
+    fn a_byte_order_mark_is_accepted() {
+        let sc = Scenario::parse(&format!("\u{feff}{GOOD}"), "bom.ron").unwrap();
+        assert_eq!(sc, Scenario::parse(GOOD, "good.ron").unwrap());
+    }
+
+    /// A NaN of the file is reported as the file's value when an override touches another
+    /// field (the JSON the overrides go through turns it into `null`), and an override of that
+    /// very field replaces it.
+    #[test]
+    fn a_non_finite_value_of_the_file_is_not_blamed_on_an_override() {
+        let sc = Scenario::parse(&GOOD.replace("young: 20e9", "young: NaN"), "nan.ron").unwrap();
+        let e = sc
+            .with_overrides(&["damping=None".into()])
+            .unwrap_err()
+            .to_string();
+        assert!(e.starts_with("invalid material.young:"), "{e}");
+        assert!(e.contains("scenario file"), "{e}");
+        let o = sc.with_overrides(&["material.young=3e10".into()]).unwrap();
+        assert_eq!(o.material.unwrap().young, 3e10);
+        // A bad override (of a field read before: the JSON fields are read in alphabetical
+        // order) is still the override's.
+        let e = sc
+            .with_overrides(&["damping=Wild".into()])
+            .unwrap_err()
+            .to_string();
+        assert!(e.starts_with("--set"), "{e}");
     }
 
     #[test]

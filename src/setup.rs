@@ -174,14 +174,15 @@ pub fn build_flow(
 /// Flow-only scenes take [`FLOW_ONLY_SUBSTEPS`] explicit sub-steps per step, or one implicit
 /// step of `time.flow_dt`. An adaptive run (`resolved.adaptive`: quasi-static and coupled)
 /// starts at `time.dt` or a thousandth of the end time and has no step count. Sets the flow's
-/// sub-step count and length.
+/// sub-step count and length. A step that is zero, subnormal or not finite (a density so
+/// small that the P-wave speed overflows, say) is refused, naming what set it.
 pub fn time_step(
     resolved: &crate::params::TimeParams,
     t: &TimeControl,
     has_solid: bool,
     dt_crit: f64,
     flow: Option<&mut FlowPart>,
-) -> (f64, Option<u64>) {
+) -> Result<(f64, Option<u64>), SetupError> {
     let flow_auto = flow.as_ref().map(|f| t.safety * f.dt_crit);
     let per_flow_dt = match t.flow_scheme {
         FlowScheme::Explicit => FLOW_ONLY_SUBSTEPS as f64,
@@ -215,6 +216,30 @@ pub fn time_step(
         }
         End::Static { .. } | End::SteadyDirect => None,
     };
+    if !(dt.is_finite() && dt >= f64::MIN_POSITIVE) {
+        let (field, why) = if t.dt.is_some() {
+            ("time.dt", String::from("the step"))
+        } else if has_solid {
+            (
+                "material.density",
+                format!(
+                    "the critical step (smallest triangle altitude / P-wave speed \
+                     sqrt((lambda + 2G) / density)) is {dt_crit:e} s, so the step"
+                ),
+            )
+        } else if t.flow_dt.is_some() {
+            ("time.flow_dt", String::from("the step"))
+        } else {
+            (
+                "network",
+                String::from("the flow's critical step, and so the step,"),
+            )
+        };
+        return Err(SetupError::invalid(
+            field,
+            format!("{why} is {dt:e} s: zero, too small to represent or not finite"),
+        ));
+    }
     if t.dt.is_some() && dt > dt_crit && !quasi_static {
         tracing::warn!(
             "time.dt = {dt:.3e} s is above the critical step {dt_crit:.3e} s; expect a blow-up"
@@ -228,5 +253,5 @@ pub fn time_step(
         };
         f.dt = dt / f.substeps as f64;
     }
-    (dt, steps_to_end)
+    Ok((dt, steps_to_end))
 }

@@ -26,6 +26,11 @@ pub use crate::systems::monitor::{Clock, Finish, SPEED_LIMIT_FRACTION};
 
 pub use crate::setup::FLOW_ONLY_SUBSTEPS;
 
+/// A request to stop a run between steps: 0 while none, else the number of the signal that
+/// asked (the binary's SIGINT and SIGTERM handlers store 2 or 15 here). Checked by
+/// [`Simulation::run`] before every step.
+pub type StopFlag = std::sync::Arc<std::sync::atomic::AtomicUsize>;
+
 pub struct Simulation {
     /// The scenario as given (read by reports only; the step reads `params`).
     scenario: Scenario,
@@ -43,6 +48,10 @@ pub struct Simulation {
     /// at its start.
     effort: monitor::Effort,
     cells_at_start: usize,
+    /// Checked before every step ([`Simulation::set_stop`]).
+    stop: Option<StopFlag>,
+    /// The signal number that stopped the run, if one did.
+    interrupted_by: Option<usize>,
 }
 
 /// The flow system's commit of a coupled quasi-static step of length `dt` (s).
@@ -72,7 +81,7 @@ impl Simulation {
         };
         let mut flow = crate::setup::build_flow(&mut model, &scenario, &p)?;
         let (dt, steps_to_end) =
-            crate::setup::time_step(&p.time, &scenario.time, has_solid, dt_crit, flow.as_mut());
+            crate::setup::time_step(&p.time, &scenario.time, has_solid, dt_crit, flow.as_mut())?;
         p.solid.dt = dt;
         let view = crate::setup::solid_view(&model, &p, dt_crit, flow.as_mut());
         let mut disabled = scenario.systems.disable.clone();
@@ -103,6 +112,8 @@ impl Simulation {
             placed,
             effort: monitor::Effort::default(),
             cells_at_start: 0,
+            stop: None,
+            interrupted_by: None,
         })
     }
 
@@ -125,6 +136,10 @@ impl Simulation {
             self.write_now()?;
         }
         while self.clock.finish.is_none() {
+            if let Some(sig) = self.stop_requested() {
+                self.interrupt(sig)?;
+                break;
+            }
             self.step_once()?;
             if self.clock.step.is_multiple_of(256) {
                 progress(self);
@@ -132,6 +147,51 @@ impl Simulation {
         }
         self.sync();
         Ok(self.clock.finish.expect("loop ends with a finish"))
+    }
+
+    /// Check `stop` before every step of [`Simulation::run`]: when it is set (non-zero) the run
+    /// ends after the step in progress, as [`Finish::Interrupted`], with a last frame and series
+    /// row of the state reached.
+    pub fn set_stop(&mut self, stop: StopFlag) {
+        self.stop = Some(stop);
+    }
+
+    /// The signal number that stopped the run ([`Simulation::set_stop`]), if one did.
+    pub fn interrupted_by(&self) -> Option<usize> {
+        self.interrupted_by
+    }
+
+    fn stop_requested(&self) -> Option<usize> {
+        let sig = self
+            .stop
+            .as_ref()?
+            .load(std::sync::atomic::Ordering::SeqCst);
+        (sig != 0).then_some(sig)
+    }
+
+    /// End the run now (between steps) on signal `sig`: the last frame and series row of the
+    /// state reached, unless the step just taken wrote them already.
+    fn interrupt(&mut self, sig: usize) -> Result<(), RunError> {
+        self.interrupted_by = Some(sig);
+        self.clock.finish = Some(Finish::Interrupted);
+        if !self.schedule.is_enabled(SystemId::Output) {
+            return Ok(());
+        }
+        let Some(out) = self.output.as_mut() else {
+            return Ok(());
+        };
+        let (step, o) = (self.clock.step, &self.params.output);
+        // Step 0's frame and row were written before the loop; a step's own output wrote them
+        // when due.
+        let frame = !(step == 0 || (o.frame_every > 0 && step.is_multiple_of(o.frame_every)));
+        let row = !(step == 0 || step.is_multiple_of(o.series_every));
+        let scene = Scene {
+            solid: &self.solid,
+            clock: &self.clock,
+            fracture: &self.fracture,
+            params: &self.params,
+        };
+        output::write(&mut self.model, self.flow.as_mut(), &scene, out, frame, row)
     }
 
     /// One step: every enabled system in order, each in its span.

@@ -21,6 +21,8 @@ pub enum Finish {
     Converged,
     /// Hit `time.max_steps` first.
     MaxSteps,
+    /// Stopped between steps on request (SIGINT or SIGTERM, see [`crate::sim::StopFlag`]).
+    Interrupted,
 }
 
 /// Where the run is in time.

@@ -5,10 +5,13 @@
 
 #[path = "support/finite.rs"]
 mod finite;
+#[path = "support/vtu.rs"]
+mod vtu;
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::{Child, Command, Output, Stdio};
+use std::time::{Duration, Instant};
 
 fn bin() -> Command {
     Command::new(env!("CARGO_BIN_EXE_hydrofrac"))
@@ -317,4 +320,193 @@ fn successful_runs_write_only_finite_values() {
         let bad = finite::non_finite_tokens(&out);
         assert!(bad.is_empty(), "{file} {sets:?}: {bad:?}");
     }
+}
+
+/// Wait for `child` at most `limit`; kill it and fail when it is still running then.
+fn wait_at_most(child: &mut Child, limit: Duration, what: &str) -> std::process::ExitStatus {
+    let t0 = Instant::now();
+    loop {
+        if let Some(status) = child.try_wait().unwrap() {
+            return status;
+        }
+        if t0.elapsed() > limit {
+            let _ = child.kill();
+            let _ = child.wait();
+            panic!("{what}: still running after {limit:?}");
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+/// Every file under `dir` whose name contains `.tmp` (a temporary of an atomic write).
+fn temporaries(dir: &Path) -> Vec<String> {
+    files(dir)
+        .into_keys()
+        .filter(|k| k.rsplit('/').next().unwrap_or("").contains(".tmp"))
+        .collect()
+}
+
+/// SIGINT and SIGTERM stop a run at the end of the step in progress: exit status 130 and 143
+/// (128 + the signal), `summary.json` with status and finish `interrupted` and a reason naming
+/// the signal, a last frame of the state reached (indexed in `solid.pvd`, readable, one more
+/// than the regular frames), a last `timeseries.csv` row at the step reached, no `*.tmp.*` file
+/// left, and every listed file present. Example I cross (20,000 triangles), made to last
+/// (end 15 s, a frame every 20 steps); the signal is sent once the second frame exists.
+#[cfg(unix)]
+#[test]
+fn a_signal_stops_the_run_and_finishes_the_outputs() {
+    for (sig, code, name) in [
+        (libc::SIGINT, 130, "SIGINT"),
+        (libc::SIGTERM, 143, "SIGTERM"),
+    ] {
+        let out = tmp(&format!("signal-{name}"));
+        let mut child = bin()
+            .args([
+                "run",
+                &scenario("example1_cross.ron"),
+                "--out",
+                out.to_str().unwrap(),
+                "--quiet",
+                "--set",
+                "time.end=Time(15.0)",
+                "--set",
+                "output.frame_every=20",
+            ])
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        let t0 = Instant::now();
+        while !out.join("frames/solid_00001.vtu").exists() {
+            assert!(
+                child.try_wait().unwrap().is_none(),
+                "{name}: the run ended before its second frame"
+            );
+            assert!(t0.elapsed() < Duration::from_secs(120), "{name}: no frame");
+            std::thread::sleep(Duration::from_millis(10));
+        }
+        // SAFETY: kill(2) on the child's pid, which has not been waited for (so not reused).
+        assert_eq!(unsafe { libc::kill(child.id() as i32, sig) }, 0);
+        let status = wait_at_most(&mut child, Duration::from_secs(60), name);
+        let mut err = String::new();
+        std::io::Read::read_to_string(child.stderr.as_mut().unwrap(), &mut err).unwrap();
+        assert_eq!(status.code(), Some(code), "{name}: {err}");
+        assert!(!err.contains("panicked"), "{err}");
+        assert!(err.contains(&format!("interrupted by {name}")), "{err}");
+        let s: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap())
+                .unwrap();
+        assert_eq!(s["status"], "interrupted", "{s}");
+        assert_eq!(s["finish"], "interrupted", "{s}");
+        let reason = s["reason"].as_str().unwrap();
+        assert!(reason.contains(name), "{reason}");
+        let steps = s["steps"].as_u64().unwrap();
+        assert!((20..60_000).contains(&steps), "steps {steps}");
+        assert_eq!(temporaries(&out), Vec::<String>::new(), "{name}");
+        for rel in listed(&out) {
+            assert!(out.join(&rel).is_file(), "{name}: listed {rel} missing");
+        }
+        // The frames: the regular ones plus the last one at the step reached.
+        let pvd = vtu::read_pvd(&out.join("solid.pvd")).unwrap();
+        let regular = steps.div_ceil(20) as usize;
+        assert_eq!(pvd.len(), regular + 1, "{name}: {steps} steps, {pvd:?}");
+        assert_eq!(s["frames"].as_u64(), Some(pvd.len() as u64));
+        for (_, file) in &pvd {
+            let v = vtu::read_vtu(&out.join(file)).unwrap();
+            assert_eq!(v.types.len(), 20_000, "{file}");
+        }
+        let (t_last, _) = pvd.last().unwrap();
+        assert!(
+            (t_last - s["time"].as_f64().unwrap()).abs() <= 1e-12,
+            "{t_last}"
+        );
+        // The series ends with the step reached.
+        let csv = std::fs::read_to_string(out.join("timeseries.csv")).unwrap();
+        let last: f64 = csv
+            .lines()
+            .last()
+            .unwrap()
+            .split(',')
+            .next()
+            .unwrap()
+            .parse()
+            .unwrap();
+        assert_eq!(last as u64, steps, "{name}: last row");
+        std::fs::remove_dir_all(&out).unwrap();
+    }
+}
+
+/// A closed stdout (`hydrofrac run ... | head -1` after head has gone, or `hydrofrac systems`
+/// into a closed pipe) is not a panic: the run finishes, writes its outputs and exits 0 with
+/// nothing on stderr about a broken pipe (`println!` panicked with "failed printing to
+/// stdout"). `verify`, whose cases stop at their first line, exits 1 with a message instead of
+/// a quiet success.
+#[test]
+fn a_closed_stdout_is_not_a_panic() {
+    let out = tmp("pipe");
+    let verify_out = tmp("pipe-verify");
+    for (args, code) in [
+        (
+            vec![
+                "run".to_string(),
+                scenario("flow_junction.ron"),
+                "--out".into(),
+                out.display().to_string(),
+            ],
+            0,
+        ),
+        (vec!["systems".to_string()], 0),
+        (
+            vec![
+                "verify".to_string(),
+                "patch".into(),
+                "--quick".into(),
+                "--out".into(),
+                verify_out.display().to_string(),
+            ],
+            1,
+        ),
+    ] {
+        let mut child = bin()
+            .args(&args)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        // Close the only read end before the binary writes its report.
+        drop(child.stdout.take());
+        let status = wait_at_most(&mut child, Duration::from_secs(120), &args[0]);
+        let mut err = String::new();
+        std::io::Read::read_to_string(child.stderr.as_mut().unwrap(), &mut err).unwrap();
+        assert!(!err.contains("panicked"), "{args:?}: {err}");
+        assert!(!err.contains("Broken pipe"), "{args:?}: {err}");
+        assert_eq!(status.code(), Some(code), "{args:?}: {err}");
+        if code != 0 {
+            assert!(err.starts_with("error: stdout was closed"), "{err}");
+        }
+    }
+    assert!(out.join("summary.json").is_file());
+}
+
+/// A trace file that cannot be written during the run (`/dev/full`: every write fails with
+/// "no space left on device") is not a panic of tracing-chrome's writer thread: the run
+/// finishes (exit 0) and `summary.json` warns that the trace is incomplete.
+#[cfg(target_os = "linux")]
+#[test]
+fn a_failing_trace_file_is_a_warning_not_a_panic() {
+    let out = tmp("trace-full");
+    let o = run(&[
+        "run",
+        &scenario("flow_junction.ron"),
+        "--out",
+        out.to_str().unwrap(),
+        "--quiet",
+        "--trace",
+        "/dev/full",
+    ]);
+    let e = stderr(&o);
+    assert!(!e.contains("panicked"), "{e}");
+    assert!(o.status.success(), "{e}");
+    let s = std::fs::read_to_string(out.join("summary.json")).unwrap();
+    assert!(s.contains("trace /dev/full is incomplete"), "{s}");
 }

@@ -287,6 +287,28 @@ impl Folder {
         Ok(self.dir.join(rel))
     }
 
+    /// Remove the temporary `<stem>.tmp.<ext>` beside every file this run listed, when one is
+    /// there (a write that was cut short; a finished write renamed its temporary away). Only
+    /// regular files, never through a link; returns how many were removed.
+    pub fn remove_temporaries(&self) -> usize {
+        let m = self.manifest.lock().expect("manifest lock");
+        let mut removed = 0;
+        for rel in m.listed.iter().filter(|r| !r.ends_with('/')) {
+            if !real_folders_between(&self.dir, rel) {
+                continue;
+            }
+            let Ok(tmp) = crate::atomic::tmp_path(&self.dir.join(rel)) else {
+                continue;
+            };
+            if fs::symlink_metadata(&tmp).is_ok_and(|m| m.is_file())
+                && fs::remove_file(&tmp).is_ok()
+            {
+                removed += 1;
+            }
+        }
+        removed
+    }
+
     /// The regular files directly in the folder and one level below, with size and
     /// modification time: compare with [`Folder::adopt_changed`] to list what a writer that does
     /// not claim its files (the verification cases) wrote.
