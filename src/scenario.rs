@@ -340,6 +340,7 @@ pub struct FractureSpec {
 
 /// The fracture criterion (`fracture.criterion`).
 #[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
 pub enum CriterionSpec {
     /// The seed's: a face opens when its normal stress reaches lambda*T0, Pa (tension
     /// positive; as `fracture.strength`).

@@ -506,6 +506,46 @@ const CASES: &[Case] = &[
         &["damping", "finite"],
     ),
     // --- Fracture.
+    edit(
+        EX1,
+        &[(
+            "strength: Some(1e6),",
+            "strength: Some(1e6), criterion: Some(Toughness(k_ic: 1e6)),",
+        )],
+        &["fracture.criterion", "not both"],
+    ),
+    edit(
+        EX1,
+        &[(
+            "strength: Some(1e6),",
+            "criterion: Some(Toughness(k_ic: -1e6)),",
+        )],
+        &["fracture.criterion.k_ic", ">= 0"],
+    ),
+    edit(
+        EX1,
+        &[(
+            "strength: Some(1e6),",
+            "criterion: Some(Toughness(k_ic: NaN)),",
+        )],
+        &["fracture.criterion.k_ic", "finite"],
+    ),
+    edit(
+        EX1,
+        &[(
+            "strength: Some(1e6),",
+            "criterion: Some(Toughness(k_ic: 1e6, initiation: Some(inf))),",
+        )],
+        &["fracture.criterion.initiation", "finite"],
+    ),
+    edit(
+        EX1,
+        &[(
+            "strength: Some(1e6),",
+            "criterion: Some(Toughness(kic: 1e6)),",
+        )],
+        &["kic"],
+    ),
     set(
         EX1,
         &["--set", "fracture.friction_deg=-1"],
