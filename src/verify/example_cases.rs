@@ -317,6 +317,52 @@ pub fn example1(_quick: bool) -> anyhow::Result<CaseResult> {
             );
         }
     }
+    // The toughness criterion on the same scenes (reported, not checked against Fig. 7):
+    // K_Ic = 38.5 MPa sqrt(m), the toughness the seed's strength test acts like on this mesh
+    // (3.5 (s0 + lambda T0) sqrt(h) with s0 = 10 MPa, lambda T0 = 1 MPa, h = 1 m), and the
+    // seed's 1 MPa as the initiation strength away from tips. The shipped scenarios keep the
+    // strength criterion.
+    for (name, ron) in [("cross", CROSS_RON), ("offset", OFFSET_RON)] {
+        let from = "strength: Some(1e6),";
+        anyhow::ensure!(
+            ron.contains(from),
+            "example1_{name}.ron: no `{from}` to replace"
+        );
+        let text = ron.replace(
+            from,
+            &format!("criterion: Some(Toughness(k_ic: {EXAMPLE1_K_IC:e}, initiation: Some(1e6))),"),
+        );
+        let file = format!("scenarios/example1_{name}.ron (toughness criterion)");
+        match example_run(&text, &file, end, &["time.solid_scheme=QuasiStatic".into()]) {
+            Err(e) => {
+                res.check_max(format!("{name}: toughness run failed"), 1.0, 0.0);
+                res.notes.push(format!("{name}, toughness: {e:#}"));
+            }
+            Ok(r) => {
+                res.check_max(format!("{name}: mass balance, toughness"), r.balance, 1e-9);
+                let new = r.new_cells();
+                let reach = new.iter().map(|c| c.x[1].max(c.x[0])).fold(0.0, f64::max);
+                let outcome = if name == "cross" {
+                    let (beyond, closed, off) = cross_outcome(&r);
+                    format!(
+                        "{beyond} new cells past x = 17 m on y = 50 m, {closed} of 8 vertical cells closed, {off} new cells off y = 50 m"
+                    )
+                } else {
+                    let (beyond, filled, tips) = offset_outcome(&r);
+                    format!(
+                        "{beyond} new cells past x = 17 m on y = 50 m, {filled} of 8 vertical cells above 10 MPa, {tips} new cells near the vertical tips"
+                    )
+                };
+                res.notes.push(format!(
+                    "{name}, toughness criterion (K_Ic = {:.1} MPa sqrt(m), quasi-static): {} steps {:.1} s, {} new cells reaching x = {reach:.1} m, injected {:.4} m^2; {outcome}",
+                    1e-6 * EXAMPLE1_K_IC, r.steps, r.wall, new.len(), r.injected
+                ));
+            }
+        }
+    }
     res.files.push(("example1_cells.csv".into(), table));
     Ok(res)
 }
+
+/// K_Ic of `example1`'s toughness-criterion runs, Pa sqrt(m).
+pub const EXAMPLE1_K_IC: f64 = 38.5e6;
