@@ -352,3 +352,38 @@ impl SolidView {
         [self.x0[i][0] + self.u[i][0], self.x0[i][1] + self.u[i][1]]
     }
 }
+
+/// Current geometry of joint `k`: face p's unit tangent t (from its first node to its second),
+/// its outward unit normal n (towards face q), its length (m), and the offsets of face q's centre
+/// from face p's along n (opening delta_n, m, positive when the faces separate) and along t
+/// (delta_t, m) (seed (8)).
+#[derive(Clone, Copy, Debug)]
+pub struct JointFrame {
+    pub n: [f64; 2],
+    pub t: [f64; 2],
+    pub len: f64,
+    pub dn: f64,
+    pub dt: f64,
+}
+
+#[inline]
+pub fn joint_frame(v: &SolidView, k: usize) -> JointFrame {
+    let nodes = v.joint_nodes[k];
+    let x = nodes.map(|i| v.position(i as usize));
+    let t = [x[1][0] - x[0][0], x[1][1] - x[0][1]];
+    let len = t[0].hypot(t[1]);
+    let t = [t[0] / len, t[1] / len];
+    let s = v.joint_sign[k];
+    let n = [s * t[1], -s * t[0]];
+    let cp = [0.5 * (x[0][0] + x[1][0]), 0.5 * (x[0][1] + x[1][1])];
+    let cq = [0.5 * (x[2][0] + x[3][0]), 0.5 * (x[2][1] + x[3][1])];
+    let d = [cq[0] - cp[0], cq[1] - cp[1]];
+    JointFrame {
+        n,
+        t,
+        len,
+        dn: d[0] * n[0] + d[1] * n[1],
+        dt: d[0] * t[0] + d[1] * t[1],
+    }
+}
+

@@ -329,7 +329,7 @@ impl Tips {
             let xb = v.x0[pair[0] as usize];
             let (dir, b) = unit([x[0] - xb[0], x[1] - xb[1]]);
             let left = [-dir[1], dir[0]];
-            let jn = crate::systems::fracture::joint_frame(v, joint).n;
+            let jn = crate::view::joint_frame(v, joint).n;
             // Face p's outward normal points to face q: q is upper when it points left.
             let q_upper = jn[0] * left[0] + jn[1] * left[1] >= 0.0;
             let behind = if q_upper {
@@ -486,7 +486,7 @@ impl Tips {
                     let iq = alpha * (r1.sqrt() - r0.sqrt())
                         + beta * (r1.powf(1.5) - r0.powf(1.5)) / 3.0;
                     // Face q is upper when p's outward normal (towards q) points up.
-                    let n = crate::systems::fracture::joint_frame(v, k).n;
+                    let n = crate::view::joint_frame(v, k).n;
                     (iq, if rot(n)[1] >= 0.0 { 1.0 } else { -1.0 })
                 })
                 .collect();
@@ -613,7 +613,7 @@ impl Tips {
                 let nu = p.lam / (2.0 * (p.lam + p.g));
                 let cc = (4.0 - 4.0 * nu) / (2.0 * p.g * (2.0 * PI).sqrt());
                 for (&(k, qab), &(iq, q_side)) in t.faces.iter().zip(&t.face_aux) {
-                    let jf = crate::systems::fracture::joint_frame(v, k);
+                    let jf = crate::view::joint_frame(v, k);
                     let pr = joint_pressure(k);
                     let st = &v.joint_state[k];
                     // Traction on face q (face p carries the opposite), Pa, local axes.
