@@ -386,4 +386,3 @@ pub fn joint_frame(v: &SolidView, k: usize) -> JointFrame {
         dt: d[0] * t[0] + d[1] * t[1],
     }
 }
-

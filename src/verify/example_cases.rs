@@ -333,30 +333,43 @@ pub fn example1(_quick: bool) -> anyhow::Result<CaseResult> {
             &format!("criterion: Some(Toughness(k_ic: {EXAMPLE1_K_IC:e}, initiation: Some(1e6))),"),
         );
         let file = format!("scenarios/example1_{name}.ron (toughness criterion)");
-        match example_run(&text, &file, end, &["time.solid_scheme=QuasiStatic".into()]) {
-            Err(e) => {
-                res.check_max(format!("{name}: toughness run failed"), 1.0, 0.0);
-                res.notes.push(format!("{name}, toughness: {e:#}"));
-            }
-            Ok(r) => {
-                res.check_max(format!("{name}: mass balance, toughness"), r.balance, 1e-9);
-                let new = r.new_cells();
-                let reach = new.iter().map(|c| c.x[1].max(c.x[0])).fold(0.0, f64::max);
-                let outcome = if name == "cross" {
-                    let (beyond, closed, off) = cross_outcome(&r);
-                    format!(
-                        "{beyond} new cells past x = 17 m on y = 50 m, {closed} of 8 vertical cells closed, {off} new cells off y = 50 m"
-                    )
-                } else {
-                    let (beyond, filled, tips) = offset_outcome(&r);
-                    format!(
-                        "{beyond} new cells past x = 17 m on y = 50 m, {filled} of 8 vertical cells above 10 MPa, {tips} new cells near the vertical tips"
-                    )
-                };
-                res.notes.push(format!(
-                    "{name}, toughness criterion (K_Ic = {:.1} MPa sqrt(m), quasi-static): {} steps {:.1} s, {} new cells reaching x = {reach:.1} m, injected {:.4} m^2; {outcome}",
+        for (scheme, sets) in [
+            ("explicit", vec![]),
+            (
+                "quasi-static",
+                vec!["time.solid_scheme=QuasiStatic".to_string()],
+            ),
+        ] {
+            match example_run(&text, &file, end, &sets) {
+                Err(e) => {
+                    res.check_max(format!("{name}: toughness run failed, {scheme}"), 1.0, 0.0);
+                    res.notes
+                        .push(format!("{name}, toughness, {scheme}: {e:#}"));
+                }
+                Ok(r) => {
+                    res.check_max(
+                        format!("{name}: mass balance, toughness, {scheme}"),
+                        r.balance,
+                        1e-9,
+                    );
+                    let new = r.new_cells();
+                    let reach = new.iter().map(|c| c.x[1].max(c.x[0])).fold(0.0, f64::max);
+                    let outcome = if name == "cross" {
+                        let (beyond, closed, off) = cross_outcome(&r);
+                        format!(
+                            "{beyond} new cells past x = 17 m on y = 50 m, {closed} of 8 vertical cells closed, {off} new cells off y = 50 m"
+                        )
+                    } else {
+                        let (beyond, filled, tips) = offset_outcome(&r);
+                        format!(
+                            "{beyond} new cells past x = 17 m on y = 50 m, {filled} of 8 vertical cells above 10 MPa, {tips} new cells near the vertical tips"
+                        )
+                    };
+                    res.notes.push(format!(
+                    "{name}, toughness criterion (K_Ic = {:.1} MPa sqrt(m), {scheme}): {} steps {:.1} s, {} new cells reaching x = {reach:.1} m, injected {:.4} m^2; {outcome}",
                     1e-6 * EXAMPLE1_K_IC, r.steps, r.wall, new.len(), r.injected
                 ));
+                }
             }
         }
     }
