@@ -385,6 +385,7 @@ impl Simulation {
         let stress_lags = self.solid.quasi_static.is_none();
         let skip = c.toughness.map(|_| &fr.tips.near_tip[..]);
         if let Some(strength) = c.strength {
+            let before = c.toughness.map(|_| v.edge_ready.clone());
             fracture::fracture_criterion(
                 v,
                 strength,
@@ -393,6 +394,16 @@ impl Simulation {
                 skip,
                 &mut fr.strength_counts,
             );
+            // Initiation away from tips: one new fracture per neighbourhood and pass.
+            if let Some(before) = before {
+                let mut new: Vec<u32> = (0..before.len())
+                    .filter(|&k| v.edge_ready[k] && !before[k])
+                    .map(|k| k as u32)
+                    .collect();
+                for k in crate::systems::toughness::one_per_neighbourhood(v, &mut new) {
+                    fr.screen.recheck(k);
+                }
+            }
         }
         fr.ready_edges = v.edge_ready.iter().filter(|r| **r).count();
     }

@@ -103,6 +103,16 @@ pub struct StrengthScreen {
     due: std::collections::BinaryHeap<Due>,
 }
 
+impl StrengthScreen {
+    /// Evaluate face `k` again at the next pass (a mark that was taken back).
+    pub fn recheck(&mut self, k: u32) {
+        self.due.push(Due {
+            at: f64::NEG_INFINITY,
+            edge: k,
+        });
+    }
+}
+
 /// `fracture_criterion`'s strength test: sigma_n of internal edges, marking edges with
 /// sigma_n >= `strength` (lambda*T0, Pa; seed (7)). Marks stay once set. Returns the number of
 /// fracture-ready edges.

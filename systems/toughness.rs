@@ -135,6 +135,64 @@ pub struct Tips {
 /// unscreened one to the bit.
 pub const DC_SCREEN: f64 = 0.5;
 
+/// Mark in `near` the nodes `start` and those within `rings` element rings of them (through
+/// shared elements). Returns the nodes newly marked.
+pub fn mark_rings(v: &SolidView, start: &[u32], rings: usize, near: &mut [bool]) -> Vec<u32> {
+    let mut marked: Vec<u32> = Vec::new();
+    for &i in start {
+        if !near[i as usize] {
+            near[i as usize] = true;
+            marked.push(i);
+        }
+    }
+    let mut ring: Vec<u32> = start.to_vec();
+    for _ in 0..rings {
+        let mut next = Vec::new();
+        for &i in &ring {
+            for (e, _) in elements_at(v, i) {
+                for j in v.conn[e as usize] {
+                    if !near[j as usize] {
+                        near[j as usize] = true;
+                        marked.push(j);
+                        next.push(j);
+                    }
+                }
+            }
+        }
+        ring = next;
+    }
+    marked
+}
+
+/// Among faces the strength test marked in one pass (`new`, edge indices), keep one per
+/// neighbourhood: by decreasing normal stress, a face is kept unless one of its nodes lies
+/// within two element rings of a face already kept. The others are unmarked and returned (to
+/// be evaluated again). A first fracture relaxes the faces around it; the explicit scheme
+/// resolves that in time, a quasi-static step (which can move many faces past the strength
+/// at once) needs the rule, or parallel fractures start one edge apart.
+pub fn one_per_neighbourhood(v: &mut SolidView, new: &mut Vec<u32>) -> Vec<u32> {
+    if new.len() < 2 {
+        return Vec::new();
+    }
+    new.sort_by(|a, b| {
+        v.edge_sigma_n[*b as usize]
+            .total_cmp(&v.edge_sigma_n[*a as usize])
+            .then(a.cmp(b))
+    });
+    let mut near = vec![false; v.n_nodes()];
+    let mut dropped = Vec::new();
+    for &k in new.iter() {
+        let [a, b] = v.edge_nodes[k as usize];
+        if near[a as usize] || near[b as usize] {
+            v.edge_ready[k as usize] = false;
+            dropped.push(k);
+        } else {
+            mark_rings(v, &[a, b], 2, &mut near);
+        }
+    }
+    dropped
+}
+
 /// theta_c and K_eq of the maximum hoop stress criterion (module documentation).
 pub fn max_hoop_stress(k1: f64, k2: f64) -> (f64, f64) {
     let theta = if k2 == 0.0 {
@@ -508,24 +566,8 @@ impl Tips {
         }
         // Two element rings around every tip.
         let mut near = vec![false; n];
-        let mut ring: Vec<u32> = geometry.iter().map(|t| t.node).collect();
-        for _ in 0..2 {
-            let mut next = Vec::new();
-            for &i in &ring {
-                for (e, _) in elements_at(v, i) {
-                    for j in v.conn[e as usize] {
-                        if !near[j as usize] {
-                            near[j as usize] = true;
-                            next.push(j);
-                        }
-                    }
-                }
-            }
-            ring = next;
-        }
-        for t in &geometry {
-            near[t.node as usize] = true;
-        }
+        let tips: Vec<u32> = geometry.iter().map(|t| t.node).collect();
+        mark_rings(v, &tips, 2, &mut near);
         self.geometry = geometry;
         self.near_tip = near;
         self.state.clear();
