@@ -164,3 +164,40 @@ fn the_tip_screen_changes_nothing() {
     assert_eq!(b.2, 0);
     assert!(a.2 > 0 && a.2 < a.3, "screened {} of {}", a.2, a.3);
 }
+
+/// The seed's crossing case with the toughness criterion (K_Ic = 38.5 MPa sqrt(m), the
+/// toughness the strength test acts like on this mesh; initiation by the seed's 1 MPa away
+/// from tips), quasi-static: the hydraulic fracture reaches the pre-existing one at x = 16 m,
+/// exactly one new fracture starts on its far face (one per neighbourhood: without the rule
+/// three started one edge apart and arrested), and it runs on past x = 17 m along y = 50 m as
+/// in the seed's Fig. 7 (measured: to x = 28 m by 1.5 s).
+#[test]
+fn example1_cross_with_toughness_crosses() {
+    let src = std::fs::read_to_string("scenarios/example1_cross.ron").unwrap();
+    let text = src.replace(
+        "strength: Some(1e6),",
+        "criterion: Some(Toughness(k_ic: 38.5e6, initiation: Some(1e6))),",
+    );
+    assert_ne!(text, src);
+    let sc = Scenario::parse(&text, "example1_cross.ron")
+        .unwrap()
+        .with_overrides(&["time.solid_scheme=QuasiStatic".into()])
+        .unwrap();
+    let mut sim = Simulation::new(sc, &[]).unwrap();
+    sim.run(|_| {}).unwrap();
+    let v = sim.flow().unwrap().view.clone();
+    let mut far_face = 0;
+    let mut reach: f64 = 0.0;
+    for c in 0..v.n_cells() {
+        let [a, b] = v.cell_nodes[c].map(|n| v.node_ref[n as usize]);
+        let (x0, x1) = (a[0].min(b[0]), a[0].max(b[0]));
+        if (x0 - 16.0).abs() < 1e-6 && (x1 - 17.0).abs() < 1e-6 {
+            far_face += 1;
+        }
+        if (a[1] - 50.0).abs() < 1e-6 && (b[1] - 50.0).abs() < 1e-6 {
+            reach = reach.max(x1);
+        }
+    }
+    assert_eq!(far_face, 1, "new fractures on the far face");
+    assert!(reach > 20.0, "the crossing fracture reaches x = {reach}");
+}
