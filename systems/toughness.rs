@@ -170,7 +170,7 @@ pub fn mark_rings(v: &SolidView, start: &[u32], rings: usize, near: &mut [bool])
 /// be evaluated again). A first fracture relaxes the faces around it; the explicit scheme
 /// resolves that in time, a quasi-static step (which can move many faces past the strength
 /// at once) needs the rule, or parallel fractures start one edge apart.
-pub fn one_per_neighbourhood(v: &mut SolidView, new: &mut Vec<u32>) -> Vec<u32> {
+pub fn one_per_neighbourhood(v: &mut SolidView, new: &mut [u32]) -> Vec<u32> {
     if new.len() < 2 {
         return Vec::new();
     }
