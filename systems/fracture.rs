@@ -7,6 +7,7 @@
 pub use crate::params::JointParams;
 use crate::view::SolidView;
 use rayon::prelude::*;
+use std::collections::BinaryHeap;
 
 /// Normal stress n.sigma.n across a face with unit normal n, Pa, for sigma = [sxx, syy, sxy].
 #[inline(always)]
@@ -100,16 +101,15 @@ pub struct StrengthScreen {
     acc_before: f64,
     /// Stress change per metre of displacement change, Pa/m: (2 lambda + 3 G) max S_e.
     rate: f64,
-    due: std::collections::BinaryHeap<Due>,
+    due: BinaryHeap<Due>,
+    /// Faces evaluated at every pass (due soon).
+    hot: Vec<u32>,
 }
 
 impl StrengthScreen {
     /// Evaluate face `k` again at the next pass (a mark that was taken back).
     pub fn recheck(&mut self, k: u32) {
-        self.due.push(Due {
-            at: f64::NEG_INFINITY,
-            edge: k,
-        });
+        self.hot.push(k);
     }
 }
 
@@ -167,6 +167,7 @@ pub fn fracture_criterion(
         sc.rate = (2.0 * p.lam + 3.0 * p.g) * s_max;
         let (evaluated, _) = evaluate_all(v, strength, by_elements, &skipped);
         counts.evaluated += evaluated;
+        sc.hot.clear();
         sc.due = (0..v.edge_nodes.len())
             .filter(|&k| !v.edge_ready[k] && !skipped(v, k))
             .map(|k| Due {
@@ -176,29 +177,47 @@ pub fn fracture_criterion(
             .collect();
         return v.edge_ready.iter().filter(|r| **r).count();
     }
+    // Faces due within HOT_PASSES passes of this pass's displacement change are kept in a
+    // plain list and evaluated every pass (cheaper than a heap round trip each time).
+    let hot_span = HOT_PASSES * du;
     let mut evaluated = 0;
+    let mut eval = |v: &mut SolidView, k: u32, hot: &mut Vec<u32>, due: &mut BinaryHeap<Due>| {
+        let ku = k as usize;
+        let sn = normal_stress(face_stress(v, ku, by_elements), v.edge_normal[ku]);
+        v.edge_sigma_n[ku] = sn;
+        evaluated += 1;
+        let wait = (strength - sn) / sc.rate;
+        if sn >= strength {
+            v.edge_ready[ku] = true;
+        } else if wait <= hot_span {
+            hot.push(k);
+        } else {
+            due.push(Due {
+                at: now + wait,
+                edge: k,
+            });
+        }
+    };
+    let mut hot = Vec::with_capacity(sc.hot.len());
+    for k in std::mem::take(&mut sc.hot) {
+        eval(v, k, &mut hot, &mut sc.due);
+    }
     while let Some(d) = sc.due.peek().copied() {
         if d.at > now {
             break;
         }
         sc.due.pop();
-        let k = d.edge as usize;
-        let sn = normal_stress(face_stress(v, k, by_elements), v.edge_normal[k]);
-        v.edge_sigma_n[k] = sn;
-        evaluated += 1;
-        if sn >= strength {
-            v.edge_ready[k] = true;
-        } else {
-            sc.due.push(Due {
-                at: now + (strength - sn) / sc.rate,
-                edge: d.edge,
-            });
-        }
+        eval(v, d.edge, &mut hot, &mut sc.due);
     }
+    sc.hot = hot;
     counts.evaluated += evaluated;
     counts.screened += sc.due.len() as u64;
     v.edge_ready.iter().filter(|r| **r).count()
 }
+
+/// See `fracture_criterion`'s screen: faces due within this many passes' worth of the
+/// current displacement change are evaluated every pass instead of through the heap.
+const HOT_PASSES: f64 = 8.0;
 
 /// Evaluate every face not skipped, in parallel; returns (evaluated, skipped).
 fn evaluate_all(
