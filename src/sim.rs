@@ -385,7 +385,7 @@ impl Simulation {
         let stress_lags = self.solid.quasi_static.is_none();
         let skip = c.toughness.map(|_| &fr.tips.near_tip[..]);
         if let Some(strength) = c.strength {
-            let before = c.toughness.map(|_| v.edge_ready.clone());
+            let mut new = std::mem::take(&mut fr.new_marks);
             fracture::fracture_criterion(
                 v,
                 strength,
@@ -393,19 +393,20 @@ impl Simulation {
                 Some((&mut fr.screen, &self.params.solid, stress_lags)),
                 skip,
                 &mut fr.strength_counts,
+                &mut new,
             );
             // Initiation away from tips: one new fracture per neighbourhood and pass.
-            if let Some(before) = before {
-                let mut new: Vec<u32> = (0..before.len())
-                    .filter(|&k| v.edge_ready[k] && !before[k])
-                    .map(|k| k as u32)
-                    .collect();
+            if c.toughness.is_some() {
                 for k in crate::systems::toughness::one_per_neighbourhood(v, &mut new) {
                     fr.screen.recheck(k);
                 }
             }
+            fr.new_marks = new;
         }
-        fr.ready_edges = v.edge_ready.iter().filter(|r| **r).count();
+        fr.ready_edges = match (c.toughness, c.strength) {
+            (None, Some(_)) => fr.strength_counts.ready,
+            _ => v.edge_ready.iter().filter(|r| **r).count(),
+        };
     }
 
     /// K_I, K_II and the growth direction at every fracture tip of the current state

@@ -57,20 +57,25 @@ pub struct StrengthCounts {
     /// Face stresses evaluated, and faces passed over by the screen, summed over passes.
     pub evaluated: u64,
     pub screened: u64,
+    /// Fracture-ready edges after the last pass.
+    pub ready: usize,
 }
 
-/// A face's due point: evaluate it again once the accumulated displacement bound reaches
-/// `at` (m).
+/// A face's due point in one region's heap: evaluate it again once that region's
+/// accumulated displacement bound reaches `at` (m); `version` tells stale entries.
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct Due {
     at: f64,
     edge: u32,
+    version: u32,
 }
 impl Eq for Due {}
 impl Ord for Due {
     fn cmp(&self, o: &Self) -> std::cmp::Ordering {
         // Reversed: the standard max-heap then pops the earliest due point first.
-        o.at.total_cmp(&self.at).then(o.edge.cmp(&self.edge))
+        o.at.total_cmp(&self.at)
+            .then(o.edge.cmp(&self.edge))
+            .then(o.version.cmp(&self.version))
     }
 }
 impl PartialOrd for Due {
@@ -79,37 +84,142 @@ impl PartialOrd for Due {
     }
 }
 
+/// Regions of the screen: square cells of this many shortest edge lengths.
+const REGION_EDGES: f64 = 8.0;
+/// A face whose stress reads nodes in more regions than this uses the whole mesh's bound.
+const MAX_REGIONS: usize = 6;
+
 /// The strength test's screen: which faces can have reached the strength since they were last
 /// evaluated.
 ///
 /// A CST's stress is D B u, so between two passes every stress component of element e changes
-/// by at most (lambda + 2G, lambda, G combined) (2 lambda + 3 G) S_e du, with
-/// S_e = sum over its nodes of |dN/dx| + |dN/dy| and du the largest nodal displacement change
-/// (either component); a face's normal stress, a convex combination of such stresses
-/// projected on a unit normal, by the same bound with S = max S_e. So a face evaluated with
-/// margin m = strength - sigma_n cannot reach the strength before the accumulated
-/// (2 lambda + 3 G) S du reaches m: it is due then, and only due faces are evaluated
-/// (a binary heap by due point). A topology change (split) evaluates every face again. The
-/// marks are exactly those of the full evaluation (`tests/fracture_criterion.rs`).
+/// by at most (2 lambda + 3 G) S_e du, with S_e = sum over its nodes of |dN/dx| + |dN/dy| and
+/// du the largest change of its nodes' displacements (either component); a face's normal
+/// stress, a convex combination of such stresses projected on a unit normal, by the same
+/// bound with S = max S_e and du over the nodes its stress reads. The mesh is cut into square
+/// regions (`REGION_EDGES` shortest edges wide); each keeps the sum over passes of its nodes'
+/// largest displacement change. A face reads nodes in a few regions R(F); its stress can have
+/// changed by at most (2 lambda + 3 G) S times the sum over R(F) of those sums' growth since
+/// its evaluation, so it cannot reach the strength (margin m) before one of its regions has
+/// grown by m / ((2 lambda + 3 G) S |R(F)|). The face waits in each of its regions' heaps at
+/// that point and is evaluated when the first comes due (the others' entries go stale). Far
+/// from a moving fracture the regions barely move and their faces sleep. A topology change
+/// (split) evaluates every face again. The marks are exactly those of the full evaluation
+/// (`tests/fracture_criterion.rs`).
 #[derive(Clone, Debug, Default)]
 pub struct StrengthScreen {
     generation: Option<u64>,
     /// Displacements at the last pass, m.
     u_ref: Vec<[f64; 2]>,
-    /// Accumulated largest displacement change, m: after the last pass and before it.
-    acc: f64,
-    acc_before: f64,
+    /// Region of each node (the last region index is the whole mesh).
+    node_region: Vec<u32>,
+    /// Regions of each face, CSR.
+    face_ptr: Vec<u32>,
+    face_regions: Vec<u32>,
+    /// Per region: the accumulated largest displacement change after the last pass and
+    /// before it, m, and its heap.
+    acc: Vec<f64>,
+    acc_before: Vec<f64>,
+    due: Vec<BinaryHeap<Due>>,
+    /// Per face: the version of its current heap entries.
+    version: Vec<u32>,
     /// Stress change per metre of displacement change, Pa/m: (2 lambda + 3 G) max S_e.
     rate: f64,
-    due: BinaryHeap<Due>,
-    /// Faces evaluated at every pass (due soon).
-    hot: Vec<u32>,
+    /// Faces to evaluate at the next pass whatever their bound (marks taken back).
+    recheck: Vec<u32>,
 }
 
 impl StrengthScreen {
     /// Evaluate face `k` again at the next pass (a mark that was taken back).
     pub fn recheck(&mut self, k: u32) {
-        self.hot.push(k);
+        self.recheck.push(k);
+    }
+
+    /// Regions and their face lists for a new topology.
+    fn rebuild(&mut self, v: &SolidView, by_elements: bool) {
+        let h_min = v
+            .edge_nodes
+            .iter()
+            .map(|e| {
+                let (a, b) = (v.x0[e[0] as usize], v.x0[e[1] as usize]);
+                (a[0] - b[0]).hypot(a[1] - b[1])
+            })
+            .fold(f64::INFINITY, f64::min);
+        let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+        for x in &v.x0 {
+            for d in 0..2 {
+                lo[d] = lo[d].min(x[d]);
+                hi[d] = hi[d].max(x[d]);
+            }
+        }
+        let size = REGION_EDGES * h_min;
+        let cells = |d: usize| (((hi[d] - lo[d]) / size).floor() as usize + 1).clamp(1, 4096);
+        let (nx, ny) = (cells(0), cells(1));
+        let whole = (nx * ny) as u32;
+        self.node_region =
+            v.x0.iter()
+                .map(|x| {
+                    let i = (((x[0] - lo[0]) / size) as usize).min(nx - 1);
+                    let j = (((x[1] - lo[1]) / size) as usize).min(ny - 1);
+                    (j * nx + i) as u32
+                })
+                .collect();
+        self.face_ptr = vec![0];
+        self.face_regions.clear();
+        let mut rs: Vec<u32> = Vec::new();
+        for k in 0..v.edge_nodes.len() {
+            rs.clear();
+            let mut add = |e: u32| {
+                for n in v.conn[e as usize] {
+                    rs.push(self.node_region[n as usize]);
+                }
+            };
+            if by_elements {
+                v.edge_elems[k].iter().for_each(|&e| add(e));
+            } else {
+                for &(e, _) in &v.patch[v.patch_ptr[k] as usize..v.patch_ptr[k + 1] as usize] {
+                    add(e);
+                }
+                v.edge_elems[k].iter().for_each(|&e| add(e));
+            }
+            rs.sort_unstable();
+            rs.dedup();
+            if rs.len() > MAX_REGIONS {
+                rs.clear();
+                rs.push(whole);
+            }
+            self.face_regions.extend_from_slice(&rs);
+            self.face_ptr.push(self.face_regions.len() as u32);
+        }
+        let n = nx * ny + 1;
+        self.acc = vec![0.0; n];
+        self.acc_before = vec![0.0; n];
+        self.due = vec![BinaryHeap::new(); n];
+        self.version = vec![0; v.edge_nodes.len()];
+        self.recheck.clear();
+    }
+
+    /// Queue face `k` (margin `margin`, Pa) in each of its regions' heaps.
+    fn wait(&mut self, k: u32, margin: f64, stress_lags: bool) {
+        let (s, e) = (
+            self.face_ptr[k as usize] as usize,
+            self.face_ptr[k as usize + 1] as usize,
+        );
+        let share = margin / (self.rate * (e - s) as f64);
+        self.version[k as usize] = self.version[k as usize].wrapping_add(1);
+        let version = self.version[k as usize];
+        for &r in &self.face_regions[s..e] {
+            let now = if stress_lags {
+                self.acc_before[r as usize]
+            } else {
+                self.acc[r as usize]
+            };
+            self.due[r as usize].push(Due {
+                at: now + share,
+                edge: k,
+                version,
+            });
+        }
     }
 }
 
@@ -132,92 +242,94 @@ pub fn fracture_criterion(
     screen: Option<(&mut StrengthScreen, &crate::element::SolidParams, bool)>,
     skip_node: Option<&[bool]>,
     counts: &mut StrengthCounts,
+    new_marks: &mut Vec<u32>,
 ) -> usize {
+    new_marks.clear();
     let skipped = |v: &SolidView, k: usize| {
         let [a, b] = v.edge_nodes[k];
         skip_node.is_some_and(|s| s[a as usize] || s[b as usize])
     };
     let Some((sc, p, stress_lags)) = screen else {
-        let (evaluated, _) = evaluate_all(v, strength, by_elements, &skipped);
-        counts.evaluated += evaluated;
-        return v.edge_ready.iter().filter(|r| **r).count();
+        counts.evaluated += evaluate_all(v, strength, by_elements, &skipped, new_marks);
+        counts.ready = v.edge_ready.iter().filter(|r| **r).count();
+        return counts.ready;
     };
-    // The displacement change since the last pass.
-    let du = if sc.u_ref.len() == v.u.len() {
-        v.u.iter()
-            .zip(&sc.u_ref)
-            .map(|(a, b)| (a[0] - b[0]).abs().max((a[1] - b[1]).abs()))
-            .fold(0.0, f64::max)
-    } else {
-        f64::INFINITY
-    };
-    sc.u_ref.clone_from(&v.u);
-    sc.acc_before = sc.acc;
-    sc.acc += du;
-    let now = if stress_lags { sc.acc_before } else { sc.acc };
-    if sc.generation != Some(v.generation) || !now.is_finite() {
+    if sc.generation != Some(v.generation) || sc.u_ref.len() != v.u.len() {
         // Every face again (new topology, or the first pass).
         sc.generation = Some(v.generation);
-        (sc.acc, sc.acc_before) = (0.0, 0.0);
+        sc.u_ref.clone_from(&v.u);
+        sc.rebuild(v, by_elements);
         let s_max = v
             .geom
             .iter()
             .map(|g| g[1..].iter().map(|x| x.abs()).sum::<f64>())
             .fold(0.0, f64::max);
         sc.rate = (2.0 * p.lam + 3.0 * p.g) * s_max;
-        let (evaluated, _) = evaluate_all(v, strength, by_elements, &skipped);
-        counts.evaluated += evaluated;
-        sc.hot.clear();
-        sc.due = (0..v.edge_nodes.len())
-            .filter(|&k| !v.edge_ready[k] && !skipped(v, k))
-            .map(|k| Due {
-                at: (strength - v.edge_sigma_n[k]) / sc.rate,
-                edge: k as u32,
-            })
-            .collect();
-        return v.edge_ready.iter().filter(|r| **r).count();
+        counts.evaluated += evaluate_all(v, strength, by_elements, &skipped, new_marks);
+        for k in 0..v.edge_nodes.len() {
+            if !v.edge_ready[k] && !skipped(v, k) {
+                sc.wait(k as u32, strength - v.edge_sigma_n[k], stress_lags);
+            }
+        }
+        counts.ready = v.edge_ready.iter().filter(|r| **r).count();
+        return counts.ready;
     }
-    // Faces due within HOT_PASSES passes of this pass's displacement change are kept in a
-    // plain list and evaluated every pass (cheaper than a heap round trip each time).
-    let hot_span = HOT_PASSES * du;
+    // Each region's largest displacement change since the last pass.
+    let n_regions = sc.acc.len();
+    let mut du = vec![0.0f64; n_regions];
+    for ((a, b), &r) in v.u.iter().zip(sc.u_ref.iter_mut()).zip(&sc.node_region) {
+        let d = (a[0] - b[0]).abs().max((a[1] - b[1]).abs());
+        du[r as usize] = du[r as usize].max(d);
+        *b = *a;
+    }
+    du[n_regions - 1] = du.iter().fold(0.0, |m: f64, &x| m.max(x));
+    for r in 0..n_regions {
+        sc.acc_before[r] = sc.acc[r];
+        sc.acc[r] += du[r];
+    }
+    // The faces due in any of their regions (each once), and the marks taken back.
+    let mut todo: Vec<u32> = std::mem::take(&mut sc.recheck);
+    for r in 0..n_regions {
+        let now = if stress_lags {
+            sc.acc_before[r]
+        } else {
+            sc.acc[r]
+        };
+        while let Some(d) = sc.due[r].peek().copied() {
+            if d.at > now {
+                break;
+            }
+            sc.due[r].pop();
+            if d.version == sc.version[d.edge as usize] {
+                // Its other entries go stale.
+                sc.version[d.edge as usize] = sc.version[d.edge as usize].wrapping_add(1);
+                todo.push(d.edge);
+            }
+        }
+    }
+    todo.sort_unstable();
+    todo.dedup();
     let mut evaluated = 0;
-    let mut eval = |v: &mut SolidView, k: u32, hot: &mut Vec<u32>, due: &mut BinaryHeap<Due>| {
+    for k in todo {
         let ku = k as usize;
+        if v.edge_ready[ku] || skipped(v, ku) {
+            continue;
+        }
         let sn = normal_stress(face_stress(v, ku, by_elements), v.edge_normal[ku]);
         v.edge_sigma_n[ku] = sn;
         evaluated += 1;
-        let wait = (strength - sn) / sc.rate;
         if sn >= strength {
             v.edge_ready[ku] = true;
-        } else if wait <= hot_span {
-            hot.push(k);
+            new_marks.push(k);
+            counts.ready += 1;
         } else {
-            due.push(Due {
-                at: now + wait,
-                edge: k,
-            });
+            sc.wait(k, strength - sn, stress_lags);
         }
-    };
-    let mut hot = Vec::with_capacity(sc.hot.len());
-    for k in std::mem::take(&mut sc.hot) {
-        eval(v, k, &mut hot, &mut sc.due);
     }
-    while let Some(d) = sc.due.peek().copied() {
-        if d.at > now {
-            break;
-        }
-        sc.due.pop();
-        eval(v, d.edge, &mut hot, &mut sc.due);
-    }
-    sc.hot = hot;
     counts.evaluated += evaluated;
-    counts.screened += sc.due.len() as u64;
-    v.edge_ready.iter().filter(|r| **r).count()
+    counts.screened += (v.edge_nodes.len() as u64).saturating_sub(evaluated);
+    counts.ready
 }
-
-/// See `fracture_criterion`'s screen: faces due within this many passes' worth of the
-/// current displacement change are evaluated every pass instead of through the heap.
-const HOT_PASSES: f64 = 8.0;
 
 /// Evaluate every face not skipped, in parallel; returns (evaluated, skipped).
 fn evaluate_all(
@@ -225,27 +337,30 @@ fn evaluate_all(
     strength: f64,
     by_elements: bool,
     skipped: &(dyn Fn(&SolidView, usize) -> bool + Sync),
-) -> (u64, u64) {
+    new_marks: &mut Vec<u32>,
+) -> u64 {
     let mut sn = std::mem::take(&mut v.edge_sigma_n);
     let mut ready = std::mem::take(&mut v.edge_ready);
     let view = &*v;
-    let r = sn
+    let marks: Vec<Option<u32>> = sn
         .par_iter_mut()
         .zip(ready.par_iter_mut())
         .enumerate()
         .with_min_len(4096)
         .map(|(k, (sn, ready))| {
             if skipped(view, k) {
-                return (0, 1);
+                return None;
             }
             *sn = normal_stress(face_stress(view, k, by_elements), view.edge_normal[k]);
-            *ready |= *sn >= strength;
-            (1, 0)
+            let new = !*ready && *sn >= strength;
+            *ready |= new;
+            Some(if new { k as u32 } else { u32::MAX })
         })
-        .reduce(|| (0, 0), |x, y| (x.0 + y.0, x.1 + y.1));
+        .collect();
     v.edge_sigma_n = sn;
     v.edge_ready = ready;
-    r
+    new_marks.extend(marks.iter().flatten().filter(|&&k| k != u32::MAX));
+    marks.iter().flatten().count() as u64
 }
 
 pub use crate::view::{JointFrame, joint_frame};
@@ -329,7 +444,8 @@ pub struct FractureState {
     pub last_idle_split: Option<(usize, u64)>,
     /// The toughness criterion's tips (`systems::toughness`).
     pub tips: crate::systems::toughness::Tips,
-    /// The strength test's screen and its counts.
+    /// The strength test's screen, its counts and its last pass's new marks.
     pub screen: StrengthScreen,
+    pub new_marks: Vec<u32>,
     pub strength_counts: StrengthCounts,
 }
