@@ -113,6 +113,8 @@ pub struct StrengthScreen {
     u_ref: Vec<[f64; 2]>,
     /// Region of each node (the last region index is the whole mesh).
     node_region: Vec<u32>,
+    /// Runs of consecutive nodes in one region: (first node, end, region).
+    runs: Vec<(u32, u32, u32)>,
     /// Regions of each face, CSR.
     face_ptr: Vec<u32>,
     face_regions: Vec<u32>,
@@ -192,6 +194,13 @@ impl StrengthScreen {
             self.face_ptr.push(self.face_regions.len() as u32);
         }
         let n = nx * ny + 1;
+        self.runs.clear();
+        for (i, &r) in self.node_region.iter().enumerate() {
+            match self.runs.last_mut() {
+                Some(run) if run.2 == r => run.1 = i as u32 + 1,
+                _ => self.runs.push((i as u32, i as u32 + 1, r)),
+            }
+        }
         self.acc = vec![0.0; n];
         self.acc_before = vec![0.0; n];
         self.due = vec![BinaryHeap::new(); n];
@@ -277,11 +286,17 @@ pub fn fracture_criterion(
     // Each region's largest displacement change since the last pass.
     let n_regions = sc.acc.len();
     let mut du = vec![0.0f64; n_regions];
-    for ((a, b), &r) in v.u.iter().zip(sc.u_ref.iter_mut()).zip(&sc.node_region) {
-        let d = (a[0] - b[0]).abs().max((a[1] - b[1]).abs());
+    for &(a, b, r) in &sc.runs {
+        let (a, b) = (a as usize, b as usize);
+        let (now, before) = (v.u[a..b].as_flattened(), sc.u_ref[a..b].as_flattened());
+        let d = now
+            .iter()
+            .zip(before)
+            .map(|(x, y)| (x - y).abs())
+            .fold(0.0, f64::max);
         du[r as usize] = du[r as usize].max(d);
-        *b = *a;
     }
+    sc.u_ref.copy_from_slice(&v.u);
     du[n_regions - 1] = du.iter().fold(0.0, |m: f64, &x| m.max(x));
     for r in 0..n_regions {
         sc.acc_before[r] = sc.acc[r];
