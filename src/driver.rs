@@ -456,6 +456,7 @@ fn summary_json(
         "kinetic_energy": sim.stats().kinetic,
         "frames": sim.output().map_or(0, |o| o.frames),
         "fracture_ready_edges": sim.params().has_fractures.then_some(sim.fracture().ready_edges),
+        "criterion": criterion_summary(sim),
         "splits": sim.fracture().splits,
         "opened_edges": sim.fracture().opened_edges,
         "joints": sim.solid().joint_nodes.len(),
@@ -472,6 +473,28 @@ fn summary_json(
     s
 }
 
+/// The fracture criterion's work in `summary.json` (`null`, omitted, without a criterion):
+/// which one, the strength test's evaluated and screened faces, and under `Toughness` the
+/// tips now, the tip evaluations and those the displacement-correlation screen passed over.
+fn criterion_summary(sim: &Simulation) -> serde_json::Value {
+    let Some(c) = sim.params().criterion else {
+        return serde_json::Value::Null;
+    };
+    let fr = sim.fracture();
+    let mut v = json!({
+        "kind": if c.toughness.is_some() { "toughness" } else { "strength" },
+        "faces_evaluated": fr.strength_counts.evaluated,
+        "faces_screened": fr.strength_counts.screened,
+    });
+    if let Some(k_ic) = c.toughness {
+        v["k_ic"] = json!(k_ic);
+        v["tips"] = json!(fr.tips.geometry.len());
+        v["tip_evaluations"] = json!(fr.tips.evaluations);
+        v["tips_screened"] = json!(fr.tips.screened);
+    }
+    v
+}
+
 /// Fields of `summary.json` that do not apply to every run, omitted when they do not (a
 /// successful run's summary has no `null`): no `flow` without a network, no `finish` and
 /// `error` of the other outcome, no `dt_critical` without a stability bound (the implicit
@@ -483,6 +506,7 @@ const OPTIONAL: &[&str] = &[
     "error",
     "dt_critical",
     "fracture_ready_edges",
+    "criterion",
 ];
 /// The same in `summary.json`'s `flow`: `newton_iterations` (implicit only), `dt_critical`.
 const OPTIONAL_FLOW: &[&str] = &["newton_iterations", "dt_critical"];
