@@ -365,13 +365,13 @@ pub fn kgd_k(quick: bool) -> anyhow::Result<CaseResult> {
                 r.balance,
                 1e-9,
             );
-            // Measured (this build): within 3 % from 30 cells along the half-length on;
-            // at 15-20 cells the pressure is 6-15 % high (the fracture waits for K_Ic at a
-            // mesh tip up to one edge ahead of the tracked one). The 3 % at 15-20
-            // cells and 2 % at 30 are not met yet (README, "KGD").
+            // Measured (this build): 3.0-3.9 % at 15-20 cells along the half-length, within
+            // 2 % at 30 and 40, and 0.9 / 0.9 / 2.9 % at 60 (the pressure depends on where the
+            // tip is within its edge). The targets, 3 % at 15-20 cells and 2 % at 30, are met
+            // at 30 cells only (README, "KGD with the toughness criterion").
             let cells = r.exact[0] / h;
-            if cells >= 29.0 {
-                let limit = 0.03;
+            if cells >= 14.0 {
+                let limit = if cells >= 29.0 { 0.03 } else { 0.04 };
                 for (m, err) in [
                     ("tracked length", tracked),
                     ("opening", e[1]),
