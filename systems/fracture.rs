@@ -276,7 +276,13 @@ pub fn fracture_criterion(
         sc.rate = (2.0 * p.lam + 3.0 * p.g) * s_max;
         counts.evaluated += evaluate_all(v, strength, by_elements, &skipped, new_marks);
         for k in 0..v.edge_nodes.len() {
-            if !v.edge_ready[k] && !skipped(v, k) {
+            if v.edge_ready[k] {
+                continue;
+            }
+            if skipped(v, k) {
+                // Skipped now (near an open tip): looked at again every pass.
+                sc.recheck.push(k as u32);
+            } else {
                 sc.wait(k as u32, strength - v.edge_sigma_n[k], stress_lags);
             }
         }
@@ -327,7 +333,11 @@ pub fn fracture_criterion(
     let mut evaluated = 0;
     for k in todo {
         let ku = k as usize;
-        if v.edge_ready[ku] || skipped(v, ku) {
+        if v.edge_ready[ku] {
+            continue;
+        }
+        if skipped(v, ku) {
+            sc.recheck.push(k);
             continue;
         }
         let sn = normal_stress(face_stress(v, ku, by_elements), v.edge_normal[ku]);

@@ -41,9 +41,10 @@
 //! K_eq >= K_Ic; `split` then opens it.
 //!
 //! **Initiation away from tips.** The strength test (`fracture_criterion`) still runs on every
-//! face that does not touch a node within two element rings of a tip, so fractures can start
-//! where there is no tip (the far face of a crossed fracture, the sides of a sliding one);
-//! near the tips the singular stress would make it a mesh-dependent toughness again.
+//! face that does not touch a node within two element rings of an open tip (the pair behind it
+//! opening), so fractures can start where there is no tip (the far face of a crossed fracture,
+//! the sides of a closed or sliding one, next to a closed tip); near an open tip the singular
+//! stress would make it a mesh-dependent toughness again.
 //!
 //! SI units: m, Pa, Pa sqrt(m); tension positive.
 
@@ -116,8 +117,12 @@ pub struct Tips {
     generation: Option<u64>,
     pub geometry: Vec<TipGeometry>,
     pub state: Vec<TipState>,
-    /// Per node: within two element rings of a tip (the strength test skips faces touching it).
+    /// Per node: within two element rings of an open tip (the pair behind it opening,
+    /// delta_n > 0) at the last `measure`; the strength test skips faces touching it. A closed
+    /// tip (a fracture held shut, e.g. the vertical one of the seed's offset case) has no
+    /// singular tension ahead, so the strength test may start fractures beside it.
     pub near_tip: Vec<bool>,
+    near_marked: Vec<u32>,
     /// Tip evaluations so far (one per tip per criterion pass), and those of them that the
     /// displacement-correlation screen passed over (`measure`).
     pub evaluations: u64,
@@ -564,12 +569,9 @@ impl Tips {
                 face_aux,
             });
         }
-        // Two element rings around every tip.
-        let mut near = vec![false; n];
-        let tips: Vec<u32> = geometry.iter().map(|t| t.node).collect();
-        mark_rings(v, &tips, 2, &mut near);
+        self.near_tip = vec![false; n];
+        self.near_marked.clear();
         self.geometry = geometry;
-        self.near_tip = near;
         self.state.clear();
     }
 
@@ -693,6 +695,17 @@ impl Tips {
             })
             .collect();
         self.screened += screened;
+        // Two element rings around every open tip.
+        for i in self.near_marked.drain(..) {
+            self.near_tip[i as usize] = false;
+        }
+        let open: Vec<u32> = self
+            .state
+            .iter()
+            .filter(|s| s.delta[0] > 0.0)
+            .map(|s| s.node)
+            .collect();
+        self.near_marked = mark_rings(v, &open, 2, &mut self.near_tip);
     }
 
     /// The tracked tip of every tip of the last [`Tips::measure`]: the point at distance s
