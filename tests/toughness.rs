@@ -173,19 +173,7 @@ fn the_tip_screen_changes_nothing() {
 /// on past x = 17 m along y = 50 m as in the seed's Fig. 7 (measured: to x = 28 m by 1.5 s).
 #[test]
 fn example1_cross_with_toughness_crosses() {
-    let src = std::fs::read_to_string("scenarios/example1_cross.ron").unwrap();
-    let text = src.replace(
-        "strength: Some(1e6),",
-        "criterion: Some(Toughness(k_ic: 38.5e6, initiation: Some(1e6))),",
-    );
-    assert_ne!(text, src);
-    let sc = Scenario::parse(&text, "example1_cross.ron")
-        .unwrap()
-        .with_overrides(&["time.solid_scheme=QuasiStatic".into()])
-        .unwrap();
-    let mut sim = Simulation::new(sc, &[]).unwrap();
-    sim.run(|_| {}).unwrap();
-    let v = sim.flow().unwrap().view.clone();
+    let v = example1_toughness("cross", 1.5);
     let mut far_face = 0;
     let mut reach: f64 = 0.0;
     for c in 0..v.n_cells() {
@@ -212,22 +200,7 @@ fn example1_cross_with_toughness_crosses() {
 /// edge, where the integrals' disc is cut to one edge by the vertical fracture).
 #[test]
 fn example1_offset_with_toughness_branches_near_the_tips() {
-    let src = std::fs::read_to_string("scenarios/example1_offset.ron").unwrap();
-    let text = src.replace(
-        "strength: Some(1e6),",
-        "criterion: Some(Toughness(k_ic: 38.5e6, initiation: Some(1e6))),",
-    );
-    assert_ne!(text, src);
-    let sc = Scenario::parse(&text, "example1_offset.ron")
-        .unwrap()
-        .with_overrides(&[
-            "time.solid_scheme=QuasiStatic".into(),
-            "time.end=Time(0.8)".into(),
-        ])
-        .unwrap();
-    let mut sim = Simulation::new(sc, &[]).unwrap();
-    sim.run(|_| {}).unwrap();
-    let v = sim.flow().unwrap().view.clone();
+    let v = example1_toughness("offset", 0.8);
     let (mut beyond, mut below, mut above) = (0, 0, 0);
     for c in 0..v.n_cells() {
         let [a, b] = v.cell_nodes[c].map(|n| v.node_ref[n as usize]);
@@ -246,4 +219,25 @@ fn example1_offset_with_toughness_branches_near_the_tips() {
         below >= 1 && above >= 1,
         "branches near the tips: {below} below, {above} above"
     );
+}
+
+/// The network of `scenarios/example1_NAME.ron` run to `end` (s) with the toughness criterion
+/// (K_Ic = 38.5 MPa sqrt(m), initiation 1 MPa) on the quasi-static rock.
+fn example1_toughness(name: &str, end: f64) -> hydrofrac::flow::FlowView {
+    let src = std::fs::read_to_string(format!("scenarios/example1_{name}.ron")).unwrap();
+    let text = src.replace(
+        "strength: Some(1e6),",
+        "criterion: Some(Toughness(k_ic: 38.5e6, initiation: Some(1e6))),",
+    );
+    assert_ne!(text, src);
+    let sc = Scenario::parse(&text, "example1.ron")
+        .unwrap()
+        .with_overrides(&[
+            "time.solid_scheme=QuasiStatic".into(),
+            format!("time.end=Time({end})"),
+        ])
+        .unwrap();
+    let mut sim = Simulation::new(sc, &[]).unwrap();
+    sim.run(|_| {}).unwrap();
+    sim.flow().unwrap().view.clone()
 }

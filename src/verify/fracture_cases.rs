@@ -64,6 +64,22 @@ pub fn mesh_parity(h: f64, r: f64, fine: [f64; 4]) -> anyhow::Result<usize> {
     Ok((k % row + k / row) % 2)
 }
 
+/// One pre-existing straight crack from `from` to `to` (m), no criterion, under the uniform
+/// face pressure `pressure` (Pa), joints with the default friction and stiffnesses.
+pub fn crack_spec(from: [f64; 2], to: [f64; 2], pressure: Option<f64>) -> FractureSpec {
+    FractureSpec {
+        strength: None,
+        criterion: None,
+        face_stress: Default::default(),
+        residual_aperture: 5e-4,
+        preexisting: vec![PreFracture { from, to }],
+        pressure,
+        friction_deg: 30.0,
+        normal_stiffness: None,
+        shear_stiffness: None,
+    }
+}
+
 /// Opened area, largest opening, wall time and unknowns of a pressurised straight crack of
 /// half-length `a` (m) under pressure `p` (Pa) on a graded mesh of fine size `h` (m) in a
 /// square domain of half-width `r` (m) with fixed edges, relaxed to a residual of 1e-8.
@@ -106,20 +122,7 @@ pub fn pressurised_crack(
         sc.time.solid_scheme = crate::scenario::SolidScheme::QuasiStatic;
     }
     sc.time.max_steps = 20_000_000;
-    sc.fracture = Some(FractureSpec {
-        strength: None,
-        criterion: None,
-        face_stress: Default::default(),
-        residual_aperture: 5e-4,
-        preexisting: vec![PreFracture {
-            from: [-a, 0.0],
-            to: [a, 0.0],
-        }],
-        pressure: Some(p),
-        friction_deg: 30.0,
-        normal_stiffness: None,
-        shear_stiffness: None,
-    });
+    sc.fracture = Some(crack_spec([-a, 0.0], [a, 0.0], Some(p)));
     let t0 = Instant::now();
     let mut sim = Simulation::new(sc, &[])?;
     if let Relax::Scaled(k) = relax {

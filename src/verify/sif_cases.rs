@@ -16,9 +16,7 @@
 //! boundary (as `sneddon` does for the area), and the corrected error is checked.
 
 use super::{CaseResult, Row};
-use crate::scenario::{
-    Boundary, Damping, End, FractureSpec, Material, MeshSpec, PreFracture, SideBc, SolidScheme,
-};
+use crate::scenario::{Boundary, Damping, End, Material, MeshSpec, SideBc, SolidScheme};
 use crate::sim::{Finish, Simulation};
 use crate::verify::solid_cases::scenario;
 use std::f64::consts::PI;
@@ -93,23 +91,14 @@ pub fn crack_sif(a: f64, h: f64, r: f64, angle: f64, load: CrackLoad) -> anyhow:
         Damping::Local(0.8),
     );
     sc.time.solid_scheme = SolidScheme::QuasiStatic;
-    sc.fracture = Some(FractureSpec {
-        strength: None,
-        criterion: None,
-        face_stress: Default::default(),
-        residual_aperture: 5e-4,
-        preexisting: vec![PreFracture {
-            from: [-c, -s],
-            to: [c, s],
-        }],
-        pressure: match load {
+    sc.fracture = Some(super::fracture_cases::crack_spec(
+        [-c, -s],
+        [c, s],
+        match load {
             CrackLoad::Pressure(p) => Some(p),
             CrackLoad::TensionY(_) => None,
         },
-        friction_deg: 30.0,
-        normal_stiffness: None,
-        shear_stiffness: None,
-    });
+    ));
     let t0 = Instant::now();
     let mut sim = Simulation::new(sc, &[])?;
     let finish = sim.run(|_| {})?;
