@@ -127,8 +127,11 @@ pub struct StrengthScreen {
     version: Vec<u32>,
     /// Stress change per metre of displacement change, Pa/m: (2 lambda + 3 G) max S_e.
     rate: f64,
-    /// Faces to evaluate at the next pass whatever their bound (marks taken back).
+    /// Faces to evaluate at the next pass whatever their bound (marks taken back, faces near
+    /// a tip), and the scratch of the pass (due faces, per-region displacement change).
     recheck: Vec<u32>,
+    todo: Vec<u32>,
+    du: Vec<f64>,
 }
 
 impl StrengthScreen {
@@ -291,7 +294,9 @@ pub fn fracture_criterion(
     }
     // Each region's largest displacement change since the last pass.
     let n_regions = sc.acc.len();
-    let mut du = vec![0.0f64; n_regions];
+    let mut du = std::mem::take(&mut sc.du);
+    du.clear();
+    du.resize(n_regions, 0.0);
     for &(a, b, r) in &sc.runs {
         let (a, b) = (a as usize, b as usize);
         let (now, before) = (v.u[a..b].as_flattened(), sc.u_ref[a..b].as_flattened());
@@ -308,8 +313,12 @@ pub fn fracture_criterion(
         sc.acc_before[r] = sc.acc[r];
         sc.acc[r] += du[r];
     }
-    // The faces due in any of their regions (each once), and the marks taken back.
-    let mut todo: Vec<u32> = std::mem::take(&mut sc.recheck);
+    sc.du = du;
+    // The faces due in any of their regions (each once), and the marks taken back (the two
+    // lists swap, so neither allocates once grown).
+    let mut todo = std::mem::take(&mut sc.todo);
+    todo.clear();
+    std::mem::swap(&mut todo, &mut sc.recheck);
     for r in 0..n_regions {
         let now = if stress_lags {
             sc.acc_before[r]
@@ -331,7 +340,7 @@ pub fn fracture_criterion(
     todo.sort_unstable();
     todo.dedup();
     let mut evaluated = 0;
-    for k in todo {
+    for &k in &todo {
         let ku = k as usize;
         if v.edge_ready[ku] {
             continue;
@@ -351,6 +360,7 @@ pub fn fracture_criterion(
             sc.wait(k, strength - sn, stress_lags);
         }
     }
+    sc.todo = todo;
     counts.evaluated += evaluated;
     counts.screened += (v.edge_nodes.len() as u64).saturating_sub(evaluated);
     counts.ready
