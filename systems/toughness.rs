@@ -68,8 +68,6 @@ pub struct TipGeometry {
     /// lower face's node; upper = left of `dir`).
     pub joint: usize,
     pub behind: [u32; 2],
-    /// The upper face is the joint's face q.
-    q_upper: bool,
     /// Unit direction of the fracture at the tip (reference geometry) and its left normal.
     pub dir: [f64; 2],
     pub left: [f64; 2],
@@ -382,8 +380,7 @@ impl Tips {
         }
         edges_at.sort_unstable();
         let mut geometry = Vec::new();
-        for (g, group) in shared.chunk_by(|a, b| a.0 == b.0).enumerate() {
-            let _ = g;
+        for group in shared.chunk_by(|a, b| a.0 == b.0) {
             let [(node, joint, pair)] = group[..] else {
                 continue;
             };
@@ -557,7 +554,6 @@ impl Tips {
                 node,
                 joint,
                 behind,
-                q_upper,
                 dir,
                 left,
                 b,
