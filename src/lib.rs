@@ -28,6 +28,7 @@ pub mod output;
 pub mod params;
 pub mod plot;
 pub mod reference;
+pub mod reservoir;
 pub mod resources;
 pub mod scenario;
 pub mod schedule;

@@ -36,6 +36,7 @@ const LAYERS: &[(&str, u8)] = &[
     ("params", 3),
     ("flow", 3),
     ("output", 3),
+    ("reservoir", 3),
     // 4: the systems of the step.
     ("systems", 4),
     // 5: the simulation.

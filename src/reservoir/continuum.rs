@@ -1,0 +1,1 @@
+//! Continuum heat model (in progress).

@@ -1,0 +1,1 @@
+//! Discrete heat model (in progress).

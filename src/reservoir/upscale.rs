@@ -1,0 +1,1 @@
+//! Upscaling (in progress).
