@@ -14,6 +14,7 @@
 
 pub mod continuum;
 pub mod discrete;
+pub mod production;
 pub mod upscale;
 
 use serde::{Deserialize, Serialize};

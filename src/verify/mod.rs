@@ -11,6 +11,7 @@ pub mod flow_cases;
 pub mod fracture_cases;
 pub mod sif_cases;
 pub mod solid_cases;
+pub mod upscale_cases;
 
 use crate::plot::{Series, loglog};
 use std::io::Write;
@@ -192,6 +193,11 @@ pub fn cases() -> Vec<Case> {
             name: "example1",
             about: "the seed's Example I, cross and offset, explicit and quasi-static side by side: Fig. 7's outcome, the same cells, creation times and injected volume",
             run: example_cases::example1,
+        },
+        Case {
+            name: "oda",
+            about: "upscaling: Oda's crack tensor and the flow-based permeameter on parallel fractures (b^3/(12 s), round-off) and on sparse random networks (Oda bounds the flow from above)",
+            run: upscale_cases::oda_case,
         },
         Case {
             name: "friction",
