@@ -64,7 +64,19 @@ fn energy_and_mass_balance() {
         assert_eq!(n, run.steps + 1);
         assert_eq!(run.thermal_power.len(), n);
         assert_eq!(run.cumulative_heat.len(), n);
+        assert_eq!(run.factorisations, 1, "the heat matrix is factorised once");
     }
+    // A shortened last step: one more factorisation, the balance still closes.
+    let mut spec = doublet_spec(21, 1e-3, 1.0);
+    spec.end_time += 0.5 * spec.dt;
+    let run = run_continuum(&spec).unwrap();
+    assert_eq!((run.steps, run.factorisations), (13, 2));
+    assert_eq!(*run.times.last().unwrap(), spec.end_time);
+    assert!(
+        run.energy_balance < 1e-9,
+        "energy balance {:.3e}",
+        run.energy_balance
+    );
 }
 
 fn field_of(e: ReservoirError) -> String {
@@ -226,9 +238,13 @@ fn large_run_timing() {
     spec.wells[0].position[0] = 500.0;
     spec.wells[1].position[0] = 1500.0;
     let t0 = std::time::Instant::now();
+    darcy_flow(&spec).unwrap();
+    let darcy = t0.elapsed().as_secs_f64();
+    let t0 = std::time::Instant::now();
     let run = run_continuum(&spec).unwrap();
     let wall = t0.elapsed().as_secs_f64();
     let tp = &run.production_temperature;
+    println!("pressure solve alone: {darcy:.3} s");
     println!(
         "200 x 200 blocks, {} steps: {wall:.2} s; production temperature {:.2} -> {:.2} K; \
          energy balance {:.2e}, mass balance {:.2e}",
