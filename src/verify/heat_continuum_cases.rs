@@ -240,9 +240,9 @@ pub fn heat_continuum(quick: bool) -> anyhow::Result<CaseResult> {
     let max_errors = res.errors("front max |dT|/dT0");
     let finest = max_errors.last().map_or(f64::NAN, |e| e.1);
     // Upwind and backward Euler add v_T dx / 2 + v_T^2 dt / 2 to D_T: at the finest level
-    // (quick: 200 blocks, Peclet 0.1) that is 3.75 % (quick 7.5 %) of D_T, a profile error of
-    // a few tenths of a percent to one percent.
-    let tol = if quick { 0.02 } else { 0.01 };
+    // (800 blocks, grid Peclet 0.05; quick: 200 blocks, Peclet 0.2) that is 3.75 % (quick 15 %)
+    // of D_T, measured as 0.5 % (quick 1.9 %) of the step in the profile.
+    let tol = if quick { 0.03 } else { 0.01 };
     res.check_max("front max error at the finest level", finest, tol);
     res.check_range(
         "front observed order (upwind, backward Euler: 1)",
