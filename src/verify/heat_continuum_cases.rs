@@ -145,8 +145,9 @@ pub fn front_errors(spec: &ContinuumSpec, run: &ContinuumRun) -> (f64, f64) {
     (max, (sq / n as f64).sqrt())
 }
 
-/// A doublet in a uniform field: `n x n` blocks (n odd) of 10 m, injector and producer
-/// 200 m apart on the middle row at `rate` (m^2/s), closed edges, monthly steps for `years`.
+/// A doublet in a uniform field: `n x n` blocks of 10 m (n > 20 so that the wells are inside;
+/// odd for a middle row), injector and producer 200 m apart on the middle row at `rate`
+/// (m^2/s), closed edges, monthly steps for `years`.
 pub fn doublet_spec(n: usize, rate: f64, years: f64) -> ContinuumSpec {
     let h = 10.0;
     let size = n as f64 * h;
