@@ -442,8 +442,8 @@ impl ContinuumSpec {
     }
 }
 
-/// A flow or heat connection of a block to an edge: (block, transmissibility m^2/(Pa s),
-/// conductance W/(m K), pressure Pa, temperature K).
+/// The connection of an edge block to a held edge: transmissibility m^2/(Pa s), conductance
+/// W/K per metre, the edge's pressure (Pa) and temperature (K).
 struct EdgeLink {
     block: usize,
     trans: f64,
@@ -452,8 +452,8 @@ struct EdgeLink {
     temperature: f64,
 }
 
-/// Interior faces (a, b, transmissibility, conductance, face length, velocity slot): x faces
-/// first (a left of b), then y faces (a below b).
+/// Interior faces (a, b, transmissibility m^2/(Pa s), conductance W/K per metre, face length
+/// m): x faces first (a left of b), then y faces (a below b).
 struct Faces {
     list: Vec<(usize, usize, f64, f64, f64)>,
     /// Number of x faces in `list`.
@@ -489,7 +489,8 @@ fn interior_faces(spec: &ContinuumSpec, lambda: f64) -> Faces {
     Faces { list, nx_faces }
 }
 
-/// Edge links of the held edges, with the x/y face slot each one's velocity goes to.
+/// Edge links of the held edges, each with: on an x face, the face slot its velocity goes to,
+/// and the factor from inflow (m^2/s) to the +axis Darcy velocity (m/s).
 fn edge_links(spec: &ContinuumSpec, lambda: f64) -> Vec<(EdgeLink, bool, usize, f64)> {
     let g = &spec.grid;
     let (nx, ny) = (g.n[0], g.n[1]);
