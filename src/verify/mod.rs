@@ -3,12 +3,14 @@
 //!
 //! Cases: solid (`docs/verification.md` R1-R4) `patch`, `insitu`, `mms`, `stability`; flow
 //! `cubic_law`, `diffusion`, `mass_balance`, `pump_curve`, `steady`, `flow_stability`; fracture
-//! (R5, R7b, R8) `sneddon`, `sif`, `friction`; coupled (R6) `kgd`; the seed's Example I (R9) `example1`.
+//! (R5, R7b, R8) `sneddon`, `sif`, `friction`; coupled (R6) `kgd`; the seed's Example I (R9) `example1`;
+//! reservoir `heat_continuum`.
 
 pub mod coupled_cases;
 pub mod example_cases;
 pub mod flow_cases;
 pub mod fracture_cases;
+pub mod heat_continuum_cases;
 pub mod sif_cases;
 pub mod solid_cases;
 pub mod upscale_cases;
@@ -203,6 +205,11 @@ pub fn cases() -> Vec<Case> {
             name: "friction",
             about: "block on a joint inclined at psi under gravity: slides at g (sin psi - cos psi tan phi) or sticks",
             run: fracture_cases::friction,
+        },
+        Case {
+            name: "heat_continuum",
+            about: "continuum heat model: 1D thermal front against Ogata-Banks, 100 to 800 blocks (1 % at 800, order 1), energy and mass balance 1e-9; doublet breakthrough and symmetry",
+            run: heat_continuum_cases::heat_continuum,
         },
     ]
 }
