@@ -3,12 +3,14 @@
 //!
 //! Cases: solid (`docs/verification.md` R1-R4) `patch`, `insitu`, `mms`, `stability`; flow
 //! `cubic_law`, `diffusion`, `mass_balance`, `pump_curve`, `steady`, `flow_stability`; fracture
-//! (R5, R7b, R8) `sneddon`, `sif`, `friction`; coupled (R6) `kgd`; the seed's Example I (R9) `example1`.
+//! (R5, R7b, R8) `sneddon`, `sif`, `friction`; coupled (R6) `kgd`; the seed's Example I (R9) `example1`;
+//! discrete heat (references 15, 16) `lauwerier`, `gringarten`.
 
 pub mod coupled_cases;
 pub mod example_cases;
 pub mod flow_cases;
 pub mod fracture_cases;
+pub mod heat_discrete_cases;
 pub mod sif_cases;
 pub mod solid_cases;
 
@@ -197,6 +199,16 @@ pub fn cases() -> Vec<Case> {
             name: "friction",
             about: "block on a joint inclined at psi under gravity: slides at g (sin psi - cos psi tan phi) or sticks",
             run: fracture_cases::friction,
+        },
+        Case {
+            name: "lauwerier",
+            about: "discrete heat model, one fracture in conducting rock against Lauwerier's outlet temperature, 4 levels (2 % at the finest), energy balance 1e-9",
+            run: heat_discrete_cases::lauwerier_case,
+        },
+        Case {
+            name: "gringarten",
+            about: "discrete heat model, parallel fractures 5 m apart against Gringarten-Witherspoon-Ohnishi (Stehfest), 4 levels (2 %), Lauwerier and local-equilibrium limits",
+            run: heat_discrete_cases::gringarten_case,
         },
     ]
 }
