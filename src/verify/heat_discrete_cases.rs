@@ -413,3 +413,106 @@ pub fn gringarten_case(quick: bool) -> anyhow::Result<CaseResult> {
     ));
     Ok(res)
 }
+
+/// A test network with a real steady flow: the bonds of an `m x m` lattice of nodes spanning
+/// `[0, size]^2` (m), interior nodes jittered by up to 30 % of the spacing (so the cells are
+/// oblique), 2 m (m - 1) cells of log-uniform aperture 0.05-0.5 mm (seeded); every two cells at
+/// a node exchange fluid (cubic-law pair transmissibility, water at 150 C); the horizontal
+/// cells at x = 0 are connected (half a cell) to a reservoir at 1 MPa, those at x = size to
+/// one at 0 Pa; the pressures by `flow::steady::solve_steady`. About 2000 cells for m = 32.
+pub fn lattice_network(m: usize, size: f64, seed: u64) -> anyhow::Result<NetworkFlow> {
+    use crate::flow::steady::{SteadyProblem, solve_steady};
+    use crate::flow::{half_cell_kappa, pair_kappa};
+    use rand::{RngExt, SeedableRng};
+    let mu = ThermalProps::granite_water().fluid_viscosity;
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let h = size / (m - 1) as f64;
+    let mut f = NetworkFlow::default();
+    for j in 0..m {
+        for i in 0..m {
+            let mut p = [i as f64 * h, j as f64 * h];
+            if i > 0 && i + 1 < m {
+                p[0] += rng.random_range(-0.3..0.3) * h;
+            }
+            if j > 0 && j + 1 < m {
+                p[1] += rng.random_range(-0.3..0.3) * h;
+            }
+            f.nodes.push(p);
+        }
+    }
+    let node = |i: usize, j: usize| (i + m * j) as u32;
+    let mut at_node: Vec<Vec<u32>> = vec![Vec::new(); m * m];
+    let (mut west, mut east) = (Vec::new(), Vec::new());
+    for j in 0..m {
+        for i in 0..m {
+            for (di, dj) in [(1, 0), (0, 1)] {
+                let (i2, j2) = (i + di, j + dj);
+                if i2 >= m || j2 >= m {
+                    continue;
+                }
+                let c = f.cells.len() as u32;
+                let a = 5e-5 * 10f64.powf(rng.random::<f64>());
+                f.cells.push((node(i, j), node(i2, j2), a));
+                at_node[node(i, j) as usize].push(c);
+                at_node[node(i2, j2) as usize].push(c);
+                if dj == 0 && i == 0 {
+                    west.push(c);
+                }
+                if dj == 0 && i2 == m - 1 {
+                    east.push(c);
+                }
+            }
+        }
+    }
+    let len: Vec<f64> = (0..f.cells.len()).map(|c| f.cell_length(c)).collect();
+    let ap = |c: u32| f.cells[c as usize].2;
+    let mut pairs = Vec::new();
+    for cells in &at_node {
+        for (k, &a) in cells.iter().enumerate() {
+            for &b in &cells[k + 1..] {
+                let kap = pair_kappa(len[a as usize], ap(a), len[b as usize], ap(b), mu);
+                pairs.push((a, b, kap));
+            }
+        }
+    }
+    let mut dirichlet = Vec::new();
+    for &c in &west {
+        dirichlet.push((c, half_cell_kappa(len[c as usize], ap(c), mu), 1.0e6));
+    }
+    for &c in &east {
+        dirichlet.push((c, half_cell_kappa(len[c as usize], ap(c), mu), 0.0));
+    }
+    let sol = solve_steady(&SteadyProblem {
+        n_cells: f.cells.len(),
+        pairs: &pairs,
+        dirichlet: &dirichlet,
+        sources: &[],
+    })?;
+    for &(a, b, kap) in &pairs {
+        f.fluxes
+            .push((a, b, kap * (sol.pressure[a as usize] - sol.pressure[b as usize])));
+    }
+    for (&(c, _, _), &q) in dirichlet.iter().zip(&sol.dirichlet_flow) {
+        f.boundary.push((c, q));
+    }
+    Ok(f)
+}
+
+/// The ~2000-cell, 100 m, 30-year run of the benchmark: [`lattice_network`] (m = 32) in a
+/// 100 x 100 grid of 1 m blocks, monthly steps, yearly snapshots.
+pub fn thirty_year_spec() -> DiscreteSpec {
+    let year = 365.25 * 86400.0;
+    DiscreteSpec {
+        grid: RockGrid::from_grid2(&crate::reservoir::Grid2 {
+            origin: [0.0, 0.0],
+            size: [100.0, 100.0],
+            n: [100, 100],
+        }),
+        props: ThermalProps::granite_water(),
+        initial_temperature: T0,
+        injection_temperature: T_INJ,
+        end_time: 30.0 * year,
+        time_step: TimeStep::Fixed { dt: year / 12.0 },
+        output_times: (1..=30).map(|k| k as f64 * year).collect(),
+    }
+}
