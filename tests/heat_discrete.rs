@@ -34,7 +34,7 @@ fn lauwerier_level_2() {
 }
 
 fn small_network_spec() -> (DiscreteSpec, NetworkFlow) {
-    let flow = lattice_network(8, 20.0, 7).unwrap();
+    let flow = lattice_network(8, 20.0, 1e5, 7).unwrap();
     let mut sp = spec(&[], 0.0, 20.0, &level(0), 3.0e7);
     sp.grid = RockGrid::from_grid2(&hydrofrac::reservoir::Grid2 {
         origin: [-1.0, -1.0],
@@ -64,8 +64,18 @@ fn energy_balance_from_outputs() {
         .map(|(c, t)| c * (t - T0))
         .sum();
     let rwcw = sp.props.fluid_rho_c();
-    let q_in: f64 = flow.boundary.iter().filter(|b| b.1 > 0.0).map(|b| b.1).sum();
-    let q_out: f64 = -flow.boundary.iter().filter(|b| b.1 < 0.0).map(|b| b.1).sum::<f64>();
+    let q_in: f64 = flow
+        .boundary
+        .iter()
+        .filter(|b| b.1 > 0.0)
+        .map(|b| b.1)
+        .sum();
+    let q_out: f64 = -flow
+        .boundary
+        .iter()
+        .filter(|b| b.1 < 0.0)
+        .map(|b| b.1)
+        .sum::<f64>();
     let injected = rwcw * q_in * (T_INJ - T0) * sp.end_time;
     let mut produced = 0.0;
     let mut t_prev = 0.0;
@@ -104,16 +114,16 @@ fn stehfest_pairs() {
             let f = stehfest(|s| (-a * s.sqrt()).exp() / s, t, 14);
             let exact = erfc(a / (2.0 * f64::sqrt(t)));
             worst = worst.max((f - exact).abs());
-            assert!(
-                (f - exact).abs() <= 1e-4,
-                "a {a}, t {t}: {f} vs {exact}"
-            );
+            assert!((f - exact).abs() <= 1e-4, "a {a}, t {t}: {f} vs {exact}");
         }
     }
     eprintln!("Stehfest erfc pair: worst {worst:.2e}");
     for &t in &[0.1, 1.0, 3.0] {
         let f = stehfest(|s| 1.0 / (s + 1.0), t, 14);
-        eprintln!("Stehfest exp pair t {t}: error {:.2e}", (f - (-t as f64).exp()).abs());
+        eprintln!(
+            "Stehfest exp pair t {t}: error {:.2e}",
+            (f - (-t as f64).exp()).abs()
+        );
         assert!((f - (-t as f64).exp()).abs() <= 1e-4, "t {t}: {f}");
     }
 }
@@ -180,10 +190,16 @@ fn bad_inputs_are_named() {
     let (sp, flow) = small_network_spec();
     let mut s = sp.clone();
     s.initial_temperature = f64::NAN;
-    assert_eq!(invalid_field(run_discrete(&s, &flow)), "initial_temperature");
+    assert_eq!(
+        invalid_field(run_discrete(&s, &flow)),
+        "initial_temperature"
+    );
     let mut s = sp.clone();
     s.injection_temperature = -1.0;
-    assert_eq!(invalid_field(run_discrete(&s, &flow)), "injection_temperature");
+    assert_eq!(
+        invalid_field(run_discrete(&s, &flow)),
+        "injection_temperature"
+    );
     let mut s = sp.clone();
     s.time_step = TimeStep::Fixed { dt: -1.0 };
     assert_eq!(invalid_field(run_discrete(&s, &flow)), "time_step.dt");

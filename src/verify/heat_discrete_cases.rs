@@ -418,9 +418,9 @@ pub fn gringarten_case(quick: bool) -> anyhow::Result<CaseResult> {
 /// `[0, size]^2` (m), interior nodes jittered by up to 30 % of the spacing (so the cells are
 /// oblique), 2 m (m - 1) cells of log-uniform aperture 0.05-0.5 mm (seeded); every two cells at
 /// a node exchange fluid (cubic-law pair transmissibility, water at 150 C); the horizontal
-/// cells at x = 0 are connected (half a cell) to a reservoir at 1 MPa, those at x = size to
-/// one at 0 Pa; the pressures by `flow::steady::solve_steady`. About 2000 cells for m = 32.
-pub fn lattice_network(m: usize, size: f64, seed: u64) -> anyhow::Result<NetworkFlow> {
+/// cells at x = 0 are connected (half a cell) to a reservoir at `dp` (Pa), those at x = size
+/// to one at 0 Pa; the pressures by `flow::steady::solve_steady`. About 2000 cells for m = 32.
+pub fn lattice_network(m: usize, size: f64, dp: f64, seed: u64) -> anyhow::Result<NetworkFlow> {
     use crate::flow::steady::{SteadyProblem, solve_steady};
     use crate::flow::{half_cell_kappa, pair_kappa};
     use rand::{RngExt, SeedableRng};
@@ -477,7 +477,7 @@ pub fn lattice_network(m: usize, size: f64, seed: u64) -> anyhow::Result<Network
     }
     let mut dirichlet = Vec::new();
     for &c in &west {
-        dirichlet.push((c, half_cell_kappa(len[c as usize], ap(c), mu), 1.0e6));
+        dirichlet.push((c, half_cell_kappa(len[c as usize], ap(c), mu), dp));
     }
     for &c in &east {
         dirichlet.push((c, half_cell_kappa(len[c as usize], ap(c), mu), 0.0));
@@ -489,8 +489,11 @@ pub fn lattice_network(m: usize, size: f64, seed: u64) -> anyhow::Result<Network
         sources: &[],
     })?;
     for &(a, b, kap) in &pairs {
-        f.fluxes
-            .push((a, b, kap * (sol.pressure[a as usize] - sol.pressure[b as usize])));
+        f.fluxes.push((
+            a,
+            b,
+            kap * (sol.pressure[a as usize] - sol.pressure[b as usize]),
+        ));
     }
     for (&(c, _, _), &q) in dirichlet.iter().zip(&sol.dirichlet_flow) {
         f.boundary.push((c, q));
@@ -498,8 +501,8 @@ pub fn lattice_network(m: usize, size: f64, seed: u64) -> anyhow::Result<Network
     Ok(f)
 }
 
-/// The ~2000-cell, 100 m, 30-year run of the benchmark: [`lattice_network`] (m = 32) in a
-/// 100 x 100 grid of 1 m blocks, monthly steps, yearly snapshots.
+/// The ~2000-cell, 100 m, 30-year run of the benchmark: [`lattice_network`] (m = 32, 10 kPa
+/// across 100 m) in a 100 x 100 grid of 1 m blocks, monthly steps, yearly snapshots.
 pub fn thirty_year_spec() -> DiscreteSpec {
     let year = 365.25 * 86400.0;
     DiscreteSpec {
