@@ -18,7 +18,7 @@ use hydrofrac::verify::heat_discrete_cases::{
 #[test]
 fn lauwerier_level_2() {
     let p = ThermalProps::granite_water();
-    let (run, _, err) = compare(&[0.0], -20.0, 20.0, &level(2), &|t| {
+    let (run, _, err) = compare(&[0.0], 0.0, -20.0, 20.0, &level(2), &|t| {
         lauwerier(LEN, t, FLOW, APERTURE, &p)
     })
     .unwrap();
@@ -35,7 +35,7 @@ fn lauwerier_level_2() {
 
 fn small_network_spec() -> (DiscreteSpec, NetworkFlow) {
     let flow = lattice_network(8, 20.0, 1e5, 7).unwrap();
-    let mut sp = spec(&[], 0.0, 20.0, &level(0), 3.0e7);
+    let mut sp = spec(&[], 0.0, 0.0, 20.0, &level(0), 3.0e7);
     sp.grid = RockGrid::from_grid2(&hydrofrac::reservoir::Grid2 {
         origin: [-1.0, -1.0],
         size: [22.0, 22.0],
@@ -122,9 +122,9 @@ fn stehfest_pairs() {
         let f = stehfest(|s| 1.0 / (s + 1.0), t, 14);
         eprintln!(
             "Stehfest exp pair t {t}: error {:.2e}",
-            (f - (-t as f64).exp()).abs()
+            (f - (-t).exp()).abs()
         );
-        assert!((f - (-t as f64).exp()).abs() <= 1e-4, "t {t}: {f}");
+        assert!((f - (-t).exp()).abs() <= 1e-4, "t {t}: {f}");
     }
 }
 

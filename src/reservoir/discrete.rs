@@ -481,7 +481,7 @@ fn check_flow(flow: &NetworkFlow, grid: &RockGrid) -> Result<(), ReservoirError>
             ));
         }
         let len = flow.cell_length(c);
-        if !(len > 0.0) {
+        if len.is_nan() || len <= 0.0 {
             return Err(ReservoirError::invalid(
                 "flow.cells",
                 format!("cell {c} has zero length"),
@@ -540,7 +540,7 @@ fn check_flow(flow: &NetworkFlow, grid: &RockGrid) -> Result<(), ReservoirError>
         ));
     }
     let imb = flow.mass_imbalance();
-    if !(imb <= MAX_MASS_IMBALANCE) {
+    if imb.is_nan() || imb > MAX_MASS_IMBALANCE {
         return Err(ReservoirError::invalid(
             "flow.fluxes",
             format!(
@@ -925,7 +925,7 @@ impl DiscreteModel {
             relative_error,
         };
         out.factorisations = factorisations;
-        if !(relative_error <= ENERGY_TOLERANCE) {
+        if relative_error.is_nan() || relative_error > ENERGY_TOLERANCE {
             return Err(ReservoirError::Solve {
                 what: "heat_discrete energy balance".into(),
                 why: format!(
