@@ -257,3 +257,115 @@ fn deterministic() {
     assert!(a.times.len() > 10 && a.production_temperature.iter().all(|t| t.is_finite()));
     let _ = T_HALF;
 }
+
+/// Diagnostic (not run by default: `cargo test --release --test heat_discrete -- --ignored
+/// --nocapture`): the Lauwerier problem scaled to a 10 m fracture (q = 1e-5 m^2/s, b = 0.1 mm:
+/// the same theta(t) at the outlet) at 0, 30 and 45 degrees on one uniform 0.2 m grid with 12 m
+/// of rock beyond the ends, to see what the orientation costs. The rock beyond the ends feeds
+/// the outlet (the closed form has none), so the 0-degree run itself is off Lauwerier by up to
+/// 0.1 of the drop: the orientation effect is the difference to the 0-degree run, printed too.
+#[test]
+#[ignore]
+fn oblique_fracture_diagnostic() {
+    let p = ThermalProps::granite_water();
+    let (len, q, b, n) = (10.0, 1e-5, 1e-4, 40);
+    let mut reference: Vec<f64> = Vec::new();
+    for deg in [0.0f64, 30.0, 45.0] {
+        let (c, s) = (deg.to_radians().cos(), deg.to_radians().sin());
+        let mut flow = parallel_fractures(&[0.0], len, n, b, q);
+        for nd in &mut flow.nodes {
+            let x = nd[0];
+            *nd = [x * c, x * s];
+        }
+        let h = 0.2;
+        let margin = 12.0;
+        let axis = |lo: f64, hi: f64| -> Vec<f64> {
+            let k = ((hi - lo) / h).ceil() as usize;
+            (0..=k).map(|i| lo + i as f64 * h + 0.37 * h).collect()
+        };
+        let sp = DiscreteSpec {
+            grid: RockGrid {
+                x: axis(-margin, len * c + margin),
+                y: axis(-margin, len * s + margin),
+            },
+            props: p,
+            initial_temperature: T0,
+            injection_temperature: T_INJ,
+            end_time: 4.0 * T_HALF + 1.0,
+            time_step: TimeStep::Geometric {
+                first: 500.0,
+                growth: 1.05,
+                max: 5e4,
+            },
+            output_times: [0.25, 0.5, 1.0, 2.0, 4.0]
+                .iter()
+                .map(|f| f * T_HALF)
+                .collect(),
+        };
+        let t = std::time::Instant::now();
+        let run = run_discrete(&sp, &flow).unwrap();
+        let th: Vec<f64> = run
+            .snapshots
+            .iter()
+            .map(|sn| {
+                let k = run.times.iter().position(|&t| t == sn.time).unwrap();
+                (run.production_temperature[k] - T0) / (T_INJ - T0)
+            })
+            .collect();
+        if reference.is_empty() {
+            reference = th.clone();
+        }
+        let errs: Vec<String> = run
+            .snapshots
+            .iter()
+            .zip(&th)
+            .zip(&reference)
+            .map(|((sn, t), r)| {
+                format!(
+                    "{:+.4} ({:+.4})",
+                    t - lauwerier(len, sn.time, q, b, &p),
+                    t - r
+                )
+            })
+            .collect();
+        eprintln!(
+            "{deg} degrees: theta - Lauwerier (theta - theta at 0 degrees) at 0.25-4 t_half: {} ({} unknowns, {:.1} s)",
+            errs.join(", "),
+            run.unknowns,
+            t.elapsed().as_secs_f64()
+        );
+    }
+}
+
+/// The graded grid has edges exactly on its lines, spacing h_min next to them, growth at most
+/// `growth` (up to the rescaling that fills a segment), h_max at most, and covers the box.
+#[test]
+fn graded_grid() {
+    let g = RockGrid::graded(
+        [0.0, -7.5],
+        [10.0, 7.5],
+        &[],
+        &[-5.0, 0.0, 5.0],
+        0.1,
+        1.2,
+        1.0,
+    )
+    .unwrap();
+    assert_eq!(g.x.len(), 11, "{:?}", g.x);
+    assert_eq!((g.y[0], *g.y.last().unwrap()), (-7.5, 7.5));
+    for line in [-5.0, 0.0, 5.0] {
+        let k =
+            g.y.iter()
+                .position(|&y| y == line)
+                .expect("edge on the line");
+        for h in [g.y[k + 1] - g.y[k], g.y[k] - g.y[k - 1]] {
+            assert!((0.08..=0.1 + 1e-12).contains(&h), "spacing {h} at {line}");
+        }
+    }
+    for w in g.y.windows(3) {
+        let (a, b) = (w[1] - w[0], w[2] - w[1]);
+        assert!(a > 0.0 && b > 0.0 && a <= 1.0 + 1e-12 && b <= 1.0 + 1e-12);
+        assert!(b / a <= 1.2 * 1.25 && a / b <= 1.2 * 1.25, "{a} {b}");
+    }
+    assert!(RockGrid::graded([0.0, 0.0], [1.0, 1.0], &[2.0], &[], 0.1, 1.2, 1.0).is_err());
+}
