@@ -369,3 +369,45 @@ fn graded_grid() {
     }
     assert!(RockGrid::graded([0.0, 0.0], [1.0, 1.0], &[2.0], &[], 0.1, 1.2, 1.0).is_err());
 }
+
+/// Diagnostic (ignored by default): which resolution the `lauwerier` error comes from. The
+/// finest level with, in turn, the cells along the fracture, the rock spacing and the time
+/// steps of the coarsest level.
+#[test]
+#[ignore]
+fn lauwerier_error_attribution() {
+    let p = ThermalProps::granite_water();
+    let exact = |t: f64| lauwerier(LEN, t, FLOW, APERTURE, &p);
+    let (fine, coarse) = (level(3), level(0));
+    let variants = [
+        ("finest", fine),
+        (
+            "coarse cells along the fracture",
+            hydrofrac::verify::heat_discrete_cases::Level {
+                n: coarse.n,
+                ..fine
+            },
+        ),
+        (
+            "coarse rock spacing",
+            hydrofrac::verify::heat_discrete_cases::Level {
+                h_min: coarse.h_min,
+                growth: coarse.growth,
+                ..fine
+            },
+        ),
+        (
+            "coarse steps",
+            hydrofrac::verify::heat_discrete_cases::Level {
+                dt0: coarse.dt0,
+                dt_growth: coarse.dt_growth,
+                dt_max: coarse.dt_max,
+                ..fine
+            },
+        ),
+    ];
+    for (what, lv) in variants {
+        let (_, wall, err) = compare(&[0.0], 0.0, -20.0, 20.0, &lv, &exact).unwrap();
+        eprintln!("{what}: outlet error {err:.3e} ({wall:.2} s)");
+    }
+}
