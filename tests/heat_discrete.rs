@@ -246,6 +246,10 @@ fn deterministic() {
     let a = run_discrete(&sp, &flow).unwrap();
     let b = run_discrete(&sp, &flow).unwrap();
     assert_eq!(a, b);
+    // One model run twice: each run starts afresh.
+    let mut model = DiscreteModel::new(&sp, &flow).unwrap();
+    assert_eq!(model.run().unwrap(), a);
+    assert_eq!(model.run().unwrap(), a);
     for threads in [1, 2] {
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(threads)

@@ -353,6 +353,7 @@ pub type Exchange = (usize, usize, f64);
 
 /// The assembled model: geometry, conductances and the matrix pattern.
 pub struct DiscreteModel {
+    spec: DiscreteSpec,
     n_cells: usize,
     n_blocks: usize,
     /// Heat capacity per unknown, J/(m K).
@@ -757,6 +758,7 @@ impl DiscreteModel {
             why: "out of memory allocating the LU workspace".into(),
         })?;
         Ok(DiscreteModel {
+            spec: spec.clone(),
             n_cells: nc,
             n_blocks: nb,
             cap,
@@ -786,8 +788,16 @@ impl DiscreteModel {
         &self.cap
     }
 
-    /// Runs the model from the uniform initial temperature to the end time.
-    pub fn run(&mut self, spec: &DiscreteSpec) -> Result<DiscreteRun, ReservoirError> {
+    /// The spec the model was built from.
+    pub fn spec(&self) -> &DiscreteSpec {
+        &self.spec
+    }
+
+    /// Runs the model from the uniform initial temperature to the end time (each call starts
+    /// afresh from the initial state).
+    pub fn run(&mut self) -> Result<DiscreteRun, ReservoirError> {
+        let spec = self.spec.clone();
+        let spec = &spec;
         let span = tracing::info_span!(target: "hydrofrac::system", "heat_discrete");
         let n = self.unknowns();
         let nc = self.n_cells;
@@ -942,5 +952,5 @@ pub fn run_discrete(
     spec: &DiscreteSpec,
     flow: &NetworkFlow,
 ) -> Result<DiscreteRun, ReservoirError> {
-    DiscreteModel::new(spec, flow)?.run(spec)
+    DiscreteModel::new(spec, flow)?.run()
 }
