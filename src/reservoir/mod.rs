@@ -41,7 +41,10 @@ impl Grid2 {
     }
     /// Block size, m.
     pub fn dx(&self) -> [f64; 2] {
-        [self.size[0] / self.n[0] as f64, self.size[1] / self.n[1] as f64]
+        [
+            self.size[0] / self.n[0] as f64,
+            self.size[1] / self.n[1] as f64,
+        ]
     }
     pub fn index(&self, i: usize, j: usize) -> usize {
         i + self.n[0] * j

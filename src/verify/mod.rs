@@ -3,14 +3,16 @@
 //!
 //! Cases: solid (`docs/verification.md` R1-R4) `patch`, `insitu`, `mms`, `stability`; flow
 //! `cubic_law`, `diffusion`, `mass_balance`, `pump_curve`, `steady`, `flow_stability`; fracture
-//! (R5, R7b, R8) `sneddon`, `sif`, `friction`; coupled (R6) `kgd`; the seed's Example I (R9) `example1`;
-//! reservoir `heat_continuum`.
+//! (R5, R7b, R8) `sneddon`, `sif`, `friction`; coupled (R6) `kgd`, `kgd_k`, `kgd_mk`; the seed's
+//! Example I (R9) `example1`; reservoir: upscaling `oda`, continuum heat (R17)
+//! `heat_continuum`, discrete heat (R15, R16) `lauwerier`, `gringarten`.
 
 pub mod coupled_cases;
 pub mod example_cases;
 pub mod flow_cases;
 pub mod fracture_cases;
 pub mod heat_continuum_cases;
+pub mod heat_discrete_cases;
 pub mod sif_cases;
 pub mod solid_cases;
 pub mod upscale_cases;
@@ -210,6 +212,16 @@ pub fn cases() -> Vec<Case> {
             name: "heat_continuum",
             about: "continuum heat model: 1D thermal front against Ogata-Banks, 100 to 800 blocks (1 % at 800, order 1), energy and mass balance 1e-9; doublet breakthrough and symmetry",
             run: heat_continuum_cases::heat_continuum,
+        },
+        Case {
+            name: "lauwerier",
+            about: "discrete heat model, one fracture in conducting rock against Lauwerier's outlet temperature, 4 levels (2 % at the finest), energy balance 1e-9",
+            run: heat_discrete_cases::lauwerier_case,
+        },
+        Case {
+            name: "gringarten",
+            about: "discrete heat model, parallel fractures 5 m apart against Gringarten-Witherspoon-Ohnishi (Stehfest), 4 levels (2 %), Lauwerier and local-equilibrium limits",
+            run: heat_discrete_cases::gringarten_case,
         },
     ]
 }
