@@ -44,6 +44,13 @@ pub struct RunReport {
     /// The signal number that stopped the run between steps, if one did (`summary.json`
     /// `status` is then `interrupted`).
     pub interrupted_by: Option<usize>,
+    /// The fracture network (cells, apertures) at the start and at the end of the run, for a
+    /// scene with fractures (the reservoir pipeline's before and after).
+    pub networks: Option<[crate::flow::FlowView; 2]>,
+    /// Bounding box of the rock mesh in reference positions, `[xmin, xmax, ymin, ymax]` m.
+    pub mesh_box: [f64; 4],
+    /// The joints' residual hydraulic aperture, m.
+    pub residual_aperture: f64,
 }
 
 /// The name of a signal number the run may be stopped by: `SIGINT`, `SIGTERM`, else
@@ -90,6 +97,7 @@ pub fn run_scenario(scenario: Scenario, opts: &RunOptions) -> Result<RunReport, 
     scenario.validate()?;
     crate::resources::check(&scenario, limit, source)?;
     let mut sim = Simulation::new(scenario, &opts.disable)?;
+    let start_network = network_now(&sim);
     if let Some(stop) = &opts.stop {
         sim.set_stop(stop.clone());
     }
@@ -275,7 +283,32 @@ pub fn run_scenario(scenario: Scenario, opts: &RunOptions) -> Result<RunReport, 
         summary,
         timing_table,
         interrupted_by: sim.interrupted_by(),
+        networks: start_network.zip(network_now(&sim)).map(|(a, b)| [a, b]),
+        mesh_box: sim.solid().x0.iter().fold(
+            [
+                f64::INFINITY,
+                f64::NEG_INFINITY,
+                f64::INFINITY,
+                f64::NEG_INFINITY,
+            ],
+            |b, p| {
+                [
+                    b[0].min(p[0]),
+                    b[1].max(p[0]),
+                    b[2].min(p[1]),
+                    b[3].max(p[1]),
+                ]
+            },
+        ),
+        residual_aperture: sim.params().residual_aperture,
     })
+}
+
+/// The fracture cells as they are now: the coupled flow's view, else the fractures' view.
+fn network_now(sim: &Simulation) -> Option<crate::flow::FlowView> {
+    sim.flow()
+        .map(|f| f.view.clone())
+        .or_else(|| sim.fracture_view())
 }
 
 /// Open the `--trace` file before the folder is touched: an existing file must be a writable

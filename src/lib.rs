@@ -26,6 +26,7 @@ pub mod model;
 pub mod network;
 pub mod output;
 pub mod params;
+pub mod pipeline;
 pub mod plot;
 pub mod reference;
 pub mod reservoir;

@@ -70,6 +70,22 @@ enum Command {
         #[arg(long)]
         force: bool,
     },
+    /// Stimulation -> production -> upscaling -> heat extraction, before and after, in one
+    /// run (a pipeline file, e.g. scenarios/example1_reservoir.ron).
+    Pipeline {
+        /// Pipeline file (RON)
+        file: PathBuf,
+        /// Output folder [default: out/<pipeline name>] (same rules as `run --out`); the
+        /// stimulation writes into its `stimulation/` folder
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// No progress bar and no stage table
+        #[arg(long)]
+        quiet: bool,
+        /// Write into a non-empty folder that has no hydrofrac-manifest.txt (see `run --force`)
+        #[arg(long)]
+        force: bool,
+    },
     /// List the systems of a step in order.
     Systems,
 }
@@ -228,6 +244,30 @@ fn real_main() -> Result<ExitCode> {
             } else {
                 ExitCode::FAILURE
             })
+        }
+        Command::Pipeline {
+            file,
+            out,
+            quiet,
+            force,
+        } => {
+            let opts = hydrofrac::pipeline::PipelineOptions {
+                out,
+                quiet,
+                force,
+                stop: Some(install_stop_handlers()?),
+            };
+            let report = hydrofrac::pipeline::run_pipeline(&file, &opts)?;
+            if !quiet {
+                let mut o = std::io::stdout().lock();
+                let text = hydrofrac::pipeline::report_text(&report);
+                if let Err(e) = write!(o, "{text}")
+                    && e.kind() != std::io::ErrorKind::BrokenPipe
+                {
+                    return Err(e.into());
+                }
+            }
+            Ok(ExitCode::SUCCESS)
         }
         Command::Systems => {
             let mut out = std::io::stdout().lock();

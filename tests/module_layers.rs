@@ -45,6 +45,7 @@ const LAYERS: &[(&str, u8)] = &[
     ("sim", 5),
     // 6: driver, verification, reference kernels.
     ("driver", 6),
+    ("pipeline", 6),
     ("verify", 6),
     ("reference", 6),
 ];

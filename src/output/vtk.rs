@@ -19,6 +19,8 @@ pub enum CellKind {
     Triangle,
     /// 2-node line segment, VTK type 3.
     Line,
+    /// 4-node quadrilateral (corners in order around it), VTK type 9.
+    Quad,
 }
 
 impl CellKind {
@@ -27,6 +29,7 @@ impl CellKind {
         match self {
             CellKind::Triangle => 3,
             CellKind::Line => 2,
+            CellKind::Quad => 4,
         }
     }
 
@@ -35,6 +38,7 @@ impl CellKind {
         match self {
             CellKind::Triangle => 5,
             CellKind::Line => 3,
+            CellKind::Quad => 9,
         }
     }
 }

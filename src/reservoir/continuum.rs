@@ -104,6 +104,36 @@ pub struct Well {
     /// equivalent radius (about 0.2 dx).
     #[serde(default = "default_radius")]
     pub radius: f64,
+    /// How the well index is computed (default: Peaceman's, anisotropic).
+    #[serde(default)]
+    pub index: WellIndex,
+}
+
+/// The well index of a pressure well.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub enum WellIndex {
+    /// Peaceman's anisotropic index, `2 pi sqrt(k_xx k_yy) / (mu ln(r_o / r_w))`: a well in a
+    /// homogeneous anisotropic block.
+    #[default]
+    Peaceman,
+    /// A well that intersects the block's fractures: the fractures take the flow to it along
+    /// their own direction, so the index is Peaceman's isotropic one with the block's larger
+    /// principal permeability. (With the anisotropic index, a block whose fractures all run one
+    /// way, k_yy at the matrix value, would choke the well by sqrt(k_xx / k_yy).)
+    Fractured,
+}
+
+impl Well {
+    /// The well's index in a block of permeability `k` and size `dx`, m^2/(Pa s) per metre.
+    pub fn index_in(&self, k: [f64; 2], dx: [f64; 2], mu: f64) -> Option<f64> {
+        match self.index {
+            WellIndex::Peaceman => peaceman_index(k, dx, mu, self.radius),
+            WellIndex::Fractured => {
+                let m = k[0].max(k[1]);
+                peaceman_index([m, m], dx, mu, self.radius)
+            }
+        }
+    }
 }
 
 fn default_radius() -> f64 {
@@ -375,7 +405,8 @@ impl ContinuumSpec {
             }
             positive(&f("injection_temperature"), well.injection_temperature)?;
             positive(&f("radius"), well.radius)?;
-            if peaceman_index(self.permeability[b], g.dx(), p.fluid_viscosity, well.radius)
+            if well
+                .index_in(self.permeability[b], g.dx(), p.fluid_viscosity)
                 .is_none()
             {
                 return Err(ReservoirError::invalid(
@@ -576,7 +607,9 @@ fn solve_darcy(
     for w in &spec.wells {
         let (i, j) = g.locate(w.position).expect("validated");
         let b = g.index(i, j);
-        let wi = peaceman_index(spec.permeability[b], g.dx(), mu, w.radius).expect("validated");
+        let wi = w
+            .index_in(spec.permeability[b], g.dx(), mu)
+            .expect("validated");
         well_blocks.push(b);
         well_index.push(wi);
         match w.control {

@@ -264,7 +264,7 @@ fn graded_axis(
 
 /// The time-step rule. Steps are shortened to land on the output times and the end time.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, rename_all = "snake_case")]
+#[serde(deny_unknown_fields)]
 pub enum TimeStep {
     /// Constant step, s.
     Fixed {

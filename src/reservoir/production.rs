@@ -36,7 +36,11 @@ pub struct Production {
 pub fn network_of(cells: &crate::network::CellNetwork) -> NetworkFlow {
     NetworkFlow {
         nodes: cells.nodes.clone(),
-        cells: cells.cells.iter().map(|&(a, b, ap, _)| (a, b, ap)).collect(),
+        cells: cells
+            .cells
+            .iter()
+            .map(|&(a, b, ap, _)| (a, b, ap))
+            .collect(),
         fluxes: Vec::new(),
         boundary: Vec::new(),
     }
@@ -120,13 +124,7 @@ pub fn steady_production(
         let cs = &at[start[n]..start[n + 1]];
         for (x, &i) in cs.iter().enumerate() {
             for &j in &cs[x + 1..] {
-                let k = pair_kappa(
-                    len[i as usize],
-                    ap(i),
-                    len[j as usize],
-                    ap(j),
-                    viscosity,
-                );
+                let k = pair_kappa(len[i as usize], ap(i), len[j as usize], ap(j), viscosity);
                 pairs.push((i.min(j), i.max(j), k));
             }
         }

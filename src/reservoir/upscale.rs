@@ -133,7 +133,10 @@ pub fn flow_based(
             if by_block[b].is_empty() {
                 continue;
             }
-            let lo = [grid.origin[0] + i as f64 * d[0], grid.origin[1] + j as f64 * d[1]];
+            let lo = [
+                grid.origin[0] + i as f64 * d[0],
+                grid.origin[1] + j as f64 * d[1],
+            ];
             let hi = [lo[0] + d[0], lo[1] + d[1]];
             for dir in 0..2 {
                 let pcs: Vec<&Piece> = by_block[b].iter().map(|&k| &all[k]).collect();

@@ -159,6 +159,7 @@ pub fn doublet_spec(n: usize, rate: f64, years: f64) -> ContinuumSpec {
         control: WellControl::Rate(q),
         injection_temperature: T_INJECTION,
         radius: 0.1,
+        index: Default::default(),
     };
     ContinuumSpec {
         grid: Grid2 {

@@ -1,0 +1,1301 @@
+//! `hydrofrac pipeline FILE`: stimulation -> production -> upscaling -> heat extraction, on the
+//! fracture network before and after the stimulation, in one command (`docs/reservoir.md`).
+//!
+//! Stages, each timed (`summary.json` `stages`, and the table printed at the end):
+//! 1. **stimulation**: the stimulation scenario runs as `hydrofrac run` would, into
+//!    `<out>/stimulation/`; its network at the start is "before", at the end "after".
+//! 2. **production**: the steady flow of each network between an injection and a production
+//!    well held at pressures, at each pressure drop, with the apertures at the end of the
+//!    stimulation and with every cell closed to the residual aperture
+//!    (`network_production.csv`, flow maps).
+//! 3. **upscaling**: Oda's tensor and the flow-based permeability of each network on a grid of
+//!    blocks over the stimulated block (`permeability.csv`, `permeability.vtu`, maps).
+//! 4. **heat**: the discrete model on each network and the continuum model on a reservoir
+//!    around the stimulated zones, for the years asked (`heat_*.csv`, `reservoir.csv`, plots).
+//!
+//! SI units: m, Pa, s, K, W, J; rates and powers per metre of thickness.
+
+use crate::driver::{DriverError, RunOptions, RunReport, run_file};
+use crate::flow::FlowView;
+use crate::output::folder::{Folder, FolderError, Plan};
+use crate::reservoir::continuum::{
+    ContinuumRun, ContinuumSpec, Well, WellControl, WellIndex, run_continuum,
+};
+use crate::reservoir::discrete::{DiscreteRun, DiscreteSpec, RockGrid, TimeStep, run_discrete};
+use crate::reservoir::production::{PressureWell, nearest_node, steady_production};
+use crate::reservoir::upscale::{BlockPermeability, upscale};
+use crate::reservoir::{Grid2, NetworkFlow, ReservoirError, ThermalProps};
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// A pipeline file (RON).
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct PipelineSpec {
+    pub name: String,
+    /// The stimulation scenario, relative to this file.
+    pub stimulation: PathBuf,
+    /// `--set PATH=VALUE` overrides applied to the stimulation scenario.
+    #[serde(default)]
+    pub stimulation_set: Vec<String>,
+    pub production: ProductionSpec,
+    /// Apertures of the networks in the production, upscaling and heat stages.
+    #[serde(default)]
+    pub apertures: Apertures,
+    pub upscaling: UpscalingSpec,
+    pub heat: HeatSpec,
+}
+
+/// Which apertures the production, upscaling and heat stages give the fracture cells.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize, Serialize)]
+pub enum Apertures {
+    /// Every cell at the joints' residual aperture: the fractures closed after the pump
+    /// stopped (the default; the stimulation adds connected length, not width).
+    #[default]
+    Residual,
+    /// The hydraulic apertures at the end of the stimulation, with the pump still on (an
+    /// upper bound: the fractures are held open by the injection pressure).
+    EndOfStimulation,
+}
+
+/// The heat-extraction stage: the same wells as the production stage, at one pressure drop.
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct HeatSpec {
+    /// Rock and fluid properties (SI; see [`ThermalProps`]).
+    pub props: ThermalProps,
+    /// Initial temperature of rock and fluid, K.
+    pub initial_temperature: f64,
+    /// Injection temperature, K.
+    pub injection_temperature: f64,
+    /// Pressure drop between the wells, Pa.
+    pub pressure_drop: f64,
+    /// Years to simulate (1 year = 365.25 days).
+    pub years: f64,
+    /// Years at which the table reports temperature and power (default 1, 10, 30).
+    #[serde(default = "default_report_years")]
+    pub report_years: Vec<f64>,
+    /// Breakthrough: the production temperature has fallen by this fraction of
+    /// (initial - injection) (default 0.1).
+    #[serde(default = "default_breakthrough")]
+    pub breakthrough_fraction: f64,
+    /// Years of the temperature field snapshots (default: the report years).
+    #[serde(default)]
+    pub snapshot_years: Option<Vec<f64>>,
+    pub discrete: DiscreteHeatSpec,
+    pub continuum: ContinuumHeatSpec,
+}
+
+fn default_report_years() -> Vec<f64> {
+    vec![1.0, 10.0, 30.0]
+}
+
+fn default_breakthrough() -> f64 {
+    0.1
+}
+
+/// The discrete model's rock grid over the stimulated block: graded towards the wells' lines.
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct DiscreteHeatSpec {
+    /// Smallest block next to the fracture lines through the wells, m.
+    pub h_min: f64,
+    /// Growth of the block size away from them.
+    pub growth: f64,
+    /// Largest block, m.
+    pub h_max: f64,
+    /// Time steps.
+    pub time_step: TimeStep,
+}
+
+/// The continuum reservoir: a rectangle of blocks the size of the upscaling blocks, with the
+/// stimulated block's upscaled permeability placed at `zone_origin` and matrix elsewhere.
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct ContinuumHeatSpec {
+    /// Reservoir extent, m (lower-left corner at 0, 0).
+    pub size: [f64; 2],
+    /// Where the stimulated block's lower-left corner lies in the reservoir, m (on block
+    /// lines).
+    pub zone_origin: [f64; 2],
+    /// Which upscaled permeability the zone gets.
+    #[serde(default)]
+    pub permeability: PermeabilityChoice,
+    /// Time step, s.
+    pub dt: f64,
+    /// Well radius for Peaceman's index, m.
+    #[serde(default = "default_well_radius")]
+    pub well_radius: f64,
+}
+
+fn default_well_radius() -> f64 {
+    0.1
+}
+
+/// The upscaled permeability the continuum model uses.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize, Serialize)]
+pub enum PermeabilityChoice {
+    /// The flow-based permeameter's diagonal (the default: only connected fractures count).
+    #[default]
+    FlowBased,
+    /// Oda's tensor's diagonal (an upper bound).
+    Oda,
+}
+
+/// The wells of the production stage, in the stimulated block's coordinates.
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct ProductionSpec {
+    /// Injection well position, m (connected to the nearest fracture node).
+    pub injection: [f64; 2],
+    /// Production well position, m.
+    pub production: [f64; 2],
+    /// Production well pressure, Pa.
+    pub production_pressure: f64,
+    /// Pressure drops from the injection to the production well, Pa (the seed's Table 1: 9, 12
+    /// and 15 MPa).
+    pub pressure_drops: Vec<f64>,
+    /// Largest distance from a well to the fracture node it connects to, m.
+    pub reach: f64,
+}
+
+/// The grid the networks are upscaled onto.
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct UpscalingSpec {
+    /// Blocks in x and y over the stimulation's mesh (its bounding box).
+    pub blocks: [usize; 2],
+    /// Permeability of the intact rock, m^2 (granite: 1e-19 to 1e-16).
+    pub matrix_permeability: f64,
+    /// Fluid viscosity of the production and upscaling stages, Pa s.
+    pub viscosity: f64,
+}
+
+/// Errors of a pipeline: its file, a stage, or the outputs.
+#[derive(Debug, thiserror::Error)]
+pub enum PipelineError {
+    #[error("cannot read pipeline {}: {source}", .path.display())]
+    Read {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    #[error("{file}:{line}:{col}: {msg}{}", if .field.is_empty() { String::new() } else { format!(" (field `{}`)", .field) })]
+    Syntax {
+        file: String,
+        line: usize,
+        col: usize,
+        field: String,
+        msg: String,
+    },
+    #[error("invalid {field}: {why}")]
+    Invalid { field: String, why: String },
+    #[error("stimulation stage: {0}")]
+    Stimulation(#[from] DriverError),
+    #[error("{stage} stage: {error}")]
+    Reservoir {
+        stage: &'static str,
+        error: ReservoirError,
+    },
+    #[error(transparent)]
+    Folder(#[from] FolderError),
+    #[error("{0}")]
+    Output(std::io::Error),
+}
+
+impl PipelineSpec {
+    /// Read and validate a pipeline file; the stimulation path becomes relative to the
+    /// current folder.
+    pub fn load(path: &Path) -> Result<Self, PipelineError> {
+        let text = std::fs::read_to_string(path).map_err(|source| PipelineError::Read {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        let mut spec = Self::parse(&text, &path.display().to_string())?;
+        if spec.stimulation.is_relative()
+            && let Some(dir) = path.parent()
+        {
+            spec.stimulation = dir.join(&spec.stimulation);
+        }
+        spec.validate()?;
+        Ok(spec)
+    }
+
+    pub fn parse(text: &str, file: &str) -> Result<Self, PipelineError> {
+        let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+        let syntax = |e: ron::error::SpannedError, field: String| PipelineError::Syntax {
+            file: file.to_string(),
+            line: e.span.start.line,
+            col: e.span.start.col,
+            field,
+            msg: e.code.to_string(),
+        };
+        let mut de = ron::Deserializer::from_str(text).map_err(|e| syntax(e, String::new()))?;
+        let spec: PipelineSpec = match serde_path_to_error::deserialize(&mut de) {
+            Ok(s) => s,
+            Err(e) => {
+                let field = e.path().to_string();
+                let spanned = de.span_error(e.into_inner());
+                return Err(syntax(spanned, field));
+            }
+        };
+        if !de.remainder().trim().is_empty() {
+            return Err(PipelineError::Invalid {
+                field: "(file)".into(),
+                why: "unexpected text after the end of the pipeline".into(),
+            });
+        }
+        Ok(spec)
+    }
+
+    pub fn validate(&self) -> Result<(), PipelineError> {
+        let bad = |field: &str, why: String| PipelineError::Invalid {
+            field: field.to_string(),
+            why,
+        };
+        let p = &self.production;
+        for (f, v) in [
+            ("production.injection", p.injection),
+            ("production.production", p.production),
+        ] {
+            if !v.iter().all(|x| x.is_finite()) {
+                return Err(bad(f, format!("{v:?} is not a finite position")));
+            }
+        }
+        if !p.production_pressure.is_finite() {
+            return Err(bad(
+                "production.production_pressure",
+                format!("{} Pa is not finite", p.production_pressure),
+            ));
+        }
+        if p.pressure_drops.is_empty() {
+            return Err(bad(
+                "production.pressure_drops",
+                "give at least one pressure drop".into(),
+            ));
+        }
+        for (k, dp) in p.pressure_drops.iter().enumerate() {
+            if !(dp.is_finite() && *dp > 0.0) {
+                return Err(bad(
+                    &format!("production.pressure_drops[{k}]"),
+                    format!("{dp} Pa is not finite and positive"),
+                ));
+            }
+        }
+        if !(p.reach.is_finite() && p.reach > 0.0) {
+            return Err(bad(
+                "production.reach",
+                format!("{} m is not finite and positive", p.reach),
+            ));
+        }
+        let u = &self.upscaling;
+        if u.blocks.iter().any(|&n| n == 0 || n > 10_000) {
+            return Err(bad(
+                "upscaling.blocks",
+                format!("{:?}: each count must be in 1..=10000", u.blocks),
+            ));
+        }
+        if !(u.matrix_permeability.is_finite() && u.matrix_permeability >= 0.0) {
+            return Err(bad(
+                "upscaling.matrix_permeability",
+                format!(
+                    "{} m^2 is not finite and non-negative",
+                    u.matrix_permeability
+                ),
+            ));
+        }
+        if !(u.viscosity.is_finite() && u.viscosity > 0.0) {
+            return Err(bad(
+                "upscaling.viscosity",
+                format!("{} Pa s is not finite and positive", u.viscosity),
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// A network state of the pipeline.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum State {
+    Before,
+    After,
+}
+
+impl State {
+    pub fn name(self) -> &'static str {
+        match self {
+            State::Before => "before",
+            State::After => "after",
+        }
+    }
+}
+
+/// The network of a flow view: reference node positions and the cells' hydraulic apertures
+/// (`residual`: every cell at that aperture instead).
+pub fn network_of_view(v: &FlowView, residual: Option<f64>) -> NetworkFlow {
+    NetworkFlow {
+        nodes: v.node_ref.clone(),
+        cells: v
+            .cell_nodes
+            .iter()
+            .zip(&v.aperture)
+            .map(|(n, &a)| (n[0], n[1], residual.unwrap_or(a)))
+            .collect(),
+        fluxes: Vec::new(),
+        boundary: Vec::new(),
+    }
+}
+
+/// One row of `network_production.csv`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ProductionRow {
+    pub state: State,
+    /// Pressure drop, Pa.
+    pub dp: f64,
+    /// Production rate with the apertures at the end of the stimulation, m^2/s per metre.
+    pub rate: f64,
+    /// The same with every cell at the residual aperture.
+    pub rate_residual: f64,
+}
+
+/// What a pipeline run reports.
+#[derive(Debug)]
+pub struct PipelineReport {
+    pub out: PathBuf,
+    pub production: Vec<ProductionRow>,
+    pub permeability: Vec<(State, BlockPermeability)>,
+    /// (stage, wall seconds).
+    pub stages: Vec<(&'static str, f64)>,
+    /// One row per network state: `reservoir.csv`.
+    pub reservoir: Vec<ReservoirRow>,
+    pub summary: serde_json::Value,
+}
+
+/// Options of a pipeline run.
+#[derive(Clone, Debug, Default)]
+pub struct PipelineOptions {
+    pub out: Option<PathBuf>,
+    pub quiet: bool,
+    pub force: bool,
+    pub stop: Option<crate::sim::StopFlag>,
+}
+
+/// Run a pipeline file.
+pub fn run_pipeline(path: &Path, opts: &PipelineOptions) -> Result<PipelineReport, PipelineError> {
+    let spec = PipelineSpec::load(path)?;
+    let out = opts
+        .out
+        .clone()
+        .unwrap_or_else(|| PathBuf::from("out").join(&spec.name));
+    let plan = Plan::check(&out, opts.force)?;
+    plan.require_folder("stimulation")?;
+    let folder = plan.open()?;
+    let mut stages = Vec::new();
+
+    // 1. Stimulation.
+    let t0 = Instant::now();
+    let stim: RunReport = run_file(
+        &spec.stimulation,
+        &RunOptions {
+            out: Some(out.join("stimulation")),
+            set: spec.stimulation_set.clone(),
+            quiet: opts.quiet,
+            force: opts.force,
+            stop: opts.stop.clone(),
+            ..Default::default()
+        },
+    )?;
+    stages.push(("stimulation", t0.elapsed().as_secs_f64()));
+    let Some([start, end]) = stim.networks.clone() else {
+        return Err(PipelineError::Invalid {
+            field: "stimulation".into(),
+            why: format!("{} has no fractures", spec.stimulation.display()),
+        });
+    };
+    let residual = stim.residual_aperture;
+    let views = [(State::Before, &start), (State::After, &end)];
+    let chosen = match spec.apertures {
+        Apertures::Residual => Some(residual),
+        Apertures::EndOfStimulation => None,
+    };
+
+    // 2. Production through the networks.
+    let t0 = Instant::now();
+    let p = &spec.production;
+    let mut production = Vec::new();
+    for (state, v) in views {
+        for &dp in &p.pressure_drops {
+            let wells = [
+                PressureWell {
+                    position: p.injection,
+                    pressure: p.production_pressure + dp,
+                },
+                PressureWell {
+                    position: p.production,
+                    pressure: p.production_pressure,
+                },
+            ];
+            let rate_of = |res: Option<f64>| -> Result<f64, PipelineError> {
+                let net = network_of_view(v, res);
+                // A well no fracture reaches before the stimulation produces nothing through
+                // the network (the continuum model gives it the matrix's flow).
+                let connected = wells
+                    .iter()
+                    .all(|w| nearest_node(&net, w.position).is_some_and(|(_, d)| d <= p.reach));
+                if !connected && state == State::Before {
+                    return Ok(0.0);
+                }
+                let prod = steady_production(&net, &wells, spec.upscaling.viscosity, p.reach)
+                    .map_err(|error| PipelineError::Reservoir {
+                        stage: "production",
+                        error,
+                    })?;
+                Ok(-prod.wells[1].1)
+            };
+            production.push(ProductionRow {
+                state,
+                dp,
+                rate: rate_of(None)?,
+                rate_residual: rate_of(Some(residual))?,
+            });
+        }
+    }
+    write_production(&folder, &production)?;
+    // The seed's Fig. 10: flow over the network at the middle pressure drop.
+    let dp = p.pressure_drops[p.pressure_drops.len() / 2];
+    for (state, v) in views {
+        let net = network_of_view(v, chosen);
+        let wells = [
+            PressureWell {
+                position: p.injection,
+                pressure: p.production_pressure + dp,
+            },
+            PressureWell {
+                position: p.production,
+                pressure: p.production_pressure,
+            },
+        ];
+        let flow = steady_production(&net, &wells, spec.upscaling.viscosity, p.reach)
+            .map(|prod| prod.flow)
+            .unwrap_or(net);
+        flow_png(
+            &folder,
+            &format!("production_flow_{}.png", state.name()),
+            &format!(
+                "{}: production flow, {}, dp = {:.0} MPa, {:?} apertures",
+                spec.name,
+                state.name(),
+                dp / 1e6,
+                spec.apertures
+            ),
+            &flow,
+            &[(p.injection, "injection"), (p.production, "production")],
+        )?;
+    }
+    stages.push(("production", t0.elapsed().as_secs_f64()));
+
+    // 3. Upscaling over the stimulation's block.
+    let t0 = Instant::now();
+    let b = stim.mesh_box;
+    let grid = Grid2 {
+        origin: [b[0], b[2]],
+        size: [b[1] - b[0], b[3] - b[2]],
+        n: spec.upscaling.blocks,
+    };
+    let mut permeability = Vec::new();
+    for (state, v) in views {
+        let k = upscale(
+            &grid,
+            &network_of_view(v, chosen),
+            spec.upscaling.viscosity,
+            spec.upscaling.matrix_permeability,
+        )
+        .map_err(|error| PipelineError::Reservoir {
+            stage: "upscaling",
+            error,
+        })?;
+        permeability.push((state, k));
+    }
+    write_permeability(&folder, &permeability)?;
+    let wells = [(p.injection, "injection"), (p.production, "production")];
+    for (state, k) in &permeability {
+        for (label, values) in [
+            (
+                "flow",
+                k.flow.iter().map(|x| x[0].max(x[1])).collect::<Vec<_>>(),
+            ),
+            ("oda", k.oda.iter().map(|x| x[0].max(x[1])).collect()),
+        ] {
+            let name = format!("permeability_{label}_{}.png", state.name());
+            let title = format!(
+                "{}: {} permeability max(k_xx, k_yy), {}",
+                spec.name,
+                if label == "flow" { "flow-based" } else { "Oda" },
+                state.name()
+            );
+            field_png(
+                &folder,
+                &name,
+                &title,
+                &k.grid,
+                &values,
+                "log10 k [m^2]",
+                &wells,
+            )?;
+        }
+    }
+    stages.push(("upscaling", t0.elapsed().as_secs_f64()));
+
+    // 4. Heat extraction, both models, both states.
+    let heat = heat_stage(
+        &spec,
+        &views,
+        chosen,
+        &permeability,
+        stim.mesh_box,
+        &mut stages,
+    )?;
+    write_heat(&folder, &spec, &heat)?;
+
+    let summary = serde_json::json!({
+        "pipeline": spec.name,
+        "apertures": format!("{:?}", spec.apertures),
+        "stimulation": stim.summary,
+        "stages": stages.iter().map(|(s, t)| serde_json::json!({"stage": s, "wall_s": t})).collect::<Vec<_>>(),
+        "systems": heat.timing.iter().map(|(s, calls, t)| serde_json::json!({"system": s, "calls": calls, "total_s": t})).collect::<Vec<_>>(),
+        "reservoir": heat.rows.iter().map(|r| r.json()).collect::<Vec<_>>(),
+        "energy_balance": heat.energy_balance,
+    });
+    crate::output::write_atomic(
+        &folder
+            .claim("summary.json")
+            .map_err(PipelineError::Output)?,
+        serde_json::to_string_pretty(&summary)
+            .expect("json")
+            .as_bytes(),
+    )
+    .map_err(PipelineError::Output)?;
+    Ok(PipelineReport {
+        out,
+        production,
+        permeability,
+        stages,
+        reservoir: heat.rows,
+        summary,
+    })
+}
+
+fn write_production(folder: &Folder, rows: &[ProductionRow]) -> Result<(), PipelineError> {
+    let mut s = String::from("state,dp,rate,rate_residual\n");
+    for r in rows {
+        s += &format!(
+            "{},{},{:e},{:e}\n",
+            r.state.name(),
+            r.dp,
+            r.rate,
+            r.rate_residual
+        );
+    }
+    let path = folder
+        .claim("network_production.csv")
+        .map_err(PipelineError::Output)?;
+    crate::output::write_atomic(&path, s.as_bytes()).map_err(PipelineError::Output)
+}
+
+fn write_permeability(
+    folder: &Folder,
+    k: &[(State, BlockPermeability)],
+) -> Result<(), PipelineError> {
+    let mut s = String::from("state,block,x,y,k_oda_xx,k_oda_yy,k_oda_xy,k_flow_xx,k_flow_yy\n");
+    for (state, b) in k {
+        let g = &b.grid;
+        for j in 0..g.n[1] {
+            for i in 0..g.n[0] {
+                let c = g.index(i, j);
+                let [x, y] = g.centre(i, j);
+                let (o, f) = (b.oda[c], b.flow[c]);
+                s += &format!(
+                    "{},{c},{x},{y},{:e},{:e},{:e},{:e},{:e}\n",
+                    state.name(),
+                    o[0],
+                    o[1],
+                    o[2],
+                    f[0],
+                    f[1]
+                );
+            }
+        }
+    }
+    let path = folder
+        .claim("permeability.csv")
+        .map_err(PipelineError::Output)?;
+    crate::output::write_atomic(&path, s.as_bytes()).map_err(PipelineError::Output)?;
+    // ParaView: the blocks as quads, both estimates of both states as cell data.
+    let g = &k[0].1.grid;
+    let d = g.dx();
+    let mut points = Vec::new();
+    for j in 0..=g.n[1] {
+        for i in 0..=g.n[0] {
+            points.push([
+                g.origin[0] + i as f64 * d[0],
+                g.origin[1] + j as f64 * d[1],
+                0.0,
+            ]);
+        }
+    }
+    let corner = |i: usize, j: usize| (i + (g.n[0] + 1) * j) as u32;
+    let mut connectivity = Vec::new();
+    for j in 0..g.n[1] {
+        for i in 0..g.n[0] {
+            connectivity.extend([
+                corner(i, j),
+                corner(i + 1, j),
+                corner(i + 1, j + 1),
+                corner(i, j + 1),
+            ]);
+        }
+    }
+    let mut arrays: Vec<(String, Vec<f64>)> = Vec::new();
+    for (state, b) in k {
+        for (c, name) in ["k_oda_xx", "k_oda_yy", "k_oda_xy"].iter().enumerate() {
+            arrays.push((
+                format!("{}_{name}", state.name()),
+                b.oda.iter().map(|x| x[c]).collect(),
+            ));
+        }
+        for (c, name) in ["k_flow_xx", "k_flow_yy"].iter().enumerate() {
+            arrays.push((
+                format!("{}_{name}", state.name()),
+                b.flow.iter().map(|x| x[c]).collect(),
+            ));
+        }
+    }
+    let piece = crate::output::vtk::VtuPiece {
+        points: &points,
+        kind: crate::output::vtk::CellKind::Quad,
+        connectivity: &connectivity,
+        point_data: Vec::new(),
+        cell_data: arrays
+            .iter()
+            .map(|(n, v)| crate::output::vtk::DataArray {
+                name: n,
+                components: 1,
+                values: v,
+            })
+            .collect(),
+    };
+    let path = folder
+        .claim("permeability.vtu")
+        .map_err(PipelineError::Output)?;
+    crate::output::vtk::write_vtu(&path, &piece).map_err(PipelineError::Output)
+}
+
+/// The tables a pipeline prints: production, permeability, stage times.
+pub fn report_text(r: &PipelineReport) -> String {
+    let mut s = String::from("network production (m^2/s per metre):\n");
+    s += &format!(
+        "{:<8} {:>10} {:>14} {:>16}\n",
+        "state", "dp [MPa]", "rate", "rate (residual)"
+    );
+    for p in &r.production {
+        s += &format!(
+            "{:<8} {:>10.1} {:>14.4e} {:>16.4e}\n",
+            p.state.name(),
+            p.dp / 1e6,
+            p.rate,
+            p.rate_residual
+        );
+    }
+    s += "\nstage          wall [s]\n";
+    for (stage, t) in &r.stages {
+        s += &format!("{stage:<14} {t:>8.2}\n");
+    }
+    s += &format!("outputs in {}\n", r.out.display());
+    s
+}
+
+/// A block field as a PNG map: each block filled with the colour of log10 of its value.
+fn field_png(
+    folder: &Folder,
+    name: &str,
+    title: &str,
+    grid: &Grid2,
+    values: &[f64],
+    label: &str,
+    markers: &[([f64; 2], &str)],
+) -> Result<(), PipelineError> {
+    let d = grid.dx();
+    let mut quads = Vec::with_capacity(grid.len());
+    let mut v = Vec::with_capacity(grid.len());
+    for j in 0..grid.n[1] {
+        for i in 0..grid.n[0] {
+            let x0 = grid.origin[0] + i as f64 * d[0];
+            let y0 = grid.origin[1] + j as f64 * d[1];
+            quads.push([
+                [x0, y0],
+                [x0 + d[0], y0],
+                [x0 + d[0], y0 + d[1]],
+                [x0, y0 + d[1]],
+            ]);
+            v.push(values[grid.index(i, j)].max(1e-300).log10());
+        }
+    }
+    let path = folder.claim(name).map_err(PipelineError::Output)?;
+    crate::plot::fracture_map(&path, title, &[], &quads, &v, label, None, markers)
+        .map_err(|e| PipelineError::Output(std::io::Error::other(e.to_string())))
+}
+
+/// Cell throughput of a network flow: half the summed |flux| of its pairs plus its exchange
+/// with the wells, m^2/s.
+pub fn cell_throughput(net: &NetworkFlow) -> Vec<f64> {
+    let mut t = vec![0.0; net.cells.len()];
+    for &(i, j, q) in &net.fluxes {
+        t[i as usize] += 0.5 * q.abs();
+        t[j as usize] += 0.5 * q.abs();
+    }
+    for &(c, q) in &net.boundary {
+        t[c as usize] += 0.5 * q.abs();
+    }
+    t
+}
+
+/// The network coloured by each cell's throughput (log scale; cells without flow grey).
+fn flow_png(
+    folder: &Folder,
+    name: &str,
+    title: &str,
+    net: &NetworkFlow,
+    markers: &[([f64; 2], &str)],
+) -> Result<(), PipelineError> {
+    let segments: Vec<crate::plot::Segment> = net
+        .cells
+        .iter()
+        .map(|&(a, b, _)| crate::plot::Segment {
+            a: net.nodes[a as usize],
+            b: net.nodes[b as usize],
+        })
+        .collect();
+    let path = folder.claim(name).map_err(PipelineError::Output)?;
+    crate::plot::network(
+        &path,
+        title,
+        &segments,
+        &cell_throughput(net),
+        "flow rate [m^2/s]",
+        crate::plot::ColourScale::Log,
+        None,
+        markers,
+    )
+    .map_err(|e| PipelineError::Output(std::io::Error::other(e.to_string())))
+}
+
+/// Seconds per year (365.25 days).
+pub const YEAR: f64 = 365.25 * 86400.0;
+
+/// One model's heat extraction from one network state.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct HeatSeries {
+    /// s.
+    pub times: Vec<f64>,
+    /// K.
+    pub production_temperature: Vec<f64>,
+    /// W per metre.
+    pub thermal_power: Vec<f64>,
+    /// J per metre.
+    pub cumulative_heat: Vec<f64>,
+    /// Production rate, m^2/s per metre (0: the wells are not connected).
+    pub rate: f64,
+}
+
+impl HeatSeries {
+    /// Linear interpolation of `y` at time `t` (clamped to the run).
+    fn at(&self, y: &[f64], t: f64) -> f64 {
+        if self.times.is_empty() {
+            return 0.0;
+        }
+        let k = self.times.partition_point(|&x| x < t);
+        if k == 0 {
+            return y[0];
+        }
+        if k >= self.times.len() {
+            return *y.last().expect("non-empty");
+        }
+        let (t0, t1) = (self.times[k - 1], self.times[k]);
+        let w = if t1 > t0 { (t - t0) / (t1 - t0) } else { 1.0 };
+        y[k - 1] + w * (y[k] - y[k - 1])
+    }
+    /// First time the production temperature falls to `threshold` (K), by interpolation.
+    fn first_below(&self, threshold: f64) -> Option<f64> {
+        let (t, y) = (&self.times, &self.production_temperature);
+        (0..y.len()).find(|&k| y[k] <= threshold).map(|k| {
+            if k == 0 {
+                t[0]
+            } else {
+                let w = (y[k - 1] - threshold) / (y[k - 1] - y[k]);
+                t[k - 1] + w * (t[k] - t[k - 1])
+            }
+        })
+    }
+}
+
+/// One row of `reservoir.csv`: a network state, both heat models.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ReservoirRow {
+    pub state: State,
+    /// Report times, years.
+    pub years: Vec<f64>,
+    /// Per model (discrete, continuum): rate (m^2/s per metre), breakthrough (s, `None` when
+    /// not within the run), temperatures (K) and powers (W/m) at the report times, heat over
+    /// the run (J/m).
+    pub models: [ModelFigures; 2],
+}
+
+/// The figures of one model in a [`ReservoirRow`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct ModelFigures {
+    pub rate: f64,
+    pub breakthrough: Option<f64>,
+    pub temperature: Vec<f64>,
+    pub power: Vec<f64>,
+    pub heat: f64,
+}
+
+const MODELS: [&str; 2] = ["discrete", "continuum"];
+
+impl ReservoirRow {
+    fn json(&self) -> serde_json::Value {
+        let mut m = serde_json::Map::new();
+        m.insert("state".into(), self.state.name().into());
+        for (name, f) in MODELS.iter().zip(&self.models) {
+            m.insert(
+                (*name).into(),
+                serde_json::json!({
+                    "rate": f.rate,
+                    "breakthrough_years": f.breakthrough.map(|t| t / YEAR),
+                    "report_years": self.years,
+                    "production_temperature": f.temperature,
+                    "thermal_power": f.power,
+                    "heat_total": f.heat,
+                }),
+            );
+        }
+        serde_json::Value::Object(m)
+    }
+}
+
+/// What the heat stage produced.
+pub struct HeatResult {
+    /// Per state (before, after): the discrete and continuum series.
+    pub series: Vec<(State, [HeatSeries; 2])>,
+    pub rows: Vec<ReservoirRow>,
+    /// Temperature snapshots: (state, model, time s, grid quads, values K).
+    pub snapshots: Vec<(State, &'static str, f64, Vec<[[f64; 2]; 4]>, Vec<f64>)>,
+    /// Per-system timing of the heat stage: (system, calls, seconds).
+    pub timing: Vec<(String, u64, f64)>,
+    /// Largest relative energy-balance error of the runs.
+    pub energy_balance: f64,
+}
+
+fn reservoir_error(stage: &'static str) -> impl Fn(ReservoirError) -> PipelineError {
+    move |error| PipelineError::Reservoir { stage, error }
+}
+
+/// Quads of a tensor-product grid (block order i + nx j).
+fn rock_quads(g: &RockGrid) -> Vec<[[f64; 2]; 4]> {
+    let mut q = Vec::new();
+    for j in 0..g.y.len() - 1 {
+        for i in 0..g.x.len() - 1 {
+            let (x0, x1, y0, y1) = (g.x[i], g.x[i + 1], g.y[j], g.y[j + 1]);
+            q.push([[x0, y0], [x1, y0], [x1, y1], [x0, y1]]);
+        }
+    }
+    q
+}
+
+fn heat_stage(
+    spec: &PipelineSpec,
+    views: &[(State, &FlowView); 2],
+    apertures: Option<f64>,
+    permeability: &[(State, BlockPermeability)],
+    mesh_box: [f64; 4],
+    stages: &mut Vec<(&'static str, f64)>,
+) -> Result<HeatResult, PipelineError> {
+    let h = &spec.heat;
+    let p = &spec.production;
+    let mu = h.props.fluid_viscosity;
+    let end_time = h.years * YEAR;
+    let snap_times: Vec<f64> = h
+        .snapshot_years
+        .clone()
+        .unwrap_or_else(|| h.report_years.clone())
+        .iter()
+        .filter(|&&y| y > 0.0 && y <= h.years)
+        .map(|y| y * YEAR)
+        .collect();
+    let wells = [
+        PressureWell {
+            position: p.injection,
+            pressure: p.production_pressure + h.pressure_drop,
+        },
+        PressureWell {
+            position: p.production,
+            pressure: p.production_pressure,
+        },
+    ];
+    let timing = crate::timing::TimingLayer::default();
+    let table = timing.table.clone();
+    let subscriber =
+        tracing_subscriber::layer::SubscriberExt::with(tracing_subscriber::registry(), timing);
+    let mut series = Vec::new();
+    let mut snapshots = Vec::new();
+    let mut energy_balance: f64 = 0.0;
+    let (mut t_discrete, mut t_continuum) = (0.0, 0.0);
+    tracing::subscriber::with_default(subscriber, || -> Result<(), PipelineError> {
+        for &(state, v) in views {
+            // Discrete: the network's steady flow, heat along it and conduction in the rock.
+            let t0 = Instant::now();
+            let net = network_of_view(v, apertures);
+            let connected = wells
+                .iter()
+                .all(|w| nearest_node(&net, w.position).is_some_and(|(_, d)| d <= p.reach));
+            let mut discrete = HeatSeries::default();
+            if connected {
+                let prod = steady_production(&net, &wells, mu, p.reach)
+                    .map_err(reservoir_error("heat (discrete)"))?;
+                let lines_x: Vec<f64> = Vec::new();
+                let mut lines_y: Vec<f64> = wells.iter().map(|w| w.position[1]).collect();
+                lines_y.sort_by(f64::total_cmp);
+                lines_y.dedup();
+                let grid = RockGrid::graded(
+                    [mesh_box[0], mesh_box[2]],
+                    [mesh_box[1], mesh_box[3]],
+                    &lines_x,
+                    &lines_y,
+                    h.discrete.h_min,
+                    h.discrete.growth,
+                    h.discrete.h_max,
+                )
+                .map_err(reservoir_error("heat (discrete)"))?;
+                let ds = DiscreteSpec {
+                    grid: grid.clone(),
+                    props: h.props,
+                    initial_temperature: h.initial_temperature,
+                    injection_temperature: h.injection_temperature,
+                    end_time,
+                    time_step: h.discrete.time_step,
+                    output_times: snap_times.clone(),
+                };
+                let run: DiscreteRun =
+                    run_discrete(&ds, &prod.flow).map_err(reservoir_error("heat (discrete)"))?;
+                energy_balance = energy_balance.max(run.energy_balance.relative_error);
+                let quads = rock_quads(&grid);
+                for s in &run.snapshots {
+                    snapshots.push((
+                        state,
+                        "discrete",
+                        s.time,
+                        quads.clone(),
+                        s.rock_temperature.clone(),
+                    ));
+                }
+                discrete = HeatSeries {
+                    times: run.times,
+                    production_temperature: run.production_temperature,
+                    thermal_power: run.thermal_power,
+                    cumulative_heat: run.cumulative_heat,
+                    rate: -prod.wells[1].1,
+                };
+            }
+            t_discrete += t0.elapsed().as_secs_f64();
+
+            // Continuum: the upscaled zone in a matrix reservoir, Darcy and heat.
+            let t0 = Instant::now();
+            let c = &h.continuum;
+            let k = &permeability
+                .iter()
+                .find(|(s, _)| *s == state)
+                .expect("both states upscaled")
+                .1;
+            let d = k.grid.dx();
+            let n = [
+                (c.size[0] / d[0]).round() as usize,
+                (c.size[1] / d[1]).round() as usize,
+            ];
+            let grid = Grid2 {
+                origin: [0.0; 2],
+                size: [n[0] as f64 * d[0], n[1] as f64 * d[1]],
+                n,
+            };
+            let off = [
+                (c.zone_origin[0] / d[0]).round() as usize,
+                (c.zone_origin[1] / d[1]).round() as usize,
+            ];
+            let mut perm = vec![[k.matrix; 2]; grid.len()];
+            for j in 0..k.grid.n[1] {
+                for i in 0..k.grid.n[0] {
+                    let b = k.grid.index(i, j);
+                    let kb = match c.permeability {
+                        PermeabilityChoice::FlowBased => k.flow[b],
+                        PermeabilityChoice::Oda => [k.oda[b][0], k.oda[b][1]],
+                    };
+                    perm[grid.index(off[0] + i, off[1] + j)] = kb;
+                }
+            }
+            let shift = [
+                c.zone_origin[0] - k.grid.origin[0],
+                c.zone_origin[1] - k.grid.origin[1],
+            ];
+            let at = |q: [f64; 2]| {
+                // A well on the zone's lower or left edge lies in the block beside it; nudge
+                // it a thousandth of a block inside the stimulated zone.
+                let x = [q[0] + shift[0], q[1] + shift[1]];
+                [
+                    x[0].clamp(
+                        c.zone_origin[0] + 1e-3 * d[0],
+                        c.zone_origin[0] + k.grid.size[0] - 1e-3 * d[0],
+                    ),
+                    x[1].clamp(
+                        c.zone_origin[1] + 1e-3 * d[1],
+                        c.zone_origin[1] + k.grid.size[1] - 1e-3 * d[1],
+                    ),
+                ]
+            };
+            let cs = ContinuumSpec {
+                grid,
+                permeability: perm,
+                props: h.props,
+                initial_temperature: h.initial_temperature,
+                initial_pressure: p.production_pressure,
+                wells: vec![
+                    Well {
+                        name: "injection".into(),
+                        position: at(p.injection),
+                        control: WellControl::Pressure(p.production_pressure + h.pressure_drop),
+                        injection_temperature: h.injection_temperature,
+                        radius: c.well_radius,
+                        index: WellIndex::Fractured,
+                    },
+                    Well {
+                        name: "production".into(),
+                        position: at(p.production),
+                        control: WellControl::Pressure(p.production_pressure),
+                        injection_temperature: h.injection_temperature,
+                        radius: c.well_radius,
+                        index: WellIndex::Fractured,
+                    },
+                ],
+                edges: Default::default(),
+                end_time,
+                dt: c.dt,
+                output_times: snap_times.clone(),
+            };
+            let run: ContinuumRun =
+                run_continuum(&cs).map_err(reservoir_error("heat (continuum)"))?;
+            energy_balance = energy_balance.max(run.energy_balance);
+            let quads: Vec<[[f64; 2]; 4]> = (0..grid.n[1])
+                .flat_map(|j| (0..grid.n[0]).map(move |i| (i, j)))
+                .map(|(i, j)| {
+                    let (x0, y0) = (i as f64 * d[0], j as f64 * d[1]);
+                    [
+                        [x0, y0],
+                        [x0 + d[0], y0],
+                        [x0 + d[0], y0 + d[1]],
+                        [x0, y0 + d[1]],
+                    ]
+                })
+                .collect();
+            for (t, temp) in &run.snapshots {
+                snapshots.push((state, "continuum", *t, quads.clone(), temp.clone()));
+            }
+            let continuum = HeatSeries {
+                rate: -run.flow.wells[1].rate,
+                times: run.times,
+                production_temperature: run.production_temperature,
+                thermal_power: run.thermal_power,
+                cumulative_heat: run.cumulative_heat,
+            };
+            t_continuum += t0.elapsed().as_secs_f64();
+            series.push((state, [discrete, continuum]));
+        }
+        Ok(())
+    })?;
+    stages.push(("heat (discrete)", t_discrete));
+    stages.push(("heat (continuum)", t_continuum));
+    let threshold = h.initial_temperature
+        - h.breakthrough_fraction * (h.initial_temperature - h.injection_temperature);
+    let rows = series
+        .iter()
+        .map(|(state, m)| ReservoirRow {
+            state: *state,
+            years: h.report_years.clone(),
+            models: [0, 1].map(|k| {
+                let s = &m[k];
+                ModelFigures {
+                    rate: s.rate,
+                    breakthrough: s.first_below(threshold),
+                    temperature: h
+                        .report_years
+                        .iter()
+                        .map(|y| {
+                            if s.times.is_empty() {
+                                h.initial_temperature
+                            } else {
+                                s.at(&s.production_temperature, y * YEAR)
+                            }
+                        })
+                        .collect(),
+                    power: h
+                        .report_years
+                        .iter()
+                        .map(|y| s.at(&s.thermal_power, y * YEAR))
+                        .collect(),
+                    heat: s.cumulative_heat.last().copied().unwrap_or(0.0),
+                }
+            }),
+        })
+        .collect();
+    let timing = table
+        .lock()
+        .expect("timing table")
+        .iter()
+        .map(|(k, v)| (k.to_string(), v.calls, v.total.as_secs_f64()))
+        .collect();
+    Ok(HeatResult {
+        series,
+        rows,
+        snapshots,
+        timing,
+        energy_balance,
+    })
+}
+
+/// A number for a CSV cell: finite values as they are; a missing breakthrough as `none`.
+fn cell(x: Option<f64>) -> String {
+    match x {
+        Some(v) if v.is_finite() => format!("{v:e}"),
+        _ => "none".into(),
+    }
+}
+
+fn write_heat(
+    folder: &Folder,
+    spec: &PipelineSpec,
+    heat: &HeatResult,
+) -> Result<(), PipelineError> {
+    let io = PipelineError::Output;
+    // reservoir.csv: one row per state.
+    let mut head = String::from("state");
+    for m in MODELS {
+        head += &format!(",rate_{m},breakthrough_years_{m}");
+        for y in &spec.heat.report_years {
+            head += &format!(",t_prod_{y}y_{m}");
+        }
+        for y in &spec.heat.report_years {
+            head += &format!(",power_{y}y_{m}");
+        }
+        head += &format!(",heat_total_{m}");
+    }
+    let mut s = head + "\n";
+    for r in &heat.rows {
+        s += r.state.name();
+        for f in &r.models {
+            s += &format!(",{:e},{}", f.rate, cell(f.breakthrough.map(|t| t / YEAR)));
+            for t in &f.temperature {
+                s += &format!(",{t}");
+            }
+            for p in &f.power {
+                s += &format!(",{p:e}");
+            }
+            s += &format!(",{:e}", f.heat);
+        }
+        s += "\n";
+    }
+    crate::output::write_atomic(&folder.claim("reservoir.csv").map_err(io)?, s.as_bytes())
+        .map_err(io)?;
+    // Time series per model and state.
+    for (state, m) in &heat.series {
+        for (name, sr) in MODELS.iter().zip(m) {
+            let mut s = String::from(
+                "time_s,time_years,production_temperature,thermal_power,cumulative_heat\n",
+            );
+            for k in 0..sr.times.len() {
+                s += &format!(
+                    "{},{},{},{:e},{:e}\n",
+                    sr.times[k],
+                    sr.times[k] / YEAR,
+                    sr.production_temperature[k],
+                    sr.thermal_power[k],
+                    sr.cumulative_heat[k]
+                );
+            }
+            let path = folder
+                .claim(&format!("heat_{name}_{}.csv", state.name()))
+                .map_err(io)?;
+            crate::output::write_atomic(&path, s.as_bytes()).map_err(io)?;
+        }
+    }
+    // Production temperature and power against time, before and after on one plot.
+    let plot_err =
+        |e: crate::plot::PlotError| PipelineError::Output(std::io::Error::other(e.to_string()));
+    for (file, what, unit, pick) in [
+        (
+            "heat_temperature.png",
+            "production temperature",
+            "temperature [K]",
+            0usize,
+        ),
+        ("heat_power.png", "thermal power", "power [W/m]", 1),
+    ] {
+        let mut lines = Vec::new();
+        for (state, m) in &heat.series {
+            for (name, sr) in MODELS.iter().zip(m) {
+                if sr.times.is_empty() {
+                    continue;
+                }
+                let y = if pick == 0 {
+                    &sr.production_temperature
+                } else {
+                    &sr.thermal_power
+                };
+                lines.push(crate::plot::Series {
+                    label: format!("{name}, {}", state.name()),
+                    points: sr
+                        .times
+                        .iter()
+                        .zip(y)
+                        .map(|(t, v)| (t / YEAR, *v))
+                        .collect(),
+                });
+            }
+        }
+        crate::plot::lines(
+            &folder.claim(file).map_err(io)?,
+            &format!("{}: {what}, before and after", spec.name),
+            "time [years]",
+            unit,
+            &lines,
+        )
+        .map_err(plot_err)?;
+    }
+    for (state, model, t, quads, values) in &heat.snapshots {
+        let name = format!("temperature_{model}_{}_{:.0}y.png", state.name(), t / YEAR);
+        let title = format!(
+            "{}: {model} model, {}, rock temperature at {:.1} years",
+            spec.name,
+            state.name(),
+            t / YEAR
+        );
+        crate::plot::fracture_map(
+            &folder.claim(&name).map_err(io)?,
+            &title,
+            &[],
+            quads,
+            values,
+            "temperature [K]",
+            None,
+            &[],
+        )
+        .map_err(plot_err)?;
+    }
+    Ok(())
+}
