@@ -116,8 +116,9 @@ pub struct DiscreteHeatSpec {
 pub struct ContinuumHeatSpec {
     /// Reservoir extent, m (lower-left corner at 0, 0).
     pub size: [f64; 2],
-    /// Where the stimulated block's lower-left corner lies in the reservoir, m (on block
-    /// lines).
+    /// Where the stimulated block's lower-left corner lies in the reservoir, m (rounded to
+    /// the nearest block line; the reservoir's blocks are the upscaling blocks, and its size
+    /// is rounded to whole blocks).
     pub zone_origin: [f64; 2],
     /// Which upscaled permeability the zone gets.
     #[serde(default)]
@@ -301,6 +302,69 @@ impl PipelineSpec {
                 format!(
                     "{} m^2 is not finite and non-negative",
                     u.matrix_permeability
+                ),
+            ));
+        }
+        let h = &self.heat;
+        let positive = |field: &str, v: f64, unit: &str| -> Result<(), PipelineError> {
+            if v.is_finite() && v > 0.0 {
+                Ok(())
+            } else {
+                Err(bad(field, format!("{v} {unit} is not finite and positive")))
+            }
+        };
+        positive("heat.initial_temperature", h.initial_temperature, "K")?;
+        positive("heat.injection_temperature", h.injection_temperature, "K")?;
+        positive("heat.pressure_drop", h.pressure_drop, "Pa")?;
+        positive("heat.years", h.years, "years")?;
+        if h.years > 1e4 {
+            return Err(bad(
+                "heat.years",
+                format!("{} years: at most 10000", h.years),
+            ));
+        }
+        for (k, y) in h.report_years.iter().enumerate() {
+            if !(y.is_finite() && *y > 0.0 && *y <= h.years) {
+                return Err(bad(
+                    &format!("heat.report_years[{k}]"),
+                    format!("{y} is not in (0, heat.years = {}]", h.years),
+                ));
+            }
+        }
+        if !(h.breakthrough_fraction > 0.0 && h.breakthrough_fraction < 1.0) {
+            return Err(bad(
+                "heat.breakthrough_fraction",
+                format!("{} is not in (0, 1)", h.breakthrough_fraction),
+            ));
+        }
+        positive("heat.discrete.h_min", h.discrete.h_min, "m")?;
+        positive("heat.discrete.h_max", h.discrete.h_max, "m")?;
+        if !(h.discrete.growth.is_finite() && h.discrete.growth >= 1.0) {
+            return Err(bad(
+                "heat.discrete.growth",
+                format!("{} is not finite and >= 1", h.discrete.growth),
+            ));
+        }
+        let c = &h.continuum;
+        positive("heat.continuum.size[0]", c.size[0], "m")?;
+        positive("heat.continuum.size[1]", c.size[1], "m")?;
+        positive("heat.continuum.dt", c.dt, "s")?;
+        positive("heat.continuum.well_radius", c.well_radius, "m")?;
+        if !c.zone_origin.iter().all(|x| x.is_finite() && *x >= 0.0) {
+            return Err(bad(
+                "heat.continuum.zone_origin",
+                format!("{:?} is not a finite point in the reservoir", c.zone_origin),
+            ));
+        }
+        let steps = h.years * YEAR / c.dt;
+        if steps > crate::reservoir::continuum::MAX_STEPS as f64 {
+            return Err(bad(
+                "heat.continuum.dt",
+                format!(
+                    "{} s gives {steps:.0} steps over {} years, more than {}",
+                    c.dt,
+                    h.years,
+                    crate::reservoir::continuum::MAX_STEPS
                 ),
             ));
         }
@@ -706,6 +770,26 @@ pub fn report_text(r: &PipelineReport) -> String {
             p.rate_residual
         );
     }
+    s += "\nheat extraction (rate m^2/s per metre; temperatures K; power W/m):\n";
+    for row in &r.reservoir {
+        for (name, f) in MODELS.iter().zip(&row.models) {
+            s += &format!(
+                "{:<7} {:<10} rate {:.3e}  breakthrough {}",
+                row.state.name(),
+                name,
+                f.rate,
+                f.breakthrough
+                    .map_or("none".to_string(), |t| format!("{:.3e} years", t / YEAR))
+            );
+            for (k, y) in row.years.iter().enumerate() {
+                s += &format!(
+                    "  T({y}y) {:.1}  P({y}y) {:.3e}",
+                    f.temperature[k], f.power[k]
+                );
+            }
+            s += "\n";
+        }
+    }
     s += "\nstage          wall [s]\n";
     for (stage, t) in &r.stages {
         s += &format!("{stage:<14} {t:>8.2}\n");
@@ -867,17 +951,18 @@ impl ReservoirRow {
         let mut m = serde_json::Map::new();
         m.insert("state".into(), self.state.name().into());
         for (name, f) in MODELS.iter().zip(&self.models) {
-            m.insert(
-                (*name).into(),
-                serde_json::json!({
-                    "rate": f.rate,
-                    "breakthrough_years": f.breakthrough.map(|t| t / YEAR),
-                    "report_years": self.years,
-                    "production_temperature": f.temperature,
-                    "thermal_power": f.power,
-                    "heat_total": f.heat,
-                }),
-            );
+            let mut v = serde_json::json!({
+                "rate": f.rate,
+                "report_years": self.years,
+                "production_temperature": f.temperature,
+                "thermal_power": f.power,
+                "heat_total": f.heat,
+            });
+            // No breakthrough within the run: the key is left out (never a null).
+            if let Some(t) = f.breakthrough {
+                v["breakthrough_years"] = (t / YEAR).into();
+            }
+            m.insert((*name).into(), v);
         }
         serde_json::Value::Object(m)
     }
@@ -959,9 +1044,16 @@ fn heat_stage(
                 .iter()
                 .all(|w| nearest_node(&net, w.position).is_some_and(|(_, d)| d <= p.reach));
             let mut discrete = HeatSeries::default();
-            if connected {
-                let prod = steady_production(&net, &wells, mu, p.reach)
-                    .map_err(reservoir_error("heat (discrete)"))?;
+            let prod = if connected {
+                Some(
+                    steady_production(&net, &wells, mu, p.reach)
+                        .map_err(reservoir_error("heat (discrete)"))?,
+                )
+            } else {
+                None
+            };
+            // Wells on fractures that do not connect produce nothing (no run).
+            if let Some(prod) = prod.filter(|x| x.wells[1].1 < 0.0) {
                 let lines_x: Vec<f64> = Vec::new();
                 let mut lines_y: Vec<f64> = wells.iter().map(|w| w.position[1]).collect();
                 lines_y.sort_by(f64::total_cmp);
@@ -1030,6 +1122,15 @@ fn heat_stage(
                 (c.zone_origin[0] / d[0]).round() as usize,
                 (c.zone_origin[1] / d[1]).round() as usize,
             ];
+            if off[0] + k.grid.n[0] > n[0] || off[1] + k.grid.n[1] > n[1] {
+                return Err(PipelineError::Invalid {
+                    field: "heat.continuum".into(),
+                    why: format!(
+                        "the stimulated zone ({} x {} m at zone_origin {:?}, in blocks of {} x {} m) does not fit in the reservoir of size {:?} m",
+                        k.grid.size[0], k.grid.size[1], c.zone_origin, d[0], d[1], c.size
+                    ),
+                });
+            }
             let mut perm = vec![[k.matrix; 2]; grid.len()];
             for j in 0..k.grid.n[1] {
                 for i in 0..k.grid.n[0] {
