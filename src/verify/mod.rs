@@ -5,7 +5,8 @@
 //! `cubic_law`, `diffusion`, `mass_balance`, `pump_curve`, `steady`, `flow_stability`; fracture
 //! (R5, R7b, R8) `sneddon`, `sif`, `friction`; coupled (R6) `kgd`, `kgd_k`, `kgd_mk`; the seed's
 //! Example I (R9) `example1`; reservoir: upscaling `oda`, continuum heat (R17)
-//! `heat_continuum`, discrete heat (R15, R16) `lauwerier`, `gringarten`.
+//! `heat_continuum`, discrete heat (R15, R16) `lauwerier`, `gringarten`, the two against each other
+//! `heat_models`.
 
 pub mod coupled_cases;
 pub mod example_cases;
@@ -13,6 +14,7 @@ pub mod flow_cases;
 pub mod fracture_cases;
 pub mod heat_continuum_cases;
 pub mod heat_discrete_cases;
+pub mod heat_models_cases;
 pub mod sif_cases;
 pub mod solid_cases;
 pub mod upscale_cases;
@@ -222,6 +224,11 @@ pub fn cases() -> Vec<Case> {
             name: "gringarten",
             about: "discrete heat model, parallel fractures 5 m apart against Gringarten-Witherspoon-Ohnishi (Stehfest), 4 levels (2 %), Lauwerier and local-equilibrium limits",
             run: heat_discrete_cases::gringarten_case,
+        },
+        Case {
+            name: "heat_models",
+            about: "discrete against continuum heat model on the same parallel fractures, spacing 0.5 to 32 m: where local thermal equilibrium holds (Fourier number of the slab)",
+            run: heat_models_cases::heat_models,
         },
     ]
 }
