@@ -257,7 +257,13 @@ fn real_main() -> Result<ExitCode> {
                 force,
                 stop: Some(install_stop_handlers()?),
             };
-            let report = hydrofrac::pipeline::run_pipeline(&file, &opts)?;
+            let report = match hydrofrac::pipeline::run_pipeline(&file, &opts) {
+                Err(e @ hydrofrac::pipeline::PipelineError::Interrupted { signal, .. }) => {
+                    let _ = writeln!(std::io::stderr(), "{e}");
+                    return Ok(signal_exit(signal));
+                }
+                r => r?,
+            };
             if !quiet {
                 let mut o = std::io::stdout().lock();
                 let text = hydrofrac::pipeline::report_text(&report);

@@ -198,6 +198,8 @@ pub enum PipelineError {
         stage: &'static str,
         error: ReservoirError,
     },
+    #[error("interrupted by {} during the stimulation; its outputs are finished in {out}", crate::driver::signal_name(*.signal))]
+    Interrupted { signal: usize, out: String },
     #[error(transparent)]
     Folder(#[from] FolderError),
     #[error("{0}")]
@@ -470,6 +472,12 @@ pub fn run_pipeline(path: &Path, opts: &PipelineOptions) -> Result<PipelineRepor
         },
     )?;
     stages.push(("stimulation", t0.elapsed().as_secs_f64()));
+    if let Some(signal) = stim.interrupted_by {
+        return Err(PipelineError::Interrupted {
+            signal,
+            out: stim.out.display().to_string(),
+        });
+    }
     let Some([start, end]) = stim.networks.clone() else {
         return Err(PipelineError::Invalid {
             field: "stimulation".into(),
@@ -793,6 +801,17 @@ pub fn report_text(r: &PipelineReport) -> String {
     s += "\nstage          wall [s]\n";
     for (stage, t) in &r.stages {
         s += &format!("{stage:<14} {t:>8.2}\n");
+    }
+    if let Some(systems) = r.summary["systems"].as_array() {
+        s += "\nheat system       calls    total [s]\n";
+        for x in systems {
+            s += &format!(
+                "{:<16} {:>6} {:>12.4}\n",
+                x["system"].as_str().unwrap_or(""),
+                x["calls"],
+                x["total_s"].as_f64().unwrap_or(0.0)
+            );
+        }
     }
     s += &format!("outputs in {}\n", r.out.display());
     s

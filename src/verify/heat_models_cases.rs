@@ -90,7 +90,11 @@ fn discrete(d: f64, t_eq: f64) -> anyhow::Result<(Vec<f64>, f64, f64)> {
         .snapshots
         .iter()
         .map(|s| {
-            let k = run.times.iter().position(|&t| t == s.time).expect("step time");
+            let k = run
+                .times
+                .iter()
+                .position(|&t| t == s.time)
+                .expect("step time");
             (run.production_temperature[k] - T0) / (T_INJ - T0)
         })
         .collect();
