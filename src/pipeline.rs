@@ -1397,6 +1397,42 @@ fn write_heat(
         )
         .map_err(plot_err)?;
     }
+    // ParaView: one collection per model and state, a frame per snapshot (quads, cell data
+    // `temperature` in K).
+    let mut pvds: Vec<(String, crate::output::vtk::PvdWriter)> = Vec::new();
+    for (k, (state, model, t, quads, values)) in heat.snapshots.iter().enumerate() {
+        let stem = format!("temperature_{model}_{}", state.name());
+        let frame = format!("{stem}_{k:03}.vtu");
+        let mut points = Vec::with_capacity(4 * quads.len());
+        let mut connectivity = Vec::with_capacity(4 * quads.len());
+        for q in quads {
+            for c in q {
+                connectivity.push(points.len() as u32);
+                points.push([c[0], c[1], 0.0]);
+            }
+        }
+        let piece = crate::output::vtk::VtuPiece {
+            points: &points,
+            kind: crate::output::vtk::CellKind::Quad,
+            connectivity: &connectivity,
+            point_data: Vec::new(),
+            cell_data: vec![crate::output::vtk::DataArray {
+                name: "temperature",
+                components: 1,
+                values,
+            }],
+        };
+        crate::output::vtk::write_vtu(&folder.claim(&frame).map_err(io)?, &piece).map_err(io)?;
+        let pos = match pvds.iter().position(|(s, _)| *s == stem) {
+            Some(p) => p,
+            None => {
+                let path = folder.claim(&format!("{stem}.pvd")).map_err(io)?;
+                pvds.push((stem.clone(), crate::output::vtk::PvdWriter::new(&path)));
+                pvds.len() - 1
+            }
+        };
+        pvds[pos].1.add(*t, &frame).map_err(io)?;
+    }
     for (state, model, t, quads, values) in &heat.snapshots {
         let name = format!("temperature_{model}_{}_{:.0}y.png", state.name(), t / YEAR);
         let title = format!(

@@ -135,6 +135,19 @@ fn stimulation_improves_production_and_heat() {
     let k = v.cell_array("after_k_flow_xx").unwrap();
     assert_eq!(k.len(), 400);
     assert!(k.iter().any(|&x| x > 1e-13) && k.iter().all(|&x| x >= 1e-17));
+    // Temperature frames: every snapshot of the continuum after the stimulation, between the
+    // injection and the initial temperature.
+    let frames = vtu::read_pvd(&out.join("temperature_continuum_after.pvd")).unwrap();
+    assert_eq!(frames.len(), 2, "{frames:?}");
+    for (_, f) in &frames {
+        let v = vtu::read_vtu(&out.join(f)).unwrap();
+        let t = v.cell_array("temperature").unwrap();
+        assert!(
+            t.iter()
+                .all(|x| (323.15 - 1e-6..=423.15 + 1e-6).contains(x))
+        );
+        assert!(t.iter().any(|&x| x < 420.0), "no cooling in {f}");
+    }
 
     // The folder's rules: a second run into it replaces its own files; a foreign file in a
     // folder without a manifest is refused and left alone.
