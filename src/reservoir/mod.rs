@@ -140,7 +140,60 @@ pub struct NetworkFlow {
     pub boundary: Vec<(u32, f64)>,
 }
 
+impl Grid2 {
+    /// At least one block each way, a finite positive extent, a finite origin.
+    pub fn validate(&self, field: &str) -> Result<(), ReservoirError> {
+        if self.n[0] == 0 || self.n[1] == 0 {
+            return Err(ReservoirError::invalid(
+                field,
+                format!("{:?} blocks: need at least one each way", self.n),
+            ));
+        }
+        if !(self.size.iter().all(|x| x.is_finite() && *x > 0.0)
+            && self.origin.iter().all(|x| x.is_finite()))
+        {
+            return Err(ReservoirError::invalid(
+                field,
+                format!(
+                    "origin {:?} m, size {:?} m: need a finite origin and a finite positive size",
+                    self.origin, self.size
+                ),
+            ));
+        }
+        Ok(())
+    }
+}
+
 impl NetworkFlow {
+    /// Node positions finite, cell node indices in range, apertures finite and positive.
+    pub fn validate_geometry(&self) -> Result<(), ReservoirError> {
+        if let Some(k) = self
+            .nodes
+            .iter()
+            .position(|p| !p.iter().all(|x| x.is_finite()))
+        {
+            return Err(ReservoirError::invalid(
+                &format!("nodes[{k}]"),
+                format!("{:?} m is not a finite point", self.nodes[k]),
+            ));
+        }
+        for (c, &(a, b, ap)) in self.cells.iter().enumerate() {
+            if a as usize >= self.nodes.len() || b as usize >= self.nodes.len() {
+                return Err(ReservoirError::invalid(
+                    &format!("cells[{c}]"),
+                    format!("node index out of range ({} nodes)", self.nodes.len()),
+                ));
+            }
+            if !(ap.is_finite() && ap > 0.0) {
+                return Err(ReservoirError::invalid(
+                    &format!("cells[{c}].aperture"),
+                    format!("{ap} m is not finite and positive"),
+                ));
+            }
+        }
+        Ok(())
+    }
+
     /// Length of cell `c`, m.
     pub fn cell_length(&self, c: usize) -> f64 {
         let (a, b, _) = self.cells[c];

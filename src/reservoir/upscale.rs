@@ -30,7 +30,7 @@ pub struct Piece {
     pub length: f64,
 }
 
-/// The pieces of every cell, cut by the grid lines: each cell's pieces in order along it, cells
+/// The pieces of every cell (of a valid network on a valid grid), cut by the grid lines: each cell's pieces in order along it, cells
 /// in order. Cells or parts of cells outside the grid are left out.
 pub fn pieces(grid: &Grid2, net: &NetworkFlow) -> Vec<Piece> {
     let d = grid.dx();
@@ -84,7 +84,9 @@ pub fn pieces(grid: &Grid2, net: &NetworkFlow) -> Vec<Piece> {
     out
 }
 
-/// Oda's crack tensor per block, `[k_xx, k_yy, k_xy]` in m^2 (no matrix floor).
+/// Oda's crack tensor per block, `[k_xx, k_yy, k_xy]` in m^2 (no matrix floor). The grid and
+/// network must be valid ([`Grid2::validate`], [`NetworkFlow::validate_geometry`]; [`upscale`]
+/// checks both).
 pub fn oda(grid: &Grid2, net: &NetworkFlow) -> Vec<[f64; 3]> {
     let d = grid.dx();
     let area = d[0] * d[1];
@@ -119,6 +121,8 @@ pub fn flow_based(
             format!("{viscosity} Pa s is not finite and positive"),
         ));
     }
+    grid.validate("grid")?;
+    net.validate_geometry()?;
     let all = pieces(grid, net);
     let mut by_block: Vec<Vec<usize>> = vec![Vec::new(); grid.len()];
     for (k, p) in all.iter().enumerate() {
@@ -284,8 +288,8 @@ pub fn upscale(
             format!("{matrix} m^2 is not finite and non-negative"),
         ));
     }
-    let mut oda = oda(grid, net);
     let mut flow = flow_based(grid, net, viscosity)?;
+    let mut oda = oda(grid, net);
     for k in &mut oda {
         k[0] += matrix;
         k[1] += matrix;
@@ -345,6 +349,28 @@ mod tests {
             assert!((k[0] - exact).abs() <= 1e-9 * exact, "{} vs {exact}", k[0]);
             assert_eq!(k[1], 0.0);
         }
+    }
+
+    /// Bad grids and networks are named, not a panic.
+    #[test]
+    fn bad_inputs_are_named() {
+        let grid = Grid2 {
+            origin: [0.0; 2],
+            size: [1.0; 2],
+            n: [1, 1],
+        };
+        let mut net = NetworkFlow::default();
+        net.nodes = vec![[0.0, 0.5], [1.0, 0.5]];
+        net.cells = vec![(0, 2, 1e-3)];
+        let e = upscale(&grid, &net, 1e-3, 0.0).unwrap_err().to_string();
+        assert!(e.contains("cells[0]"), "{e}");
+        net.cells = vec![(0, 1, f64::NAN)];
+        let e = upscale(&grid, &net, 1e-3, 0.0).unwrap_err().to_string();
+        assert!(e.contains("cells[0].aperture"), "{e}");
+        net.cells = vec![(0, 1, 1e-3)];
+        let bad = Grid2 { n: [0, 1], ..grid };
+        let e = upscale(&bad, &net, 1e-3, 0.0).unwrap_err().to_string();
+        assert!(e.contains("grid"), "{e}");
     }
 
     /// A fracture that does not reach the outlet face carries no flow; Oda still counts it.
