@@ -68,6 +68,8 @@ fn bench(c: &mut Criterion) {
         let mut sc = seed_block(1.0, End::Time(1e9), Damping::Local(0.8));
         if fractures {
             sc.fracture = Some(FractureSpec {
+                random: None,
+                file: None,
                 strength: None,
                 criterion: None,
                 face_stress: Default::default(),

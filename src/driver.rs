@@ -130,6 +130,13 @@ pub fn run_scenario(scenario: Scenario, opts: &RunOptions) -> Result<RunReport, 
     {
         warnings.push(format!("network_generated.csv {NOT_FINITE}"));
     }
+    if !sim.placed().is_empty()
+        && !outputs
+            .write_preexisting_csv(sim.placed())
+            .map_err(DriverError::Output)?
+    {
+        warnings.push(format!("preexisting_fractures.csv {NOT_FINITE}"));
+    }
     sim.set_output(outputs);
 
     let timing = TimingLayer::default();

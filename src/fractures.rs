@@ -29,7 +29,8 @@ pub fn open_preexisting(
     mesh: &TriMesh,
     spec: &FractureSpec,
 ) -> Result<Vec<Placed>, SetupError> {
-    if spec.preexisting.is_empty() {
+    let preexisting = spec.all_preexisting()?;
+    if preexisting.is_empty() {
         return Ok(Vec::new());
     }
     let adj = adjacency(mesh);
@@ -59,20 +60,28 @@ pub fn open_preexisting(
     let inside = |p: [f64; 2]| {
         p[0] >= domain[0] && p[0] <= domain[2] && p[1] >= domain[1] && p[1] <= domain[3]
     };
-    for (i, pf) in spec.preexisting.iter().enumerate() {
-        let field = format!("fracture.preexisting[{i}]");
+    for (pf, field) in &preexisting {
+        // A generated fracture that cannot be placed (outside the mesh, shorter than an
+        // edge, along the boundary) is left out; a listed one is an error.
+        let generated = field.starts_with("fracture.random");
         let where_ = format!(
             "from {:?} to {:?} m, the domain is [{x0}, {x1}] x [{y0}, {y1}] m",
             pf.from, pf.to
         );
         let (mut a, mut b) = (pf.from, pf.to);
         if !crate::network::clip(&mut a, &mut b, domain) {
+            if generated {
+                continue;
+            }
             return Err(SetupError::invalid(
-                &field,
+                field,
                 format!("lies outside the domain ({where_})"),
             ));
         }
-        let path = snap_segment(mesh, &adj, pf.from, pf.to).ok_or_else(|| {
+        let Some(path) = snap_segment(mesh, &adj, pf.from, pf.to) else {
+            if generated {
+                continue;
+            }
             let why = if inside(pf.from) && inside(pf.to) {
                 "is shorter than one mesh edge (both ends snap to the same node)".to_string()
             } else {
@@ -81,8 +90,8 @@ pub fn open_preexisting(
                      ({where_})"
                 )
             };
-            SetupError::invalid(&field, why)
-        })?;
+            return Err(SetupError::invalid(field, why));
+        };
         let edges: Vec<Entity> = path
             .nodes
             .windows(2)
@@ -98,8 +107,11 @@ pub fn open_preexisting(
                 .is_ok_and(|l| !l.is_external())
         });
         if !edges.is_empty() && !internal {
+            if generated {
+                continue;
+            }
             return Err(SetupError::invalid(
-                &field,
+                field,
                 format!(
                     "lies along the domain boundary ({where_}): its {} mesh edges are boundary \
                      edges, which cannot open",

@@ -987,13 +987,16 @@ impl ReservoirRow {
     }
 }
 
+/// A temperature field at one time: (state, model, time s, grid quads, values K).
+pub type Snapshot = (State, &'static str, f64, Vec<[[f64; 2]; 4]>, Vec<f64>);
+
 /// What the heat stage produced.
 pub struct HeatResult {
     /// Per state (before, after): the discrete and continuum series.
     pub series: Vec<(State, [HeatSeries; 2])>,
     pub rows: Vec<ReservoirRow>,
     /// Temperature snapshots: (state, model, time s, grid quads, values K).
-    pub snapshots: Vec<(State, &'static str, f64, Vec<[[f64; 2]; 4]>, Vec<f64>)>,
+    pub snapshots: Vec<Snapshot>,
     /// Per-system timing of the heat stage: (system, calls, seconds).
     pub timing: Vec<(String, u64, f64)>,
     /// Largest relative energy-balance error of the runs.

@@ -323,6 +323,15 @@ pub struct FractureSpec {
     /// Fractures present at the start, snapped to mesh edges and opened by node splitting.
     #[serde(default)]
     pub preexisting: Vec<PreFracture>,
+    /// A seeded random network of pre-existing fractures (added to `preexisting`), snapped and
+    /// opened as they are; written to `preexisting_fractures.csv` with each one's snapping
+    /// error.
+    #[serde(default)]
+    pub random: Option<RockNetwork>,
+    /// Pre-existing fractures from a CSV file (relative to the scenario file) with a header
+    /// line and columns `x0,y0,x1,y1` (m), e.g. a mapped network (added to `preexisting`).
+    #[serde(default)]
+    pub file: Option<String>,
     /// A uniform pressure on the faces of every fracture, Pa (prescribed; in coupled runs the
     /// flow solver supplies the face pressures instead).
     #[serde(default)]
@@ -382,6 +391,163 @@ fn default_residual_aperture() -> f64 {
 pub struct PreFracture {
     pub from: [f64; 2],
     pub to: [f64; 2],
+}
+
+/// Most fractures of a random network in the rock (each is snapped by a shortest-path search
+/// over the mesh).
+pub const MAX_ROCK_FRACTURES: usize = 10_000;
+
+/// A seeded (ChaCha8) random network of fractures in the rock: `count` fractures with centres
+/// uniform in the box `origin`..`origin + size` (m), orientation `angles_deg[k] +- jitter_deg`
+/// (degrees from the x axis, a family chosen uniformly per fracture), length uniform in
+/// `length` (m); clipped to the box. Their apertures come from the joints (residual aperture
+/// when closed).
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct RockNetwork {
+    pub seed: u64,
+    pub count: usize,
+    #[serde(default)]
+    pub origin: [f64; 2],
+    pub size: [f64; 2],
+    pub angles_deg: Vec<f64>,
+    #[serde(default)]
+    pub jitter_deg: f64,
+    pub length: [f64; 2],
+}
+
+impl RockNetwork {
+    /// The fractures, generated as [`RandomNetwork::generate`] does (the same seed gives the
+    /// same fractures).
+    pub fn generate(&self) -> Vec<PreFracture> {
+        RandomNetwork {
+            seed: self.seed,
+            count: self.count,
+            origin: self.origin,
+            size: self.size,
+            angles_deg: self.angles_deg.clone(),
+            jitter_deg: self.jitter_deg,
+            length: self.length,
+            aperture: [1.0, 1.0],
+        }
+        .generate()
+        .into_iter()
+        .map(|f| PreFracture {
+            from: f.from,
+            to: f.to,
+        })
+        .collect()
+    }
+
+    pub fn validate(&self, field: &str) -> Result<(), SetupError> {
+        let bad = |f: &str, why: String| SetupError::invalid(&format!("{field}.{f}"), why);
+        if self.count > MAX_ROCK_FRACTURES {
+            return Err(bad(
+                "count",
+                format!("{} fractures: at most {MAX_ROCK_FRACTURES}", self.count),
+            ));
+        }
+        if !self.origin.iter().all(|x| x.is_finite()) {
+            return Err(bad("origin", format!("{:?} is not finite", self.origin)));
+        }
+        if !self.size.iter().all(|x| x.is_finite() && *x > 0.0) {
+            return Err(bad(
+                "size",
+                format!("{:?} m: need finite positive sizes", self.size),
+            ));
+        }
+        if self.angles_deg.is_empty() || !self.angles_deg.iter().all(|a| a.is_finite()) {
+            return Err(bad(
+                "angles_deg",
+                "give at least one finite family orientation".into(),
+            ));
+        }
+        if !(self.jitter_deg.is_finite() && (0.0..=90.0).contains(&self.jitter_deg)) {
+            return Err(bad(
+                "jitter_deg",
+                format!("{} is not in [0, 90] degrees", self.jitter_deg),
+            ));
+        }
+        let [a, b] = self.length;
+        if !(a.is_finite() && b.is_finite() && a > 0.0 && a <= b) {
+            return Err(bad(
+                "length",
+                format!("{:?} m: need 0 < min <= max, finite", self.length),
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// Read pre-existing fractures from CSV text (header line, then `x0,y0,x1,y1` per line, m;
+/// blank lines skipped). Errors name the file and line.
+pub fn read_fracture_csv(text: &str, file: &str) -> Result<Vec<PreFracture>, SetupError> {
+    let mut out = Vec::new();
+    for (k, line) in text.lines().enumerate().skip(1) {
+        let line = line.trim();
+        if line.is_empty() {
+            continue;
+        }
+        let v: Vec<&str> = line.split(',').map(str::trim).collect();
+        let nums: Option<Vec<f64>> = v.iter().map(|x| x.parse::<f64>().ok()).collect();
+        match nums {
+            Some(n) if n.len() == 4 && n.iter().all(|x| x.is_finite()) => out.push(PreFracture {
+                from: [n[0], n[1]],
+                to: [n[2], n[3]],
+            }),
+            _ => {
+                return Err(SetupError::invalid(
+                    "fracture.file",
+                    format!(
+                        "{file}:{}: `{line}` is not four finite numbers x0,y0,x1,y1 (m)",
+                        k + 1
+                    ),
+                ));
+            }
+        }
+        if out.len() > MAX_ROCK_FRACTURES {
+            return Err(SetupError::invalid(
+                "fracture.file",
+                format!("{file}: more than {MAX_ROCK_FRACTURES} fractures"),
+            ));
+        }
+    }
+    Ok(out)
+}
+
+impl FractureSpec {
+    /// Every pre-existing fracture with the field it comes from: the listed ones
+    /// (`fracture.preexisting[i]`), then the file's (`fracture.file[i]`), then the random
+    /// network's (`fracture.random[i]`).
+    pub fn all_preexisting(&self) -> Result<Vec<(PreFracture, String)>, SetupError> {
+        let mut all: Vec<(PreFracture, String)> = self
+            .preexisting
+            .iter()
+            .enumerate()
+            .map(|(i, f)| (*f, format!("fracture.preexisting[{i}]")))
+            .collect();
+        if let Some(f) = &self.file {
+            let text = std::fs::read_to_string(f).map_err(|e| {
+                SetupError::invalid("fracture.file", format!("cannot read {f}: {e}"))
+            })?;
+            let list = read_fracture_csv(&text, f)?;
+            all.extend(
+                list.into_iter()
+                    .enumerate()
+                    .map(|(i, p)| (p, format!("fracture.file[{i}]"))),
+            );
+        }
+        if let Some(r) = &self.random {
+            r.validate("fracture.random")?;
+            all.extend(
+                r.generate()
+                    .into_iter()
+                    .enumerate()
+                    .map(|(i, p)| (p, format!("fracture.random[{i}]"))),
+            );
+        }
+        Ok(all)
+    }
 }
 
 /// Fluid properties (defaults: water at 25 C, the seed's values).
@@ -759,6 +925,13 @@ impl Scenario {
         let mut sc = Self::parse(&text, &path.display().to_string())?;
         // Mesh files are relative to the scenario file.
         if let Some(MeshSpec::Gmsh { file }) = &mut sc.mesh
+            && Path::new(file.as_str()).is_relative()
+            && let Some(dir) = path.parent()
+        {
+            *file = dir.join(file.as_str()).display().to_string();
+        }
+        // So are fracture files.
+        if let Some(file) = sc.fracture.as_mut().and_then(|f| f.file.as_mut())
             && Path::new(file.as_str()).is_relative()
             && let Some(dir) = path.parent()
         {
@@ -1268,6 +1441,9 @@ impl Scenario {
                     finite(&format!("fracture.preexisting[{i}]"), v)?;
                 }
             }
+            if let Some(r) = &f.random {
+                r.validate("fracture.random")?;
+            }
             if self.mesh.is_none() {
                 return Err(SetupError::invalid(
                     "fracture",
@@ -1293,10 +1469,9 @@ impl Scenario {
             }
         }
         let rock_fractures = self.mesh.is_some()
-            && self
-                .fracture
-                .as_ref()
-                .is_some_and(|f| !f.preexisting.is_empty());
+            && self.fracture.as_ref().is_some_and(|f| {
+                !f.preexisting.is_empty() || f.random.is_some() || f.file.is_some()
+            });
         if !self.flow_boundaries.is_empty() && self.network.is_none() && !rock_fractures {
             return Err(SetupError::invalid(
                 "flow_boundaries",

@@ -199,6 +199,32 @@ impl Outputs {
         Ok(true)
     }
 
+    /// `preexisting_fractures.csv`: the rock's pre-existing fractures as placed on the mesh,
+    /// `x0,y0,x1,y1,snap_error,edges` (m, m, mesh edges): the input to reproduce a run or feed
+    /// a network elsewhere, with how far the mesh path strays from each segment.
+    pub fn write_preexisting_csv(
+        &self,
+        placed: &[crate::fractures::Placed],
+    ) -> std::io::Result<bool> {
+        let finite = placed.iter().all(|p| {
+            [p.from[0], p.from[1], p.to[0], p.to[1], p.snap_error]
+                .into_iter()
+                .all(f64::is_finite)
+        });
+        if !finite {
+            return Ok(false);
+        }
+        let mut s = String::from("x0,y0,x1,y1,snap_error,edges\n");
+        for p in placed {
+            s += &format!(
+                "{},{},{},{},{},{}\n",
+                p.from[0], p.from[1], p.to[0], p.to[1], p.snap_error, p.edges
+            );
+        }
+        write_atomic(&self.claim("preexisting_fractures.csv")?, s.as_bytes())?;
+        Ok(true)
+    }
+
     /// `network_generated.csv`: the fractures the network was cut from, `x0,y0,x1,y1,aperture`.
     /// Like `network.csv`, not written (`Ok(false)`) when a value is not finite.
     pub fn write_fractures_csv(&self, fractures: &[Fracture]) -> std::io::Result<bool> {

@@ -359,9 +359,11 @@ mod tests {
             size: [1.0; 2],
             n: [1, 1],
         };
-        let mut net = NetworkFlow::default();
-        net.nodes = vec![[0.0, 0.5], [1.0, 0.5]];
-        net.cells = vec![(0, 2, 1e-3)];
+        let mut net = NetworkFlow {
+            nodes: vec![[0.0, 0.5], [1.0, 0.5]],
+            cells: vec![(0, 2, 1e-3)],
+            ..Default::default()
+        };
         let e = upscale(&grid, &net, 1e-3, 0.0).unwrap_err().to_string();
         assert!(e.contains("cells[0]"), "{e}");
         net.cells = vec![(0, 1, f64::NAN)];
@@ -376,9 +378,11 @@ mod tests {
     /// A fracture that does not reach the outlet face carries no flow; Oda still counts it.
     #[test]
     fn a_dead_end_carries_no_flow() {
-        let mut net = NetworkFlow::default();
-        net.nodes = vec![[0.0, 0.5], [0.6, 0.5]];
-        net.cells = vec![(0, 1, 1e-3)];
+        let net = NetworkFlow {
+            nodes: vec![[0.0, 0.5], [0.6, 0.5]],
+            cells: vec![(0, 1, 1e-3)],
+            ..Default::default()
+        };
         let grid = Grid2 {
             origin: [0.0; 2],
             size: [1.0; 2],

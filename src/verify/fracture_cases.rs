@@ -68,6 +68,8 @@ pub fn mesh_parity(h: f64, r: f64, fine: [f64; 4]) -> anyhow::Result<usize> {
 /// face pressure `pressure` (Pa), joints with the default friction and stiffnesses.
 pub fn crack_spec(from: [f64; 2], to: [f64; 2], pressure: Option<f64>) -> FractureSpec {
     FractureSpec {
+        random: None,
+        file: None,
         strength: None,
         criterion: None,
         face_stress: Default::default(),
@@ -381,6 +383,8 @@ fn block_scenario(phi_deg: f64, h: f64, gravity: [f64; 2]) -> crate::scenario::S
     );
     sc.gravity = Some(gravity);
     sc.fracture = Some(FractureSpec {
+        random: None,
+        file: None,
         strength: None,
         criterion: None,
         face_stress: Default::default(),
