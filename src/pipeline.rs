@@ -1363,37 +1363,45 @@ fn write_heat(
     for (file, what, unit, pick) in [
         (
             "heat_temperature.png",
-            "production temperature",
-            "temperature [K]",
+            "production temperature - injection",
+            "T_prod - T_inj [K]",
             0usize,
         ),
         ("heat_power.png", "thermal power", "power [W/m]", 1),
     ] {
+        // Log-log: the short-circuit of a single fracture happens in hours, the decline of a
+        // network over years. Non-positive values (a state that produces nothing) are left out.
+        let t_inj = spec.heat.injection_temperature;
         let mut lines = Vec::new();
         for (state, m) in &heat.series {
             for (name, sr) in MODELS.iter().zip(m) {
-                if sr.times.is_empty() {
+                let y: Vec<f64> = if pick == 0 {
+                    sr.production_temperature
+                        .iter()
+                        .map(|t| t - t_inj)
+                        .collect()
+                } else {
+                    sr.thermal_power.clone()
+                };
+                let points: Vec<(f64, f64)> = sr
+                    .times
+                    .iter()
+                    .zip(&y)
+                    .filter(|(t, v)| **t > 0.0 && **v > 0.0)
+                    .map(|(t, v)| (t / YEAR, *v))
+                    .collect();
+                if points.is_empty() {
                     continue;
                 }
-                let y = if pick == 0 {
-                    &sr.production_temperature
-                } else {
-                    &sr.thermal_power
-                };
                 lines.push(crate::plot::Series {
                     label: format!("{name}, {}", state.name()),
-                    points: sr
-                        .times
-                        .iter()
-                        .zip(y)
-                        .map(|(t, v)| (t / YEAR, *v))
-                        .collect(),
+                    points,
                 });
             }
         }
-        crate::plot::lines(
+        crate::plot::loglog(
             &folder.claim(file).map_err(io)?,
-            &format!("{}: {what}, before and after", spec.name),
+            &format!("{}: {what}", spec.name),
             "time [years]",
             unit,
             &lines,
