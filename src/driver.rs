@@ -114,6 +114,12 @@ pub fn run_scenario(scenario: Scenario, opts: &RunOptions) -> Result<RunReport, 
                     path: path.display().to_string(),
                     why,
                 })?;
+            if sim.quasi_static_counts().is_some() {
+                tracing::warn!(
+                    "quasi-static restart: the solver's factor is rebuilt, so the run continues \
+                     to the solver's tolerance, not bit for bit"
+                );
+            }
             Some((path.display().to_string(), header.step, header.time))
         }
         None => None,
@@ -218,7 +224,11 @@ pub fn run_scenario(scenario: Scenario, opts: &RunOptions) -> Result<RunReport, 
         summary["checkpoints"] = json!(sim.checkpoint_stats());
     }
     if let Some((path, step, time)) = restarted_from {
-        summary["restarted_from"] = json!({"file": path, "step": step, "time": time});
+        // The quasi-static solver's factor is rebuilt at the restart (not in the checkpoint):
+        // that run continues to the solver's tolerance, every other one bit for bit.
+        let exact = sim.quasi_static_counts().is_none();
+        summary["restarted_from"] =
+            json!({"file": path, "step": step, "time": time, "bit_identical": exact});
     }
     if let (Some(v), Some(o)) = (sim.fracture_view(), sim.output()) {
         if !o.write_network_csv(&v).map_err(DriverError::Output)? {
