@@ -505,3 +505,34 @@ fn quasi_static_restart_agrees_to_solver_tolerance() {
     println!("quasi-static restart: max |du| / max |u| = {du:.2e}, max |dP| / max P = {dp:.2e}");
     assert!(du < 1e-9 && dp < 1e-9, "du {du:.2e}, dP {dp:.2e}");
 }
+
+/// `output.checkpoint_every` must be a positive step count or a positive finite time; old
+/// scenarios (without it) stay valid and write no checkpoint.
+#[test]
+fn checkpoint_every_is_validated() {
+    let base = pumped(0.01, "");
+    assert_eq!(base.output.checkpoint_every, None);
+    base.validate().unwrap();
+    for (set, why) in [
+        ("output.checkpoint_every=Steps(0)", "at least 1"),
+        ("output.checkpoint_every=Time(0.0)", "> 0 s"),
+        ("output.checkpoint_every=Time(-1.0)", "> 0 s"),
+        (
+            "output.checkpoint_every=Time(1e999)",
+            "output.checkpoint_every",
+        ),
+    ] {
+        let e = match base.clone().with_overrides(&[set.into()]) {
+            Err(e) => e.to_string(),
+            Ok(sc) => sc.validate().unwrap_err().to_string(),
+        };
+        assert!(
+            e.contains("output.checkpoint_every") && e.contains(why),
+            "{set}: {e}"
+        );
+    }
+    let ok = base
+        .with_overrides(&["output.checkpoint_every=Time(0.5)".into()])
+        .unwrap();
+    ok.validate().unwrap();
+}
