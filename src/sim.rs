@@ -64,9 +64,10 @@ pub struct Simulation {
 /// What writing checkpoints cost this process.
 #[derive(Clone, Copy, Debug, Default, serde::Serialize)]
 pub struct CheckpointStats {
-    /// Checkpoints written, the size of the last one (bytes) and the wall time of all of them
-    /// (state capture, encoding and the atomic write), s.
+    /// Checkpoints written, the step of the last one, its size (bytes) and the wall time of
+    /// all of them (state capture, encoding and the atomic write), s.
     pub written: u64,
+    pub last_step: Option<u64>,
     pub last_bytes: u64,
     pub seconds: f64,
 }
@@ -105,6 +106,10 @@ impl Simulation {
         disabled.extend(extra_disable.iter().cloned());
         let schedule = crate::setup::schedule(&disabled, &view, &p, flow.is_some())?;
         let qs = crate::setup::quasi_static(&schedule);
+        let next_checkpoint_time = match p.output.checkpoint_every {
+            Some(crate::scenario::CheckpointEvery::Time(t)) => t,
+            _ => f64::INFINITY,
+        };
         Ok(Simulation {
             scenario,
             model,
@@ -132,16 +137,8 @@ impl Simulation {
             stop: None,
             interrupted_by: None,
             extra_disable: extra_disable.to_vec(),
-            next_checkpoint_time: f64::INFINITY,
+            next_checkpoint_time,
             checkpoints: CheckpointStats::default(),
-        })
-        .map(|mut sim: Simulation| {
-            if let Some(crate::scenario::CheckpointEvery::Time(t)) =
-                sim.params.output.checkpoint_every
-            {
-                sim.next_checkpoint_time = t;
-            }
-            sim
         })
     }
 
@@ -205,7 +202,11 @@ impl Simulation {
     fn interrupt(&mut self, sig: usize) -> Result<(), RunError> {
         self.interrupted_by = Some(sig);
         // The state to resume from: the one before the run is marked finished.
-        if self.params.output.checkpoint_every.is_some() && self.clock.step > 0 {
+        // (Unless the step just taken wrote it.)
+        if self.params.output.checkpoint_every.is_some()
+            && self.clock.step > 0
+            && self.checkpoints.last_step != Some(self.clock.step)
+        {
             self.write_checkpoint()?;
         }
         self.clock.finish = Some(Finish::Interrupted);
@@ -375,6 +376,7 @@ impl Simulation {
         crate::output::write_atomic(&path, &bytes)?;
         let c = &mut self.checkpoints;
         c.written += 1;
+        c.last_step = Some(self.clock.step);
         c.last_bytes = bytes.len() as u64;
         c.seconds += t.elapsed().as_secs_f64();
         Ok(Some(path))
