@@ -11,7 +11,9 @@ use serde::{Deserialize, Serialize};
 /// Stable identifier of an entity within its kind (nodes, elements and edges count separately).
 /// Dense views and every output are ordered by it, so results never depend on hecs' storage
 /// order or on the number of threads.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+#[derive(
+    Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, serde::Serialize, serde::Deserialize,
+)]
 pub struct StableId(pub u64);
 
 /// Which side of the rectangular domain a boundary node or external edge lies on.
@@ -51,25 +53,25 @@ impl Side {
 // ---------------------------------------------------------------------------------------------
 
 /// Reference (undeformed) position of a node, m.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct NodeRef(pub [f64; 2]);
 
 /// Kinematic state of a node: displacement u (m) and velocity v (m/s, at the last half step).
 /// The dense solid view holds the hot copy during stepping; it is written back here at every
 /// sync point (output frame, topology change, end of run).
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct NodeState {
     pub u: [f64; 2],
     pub v: [f64; 2],
 }
 
 /// Lumped nodal mass per unit thickness, kg/m (one third of rho*A of each element around it).
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct NodeMass(pub f64);
 
 /// Boundary condition of a node: a prescribed displacement per direction (m) where `Some`,
 /// and a constant external force (N/m, from tractions and body forces) added every step.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct NodeBc {
     pub prescribed: [Option<f64>; 2],
     pub load: [f64; 2],
@@ -77,7 +79,7 @@ pub struct NodeBc {
 
 /// Topological role of a node. `in_solid` is false for a mother node that has left the solid
 /// mesh after a split; `mother` links a daughter to the node it was split from.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct NodeLink {
     pub in_solid: bool,
     pub mother: Option<Entity>,
@@ -91,12 +93,12 @@ pub type NodeBundle = (StableId, NodeRef, NodeState, NodeMass, NodeBc, NodeLink)
 // ---------------------------------------------------------------------------------------------
 
 /// The three nodes of a constant-strain triangle, counter-clockwise.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct ElemNodes(pub [Entity; 3]);
 
 /// Precomputed geometry of a constant-strain triangle in the reference configuration:
 /// area A (m^2) and the constant shape-function gradients dN_a/dx, dN_a/dy (1/m).
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct ElemGeom {
     pub area: f64,
     pub dndx: [f64; 3],
@@ -105,7 +107,7 @@ pub struct ElemGeom {
 
 /// Cauchy stress of the element [sigma_xx, sigma_yy, sigma_xy], Pa, tension positive
 /// (sigma_zz = nu (sigma_xx + sigma_yy) in plane strain). Written back from the view at sync points.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct ElemStress(pub [f64; 3]);
 
 /// Element bundle: the one archetype of every element entity.
@@ -116,12 +118,12 @@ pub type ElemBundle = (StableId, ElemNodes, ElemGeom, ElemStress);
 // ---------------------------------------------------------------------------------------------
 
 /// The two end nodes of an edge.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct EdgeNodes(pub [Entity; 2]);
 
 /// The elements on either side of an edge: two for an internal edge, one (`[Some, None]`) for
 /// an external edge (domain boundary or fracture face).
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct EdgeElems(pub [Option<Entity>; 2]);
 
 impl EdgeElems {
@@ -134,7 +136,7 @@ impl EdgeElems {
 /// edge (Pa, tension positive), the fracture-ready mark set by the fracture criterion, and
 /// `opened`: the edge has been split into two daughter edges and left the solid (it is then a
 /// mother edge, the geometry of a flow cell).
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct EdgeState {
     pub side: Option<Side>,
     pub sigma_n: f64,
@@ -152,13 +154,13 @@ pub type EdgeBundle = (StableId, EdgeNodes, EdgeElems, EdgeState);
 /// The two nodes a flow cell runs between. Cells exchange fluid with every other cell that shares
 /// one of these nodes (the seed's pairs), so junction connectivity is held by the nodes: a split
 /// that creates cells only has to point them at the right (mother) nodes.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct CellNodes(pub [Entity; 2]);
 
 /// Fluid state of a cell (per unit thickness): hydraulic aperture a (m), fluid mass m (kg/m),
 /// pressure P (Pa) and the throughput |flow| through the cell (m^2/s) at the last flow step.
 /// Volume V = a L (m^2), density rho = m / V.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct CellFluid {
     pub aperture: f64,
     pub mass: f64,
@@ -173,7 +175,7 @@ pub enum CellKind {
     New,
 }
 
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct CellOrigin {
     pub kind: CellKind,
     pub created_t: f64,
@@ -183,7 +185,7 @@ pub struct CellOrigin {
 pub type CellBundle = (StableId, CellNodes, CellFluid, CellOrigin);
 
 /// Where a flow boundary condition acts: every cell at a node, or one cell.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub enum FlowBcTarget {
     Node(Entity),
     Cell(Entity),
@@ -192,7 +194,7 @@ pub enum FlowBcTarget {
 /// A flow boundary condition: `index` into the scenario's `flow_boundaries`, its target, and its
 /// state at the last flow step: boundary pressure (Pa), rate into the network (m^2/s) and the
 /// cumulative volumes in and out (m^2, at reference density).
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct FlowBc {
     pub index: usize,
     pub target: FlowBcTarget,
@@ -204,7 +206,7 @@ pub struct FlowBc {
 
 /// A joint: the two sister daughter edges of an opened mother edge, the mother edge and the flow
 /// cell made from it.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Joint {
     pub edges: [Entity; 2],
     pub mother_edge: Entity,
@@ -214,7 +216,7 @@ pub struct Joint {
 /// Contact state of a joint (seed (8)-(11)): normal force F_n (N/m, compression positive),
 /// tangential force F_t (N/m, on face q along face p's tangent), the last tangential offset
 /// (m, for the incremental update), whether it slid at the last step, and the opening (m).
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct JointState {
     pub normal_force: f64,
     pub shear_force: f64,

@@ -33,6 +33,9 @@ pub struct RunOptions {
     /// Refuse a scenario whose mesh and network need more memory than this, bytes (estimated
     /// before anything is allocated, [`crate::resources`]). Default: the machine's memory.
     pub max_memory: Option<u64>,
+    /// Continue from this checkpoint ([`crate::checkpoint`]): it must have been written for
+    /// the same scenario, `set` overrides and `disable` list.
+    pub restart: Option<PathBuf>,
 }
 
 /// What a finished run reports.
@@ -74,6 +77,8 @@ pub enum DriverError {
     Output(std::io::Error),
     #[error(transparent)]
     Folder(#[from] FolderError),
+    #[error(transparent)]
+    Checkpoint(#[from] crate::checkpoint::CheckpointError),
     #[error("--trace {}: {why}", .path.display())]
     Trace { path: PathBuf, why: String },
 }
@@ -98,6 +103,27 @@ pub fn run_scenario(scenario: Scenario, opts: &RunOptions) -> Result<RunReport, 
     crate::resources::check(&scenario, limit, source)?;
     let mut sim = Simulation::new(scenario, &opts.disable)?;
     let start_network = network_now(&sim);
+    // Read and checked before the output folder is touched: a refused checkpoint leaves it
+    // as it was (and a checkpoint inside it can be restarted from into the same folder).
+    let restarted_from = match &opts.restart {
+        Some(path) => {
+            let (header, state) = crate::checkpoint::read(path)?;
+            crate::checkpoint::check_scenario(path, &header, sim.scenario(), &opts.disable)?;
+            sim.restore(state)
+                .map_err(|why| crate::checkpoint::CheckpointError::Refused {
+                    path: path.display().to_string(),
+                    why,
+                })?;
+            if sim.quasi_static_counts().is_some() {
+                tracing::warn!(
+                    "quasi-static restart: the solver's factor is rebuilt, so the run continues \
+                     to the solver's tolerance, not bit for bit"
+                );
+            }
+            Some((path.display().to_string(), header.step, header.time))
+        }
+        None => None,
+    };
     if let Some(stop) = &opts.stop {
         sim.set_stop(stop.clone());
     }
@@ -200,6 +226,16 @@ pub fn run_scenario(scenario: Scenario, opts: &RunOptions) -> Result<RunReport, 
     }
     if let Some(c) = sim.quasi_static_counts() {
         summary["quasi_static"] = json!(c);
+    }
+    if sim.params().output.checkpoint_every.is_some() {
+        summary["checkpoints"] = json!(sim.checkpoint_stats());
+    }
+    if let Some((path, step, time)) = restarted_from {
+        // The quasi-static solver's factor is rebuilt at the restart (not in the checkpoint):
+        // that run continues to the solver's tolerance, every other one bit for bit.
+        let exact = sim.quasi_static_counts().is_none();
+        summary["restarted_from"] =
+            json!({"file": path, "step": step, "time": time, "bit_identical": exact});
     }
     if let (Some(v), Some(o)) = (sim.fracture_view(), sim.output()) {
         if !o.write_network_csv(&v).map_err(DriverError::Output)? {

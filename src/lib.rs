@@ -15,6 +15,7 @@ pub mod components;
 pub mod systems;
 
 pub mod atomic;
+pub mod checkpoint;
 pub mod driver;
 pub mod element;
 pub mod error;

@@ -53,6 +53,11 @@ enum Command {
         /// [default: the machine's memory, MemTotal of /proc/meminfo, else 16GiB]
         #[arg(long, value_name = "SIZE", value_parser = hydrofrac::resources::parse_size)]
         max_memory: Option<u64>,
+        /// Continue from a checkpoint (`output.checkpoint_every` writes checkpoint.ckpt in
+        /// the output folder): bit for bit the run that wrote it. Refused unless written by
+        /// this hydrofrac for the same scenario, --set overrides and --disable list
+        #[arg(long, value_name = "FILE")]
+        restart: Option<PathBuf>,
     },
     /// Run verification cases at several resolutions: error and wall time (CSV + PNG).
     Verify {
@@ -183,6 +188,7 @@ fn real_main() -> Result<ExitCode> {
             quiet,
             force,
             max_memory,
+            restart,
         } => {
             let opts = RunOptions {
                 out,
@@ -193,6 +199,7 @@ fn real_main() -> Result<ExitCode> {
                 force,
                 stop: Some(install_stop_handlers()?),
                 max_memory,
+                restart,
             };
             let report = run_file(&scenario, &opts)?;
             let code = report.interrupted_by.map_or(ExitCode::SUCCESS, signal_exit);

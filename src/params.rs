@@ -75,6 +75,8 @@ pub struct OutputParams {
     /// Simulated times of the fracture-pressure figures, s.
     pub figure_times: Vec<f64>,
     pub fields: Vec<Field>,
+    /// Restart checkpoints (`output.checkpoint_every`).
+    pub checkpoint_every: Option<crate::scenario::CheckpointEvery>,
 }
 
 /// Everything the step needs, resolved from a validated scenario.
@@ -198,6 +200,7 @@ impl RunParams {
                 series_every: sc.output.series_every,
                 figure_times: sc.output.figure_times.clone(),
                 fields: sc.output.fields.clone(),
+                checkpoint_every: sc.output.checkpoint_every,
             },
         }
     }

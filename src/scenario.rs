@@ -884,6 +884,21 @@ pub struct OutputSpec {
     /// the seed's Fig. 7). The same figure is always written at the end of the run.
     #[serde(default)]
     pub figure_times: Vec<f64>,
+    /// Write a restart checkpoint (`checkpoint.ckpt` in the output folder, the one before kept
+    /// as `checkpoint.prev.ckpt`) every this many steps or simulated seconds; `None`: never.
+    /// A run stopped by SIGINT/SIGTERM writes one too when this is set. `hydrofrac run
+    /// SCENARIO --restart FILE` continues from it ([`crate::checkpoint`]).
+    #[serde(default)]
+    pub checkpoint_every: Option<CheckpointEvery>,
+}
+
+/// How often a checkpoint is written.
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq)]
+pub enum CheckpointEvery {
+    /// Every this many steps (>= 1).
+    Steps(u64),
+    /// At the end of the first step that reaches each multiple of this simulated time, s (> 0).
+    Time(f64),
 }
 
 fn default_series_every() -> u64 {
@@ -900,6 +915,7 @@ impl Default for OutputSpec {
             series_every: default_series_every(),
             fields: default_fields(),
             figure_times: Vec::new(),
+            checkpoint_every: None,
         }
     }
 }
@@ -1565,6 +1581,24 @@ impl Scenario {
                 "output.series_every",
                 "must be at least 1",
             ));
+        }
+        match self.output.checkpoint_every {
+            Some(CheckpointEvery::Steps(0)) => {
+                return Err(SetupError::invalid(
+                    "output.checkpoint_every",
+                    "Steps must be at least 1",
+                ));
+            }
+            Some(CheckpointEvery::Time(t)) => {
+                finite("output.checkpoint_every", t)?;
+                if t <= 0.0 {
+                    return Err(SetupError::invalid(
+                        "output.checkpoint_every",
+                        format!("Time must be > 0 s, got {t}"),
+                    ));
+                }
+            }
+            _ => {}
         }
         Ok(())
     }

@@ -6,6 +6,7 @@
 //! and writes. The views live here: rebuilt from the components when the model's topology
 //! generation moves (after `split`, or an [`Simulation::edit_model`]).
 
+use crate::checkpoint::{FlowState, Header, State, WorldRecords};
 use crate::error::SetupError;
 use crate::fractures::Placed;
 use crate::model::Model;
@@ -52,6 +53,23 @@ pub struct Simulation {
     stop: Option<StopFlag>,
     /// The signal number that stopped the run, if one did.
     interrupted_by: Option<usize>,
+    /// Systems switched off on the command line (part of a checkpoint's fingerprint).
+    extra_disable: Vec<String>,
+    /// `output.checkpoint_every: Time`: the simulated time the next checkpoint is due at, s.
+    next_checkpoint_time: f64,
+    /// Checkpoints written by this process.
+    checkpoints: CheckpointStats,
+}
+
+/// What writing checkpoints cost this process.
+#[derive(Clone, Copy, Debug, Default, serde::Serialize)]
+pub struct CheckpointStats {
+    /// Checkpoints written, the step of the last one, its size (bytes) and the wall time of
+    /// all of them (state capture, encoding and the atomic write), s.
+    pub written: u64,
+    pub last_step: Option<u64>,
+    pub last_bytes: u64,
+    pub seconds: f64,
 }
 
 /// The flow system's commit of a coupled quasi-static step of length `dt` (s).
@@ -88,6 +106,10 @@ impl Simulation {
         disabled.extend(extra_disable.iter().cloned());
         let schedule = crate::setup::schedule(&disabled, &view, &p, flow.is_some())?;
         let qs = crate::setup::quasi_static(&schedule);
+        let next_checkpoint_time = match p.output.checkpoint_every {
+            Some(crate::scenario::CheckpointEvery::Time(t)) => t,
+            _ => f64::INFINITY,
+        };
         Ok(Simulation {
             scenario,
             model,
@@ -114,6 +136,9 @@ impl Simulation {
             cells_at_start: 0,
             stop: None,
             interrupted_by: None,
+            extra_disable: extra_disable.to_vec(),
+            next_checkpoint_time,
+            checkpoints: CheckpointStats::default(),
         })
     }
 
@@ -141,6 +166,9 @@ impl Simulation {
                 break;
             }
             self.step_once()?;
+            if self.clock.finish.is_none() && self.checkpoint_due() {
+                self.write_checkpoint()?;
+            }
             if self.clock.step.is_multiple_of(256) {
                 progress(self);
             }
@@ -173,6 +201,14 @@ impl Simulation {
     /// state reached, unless the step just taken wrote them already.
     fn interrupt(&mut self, sig: usize) -> Result<(), RunError> {
         self.interrupted_by = Some(sig);
+        // The state to resume from: the one before the run is marked finished.
+        // (Unless the step just taken wrote it.)
+        if self.params.output.checkpoint_every.is_some()
+            && self.clock.step > 0
+            && self.checkpoints.last_step != Some(self.clock.step)
+        {
+            self.write_checkpoint()?;
+        }
         self.clock.finish = Some(Finish::Interrupted);
         if !self.schedule.is_enabled(SystemId::Output) {
             return Ok(());
@@ -192,6 +228,163 @@ impl Simulation {
             params: &self.params,
         };
         output::write(&mut self.model, self.flow.as_mut(), &scene, out, frame, row)
+    }
+
+    /// Whether `output.checkpoint_every` asks for a checkpoint after the step just taken (and
+    /// moves the next due time on).
+    fn checkpoint_due(&mut self) -> bool {
+        use crate::scenario::CheckpointEvery;
+        match self.params.output.checkpoint_every {
+            None => false,
+            Some(CheckpointEvery::Steps(n)) => self.clock.step.is_multiple_of(n),
+            Some(CheckpointEvery::Time(t)) => {
+                if self.clock.time < self.next_checkpoint_time {
+                    return false;
+                }
+                self.next_checkpoint_time = ((self.clock.time / t).floor() + 1.0) * t;
+                true
+            }
+        }
+    }
+
+    /// The state between steps as a checkpoint ([`crate::checkpoint`]), read as it is in
+    /// memory: nothing is synced, so taking it does not change the run.
+    pub fn checkpoint_state(&self) -> Result<(Header, State), String> {
+        let m = &self.model;
+        let p = &self.params;
+        let header = Header {
+            crate_version: env!("CARGO_PKG_VERSION").to_string(),
+            scenario_name: self.scenario.name.clone(),
+            fingerprint: crate::checkpoint::fingerprint(&self.scenario, &self.extra_disable),
+            step: self.clock.step,
+            time: self.clock.time,
+        };
+        let flow = self.flow.as_ref().map(|f| FlowState {
+            view: f.view.clone(),
+            dt: f.dt,
+            substeps: f.substeps,
+            dt_crit: f.dt_crit,
+            substep_bound: f.substep_bound,
+            stats: f.stats,
+            initial_excess: f.initial_excess,
+            residual: f.residual,
+            initial_volume: f.initial_volume,
+            coupling: f.coupling.clone(),
+            implicit: f.implicit.as_ref().map(|s| s.counters()),
+        });
+        let state = State {
+            world: WorldRecords::capture(m)?,
+            topology_generation: m.topology_generation,
+            next_ids: [
+                m.next_node_id,
+                m.next_elem_id,
+                m.next_edge_id,
+                m.next_cell_id,
+                m.next_joint_id,
+            ],
+            clock: self.clock.clone(),
+            dt: p.solid.dt,
+            load_factor: p.solid.load_factor,
+            aim: p.time.aim,
+            solid_view: self.solid.view.clone(),
+            solid_stats: self.solid.stats,
+            dt_crit: self.solid.dt_crit,
+            qs_counts: self.solid.quasi_static.as_ref().map(|q| q.counts),
+            flow,
+            fracture: self.fracture.clone(),
+            effort: self.effort,
+            cells_at_start: self.cells_at_start,
+            next_checkpoint_time: self.next_checkpoint_time,
+        };
+        Ok((header, state))
+    }
+
+    /// Continue from a checkpoint's state: this simulation must be freshly set up from the
+    /// scenario the checkpoint was written for ([`crate::checkpoint::check_scenario`]).
+    pub fn restore(&mut self, state: State) -> Result<(), String> {
+        let parts = (state.flow.is_some(), self.flow.is_some());
+        let qs = (state.qs_counts.is_some(), self.solid.quasi_static.is_some());
+        if parts.0 != parts.1 || qs.0 != qs.1 {
+            return Err("its flow network or solid scheme differs from this scenario's".into());
+        }
+        let m = &mut self.model;
+        m.world = state.world.restore()?;
+        m.topology_generation = state.topology_generation;
+        [
+            m.next_node_id,
+            m.next_elem_id,
+            m.next_edge_id,
+            m.next_cell_id,
+            m.next_joint_id,
+        ] = state.next_ids;
+        self.clock = state.clock;
+        let p = &mut self.params;
+        p.solid.dt = state.dt;
+        p.solid.load_factor = state.load_factor;
+        p.time.aim = state.aim;
+        self.solid.view = state.solid_view;
+        self.solid.stats = state.solid_stats;
+        self.solid.dt_crit = state.dt_crit;
+        if let (Some(q), Some(c)) = (self.solid.quasi_static.as_mut(), state.qs_counts) {
+            q.counts = c;
+        }
+        if let (Some(f), Some(s)) = (self.flow.as_mut(), state.flow) {
+            f.view = s.view;
+            f.dt = s.dt;
+            f.substeps = s.substeps;
+            f.dt_crit = s.dt_crit;
+            f.substep_bound = s.substep_bound;
+            f.stats = s.stats;
+            f.initial_excess = s.initial_excess;
+            f.residual = s.residual;
+            f.initial_volume = s.initial_volume;
+            if f.coupling.is_some() != s.coupling.is_some() {
+                return Err("its coupling differs from this scenario's".into());
+            }
+            f.coupling = s.coupling;
+            if let (Some(solver), Some(c)) = (f.implicit.as_mut(), s.implicit) {
+                solver.set_counters(c);
+            }
+        }
+        self.fracture = state.fracture;
+        self.effort = state.effort;
+        self.cells_at_start = state.cells_at_start;
+        self.next_checkpoint_time = state.next_checkpoint_time;
+        let has_load = self.solid.view.has_load();
+        self.schedule.set_data(SystemId::ExternalLoad, has_load);
+        Ok(())
+    }
+
+    /// Write a checkpoint of the state now into the output folder (`checkpoint.ckpt`, the one
+    /// before renamed to `checkpoint.prev.ckpt`; both listed in the folder's manifest; each
+    /// written atomically). Without an output folder nothing is written. Returns the file.
+    pub fn write_checkpoint(&mut self) -> Result<Option<std::path::PathBuf>, RunError> {
+        let Some(out) = self.output.as_ref() else {
+            return Ok(None);
+        };
+        let t = std::time::Instant::now();
+        let (header, state) = self
+            .checkpoint_state()
+            .map_err(|e| RunError::Io(std::io::Error::other(format!("checkpoint: {e}"))))?;
+        let bytes = crate::checkpoint::encode(&header, &state)
+            .map_err(|e| RunError::Io(std::io::Error::other(format!("checkpoint: {e}"))))?;
+        let path = out.claim(crate::checkpoint::FILE)?;
+        let prev = out.claim(crate::checkpoint::PREV_FILE)?;
+        if path.exists() {
+            std::fs::rename(&path, &prev)?;
+        }
+        crate::output::write_atomic(&path, &bytes)?;
+        let c = &mut self.checkpoints;
+        c.written += 1;
+        c.last_step = Some(self.clock.step);
+        c.last_bytes = bytes.len() as u64;
+        c.seconds += t.elapsed().as_secs_f64();
+        Ok(Some(path))
+    }
+
+    /// What writing checkpoints cost so far.
+    pub fn checkpoint_stats(&self) -> CheckpointStats {
+        self.checkpoints
     }
 
     /// One step: every enabled system in order, each in its span.

@@ -13,7 +13,7 @@ pub const NONE: u32 = u32::MAX;
 
 /// The solid mesh as flat arrays. Node vectors are `[x, y]` pairs; `elem_force` holds the six
 /// nodal force components of every element from the last internal-force pass.
-#[derive(Clone, Default)]
+#[derive(Clone, Default, serde::Serialize, serde::Deserialize)]
 pub struct SolidView {
     /// Topology generation this view was built from.
     pub generation: u64,

@@ -33,7 +33,7 @@ use hecs::Entity;
 use std::collections::HashMap;
 
 /// Coupling maps and per-step state between the solid's joints and the flow's cells.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug, Default, serde::Serialize, serde::Deserialize)]
 pub struct Coupling {
     /// Flow cell -> solid joint (dense indices; u32::MAX: the cell has no joint).
     pub cell_joint: Vec<u32>,

@@ -52,7 +52,7 @@ pub fn face_normal_stress(v: &SolidView, k: usize, by_elements: bool) -> f64 {
 }
 
 /// Work counts of the strength test.
-#[derive(Clone, Copy, Debug, Default)]
+#[derive(Clone, Copy, Debug, Default, serde::Serialize, serde::Deserialize)]
 pub struct StrengthCounts {
     /// Face stresses evaluated, and faces passed over by the screen, summed over passes.
     pub evaluated: u64,
@@ -63,7 +63,7 @@ pub struct StrengthCounts {
 
 /// A face's due point in one region's heap: evaluate it again once that region's
 /// accumulated displacement bound reaches `at` (m); `version` tells stale entries.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 struct Due {
     at: f64,
     edge: u32,
@@ -106,7 +106,7 @@ const MAX_REGIONS: usize = 6;
 /// from a moving fracture the regions barely move and their faces sleep. A topology change
 /// (split) evaluates every face again. The marks are exactly those of the full evaluation
 /// (`tests/fracture_criterion.rs`).
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug, Default, serde::Serialize, serde::Deserialize)]
 pub struct StrengthScreen {
     generation: Option<u64>,
     /// Displacements at the last pass, m.
@@ -466,7 +466,7 @@ pub fn contact(v: &mut SolidView, p: &JointParams) {
 }
 
 /// Counters of the fracture systems.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug, Default, serde::Serialize, serde::Deserialize)]
 pub struct FractureState {
     /// Internal edges marked fracture-ready so far (`fracture_criterion`).
     pub ready_edges: usize,

@@ -12,7 +12,7 @@ use crate::systems::state::SolidPart;
 pub const SPEED_LIMIT_FRACTION: f64 = 1.0;
 
 /// How a run ended.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Finish {
     /// Reached the end time.
@@ -26,7 +26,7 @@ pub enum Finish {
 }
 
 /// Where the run is in time.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct Clock {
     /// Steps taken.
     pub step: u64,
@@ -151,7 +151,7 @@ pub fn monitor(
 }
 
 /// How hard the last quasi-static step was: the adaptive step's input.
-#[derive(Clone, Copy, Debug, Default)]
+#[derive(Clone, Copy, Debug, Default, serde::Serialize, serde::Deserialize)]
 pub struct Effort {
     /// Newton iterations of the step's solve (not of its re-solves after splits).
     pub iterations: u64,

@@ -68,7 +68,7 @@ enum State {
 }
 
 /// What the solver did, summed over the run (reported in `summary.json`).
-#[derive(Clone, Copy, Debug, Default, serde::Serialize)]
+#[derive(Clone, Copy, Debug, Default, serde::Serialize, serde::Deserialize)]
 pub struct QsCounts {
     pub steps: u64,
     pub newton_iterations: u64,

@@ -171,7 +171,7 @@ pub fn scale_masses(v: &mut SolidView, p: &SolidParams, k_joint: f64, dt_crit: f
 }
 
 /// Quantities reduced over the nodes during integration.
-#[derive(Clone, Copy, Debug, Default)]
+#[derive(Clone, Copy, Debug, Default, serde::Serialize, serde::Deserialize)]
 pub struct StepStats {
     /// Kinetic energy at the new half step, J/m.
     pub kinetic: f64,

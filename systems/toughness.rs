@@ -60,7 +60,7 @@ use std::f64::consts::PI;
 pub const RADIUS_EDGES: f64 = 10.0;
 
 /// One tip's geometry, fixed for a topology generation.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct TipGeometry {
     /// Dense index of the tip node.
     pub node: u32,
@@ -91,7 +91,7 @@ pub struct TipGeometry {
 }
 
 /// What the criterion measured at one tip in the last evaluation.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct TipState {
     pub node: u32,
     /// Mode I and II stress intensity factors, Pa sqrt(m).
@@ -110,7 +110,7 @@ pub struct TipState {
 }
 
 /// The tips of the current topology and what was measured at them.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug, Default, serde::Serialize, serde::Deserialize)]
 pub struct Tips {
     generation: Option<u64>,
     pub geometry: Vec<TipGeometry>,

@@ -43,6 +43,7 @@ const LAYERS: &[(&str, u8)] = &[
     ("schedule", 5),
     ("setup", 5),
     ("sim", 5),
+    ("checkpoint", 5),
     // 6: driver, verification, reference kernels.
     ("driver", 6),
     ("pipeline", 6),

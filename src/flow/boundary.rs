@@ -12,7 +12,7 @@ use crate::scenario::{FlowBcKind, FlowBoundary};
 pub const MASS_ROUNDOFF: f64 = 1e-12;
 
 /// Reductions of one flow step.
-#[derive(Clone, Copy, Debug, Default)]
+#[derive(Clone, Copy, Debug, Default, serde::Serialize, serde::Deserialize)]
 pub struct FlowStats {
     /// Sum of squared net volumetric inflow per cell, (m^2/s)^2.
     pub net2: f64,

@@ -302,6 +302,40 @@ impl ImplicitSolver {
     pub fn symbolic_count(&self) -> usize {
         self.symbolic_count
     }
+
+    /// The settings and counters (a restart checkpoint's part of the solver: the
+    /// factorisation is rebuilt for the same pattern, which gives the same numbers).
+    pub fn counters(&self) -> ImplicitCounters {
+        ImplicitCounters {
+            tol: self.tol,
+            max_iter: self.max_iter,
+            last_iterations: self.last_iterations,
+            total_iterations: self.total_iterations,
+            steps: self.steps,
+            last_residual: self.last_residual,
+        }
+    }
+
+    /// Set what [`ImplicitSolver::counters`] returned.
+    pub fn set_counters(&mut self, c: ImplicitCounters) {
+        self.tol = c.tol;
+        self.max_iter = c.max_iter;
+        self.last_iterations = c.last_iterations;
+        self.total_iterations = c.total_iterations;
+        self.steps = c.steps;
+        self.last_residual = c.last_residual;
+    }
+}
+
+/// [`ImplicitSolver`]'s settings and counters.
+#[derive(Clone, Copy, Debug, Default, serde::Serialize, serde::Deserialize)]
+pub struct ImplicitCounters {
+    pub tol: f64,
+    pub max_iter: usize,
+    pub last_iterations: usize,
+    pub total_iterations: u64,
+    pub steps: u64,
+    pub last_residual: f64,
 }
 
 /// Pressures P = max(y, 0) into the view, pair fluxes, boundary flows at `t1`, net inflow per

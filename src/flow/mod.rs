@@ -75,7 +75,7 @@ pub fn half_cell_kappa(l: f64, a: f64, mu: f64) -> f64 {
 }
 
 /// A flow boundary in dense form.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct BcView {
     pub entity: Entity,
     /// Index into the scenario's `flow_boundaries`.
@@ -107,7 +107,7 @@ pub fn kahan_add(sum: &mut f64, c: &mut f64, x: f64) {
 }
 
 /// The network as flat arrays, cells ordered by stable id.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug, Default, serde::Serialize, serde::Deserialize)]
 pub struct FlowView {
     pub generation: u64,
     pub cell_entity: Vec<Entity>,
