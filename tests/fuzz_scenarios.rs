@@ -505,7 +505,7 @@ fn mutate(rng: &mut ChaCha8Rng, c: &Corpus, input: &Input) -> Input {
         toks.push(String::new());
     }
     let k = rng.random_range(0..n);
-    match rng.random_range(0..12) {
+    match rng.random_range(0..13) {
         // Delete a token (or a run of them).
         0 => {
             let len = rng.random_range(1..=4).min(n - k);
@@ -583,6 +583,34 @@ fn mutate(rng: &mut ChaCha8Rng, c: &Corpus, input: &Input) -> Input {
                 format!("{}={v}", pick(rng, &c.paths))
             };
             out.sets.push(s);
+        }
+        // Noise inside a string (a name, a file, a system): control characters, quotes.
+        11 => {
+            let strs: Vec<usize> = (0..toks.len())
+                .filter(|&i| toks[i].len() >= 2 && toks[i].starts_with('"'))
+                .collect();
+            if !strs.is_empty() {
+                let i = *pick(rng, &strs);
+                let inner = &toks[i][1..toks[i].len() - 1];
+                let cut = (0..=inner.len())
+                    .filter(|&j| inner.is_char_boundary(j))
+                    .nth(rng.random_range(0..=inner.chars().count()))
+                    .unwrap_or(0);
+                let noise = *pick(
+                    rng,
+                    &[
+                        "\\n",
+                        "\\r",
+                        "\\t",
+                        "\\u{0}",
+                        "\\u{1b}[31m",
+                        "\\\"",
+                        "\n",
+                        "\u{7}",
+                    ],
+                );
+                toks[i] = format!("\"{}{noise}{}\"", &inner[..cut], &inner[cut..]);
+            }
         }
         // Splice: a run of tokens from another seed.
         _ => {
