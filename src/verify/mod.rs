@@ -6,10 +6,12 @@
 //! (R5, R7b, R8) `sneddon`, `sif`, `friction`; coupled (R6) `kgd`, `kgd_k`, `kgd_mk`; the seed's
 //! Example I (R9) `example1`; reservoir: upscaling `oda`, continuum heat (R17)
 //! `heat_continuum`, discrete heat (R15, R16) `lauwerier`, `gringarten`, the two against each other
-//! `heat_models`.
+//! `heat_models`; reliability: `extreme` (corners of the parameter space: finite and bounded,
+//! or refused naming the parameter).
 
 pub mod coupled_cases;
 pub mod example_cases;
+pub mod extreme_cases;
 pub mod flow_cases;
 pub mod fracture_cases;
 pub mod heat_continuum_cases;
@@ -229,6 +231,11 @@ pub fn cases() -> Vec<Case> {
             name: "heat_models",
             about: "discrete against continuum heat model on the same parallel fractures, spacing 0.5 to 32 m: where local thermal equilibrium holds (Fourier number of the slab)",
             run: heat_models_cases::heat_models,
+        },
+        Case {
+            name: "extreme",
+            about: "coupled and dry runs at the corners of the parameter space (K 1e8-1e10 Pa x a_r 1e-6-1e-2 m, nu 0-0.499, joint stiffness 1e12, p_max 100 MPa, E 1e9-1e12, mu 1e-6-1e3, h 1 % of the domain): finite and bounded, or refused naming the parameter",
+            run: extreme_cases::extreme,
         },
     ]
 }
