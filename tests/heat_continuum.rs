@@ -283,19 +283,3 @@ fn large_run_timing() {
     assert!(run.energy_balance < 1e-9 && run.mass_balance < 1e-9);
     assert!(wall < 10.0, "{wall:.2} s (allowed 10 s)");
 }
-
-/// The pressure solve and the heat steps are timed as systems (`hydrofrac::system` spans):
-/// one `darcy_continuum` entry, one `heat_continuum` entry for the set-up and one per step.
-#[test]
-fn systems_are_timed() {
-    use tracing_subscriber::layer::SubscriberExt;
-    let timing = hydrofrac::timing::TimingLayer::default();
-    let table = timing.table.clone();
-    let subscriber = tracing_subscriber::registry().with(timing);
-    let spec = doublet_spec(21, 1e-3, 1.0);
-    let run = tracing::subscriber::with_default(subscriber, || run_continuum(&spec).unwrap());
-    let table = table.lock().unwrap();
-    let calls = |name: &str| table.get(name).map_or(0, |t| t.calls);
-    assert_eq!(calls("darcy_continuum"), 1);
-    assert_eq!(calls("heat_continuum") as usize, run.steps + 1);
-}
