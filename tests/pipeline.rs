@@ -73,20 +73,24 @@ fn stimulation_improves_production_and_heat() {
     assert_eq!(before.models[0].rate, 0.0);
     assert!(before.models[1].rate > 0.0);
     // After: the network's rate is the cubic law through 14 m of residual aperture (0.5 mm),
-    // a^3 dp / (12 mu L) = 1.25e-10 * 12e6 / (12 * 2e-4 * 14) = 0.0446 m^2/s, within the 15 %
-    // that the cells' pair links at the crossing and the half cells at the wells move it.
+    // a^3 dp / (12 mu L) = 1.25e-10 * 12e6 / (12 * 2e-4 * 14) = 0.0446 m^2/s. Measured +0.9 %:
+    // the production well's node joins two cells, and the one beyond it adds a short parallel
+    // path (a chain ending in one cell gives the cubic law to 1e-10, `reservoir::production`
+    // unit test); 2 % allows that.
     let cubic = 5e-4f64.powi(3) * 12e6 / (12.0 * 2e-4 * 14.0);
     let discrete = after.models[0].rate;
+    let continuum = after.models[1].rate;
+    println!("network {discrete:e}, cubic law {cubic:e}, continuum {continuum:e}");
     assert!(
-        (discrete / cubic - 1.0).abs() < 0.15,
+        (discrete / cubic - 1.0).abs() < 0.02,
         "network rate {discrete:e} vs {cubic:e}"
     );
-    // The continuum on the upscaled field carries the same flow to 25 % (5 m blocks, the
-    // wells' fractured-block index, the matrix in parallel); before, it carries the matrix's
-    // flow, at least 1e3 times less.
-    let continuum = after.models[1].rate;
+    // The continuum on the upscaled field carries the same flow (measured +1.7 %: 5 m blocks,
+    // the wells' fractured-block index, the matrix in parallel; in the shipped example the
+    // anisotropic index gave 50x less); 5 %. Before, it carries the matrix's flow, at least
+    // 1e3 times less.
     assert!(
-        (continuum / discrete - 1.0).abs() < 0.25,
+        (continuum / discrete - 1.0).abs() < 0.05,
         "continuum {continuum:e} vs {discrete:e}"
     );
     assert!(continuum > 1e3 * before.models[1].rate);
