@@ -79,6 +79,41 @@ pub struct CellNetwork {
 }
 
 impl RandomNetwork {
+    /// The placement fields (families, box, lengths; not the apertures) are usable; errors
+    /// name `prefix.<field>`.
+    pub fn validate_geometry(&self, prefix: &str) -> Result<(), SetupError> {
+        let bad = |f: &str, why: String| Err(SetupError::invalid(&format!("{prefix}.{f}"), why));
+        let finite = |field: &str, v: &[f64]| -> Result<(), SetupError> {
+            match v.iter().find(|x| !x.is_finite()) {
+                Some(x) => bad(field, format!("{x} is not a finite number")),
+                None => Ok(()),
+            }
+        };
+        if self.angles_deg.is_empty() {
+            return bad("angles_deg", "needs at least one family".into());
+        }
+        finite("angles_deg", &self.angles_deg)?;
+        finite("origin", &self.origin)?;
+        finite("size", &self.size)?;
+        finite("length", &self.length)?;
+        finite("jitter_deg", &[self.jitter_deg])?;
+        if !(self.size[0] > 0.0 && self.size[1] > 0.0) {
+            return bad("size", "must be positive".into());
+        }
+        if !(self.length[0] > 0.0 && self.length[1] >= self.length[0]) {
+            return bad("length", "needs 0 < min <= max".into());
+        }
+        if !(0.0..=90.0).contains(&self.jitter_deg) {
+            return bad(
+                "jitter_deg",
+                format!("must be in [0, 90] degrees, got {}", self.jitter_deg),
+            );
+        }
+        // The origin plus the size must stay finite too (1e308 + 1e308 is not).
+        let far = [self.origin[0] + self.size[0], self.origin[1] + self.size[1]];
+        finite("size", &far)
+    }
+
     pub fn generate(&self) -> Vec<Fracture> {
         let mut rng = ChaCha8Rng::seed_from_u64(self.seed);
         let [x0, y0] = self.origin;
@@ -232,42 +267,18 @@ impl NetworkSpec {
             }
         }
         if let Some(r) = &self.random {
-            let finite = |field: &str, v: &[f64]| -> Result<(), SetupError> {
-                match v.iter().find(|x| !x.is_finite()) {
-                    Some(x) => bad(field, format!("{x} is not a finite number")),
-                    None => Ok(()),
-                }
-            };
-            if r.angles_deg.is_empty() {
+            r.validate_geometry("network.random")?;
+            let finite = |v: &[f64]| v.iter().all(|x| x.is_finite());
+            if !finite(&r.aperture) {
+                let x = r.aperture.iter().find(|x| !x.is_finite()).expect("one");
                 return bad(
-                    "network.random.angles_deg",
-                    "needs at least one family".into(),
+                    "network.random.aperture",
+                    format!("{x} is not a finite number"),
                 );
-            }
-            finite("network.random.angles_deg", &r.angles_deg)?;
-            finite("network.random.origin", &r.origin)?;
-            finite("network.random.size", &r.size)?;
-            finite("network.random.length", &r.length)?;
-            finite("network.random.aperture", &r.aperture)?;
-            finite("network.random.jitter_deg", &[r.jitter_deg])?;
-            if !(r.size[0] > 0.0 && r.size[1] > 0.0) {
-                return bad("network.random.size", "must be positive".into());
-            }
-            if !(r.length[0] > 0.0 && r.length[1] >= r.length[0]) {
-                return bad("network.random.length", "needs 0 < min <= max".into());
             }
             if !(r.aperture[0] > 0.0 && r.aperture[1] >= r.aperture[0]) {
                 return bad("network.random.aperture", "needs 0 < min <= max".into());
             }
-            if !(0.0..=90.0).contains(&r.jitter_deg) {
-                return bad(
-                    "network.random.jitter_deg",
-                    format!("must be in [0, 90] degrees, got {}", r.jitter_deg),
-                );
-            }
-            // The origin plus the size must stay finite too (1e308 + 1e308 is not).
-            let far = [r.origin[0] + r.size[0], r.origin[1] + r.size[1]];
-            finite("network.random.size", &far)?;
         }
         let total =
             self.fractures.len() as f64 + self.random.as_ref().map_or(0.0, |r| r.count as f64);

@@ -181,14 +181,9 @@ pub enum PipelineError {
         path: PathBuf,
         source: std::io::Error,
     },
-    #[error("{file}:{line}:{col}: {msg}{}", if .field.is_empty() { String::new() } else { format!(" (field `{}`)", .field) })]
-    Syntax {
-        file: String,
-        line: usize,
-        col: usize,
-        field: String,
-        msg: String,
-    },
+    /// Malformed RON: file, line, column, field.
+    #[error(transparent)]
+    Syntax(#[from] crate::error::SetupError),
     #[error("invalid {field}: {why}")]
     Invalid { field: String, why: String },
     #[error("stimulation stage: {0}")]
@@ -224,31 +219,10 @@ impl PipelineSpec {
         Ok(spec)
     }
 
+    /// Parse RON text; errors carry file, line, column and field
+    /// ([`crate::scenario::parse_ron`], as for scenarios).
     pub fn parse(text: &str, file: &str) -> Result<Self, PipelineError> {
-        let text = text.strip_prefix('\u{feff}').unwrap_or(text);
-        let syntax = |e: ron::error::SpannedError, field: String| PipelineError::Syntax {
-            file: file.to_string(),
-            line: e.span.start.line,
-            col: e.span.start.col,
-            field,
-            msg: e.code.to_string(),
-        };
-        let mut de = ron::Deserializer::from_str(text).map_err(|e| syntax(e, String::new()))?;
-        let spec: PipelineSpec = match serde_path_to_error::deserialize(&mut de) {
-            Ok(s) => s,
-            Err(e) => {
-                let field = e.path().to_string();
-                let spanned = de.span_error(e.into_inner());
-                return Err(syntax(spanned, field));
-            }
-        };
-        if !de.remainder().trim().is_empty() {
-            return Err(PipelineError::Invalid {
-                field: "(file)".into(),
-                why: "unexpected text after the end of the pipeline".into(),
-            });
-        }
-        Ok(spec)
+        Ok(crate::scenario::parse_ron(text, file, "pipeline")?)
     }
 
     pub fn validate(&self) -> Result<(), PipelineError> {
