@@ -370,6 +370,13 @@ impl State {
     }
 }
 
+/// Every well has a fracture node within `reach` (m).
+fn reaches(net: &NetworkFlow, wells: &[PressureWell], reach: f64) -> bool {
+    wells
+        .iter()
+        .all(|w| nearest_node(net, w.position).is_some_and(|(_, d)| d <= reach))
+}
+
 /// The network of a flow view: reference node positions and the cells' hydraulic apertures
 /// (`residual`: every cell at that aperture instead).
 pub fn network_of_view(v: &FlowView, residual: Option<f64>) -> NetworkFlow {
@@ -485,10 +492,7 @@ pub fn run_pipeline(path: &Path, opts: &PipelineOptions) -> Result<PipelineRepor
                 let net = network_of_view(v, res);
                 // A well no fracture reaches before the stimulation produces nothing through
                 // the network (the continuum model gives it the matrix's flow).
-                let connected = wells
-                    .iter()
-                    .all(|w| nearest_node(&net, w.position).is_some_and(|(_, d)| d <= p.reach));
-                if !connected && state == State::Before {
+                if state == State::Before && !reaches(&net, &wells, p.reach) {
                     return Ok(0.0);
                 }
                 let prod = steady_production(&net, &wells, spec.upscaling.viscosity, p.reach)
@@ -1036,9 +1040,7 @@ fn heat_stage(
             // Discrete: the network's steady flow, heat along it and conduction in the rock.
             let t0 = Instant::now();
             let net = network_of_view(v, apertures);
-            let connected = wells
-                .iter()
-                .all(|w| nearest_node(&net, w.position).is_some_and(|(_, d)| d <= p.reach));
+            let connected = reaches(&net, &wells, p.reach);
             let mut discrete = HeatSeries::default();
             let prod = if connected {
                 Some(

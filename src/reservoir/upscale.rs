@@ -142,8 +142,8 @@ pub fn flow_based(
                 grid.origin[1] + j as f64 * d[1],
             ];
             let hi = [lo[0] + d[0], lo[1] + d[1]];
+            let pcs: Vec<&Piece> = by_block[b].iter().map(|&k| &all[k]).collect();
             for dir in 0..2 {
-                let pcs: Vec<&Piece> = by_block[b].iter().map(|&k| &all[k]).collect();
                 let q = permeameter(net, &pcs, lo, hi, dir, viscosity, &mut solver)?;
                 // k = mu Q L / (W dp) with dp = 1 Pa.
                 let (l, w) = if dir == 0 { (d[0], d[1]) } else { (d[1], d[0]) };
