@@ -20,6 +20,31 @@ pub struct Placed {
     pub to: [f64; 2],
     pub snap_error: f64,
     pub edges: usize,
+    /// `snap_error` over the mean length of the path's edges.
+    pub snap_error_h: f64,
+    /// The largest angle between a path edge and the requested segment, degrees (0 when the
+    /// mesh follows the fracture; 15-45 for a zigzag).
+    pub zigzag_deg: f64,
+}
+
+/// Angles above this (degrees) between a snapped path's edges and its fracture make the
+/// fracture a zigzag: the run warns (`Placed::zigzag_deg`).
+pub const ZIGZAG_WARN_DEG: f64 = 1.0;
+
+/// The mean edge length of a path and the largest angle (degrees, 0-90) between one of its
+/// edges and the direction of `from`-`to`.
+fn path_shape(mesh: &TriMesh, nodes: &[u32], from: [f64; 2], to: [f64; 2]) -> (f64, f64) {
+    let d = [to[0] - from[0], to[1] - from[1]];
+    let (mut len, mut worst) = (0.0, 0.0f64);
+    for w in nodes.windows(2) {
+        let (a, b) = (mesh.nodes[w[0] as usize], mesh.nodes[w[1] as usize]);
+        let e = [b[0] - a[0], b[1] - a[1]];
+        len += e[0].hypot(e[1]);
+        let cross = (e[0] * d[1] - e[1] * d[0]).abs();
+        let dot = (e[0] * d[0] + e[1] * d[1]).abs();
+        worst = worst.max(cross.atan2(dot).to_degrees());
+    }
+    (len / (nodes.len().max(2) - 1) as f64, worst)
 }
 
 /// Snap and open the scenario's pre-existing fractures on a fresh model built from `mesh`
@@ -119,11 +144,14 @@ pub fn open_preexisting(
                 ),
             ));
         }
+        let (mean_edge, zigzag_deg) = path_shape(mesh, &path.nodes, pf.from, pf.to);
         placed.push(Placed {
             from: pf.from,
             to: pf.to,
             snap_error: path.max_error,
             edges: edges.len(),
+            snap_error_h: path.max_error / mean_edge,
+            zigzag_deg,
         });
         ready.extend(edges);
     }

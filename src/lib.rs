@@ -16,6 +16,7 @@ pub mod systems;
 
 pub mod atomic;
 pub mod checkpoint;
+pub mod conforming;
 pub mod driver;
 pub mod element;
 pub mod error;

@@ -103,6 +103,46 @@ pub enum MeshSpec {
     /// A 2D triangle mesh from a Gmsh `.msh` file (ASCII 2.2 or 4.1, first-order triangles),
     /// path relative to the scenario file. The domain sides are the bounding box's edges.
     Gmsh { file: String },
+    /// A mesh that follows the fractures: a constrained Delaunay triangulation of the
+    /// `width` x `height` rectangle (m) whose edges contain every pre-existing fracture
+    /// (`fracture.preexisting`, `fracture.file`, `fracture.random`), with edges of `h` (m) along
+    /// them, growing as h + `grading` d with the distance d from them to at most `h_far` (m,
+    /// default 4 h), refined to a smallest
+    /// angle of `min_angle_deg` (default 25). Points closer than `merge * h` (default 0.25) are
+    /// merged: crossings and near misses that close leave no tiny segment. Seeded by nothing:
+    /// the same input gives the same mesh (`src/conforming.rs`, `docs/conforming.md`).
+    Conforming {
+        width: f64,
+        height: f64,
+        #[serde(default)]
+        origin: [f64; 2],
+        h: f64,
+        #[serde(default)]
+        h_far: Option<f64>,
+        #[serde(default = "default_min_angle")]
+        min_angle_deg: f64,
+        #[serde(default = "default_merge")]
+        merge: f64,
+        /// Edge length growth away from the fractures: up to h + grading * d at a distance d
+        /// (m/m, default 0.25), capped at h_far.
+        #[serde(default = "default_grading")]
+        grading: f64,
+        /// Extra segments the mesh follows without opening them (m): planned paths, layer
+        /// contacts, or lines to sample along.
+        #[serde(default)]
+        follow: Vec<PreFracture>,
+    },
+}
+
+fn default_grading() -> f64 {
+    0.25
+}
+
+fn default_min_angle() -> f64 {
+    25.0
+}
+fn default_merge() -> f64 {
+    0.25
 }
 
 impl MeshSpec {
@@ -146,6 +186,26 @@ impl MeshSpec {
                 let len = std::fs::metadata(file).ok()?.len() as f64;
                 Some(MeshCounts::from_triangles(len / GMSH_BYTES_PER_TRIANGLE))
             }
+            MeshSpec::Conforming {
+                width, height, h, ..
+            } => {
+                // An upper bound: the whole domain at h in equilateral triangles (area
+                // sqrt(3)/4 h^2), and the refinement is capped at this many nodes.
+                Some(MeshCounts::from_triangles(
+                    (width * height / (3f64.sqrt() / 4.0 * h * h)).ceil() + 4.0,
+                ))
+            }
+        }
+    }
+
+    /// The mesh kind's name as the scenario writes it (`Regular`, ..., `Conforming`).
+    pub fn kind(&self) -> &'static str {
+        match self {
+            MeshSpec::Regular { .. } => "Regular",
+            MeshSpec::Perturbed { .. } => "Perturbed",
+            MeshSpec::Graded { .. } => "Graded",
+            MeshSpec::Gmsh { .. } => "Gmsh",
+            MeshSpec::Conforming { .. } => "Conforming",
         }
     }
 
@@ -154,7 +214,8 @@ impl MeshSpec {
         match self {
             MeshSpec::Regular { h, .. }
             | MeshSpec::Perturbed { h, .. }
-            | MeshSpec::Graded { h, .. } => Some(*h),
+            | MeshSpec::Graded { h, .. }
+            | MeshSpec::Conforming { h, .. } => Some(*h),
             MeshSpec::Gmsh { .. } => None,
         }
     }
@@ -163,7 +224,8 @@ impl MeshSpec {
         match self {
             MeshSpec::Regular { width, height, .. }
             | MeshSpec::Perturbed { width, height, .. }
-            | MeshSpec::Graded { width, height, .. } => Some((*width, *height)),
+            | MeshSpec::Graded { width, height, .. }
+            | MeshSpec::Conforming { width, height, .. } => Some((*width, *height)),
             MeshSpec::Gmsh { .. } => None,
         }
     }
@@ -1107,7 +1169,8 @@ impl Scenario {
             let origin = match *mesh {
                 MeshSpec::Regular { origin, .. }
                 | MeshSpec::Perturbed { origin, .. }
-                | MeshSpec::Graded { origin, .. } => origin,
+                | MeshSpec::Graded { origin, .. }
+                | MeshSpec::Conforming { origin, .. } => origin,
                 MeshSpec::Gmsh { .. } => [0.0; 2],
             };
             finite("mesh.origin", origin[0])?;
@@ -1172,6 +1235,67 @@ impl Scenario {
                     "mesh.h",
                     format!("{cells:.3e} triangles is more than this engine's 5e7 limit"),
                 ));
+            }
+            if let MeshSpec::Conforming {
+                h,
+                h_far,
+                min_angle_deg,
+                merge,
+                grading,
+                ..
+            } = *mesh
+            {
+                if let MeshSpec::Conforming { follow, .. } = mesh {
+                    for (i, f) in follow.iter().enumerate() {
+                        for v in [f.from[0], f.from[1], f.to[0], f.to[1]] {
+                            finite(&format!("mesh.follow[{i}]"), v)?;
+                        }
+                    }
+                }
+                finite("mesh.grading", grading)?;
+                if !(0.01..=2.0).contains(&grading) {
+                    return Err(SetupError::invalid(
+                        "mesh.grading",
+                        format!(
+                            "the growth of the cell size with the distance from the fractures \
+                             must be in [0.01, 2] (m per m), got {grading}"
+                        ),
+                    ));
+                }
+                if let Some(hf) = h_far {
+                    finite("mesh.h_far", hf)?;
+                    if hf < h || hf > w.max(hgt) {
+                        return Err(SetupError::invalid(
+                            "mesh.h_far",
+                            format!(
+                                "the far cell size must be between h = {h} m and the domain's \
+                                 larger side ({} m), got {hf} m",
+                                w.max(hgt)
+                            ),
+                        ));
+                    }
+                }
+                finite("mesh.min_angle_deg", min_angle_deg)?;
+                if !(min_angle_deg > 0.0 && min_angle_deg <= 33.0) {
+                    return Err(SetupError::invalid(
+                        "mesh.min_angle_deg",
+                        format!(
+                            "the smallest angle asked of the refinement must be in (0, 33] \
+                             degrees (above about 30 Delaunay refinement need not end), got \
+                             {min_angle_deg}"
+                        ),
+                    ));
+                }
+                finite("mesh.merge", merge)?;
+                if !(0.0..=0.5).contains(&merge) {
+                    return Err(SetupError::invalid(
+                        "mesh.merge",
+                        format!(
+                            "the merge distance must be in [0, 0.5] of h (points closer than \
+                             merge * h become one), got {merge}"
+                        ),
+                    ));
+                }
             }
             if let MeshSpec::Perturbed { fraction, .. } = *mesh {
                 finite("mesh.fraction", fraction)?;

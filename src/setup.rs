@@ -18,9 +18,61 @@ use crate::systems::flow::FlowPart;
 /// step, so a step of several flow sub-steps keeps their cost small against the flow kernel.
 pub const FLOW_ONLY_SUBSTEPS: u64 = 32;
 
-/// Build the mesh a scenario describes.
+/// Build the mesh a scenario describes (a conforming mesh around no fracture).
 pub fn build_mesh(spec: &MeshSpec) -> Result<TriMesh, SetupError> {
-    match *spec {
+    build_mesh_around(spec, &[]).map(|(m, _)| m)
+}
+
+/// How the rock's mesh came out, for `summary.json`: its kind, quality statistics, and for a
+/// conforming mesh what meshing did to the fractures.
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct MeshInfo {
+    pub kind: String,
+    pub quality: crate::conforming::MeshQuality,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub conforming: Option<crate::conforming::ConformingReport>,
+}
+
+/// Build the mesh a scenario describes; a conforming mesh follows the fracture segments
+/// `fractures` (m), the other kinds ignore them.
+pub fn build_mesh_around(
+    spec: &MeshSpec,
+    fractures: &[([f64; 2], [f64; 2])],
+) -> Result<(TriMesh, Option<crate::conforming::ConformingReport>), SetupError> {
+    if let MeshSpec::Conforming {
+        width,
+        height,
+        origin,
+        h,
+        h_far,
+        min_angle_deg,
+        merge,
+        grading,
+        ref follow,
+    } = *spec
+    {
+        // The node bound of `MeshSpec::counts` caps the refinement: memory was checked
+        // against it.
+        let max_vertices = spec
+            .counts()
+            .map_or(usize::MAX, |c| c.nodes.ceil() as usize);
+        let p = crate::conforming::ConformingParams {
+            width,
+            height,
+            origin,
+            h,
+            h_far: h_far.unwrap_or(4.0 * h).min(width.max(height)),
+            min_angle_deg,
+            merge,
+            grading,
+            max_vertices,
+        };
+        let mut all = fractures.to_vec();
+        all.extend(follow.iter().map(|f| (f.from, f.to)));
+        let (m, r) = crate::conforming::conforming_mesh(&p, &all)?;
+        return Ok((m, Some(r)));
+    }
+    let mesh = match *spec {
         MeshSpec::Regular {
             width,
             height,
@@ -48,16 +100,33 @@ pub fn build_mesh(spec: &MeshSpec) -> Result<TriMesh, SetupError> {
                 .map_err(|e| SetupError::invalid("mesh.file", e.to_string()))?;
             Ok(TriMesh::from_triangles(g.nodes, g.triangles))
         }
-    }
+        MeshSpec::Conforming { .. } => unreachable!("handled above"),
+    }?;
+    Ok((mesh, None))
 }
 
 /// The model of a validated scenario: the rock (when it has a mesh) with its fractures opened,
 /// and the pre-existing fractures as placed on the mesh.
-pub fn build_model(sc: &Scenario) -> Result<(Model, Vec<crate::fractures::Placed>), SetupError> {
+pub fn build_model(
+    sc: &Scenario,
+) -> Result<(Model, Vec<crate::fractures::Placed>, MeshInfo), SetupError> {
     let (Some(spec), Some(mat)) = (&sc.mesh, &sc.material) else {
-        return Ok((Model::empty(), Vec::new()));
+        return Ok((Model::empty(), Vec::new(), MeshInfo::default()));
     };
-    let mesh = build_mesh(spec)?;
+    let segments: Vec<([f64; 2], [f64; 2])> = match (&sc.fracture, spec) {
+        (Some(f), MeshSpec::Conforming { .. }) => f
+            .all_preexisting()?
+            .iter()
+            .map(|(p, _)| (p.from, p.to))
+            .collect(),
+        _ => Vec::new(),
+    };
+    let (mesh, conforming) = build_mesh_around(spec, &segments)?;
+    let info = MeshInfo {
+        kind: spec.kind().to_string(),
+        quality: crate::conforming::MeshQuality::of(&mesh),
+        conforming,
+    };
     let mut m = Model::from_mesh(&mesh, *mat)?;
     let mut placed = Vec::new();
     if let Some(f) = &sc.fracture {
@@ -76,7 +145,7 @@ pub fn build_model(sc: &Scenario) -> Result<(Model, Vec<crate::fractures::Placed
     if let Some(p) = sc.fracture.as_ref().and_then(|f| f.pressure) {
         crate::fractures::apply_face_pressure(&mut m, p);
     }
-    Ok((m, placed))
+    Ok((m, placed, info))
 }
 
 /// The rock's view (masses scaled with `time.mass_scaling`), and the coupling maps of a coupled

@@ -45,6 +45,8 @@ pub struct Simulation {
     output: Option<Outputs>,
     /// Pre-existing fractures as placed on the mesh.
     placed: Vec<Placed>,
+    /// The rock mesh's kind and quality (default without a rock).
+    mesh_info: crate::setup::MeshInfo,
     /// How hard the current quasi-static step was (the adaptive step's input), and the cells
     /// at its start.
     effort: monitor::Effort,
@@ -83,7 +85,7 @@ impl Simulation {
     /// Set up a validated scenario; `extra_disable` adds system names to switch off.
     pub fn new(scenario: Scenario, extra_disable: &[String]) -> Result<Self, SetupError> {
         scenario.validate()?;
-        let (mut model, placed) = crate::setup::build_model(&scenario)?;
+        let (mut model, placed, mesh_info) = crate::setup::build_model(&scenario)?;
         let mut p = RunParams::resolve(&scenario, model.material);
         let has_solid = scenario.mesh.is_some();
         let dt_crit = if has_solid {
@@ -132,6 +134,7 @@ impl Simulation {
             schedule,
             output: None,
             placed,
+            mesh_info,
             effort: monitor::Effort::default(),
             cells_at_start: 0,
             stop: None,
@@ -815,6 +818,11 @@ impl Simulation {
     }
     pub fn placed(&self) -> &[Placed] {
         &self.placed
+    }
+
+    /// The rock mesh's kind and quality statistics.
+    pub fn mesh_info(&self) -> &crate::setup::MeshInfo {
+        &self.mesh_info
     }
     /// Statistics of the last solid step.
     pub fn stats(&self) -> &StepStats {

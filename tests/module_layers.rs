@@ -22,6 +22,7 @@ const LAYERS: &[(&str, u8)] = &[
     ("gmsh", 1),
     ("network", 1),
     ("snap", 1),
+    ("conforming", 1),
     ("resources", 1),
     // 2: the model (ECS) and its topology operations.
     ("components", 2),

@@ -200,25 +200,42 @@ impl Outputs {
     }
 
     /// `preexisting_fractures.csv`: the rock's pre-existing fractures as placed on the mesh,
-    /// `x0,y0,x1,y1,snap_error,edges` (m, m, mesh edges): the input to reproduce a run or feed
-    /// a network elsewhere, with how far the mesh path strays from each segment.
+    /// `x0,y0,x1,y1,snap_error,edges,snap_error_h,zigzag_deg` (m, m, mesh edges, 1, degrees):
+    /// the input to reproduce a run or feed a network elsewhere, with how far the mesh path
+    /// strays from each segment, absolutely and in mesh sizes, and the largest angle between
+    /// a path edge and the segment.
     pub fn write_preexisting_csv(
         &self,
         placed: &[crate::fractures::Placed],
     ) -> std::io::Result<bool> {
         let finite = placed.iter().all(|p| {
-            [p.from[0], p.from[1], p.to[0], p.to[1], p.snap_error]
-                .into_iter()
-                .all(f64::is_finite)
+            [
+                p.from[0],
+                p.from[1],
+                p.to[0],
+                p.to[1],
+                p.snap_error,
+                p.snap_error_h,
+                p.zigzag_deg,
+            ]
+            .into_iter()
+            .all(f64::is_finite)
         });
         if !finite {
             return Ok(false);
         }
-        let mut s = String::from("x0,y0,x1,y1,snap_error,edges\n");
+        let mut s = String::from("x0,y0,x1,y1,snap_error,edges,snap_error_h,zigzag_deg\n");
         for p in placed {
             s += &format!(
-                "{},{},{},{},{},{}\n",
-                p.from[0], p.from[1], p.to[0], p.to[1], p.snap_error, p.edges
+                "{},{},{},{},{},{},{},{}\n",
+                p.from[0],
+                p.from[1],
+                p.to[0],
+                p.to[1],
+                p.snap_error,
+                p.edges,
+                p.snap_error_h,
+                p.zigzag_deg
             );
         }
         write_atomic(&self.claim("preexisting_fractures.csv")?, s.as_bytes())?;
