@@ -461,14 +461,16 @@ pub fn conforming_mesh(
                     let q = v.position();
                     [q.x, q.y]
                 });
-                let longest = (0..3)
-                    .map(|k| dist(v[k], v[(k + 1) % 3]))
-                    .fold(0.0, f64::max);
+                // The side of the equilateral triangle of the same area: a thin triangle
+                // along a long fixed edge is left to the quality refinement.
+                let side = (4.0 / 3f64.sqrt() * signed_area(v[0], v[1], v[2]).abs()).sqrt();
                 let c = [
                     (v[0][0] + v[1][0] + v[2][0]) / 3.0,
                     (v[0][1] + v[1][1] + v[2][1]) / 3.0,
                 ];
-                if longest > 1.5 * size_at(c) {
+                let size = size_at(c);
+                let to_side = (c[0] - x0).min(x1 - c[0]).min(c[1] - y0).min(y1 - c[1]);
+                if side > 1.2 * size && to_side > 0.5 * size {
                     centroids.push(Point2::new(c[0], c[1]));
                 }
             }

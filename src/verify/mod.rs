@@ -9,6 +9,7 @@
 //! `heat_models`; reliability: `extreme` (corners of the parameter space: finite and bounded,
 //! or refused naming the parameter).
 
+pub mod conforming_cases;
 pub mod coupled_cases;
 pub mod example_cases;
 pub mod extreme_cases;
@@ -176,6 +177,16 @@ pub fn cases() -> Vec<Case> {
             name: "sneddon",
             about: "pressurised pre-existing crack on a graded mesh against Sneddon's opening",
             run: fracture_cases::sneddon,
+        },
+        Case {
+            name: "sneddon_inclined",
+            about: "Sneddon's crack at 30 degrees: conforming mesh vs snapped (graded) mesh vs the horizontal crack, a/h = 10 to 80 (3 % at 80)",
+            run: conforming_cases::sneddon_inclined,
+        },
+        Case {
+            name: "conforming_mesh",
+            about: "conforming mesher: quality and cost around 100 random fractures (h = 1 to 0.25 m), every fracture on mesh edges, patch test on conforming meshes",
+            run: conforming_cases::conforming_mesh,
         },
         Case {
             name: "sif",

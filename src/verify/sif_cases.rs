@@ -129,7 +129,7 @@ pub fn crack_sif(a: f64, h: f64, r: f64, angle: f64, load: CrackLoad) -> anyhow:
 
 /// The fine box of the graded mesh around the crack of half-length `a` at `angle`: the crack
 /// with 0.2a to spare, in whole cells of `h`.
-fn fine_box(a: f64, h: f64, angle: f64) -> [f64; 4] {
+pub(crate) fn fine_box(a: f64, h: f64, angle: f64) -> [f64; 4] {
     let cells = |len: f64| ((len + 0.2 * a) / h - 1e-9).ceil() * h;
     let (fx, fy) = (
         cells((a * angle.cos()).abs()),
