@@ -3,7 +3,8 @@
 //!
 //! Cases: solid (`docs/verification.md` R1-R4) `patch`, `insitu`, `mms`, `stability`; flow
 //! `cubic_law`, `diffusion`, `mass_balance`, `pump_curve`, `steady`, `flow_stability`; fracture
-//! (R5, R7b, R8) `sneddon`, `sif`, `friction`; coupled (R6) `kgd`, `kgd_k`, `kgd_mk`; the seed's
+//! (R5, R7b, R8, R12b) `sneddon`, `sif`,
+//! `friction`, `slip_inclined`; coupled (R6) `kgd`, `kgd_k`, `kgd_mk`; the seed's
 //! Example I (R9) `example1`; reservoir: upscaling `oda`, continuum heat (R17)
 //! `heat_continuum`, discrete heat (R15, R16) `lauwerier`, `gringarten`, the two against each other
 //! `heat_models`; reliability: `extreme` (corners of the parameter space: finite and bounded,
@@ -19,6 +20,7 @@ pub mod heat_continuum_cases;
 pub mod heat_discrete_cases;
 pub mod heat_models_cases;
 pub mod sif_cases;
+pub mod slip_cases;
 pub mod solid_cases;
 pub mod upscale_cases;
 
@@ -192,6 +194,11 @@ pub fn cases() -> Vec<Case> {
             name: "sif",
             about: "K_I, K_II of static cracks (J domain integral): pressurised horizontal and 45-degree cracks, a 45-degree crack under remote tension, a/h = 10 to 40",
             run: sif_cases::sif,
+        },
+        Case {
+            name: "slip_inclined",
+            about: "closed crack at 20 degrees under remote compression (-40/-10 MPa), sliding against friction (20 degrees): slip against the mode-II Sneddon closed form on a conforming and a snapped graded mesh, b/h = 10 to 40",
+            run: slip_cases::slip_inclined,
         },
         Case {
             name: "kgd",
