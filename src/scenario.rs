@@ -190,11 +190,12 @@ impl MeshSpec {
             MeshSpec::Conforming {
                 width, height, h, ..
             } => {
-                // An upper bound: the whole domain at h/2 in equilateral triangles (area
-                // sqrt(3)/16 h^2; edges shorter than h appear only near crossings and
-                // merged points), and the refinement is capped at this many nodes.
+                // A bound: the whole domain at h / sqrt(2) in equilateral triangles (area
+                // sqrt(3)/8 h^2; edges shorter than h appear only near crossings and merged
+                // points, and the mesh coarsens away from the fractures), and the refinement
+                // is capped at this many nodes.
                 Some(MeshCounts::from_triangles(
-                    (width * height / (3f64.sqrt() / 16.0 * h * h)).ceil() + 4.0,
+                    (width * height / (3f64.sqrt() / 8.0 * h * h)).ceil() + 4.0,
                 ))
             }
         }
