@@ -22,6 +22,7 @@
 
 use crate::error::SetupError;
 use crate::mesh::{TriMesh, signed_area};
+use crate::snap::segment_foot as foot;
 use crate::union_find::UnionFind;
 use serde::Serialize;
 use spade::Triangulation;
@@ -172,18 +173,6 @@ fn crossing(a: [f64; 2], b: [f64; 2], c: [f64; 2], d: [f64; 2]) -> Option<(f64, 
     const EPS: f64 = 1e-12;
     ((-EPS..=1.0 + EPS).contains(&t) && (-EPS..=1.0 + EPS).contains(&u))
         .then(|| (t.clamp(0.0, 1.0), u.clamp(0.0, 1.0)))
-}
-
-/// Parameter of the foot of p on a-b (clamped to the segment) and the distance to it.
-fn foot(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> (f64, f64) {
-    let d = [b[0] - a[0], b[1] - a[1]];
-    let l2 = d[0] * d[0] + d[1] * d[1];
-    let t = if l2 > 0.0 {
-        (((p[0] - a[0]) * d[0] + (p[1] - a[1]) * d[1]) / l2).clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
-    (t, dist(p, [a[0] + t * d[0], a[1] + t * d[1]]))
 }
 
 /// Mesh the domain of `p` around the fracture segments `fractures` (m). Errors name the

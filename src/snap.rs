@@ -17,8 +17,9 @@ pub struct SnappedPath {
     pub max_error: f64,
 }
 
-/// Distance from p to the segment a-b, m.
-pub fn point_segment_distance(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
+/// The foot of p on the segment a-b: its parameter t in [0, 1] along a-b and the distance
+/// from p to it, m.
+pub fn segment_foot(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> (f64, f64) {
     let d = [b[0] - a[0], b[1] - a[1]];
     let l2 = d[0] * d[0] + d[1] * d[1];
     let t = if l2 > 0.0 {
@@ -26,7 +27,12 @@ pub fn point_segment_distance(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
     } else {
         0.0
     };
-    (p[0] - a[0] - t * d[0]).hypot(p[1] - a[1] - t * d[1])
+    (t, (p[0] - a[0] - t * d[0]).hypot(p[1] - a[1] - t * d[1]))
+}
+
+/// Distance from p to the segment a-b, m.
+pub fn point_segment_distance(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
+    segment_foot(p, a, b).1
 }
 
 /// Node adjacency of a triangle mesh (sorted, no duplicates).

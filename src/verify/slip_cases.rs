@@ -179,14 +179,6 @@ impl SlipRun {
     }
 }
 
-/// The fine box of the graded mesh: the crack with 0.2 b to spare, in whole cells of `h`.
-fn fine_box(h: f64) -> [f64; 4] {
-    let (t, _) = axes();
-    let cells = |len: f64| ((len + 0.2 * B) / h - 1e-9).ceil() * h;
-    let (fx, fy) = (cells((B * t[0]).abs()), cells((B * t[1]).abs()));
-    [-fx, -fy, fx, fy]
-}
-
 /// The scenario of the slipping crack on `mesh` at cell size `h` (m) along the crack, in a
 /// square of half-width `r` (m), joint stiffnesses `k_factor` times E and G.
 pub fn slip_scenario(mesh: SlipMesh, h: f64, r: f64, k_factor: f64) -> crate::scenario::Scenario {
@@ -207,7 +199,7 @@ pub fn slip_scenario(mesh: SlipMesh, h: f64, r: f64, k_factor: f64) -> crate::sc
             height: 2.0 * r,
             origin: [-r, -r],
             h,
-            fine: fine_box(h),
+            fine: super::sif_cases::fine_box(B, h, axes().0[1].atan2(axes().0[0])),
             ratio: 1.15,
         },
     };
