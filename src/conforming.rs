@@ -126,6 +126,14 @@ pub struct ConformingReport {
     pub conflicts: usize,
     /// False when the refinement stopped at the vertex bound before reaching the angle.
     pub refinement_complete: bool,
+    /// The grading: each triangle's size (the side of the equilateral triangle of its area,
+    /// m) over the size asked at its centroid, h + grading d capped at h_far (d the distance
+    /// to the nearest fracture, m); largest and mean. Grading inserts points while a
+    /// triangle is above 1.2 (away from the domain's sides); the angle refinement then only
+    /// shrinks triangles, so the mean is below 1 and the largest near 1.2 unless a triangle
+    /// at a side (whose edges are h_far) is larger.
+    pub size_ratio_max: f64,
+    pub size_ratio_mean: f64,
     /// Wall time of meshing, s.
     pub seconds: f64,
 }
@@ -142,6 +150,18 @@ pub fn triangle_angles(p: [[f64; 2]; 3]) -> [f64; 3] {
         *o = cross.abs().atan2(dot).to_degrees();
     }
     out
+}
+
+/// The side of the equilateral triangle with the area of triangle `v`, m.
+fn equal_area_side(v: [[f64; 2]; 3]) -> f64 {
+    (4.0 / 3f64.sqrt() * signed_area(v[0], v[1], v[2]).abs()).sqrt()
+}
+
+fn centroid(v: [[f64; 2]; 3]) -> [f64; 2] {
+    [
+        (v[0][0] + v[1][0] + v[2][0]) / 3.0,
+        (v[0][1] + v[1][1] + v[2][1]) / 3.0,
+    ]
 }
 
 fn dist(a: [f64; 2], b: [f64; 2]) -> f64 {
@@ -173,6 +193,121 @@ fn crossing(a: [f64; 2], b: [f64; 2], c: [f64; 2], d: [f64; 2]) -> Option<(f64, 
     const EPS: f64 = 1e-12;
     ((-EPS..=1.0 + EPS).contains(&t) && (-EPS..=1.0 + EPS).contains(&u))
         .then(|| (t.clamp(0.0, 1.0), u.clamp(0.0, 1.0)))
+}
+
+/// A bucket grid over segments inside a box, for the distance from a point to the nearest
+/// segment (the size grading asks it of every triangle, pass by pass). Square cells of side
+/// `cell` (m); each segment is listed in every cell it may touch.
+struct SegmentGrid<'a> {
+    segs: &'a [([f64; 2], [f64; 2])],
+    origin: [f64; 2],
+    cell: f64,
+    dims: [usize; 2],
+    /// CSR lists: the segments of cell (i, j) are `ids[start[k]..start[k + 1]]`,
+    /// k = j * dims[0] + i, in increasing segment order.
+    start: Vec<usize>,
+    ids: Vec<u32>,
+}
+
+impl<'a> SegmentGrid<'a> {
+    /// The grid over `segs` (m) in the box `[x0, y0, x1, y1]` (m): about 16 cells per
+    /// segment, no cell smaller than 1/256 of the box's larger side.
+    fn new(segs: &'a [([f64; 2], [f64; 2])], bbox: [f64; 4]) -> Self {
+        let (w, hgt) = (bbox[2] - bbox[0], bbox[3] - bbox[1]);
+        let side = w.max(hgt);
+        let cell = (0.25 * (w * hgt / segs.len().max(1) as f64).sqrt())
+            .max(side / 256.0)
+            .min(side)
+            .max(f64::MIN_POSITIVE);
+        let dims = [
+            ((w / cell).ceil() as usize).max(1),
+            ((hgt / cell).ceil() as usize).max(1),
+        ];
+        let origin = [bbox[0], bbox[1]];
+        // A cell holds a segment when the segment comes within half the cell's diagonal (plus
+        // a rounding margin) of the cell's centre: every cell the segment touches, and a few
+        // more.
+        let reach = cell * (0.5 * std::f64::consts::SQRT_2) * (1.0 + 1e-9);
+        let mut lists: Vec<Vec<u32>> = vec![Vec::new(); dims[0] * dims[1]];
+        for (s, &(a, b)) in segs.iter().enumerate() {
+            let lo = Self::index_in(origin, cell, dims, [a[0].min(b[0]), a[1].min(b[1])]);
+            let hi = Self::index_in(origin, cell, dims, [a[0].max(b[0]), a[1].max(b[1])]);
+            for j in lo[1]..=hi[1] {
+                for i in lo[0]..=hi[0] {
+                    let c = [
+                        origin[0] + (i as f64 + 0.5) * cell,
+                        origin[1] + (j as f64 + 0.5) * cell,
+                    ];
+                    if foot(c, a, b).1 <= reach {
+                        lists[j * dims[0] + i].push(s as u32);
+                    }
+                }
+            }
+        }
+        let mut start = Vec::with_capacity(lists.len() + 1);
+        let mut ids = Vec::new();
+        start.push(0);
+        for l in lists {
+            ids.extend(l);
+            start.push(ids.len());
+        }
+        SegmentGrid {
+            segs,
+            origin,
+            cell,
+            dims,
+            start,
+            ids,
+        }
+    }
+
+    /// The cell holding `q`, clamped to the grid.
+    fn index_in(origin: [f64; 2], cell: f64, dims: [usize; 2], q: [f64; 2]) -> [usize; 2] {
+        let at = |c: usize| {
+            let f = ((q[c] - origin[c]) / cell).floor();
+            if f.is_nan() || f < 0.0 {
+                0
+            } else {
+                (f as usize).min(dims[c] - 1)
+            }
+        };
+        [at(0), at(1)]
+    }
+
+    /// The distance from `q` (inside the box) to the nearest segment, m; infinite with no
+    /// segment. Exactly the smallest of `snap::segment_foot` over all segments: the rings of
+    /// cells around q's cell are searched outwards until a ring cannot hold anything nearer.
+    fn distance(&self, q: [f64; 2]) -> f64 {
+        let [ci, cj] = Self::index_in(self.origin, self.cell, self.dims, q);
+        let (ci, cj) = (ci as isize, cj as isize);
+        let mut best = f64::INFINITY;
+        let rings = self.dims[0].max(self.dims[1]) as isize;
+        for k in 0..=rings {
+            // Everything in ring k and beyond is at least (k - 1) cells from q.
+            if (k - 1) as f64 * self.cell > best + 1e-9 * self.cell {
+                break;
+            }
+            for j in cj - k..=cj + k {
+                if j < 0 || j >= self.dims[1] as isize {
+                    continue;
+                }
+                let edge_row = j == cj - k || j == cj + k;
+                let step = if edge_row { 1 } else { (2 * k).max(1) };
+                let mut i = ci - k;
+                while i <= ci + k {
+                    if i >= 0 && i < self.dims[0] as isize {
+                        let c = j as usize * self.dims[0] + i as usize;
+                        for &s in &self.ids[self.start[c]..self.start[c + 1]] {
+                            let (a, b) = self.segs[s as usize];
+                            best = best.min(foot(q, a, b).1);
+                        }
+                    }
+                    i += step;
+                }
+            }
+        }
+        best
+    }
 }
 
 /// Mesh the domain of `p` around the fracture segments `fractures` (m). Errors name the
@@ -435,32 +570,37 @@ pub fn conforming_mesh(
     // (at most h_far) get a vertex at their centroid, pass by pass; the quality refinement
     // then restores the angles. Ruppert's refinement alone grades as fast as the angle bound
     // allows, too fast for the stress field around a crack.
+    let lines: Vec<([f64; 2], [f64; 2])> = segs.iter().map(|&(a, b, _)| (a, b)).collect();
+    let grid = SegmentGrid::new(&lines, [x0, y0, x1, y1]);
+    let size_at = |q: [f64; 2]| (p.h + p.grading * grid.distance(q)).min(p.h_far);
     if !segs.is_empty() && p.grading.is_finite() {
-        let size_at = |q: [f64; 2]| {
-            let d = segs
-                .iter()
-                .map(|&(a, b, _)| foot(q, a, b).1)
-                .fold(f64::INFINITY, f64::min);
-            (p.h + p.grading * d).min(p.h_far)
-        };
+        // The faces found fine enough, by face index: their vertices, in spade's order. A
+        // face whose vertices have not changed since is fine again (the same arithmetic on
+        // the same points), so a pass looks only at the faces the last one's insertions made.
+        let mut fine: Vec<[usize; 3]> = Vec::new();
         for _pass in 0..64 {
             let mut centroids: Vec<Point2<f64>> = Vec::new();
+            fine.resize(cdt.num_all_faces(), [usize::MAX; 3]);
             for f in cdt.inner_faces() {
+                let ids = f.vertices().map(|v| v.fix().index());
+                let slot = &mut fine[f.fix().index()];
+                if *slot == ids {
+                    continue;
+                }
                 let v = f.vertices().map(|v| {
                     let q = v.position();
                     [q.x, q.y]
                 });
                 // The side of the equilateral triangle of the same area: a thin triangle
                 // along a long fixed edge is left to the quality refinement.
-                let side = (4.0 / 3f64.sqrt() * signed_area(v[0], v[1], v[2]).abs()).sqrt();
-                let c = [
-                    (v[0][0] + v[1][0] + v[2][0]) / 3.0,
-                    (v[0][1] + v[1][1] + v[2][1]) / 3.0,
-                ];
+                let side = equal_area_side(v);
+                let c = centroid(v);
                 let size = size_at(c);
                 let to_side = (c[0] - x0).min(x1 - c[0]).min(c[1] - y0).min(y1 - c[1]);
                 if side > 1.2 * size && to_side > 0.5 * size {
                     centroids.push(Point2::new(c[0], c[1]));
+                } else {
+                    *slot = ids;
                 }
             }
             if centroids.is_empty() {
@@ -510,6 +650,19 @@ pub fn conforming_mesh(
                 ),
             ));
         }
+    }
+    // How closely the mesh follows the grading: each triangle's equal-area side over the
+    // size asked at its centroid.
+    if !segs.is_empty() {
+        let (mut max, mut sum) = (0.0f64, 0.0);
+        for t in &triangles {
+            let v = t.map(|n| nodes[n as usize]);
+            let r = equal_area_side(v) / size_at(centroid(v));
+            max = max.max(r);
+            sum += r;
+        }
+        report.size_ratio_max = max;
+        report.size_ratio_mean = sum / triangles.len().max(1) as f64;
     }
     let mut mesh = TriMesh::from_triangles(nodes, triangles);
     mesh.h = p.h;
@@ -603,6 +756,39 @@ mod tests {
         assert!(q.triangles < 3000, "{q:?}");
         assert!(q.edge_max > 1.0 && q.edge_max <= 2.0 * 1.2, "{q:?}");
         assert!(q.min_angle_deg >= 24.0, "{q:?}");
+    }
+
+    /// The grid's nearest distance is the brute-force one to the bit (so the mesh is the same
+    /// as with the brute-force search), at points all over the box, for seeded random
+    /// segments, one segment, and segments along the box's sides and through its corners.
+    #[test]
+    fn the_segment_grid_finds_the_nearest_segment_exactly() {
+        use rand::{RngExt, SeedableRng};
+        let bbox = [-3.0, 2.0, 47.0, 32.0];
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
+        let pt = |rng: &mut rand_chacha::ChaCha8Rng| {
+            [
+                rng.random_range(bbox[0]..=bbox[2]),
+                rng.random_range(bbox[1]..=bbox[3]),
+            ]
+        };
+        let random: Vec<_> = (0..60).map(|_| (pt(&mut rng), pt(&mut rng))).collect();
+        let edges = vec![
+            ([bbox[0], bbox[1]], [bbox[2], bbox[1]]),
+            ([bbox[2], bbox[3]], [bbox[0], bbox[1]]),
+            ([10.0, 2.0], [10.0, 32.0]),
+        ];
+        for segs in [random, vec![([1.0, 5.0], [2.0, 5.5])], edges] {
+            let grid = SegmentGrid::new(&segs, bbox);
+            for _ in 0..20_000 {
+                let q = pt(&mut rng);
+                let brute = segs
+                    .iter()
+                    .map(|&(a, b)| foot(q, a, b).1)
+                    .fold(f64::INFINITY, f64::min);
+                assert_eq!(grid.distance(q).to_bits(), brute.to_bits(), "{q:?}");
+            }
+        }
     }
 
     #[test]

@@ -57,6 +57,8 @@ const INSITU: &str = "insitu_stress.ron";
 const NET: &str = "flow_network.ron";
 const JUNCTION: &str = "flow_junction.ron";
 const SNEDDON: &str = "sneddon.ron";
+/// A conforming mesh: Sneddon's crack at 30 degrees.
+const INCLINED: &str = "inclined_crack.ron";
 
 /// A small network scene for the cases that need a file of their own.
 const SMALL: &str = r#"(
@@ -212,6 +214,70 @@ const CASES: &[Case] = &[
         KGD,
         &["--set", "mesh.fine=[0, -2, 40.5, 2]"],
         &["mesh.fine width", "whole number"],
+    ),
+    // Conforming meshes (`scenarios/inclined_crack.ron`).
+    set(
+        INCLINED,
+        &["--set", "mesh.grading=0"],
+        &["mesh.grading", "[0.01, 2]"],
+    ),
+    set(
+        INCLINED,
+        &["--set", "mesh.grading=5"],
+        &["mesh.grading", "[0.01, 2]"],
+    ),
+    edit(
+        INCLINED,
+        &[("h_far: 2.0)", "h_far: 2.0, grading: NaN)")],
+        &["mesh.grading", "finite"],
+    ),
+    edit(
+        INCLINED,
+        &[("h_far: 2.0)", "h_far: 0.01)")],
+        &["mesh.h_far", "between h"],
+    ),
+    edit(
+        INCLINED,
+        &[("h_far: 2.0)", "h_far: 400.0)")],
+        &["mesh.h_far", "between h"],
+    ),
+    edit(
+        INCLINED,
+        &[("h_far: 2.0)", "h_far: inf)")],
+        &["mesh.h_far", "finite"],
+    ),
+    set(
+        INCLINED,
+        &["--set", "mesh.min_angle_deg=40"],
+        &["mesh.min_angle_deg", "(0, 33]"],
+    ),
+    set(
+        INCLINED,
+        &["--set", "mesh.min_angle_deg=0"],
+        &["mesh.min_angle_deg", "(0, 33]"],
+    ),
+    set(
+        INCLINED,
+        &["--set", "mesh.merge=0.9"],
+        &["mesh.merge", "[0, 0.5]"],
+    ),
+    set(
+        INCLINED,
+        &["--set", "mesh.merge=-0.1"],
+        &["mesh.merge", "[0, 0.5]"],
+    ),
+    edit(
+        INCLINED,
+        &[(
+            "h_far: 2.0)",
+            "h_far: 2.0, follow: [(from: (0.0, 0.0), to: (1.0, 1.0)), (from: (0.0, 0.0), to: (NaN, 1.0))])",
+        )],
+        &["mesh.follow[1]", "finite"],
+    ),
+    set(
+        INCLINED,
+        &["--set", "mesh.h=0.001"],
+        &["mesh.h", "triangles", "limit"],
     ),
     set(KGD, &["--set", "mesh.h=0.001"], &["mesh.h", "5e7"]),
     set(SNEDDON, &["--set", "mesh.h=0.0001"], &["mesh.h", "5e7"]),

@@ -2,9 +2,12 @@
 //! `fracture.file`): snapped to mesh edges, opened as joints with flow cells, and connected
 //! where they cross: the cell network's connected components are the geometric network's.
 
-use hydrofrac::scenario::{PreFracture, Scenario};
+#[path = "support/geometry.rs"]
+mod geometry;
+
+use geometry::{cell_components, clean_random_network, geometric_components};
+use hydrofrac::scenario::Scenario;
 use hydrofrac::sim::Simulation;
-use hydrofrac::union_find::UnionFind;
 
 fn scene(fracture_extra: &str) -> String {
     format!(
@@ -23,44 +26,6 @@ fn scene(fracture_extra: &str) -> String {
     )
 }
 
-/// Do segments ab and cd cross or touch?
-fn cross(a: [f64; 2], b: [f64; 2], c: [f64; 2], d: [f64; 2]) -> bool {
-    let o = |p: [f64; 2], q: [f64; 2], r: [f64; 2]| {
-        (q[0] - p[0]) * (r[1] - p[1]) - (q[1] - p[1]) * (r[0] - p[0])
-    };
-    let (d1, d2) = (o(c, d, a), o(c, d, b));
-    let (d3, d4) = (o(a, b, c), o(a, b, d));
-    d1 * d2 <= 0.0 && d3 * d4 <= 0.0
-}
-
-fn segment_distance(a: [f64; 2], b: [f64; 2], c: [f64; 2], d: [f64; 2]) -> f64 {
-    if cross(a, b, c, d) {
-        return 0.0;
-    }
-    let ps = |p: [f64; 2], u: [f64; 2], v: [f64; 2]| {
-        let (dx, dy) = (v[0] - u[0], v[1] - u[1]);
-        let t = (((p[0] - u[0]) * dx + (p[1] - u[1]) * dy) / (dx * dx + dy * dy)).clamp(0.0, 1.0);
-        (p[0] - u[0] - t * dx).hypot(p[1] - u[1] - t * dy)
-    };
-    ps(a, c, d)
-        .min(ps(b, c, d))
-        .min(ps(c, a, b))
-        .min(ps(d, a, b))
-}
-
-/// Number of groups of fractures joined by crossings.
-fn geometric_components(f: &[PreFracture]) -> usize {
-    let mut uf = UnionFind::new(f.len());
-    for i in 0..f.len() {
-        for j in i + 1..f.len() {
-            if cross(f[i].from, f[i].to, f[j].from, f[j].to) {
-                uf.union(i, j);
-            }
-        }
-    }
-    (0..f.len()).filter(|&i| uf.find(i) == i).count()
-}
-
 #[test]
 fn a_random_network_is_placed_and_connected_where_it_crosses() {
     // The first seed whose fractures either cross or stay 2 mesh edges apart (so snapping
@@ -71,29 +36,7 @@ fn a_random_network_is_placed_and_connected_where_it_crosses() {
              jitter_deg: 15.0, length: (6.0, 18.0))),"
         )
     };
-    let clean = |f: &[PreFracture]| {
-        (0..f.len()).all(|i| {
-            (i + 1..f.len()).all(|j| {
-                let d = segment_distance(f[i].from, f[i].to, f[j].from, f[j].to);
-                d == 0.0 || d > 2.0
-            })
-        })
-    };
-    let (sc, generated) = (1..500u64)
-        .map(|seed| {
-            let sc = Scenario::parse(&scene(&spec(seed)), "rock_network.ron").unwrap();
-            let g = sc
-                .fracture
-                .as_ref()
-                .unwrap()
-                .random
-                .as_ref()
-                .unwrap()
-                .generate();
-            (sc, g)
-        })
-        .find(|(_, g)| g.len() == 14 && clean(g) && geometric_components(g) <= 10)
-        .expect("a seed with crossings and no near misses");
+    let (sc, generated) = clean_random_network(|seed| scene(&spec(seed)), 14, 2.0);
     let sim = Simulation::new(sc, &[]).unwrap();
     // Every generated fracture is placed, within one edge of its segment.
     assert_eq!(sim.placed().len(), 14);
@@ -102,19 +45,7 @@ fn a_random_network_is_placed_and_connected_where_it_crosses() {
     }
     // The cells' network (cells joined where they share a node) has the geometric network's
     // components: crossings connect (on a planar mesh two crossing edge paths share a node).
-    let v = sim.fracture_view().unwrap();
-    let mut uf = UnionFind::new(v.n_cells());
-    let mut first_at = vec![usize::MAX; v.node_pos.len()];
-    for (c, n) in v.cell_nodes.iter().enumerate() {
-        for &k in n {
-            if first_at[k as usize] == usize::MAX {
-                first_at[k as usize] = c;
-            } else {
-                uf.union(first_at[k as usize], c);
-            }
-        }
-    }
-    let rock = (0..v.n_cells()).filter(|&c| uf.find(c) == c).count();
+    let rock = cell_components(&sim.fracture_view().unwrap());
     let geometric = geometric_components(&generated);
     assert_eq!(
         rock, geometric,

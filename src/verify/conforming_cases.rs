@@ -417,70 +417,25 @@ pub fn conforming_mesh(quick: bool) -> anyhow::Result<CaseResult> {
             to: [0.95, 0.7],
         },
     ];
-    let mat = Material {
-        young: 10e9,
-        poisson: 0.3,
-        density: 2500.0,
-    };
-    let c0 = [1e-4, -2e-4];
-    let grad = [[1e-3, 2e-4], [-5e-4, 3e-4]];
-    let exact = move |x: [f64; 2]| {
-        [
-            c0[0] + grad[0][0] * x[0] + grad[0][1] * x[1],
-            c0[1] + grad[1][0] * x[0] + grad[1][1] * x[1],
-        ]
-    };
-    for (level, &n) in levels.iter().enumerate() {
-        let h = 1.0 / n as f64;
-        for (scheme, suffix) in [
-            (SolidScheme::Explicit, ""),
-            (SolidScheme::QuasiStatic, "_quasi_static"),
-        ] {
-            let mut sc = scenario(
-                "patch_conforming",
-                MeshSpec::Conforming {
-                    width: 1.0,
-                    height: 1.0,
-                    origin: [0.0, 0.0],
-                    h,
-                    h_far: Some(4.0 * h),
-                    min_angle_deg: 25.0,
-                    merge: 0.25,
-                    grading: 0.5,
-                    follow: follow.clone(),
-                },
-                mat,
-                Boundary::default(),
-                End::Static {
-                    tol: 1e-13,
-                    min_steps: 10,
-                },
-                Damping::Local(0.8),
-            );
-            sc.time.solid_scheme = scheme;
-            let (sim, wall) =
-                crate::verify::solid_cases::relax(sc, |m| m.prescribe_boundary_field(exact))?;
-            let v = sim.solid();
-            let norm = |a: [f64; 2]| a[0].hypot(a[1]);
-            let umax = v.x0.iter().map(|&x| norm(exact(x))).fold(0.0, f64::max);
-            let du = (0..v.n_nodes())
-                .map(|i| {
-                    let e = exact(v.x0[i]);
-                    norm([v.u[i][0] - e[0], v.u[i][1] - e[1]])
-                })
-                .fold(0.0, f64::max);
-            let metric = format!("patch_displacement_max{suffix}");
-            res.check_max(format!("{metric} at h = {h}"), du / umax, 1e-9);
-            res.rows.push(Row {
-                case: "conforming_mesh",
-                level,
+    crate::verify::solid_cases::patch_test(
+        "conforming_mesh",
+        "patch_",
+        levels,
+        |n| {
+            let h = 1.0 / n as f64;
+            MeshSpec::Conforming {
+                width: 1.0,
+                height: 1.0,
+                origin: [0.0, 0.0],
                 h,
-                unknowns: 2 * v.n_nodes(),
-                metric,
-                error: du / umax,
-                wall_s: wall,
-            });
-        }
-    }
+                h_far: Some(4.0 * h),
+                min_angle_deg: 25.0,
+                merge: 0.25,
+                grading: 0.5,
+                follow: follow.clone(),
+            }
+        },
+        &mut res,
+    )?;
     Ok(res)
 }
