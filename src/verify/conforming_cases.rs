@@ -1,4 +1,4 @@
-//! Conforming-mesh verification (`docs/verification.md` R12, `docs/conforming.md`):
+//! Conforming-mesh verification (`docs/verification.md` R12a, R12c; `docs/conforming.md`):
 //! `sneddon_inclined` and `conforming_mesh`.
 //!
 //! `sneddon_inclined`: Sneddon's pressurised crack (plane strain, half-length a, pressure p;
@@ -157,10 +157,10 @@ pub fn inclined_crack(
 /// `sneddon_inclined`: the 30-degree crack on both meshes and the horizontal one on the graded
 /// mesh at a/h = 10, 20, 40, 80 (quick: 10, 20). Targets: conforming area and centre opening
 /// within 3 % at the finest level (the target; the horizontal crack on its exact mesh
-/// is -1.5 % at a/h = 80, `sneddon`), within 1 % of the horizontal crack's at a/h >= 20 (the
+/// is -1.5 % at a/h = 80, `sneddon`; quick: 5 % at a/h = 20, `sneddon`'s target there), within 1 % of the horizontal crack's at a/h >= 20 (the
 /// conforming mesh is as good as an exact one; at a/h = 10 its finer surroundings make it
 /// 2 % better), observed order of the conforming area error within 0.3 of the horizontal
-/// crack's (measured 0.60 and 0.67). The snapped crack's errors
+/// crack's (measured 0.60 and 0.67; full run only). The snapped crack's errors
 /// are reported beside them, and checked to stay worse than the conforming ones at a/h >= 20,
 /// which is why the conforming mesh exists.
 pub fn sneddon_inclined(quick: bool) -> anyhow::Result<CaseResult> {
@@ -235,15 +235,18 @@ pub fn sneddon_inclined(quick: bool) -> anyhow::Result<CaseResult> {
             );
         }
         if level + 1 == n {
+            // The 3 % at a/h = 80; `--quick` ends at a/h = 20, where the straight
+            // crack's own target is 5 % (`sneddon`; it measures -4.20 % there).
+            let tol = if quick { 0.05 } else { 0.03 };
             res.check_max(
                 format!("conforming area error at a/h = {ah}"),
                 rel(conf.area, area_exact).abs(),
-                0.03,
+                tol,
             );
             res.check_max(
                 format!("conforming centre opening error at a/h = {ah}"),
                 rel(conf.w_centre, w_exact).abs(),
-                0.03,
+                tol,
             );
         }
         if ah >= 20.0 {
@@ -263,11 +266,15 @@ pub fn sneddon_inclined(quick: bool) -> anyhow::Result<CaseResult> {
     res.notes.push(format!(
         "observed order of the area error: conforming {order:.2}, horizontal {flat_order:.2}"
     ));
-    res.check_max(
-        "conforming vs horizontal observed order of the area error",
-        (order - flat_order).abs(),
-        0.3,
-    );
+    // Between a/h = 10 and 20 (`--quick`) both are pre-asymptotic (0.73 and 1.11): the order
+    // is compared on the full run's last two levels only.
+    if !quick {
+        res.check_max(
+            "conforming vs horizontal observed order of the area error",
+            (order - flat_order).abs(),
+            0.3,
+        );
+    }
     Ok(res)
 }
 
