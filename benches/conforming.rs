@@ -33,12 +33,17 @@ fn bench(c: &mut Criterion) {
             grading: 0.1,
             follow: Vec::new(),
         };
-        g.bench_function(format!("mesh_100_fractures_h{h}"), |b| {
-            b.iter(|| build_mesh_around(&spec, &segs).unwrap())
-        });
+        g.bench_function(
+            format!("mesh_100_fractures_h_{}cm", (100.0 * h) as u32),
+            |b| b.iter(|| build_mesh_around(&spec, &segs).unwrap()),
+        );
     }
     g.finish();
 }
 
-criterion_group!(benches, bench);
+criterion_group! {
+    name = benches;
+    config = Criterion::default().without_plots();
+    targets = bench
+}
 criterion_main!(benches);
