@@ -53,6 +53,11 @@ enum Command {
         /// [default: the machine's memory, MemTotal of /proc/meminfo, else 16GiB]
         #[arg(long, value_name = "SIZE", value_parser = hydrofrac::resources::parse_size)]
         max_memory: Option<u64>,
+        /// Refuse a run whose outputs (frames, time series, figures) would take more than
+        /// SIZE on disk (bytes, or with KiB, MiB, GiB, TiB), estimated after setup and before
+        /// anything is written [default: the free space of the output folder's disk]
+        #[arg(long, value_name = "SIZE", value_parser = hydrofrac::resources::parse_size)]
+        max_disk: Option<u64>,
         /// Continue from a checkpoint (`output.checkpoint_every` writes checkpoint.ckpt in
         /// the output folder): bit for bit the run that wrote it. Refused unless written by
         /// this hydrofrac for the same scenario, --set overrides and --disable list
@@ -188,6 +193,7 @@ fn real_main() -> Result<ExitCode> {
             quiet,
             force,
             max_memory,
+            max_disk,
             restart,
         } => {
             let opts = RunOptions {
@@ -199,6 +205,7 @@ fn real_main() -> Result<ExitCode> {
                 force,
                 stop: Some(install_stop_handlers()?),
                 max_memory,
+                max_disk,
                 restart,
             };
             let report = run_file(&scenario, &opts)?;

@@ -510,3 +510,61 @@ fn a_failing_trace_file_is_a_warning_not_a_panic() {
     let s = std::fs::read_to_string(out.join("summary.json")).unwrap();
     assert!(s.contains("trace /dev/full is incomplete"), "{s}");
 }
+
+/// The output size is bounded before anything is written (README "Reliability"): a run whose
+/// frames would take more than `--max-disk` is refused with the estimate and the limit, naming
+/// `output.frame_every`, and creates no folder; a run within the limit writes at most its
+/// estimate (`summary.json` `output_estimate_bytes`), and the estimate is not absurdly high
+/// (within 5x the files written plus the 2.4 MB allowance for figures).
+#[test]
+fn the_output_size_is_estimated_and_bounded_before_the_run() {
+    let out = tmp("disk-refused");
+    let o = run(&[
+        "run",
+        &scenario("insitu_stress.ron"),
+        "--out",
+        out.to_str().unwrap(),
+        "--quiet",
+        "--set",
+        "output.frame_every=1",
+        "--max-disk",
+        "10MiB",
+    ]);
+    assert_refused(
+        &o,
+        &[
+            "output.frame_every",
+            "estimated",
+            "frames of",
+            "limit of 10.0 MiB",
+            "--max-disk",
+        ],
+    );
+    assert!(!out.exists(), "the refused run created {}", out.display());
+
+    let out = tmp("disk-ok");
+    let o = run(&[
+        "run",
+        &scenario("insitu_stress.ron"),
+        "--out",
+        out.to_str().unwrap(),
+        "--quiet",
+        "--set",
+        "time.max_steps=400",
+        "--set",
+        "output.frame_every=50",
+        "--max-disk",
+        "1GiB",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let s: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let estimate = s["output_estimate_bytes"].as_f64().unwrap();
+    let written: usize = files(&out).values().map(Vec::len).sum();
+    let written = written as f64;
+    assert!(
+        written <= estimate && estimate <= 5.0 * written + 2.4e6,
+        "written {written} bytes, estimated {estimate}"
+    );
+    std::fs::remove_dir_all(&out).unwrap();
+}
