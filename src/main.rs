@@ -241,10 +241,13 @@ fn real_main() -> Result<ExitCode> {
             // listed in the manifest as this run's.
             let folder = hydrofrac::output::folder::Folder::prepare(&out, force)?;
             let before = folder.snapshot();
-            let result = hydrofrac::verify::run_cases(&cases, &out, quick);
+            // SIGINT/SIGTERM: the case in progress finishes and is written, the rest is not
+            // run (a second signal ends the process at once).
+            let stop = install_stop_handlers()?;
+            let result = hydrofrac::verify::run_cases_until(&cases, &out, quick, Some(&stop));
             folder.adopt_changed(&before)?;
             // A closed stdout stops the cases at their next line: not a quiet success here.
-            let ok = result.map_err(|e| {
+            let verdict = result.map_err(|e| {
                 if is_broken_pipe(&e) {
                     anyhow::anyhow!(
                         "stdout was closed: the verification stopped before it finished"
@@ -253,7 +256,18 @@ fn real_main() -> Result<ExitCode> {
                     e
                 }
             })?;
-            Ok(if ok {
+            if let Some(sig) = verdict.interrupted_by {
+                let _ = writeln!(
+                    std::io::stderr(),
+                    "interrupted by {} after {} of {} cases: their CSV and PNG are in {}",
+                    hydrofrac::driver::signal_name(sig),
+                    verdict.finished.len(),
+                    verdict.total,
+                    out.display()
+                );
+                return Ok(signal_exit(sig));
+            }
+            Ok(if verdict.passed {
                 ExitCode::SUCCESS
             } else {
                 ExitCode::FAILURE

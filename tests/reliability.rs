@@ -568,3 +568,77 @@ fn the_output_size_is_estimated_and_bounded_before_the_run() {
     );
     std::fs::remove_dir_all(&out).unwrap();
 }
+
+/// SIGINT and SIGTERM stop `hydrofrac verify` after the case in progress (README
+/// "Reliability"): exit status 130 and 143, the finished cases' CSV and PNG written and listed
+/// in the manifest, the cases after it not run, the last stdout line saying `verification
+/// interrupted by SIG...` and a line on stderr. `patch` (0.04 s), `insitu` (about 1 s, the
+/// signal is sent when its header line appears) and `stability` (about 2 s, not run).
+#[cfg(unix)]
+#[test]
+fn a_signal_stops_verify_after_the_case_in_progress() {
+    use std::io::BufRead;
+    for (sig, code, name) in [
+        (libc::SIGINT, 130, "SIGINT"),
+        (libc::SIGTERM, 143, "SIGTERM"),
+    ] {
+        let out = tmp(&format!("verify-{name}"));
+        let mut child = bin()
+            .args([
+                "verify",
+                "patch",
+                "insitu",
+                "stability",
+                "--quick",
+                "--out",
+                out.to_str().unwrap(),
+            ])
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        let mut lines = std::io::BufReader::new(child.stdout.take().unwrap()).lines();
+        let mut seen = Vec::new();
+        for line in lines.by_ref() {
+            let line = line.unwrap();
+            seen.push(line.clone());
+            if line.starts_with("== insitu") {
+                // SAFETY: kill(2) on the child's pid, which has not been waited for.
+                assert_eq!(unsafe { libc::kill(child.id() as i32, sig) }, 0);
+                break;
+            }
+        }
+        seen.extend(lines.map(|l| l.unwrap()));
+        let status = wait_at_most(&mut child, Duration::from_secs(60), name);
+        let mut err = String::new();
+        std::io::Read::read_to_string(child.stderr.as_mut().unwrap(), &mut err).unwrap();
+        assert_eq!(status.code(), Some(code), "{name}: {err}\n{seen:?}");
+        assert!(!err.contains("panicked"), "{err}");
+        assert!(
+            err.contains(&format!("interrupted by {name} after 2 of 3 cases")),
+            "{err}"
+        );
+        let last = seen.last().unwrap();
+        assert!(
+            last.starts_with(&format!(
+                "verification interrupted by {name} after 2 of 3 cases"
+            )) && last.contains("not run: stability"),
+            "{last}"
+        );
+        assert!(
+            !seen.iter().any(|l| l.starts_with("== stability")),
+            "{seen:?}"
+        );
+        let listed = listed(&out);
+        for case in ["patch", "insitu"] {
+            for ext in ["csv", "png"] {
+                let f = format!("{case}.{ext}");
+                assert!(out.join(&f).is_file(), "{name}: {f} missing");
+                assert!(listed.contains(&f), "{name}: {f} not in the manifest");
+            }
+        }
+        assert!(!out.join("stability.csv").exists(), "{name}");
+        assert_eq!(temporaries(&out), Vec::<String>::new(), "{name}");
+        std::fs::remove_dir_all(&out).unwrap();
+    }
+}
