@@ -311,6 +311,8 @@ pub fn free_space(dir: &std::path::Path) -> Option<u64> {
         }
         // SAFETY: statvfs returned 0, so it filled `st`.
         let st = unsafe { st.assume_init() };
+        // The fields' widths differ between platforms (u32 on some): the casts widen.
+        #[allow(clippy::unnecessary_cast)]
         (st.f_bavail as u64).checked_mul(st.f_frsize as u64)
     }
     #[cfg(not(unix))]
