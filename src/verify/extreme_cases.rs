@@ -408,8 +408,9 @@ const QUICK: &[&str] = &[
 /// by 4.9e-4 m^2 (predicted +4.1 MPa, measured +3.4 MPa at the pump), and by t = 0.03 s by
 /// 1.7e-3 m^2 (predicted +14 MPa, measured +11.8 MPa). With the void of a closed joint
 /// following its opening (L max(a_r + delta_n, 0.01 a_r), tried, not adopted: it moves every
-/// open fracture's volume by a_r L) the same run stays at 18.00 MPa; with joints of 1e12 Pa/m
-/// (little closure to undo) it stays bounded too (the run after these).
+/// open fracture's volume by a_r L, and as the hydraulic aperture too it shuts joints closed
+/// by the in-situ stress) the same run stays at 18.00 MPa; with joints of 1e12 Pa/m (little
+/// closure to undo) it stays bounded too (the run after these).
 const KNOWN: &[(&str, &str)] = &[
     (
         "nu 0.499, quasi-static",
