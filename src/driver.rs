@@ -33,6 +33,10 @@ pub struct RunOptions {
     /// Refuse a scenario whose mesh and network need more memory than this, bytes (estimated
     /// before anything is allocated, [`crate::resources`]). Default: the machine's memory.
     pub max_memory: Option<u64>,
+    /// Refuse a run whose outputs (frames, time series, figures) would take more than this,
+    /// bytes (estimated after setup, before anything is written, [`crate::resources::check_disk`]).
+    /// Default: the free space of the output folder's disk.
+    pub max_disk: Option<u64>,
     /// Continue from this checkpoint ([`crate::checkpoint`]): it must have been written for
     /// the same scenario, `set` overrides and `disable` list.
     pub restart: Option<PathBuf>,
@@ -127,6 +131,11 @@ pub fn run_scenario(scenario: Scenario, opts: &RunOptions) -> Result<RunReport, 
     if let Some(stop) = &opts.stop {
         sim.set_stop(stop.clone());
     }
+    let (disk_limit, disk_source) = match opts.max_disk {
+        Some(b) => (b, "set by --max-disk".to_string()),
+        None => crate::resources::default_disk_limit(&out),
+    };
+    let disk = crate::resources::check_disk(&output_plan(&sim), disk_limit, &disk_source)?;
     // Every path is checked before anything in the folder is removed or written.
     let mut plan = Plan::check(&out, opts.force)?;
     plan.require_folder("frames")?;
@@ -231,6 +240,7 @@ pub fn run_scenario(scenario: Scenario, opts: &RunOptions) -> Result<RunReport, 
     if let Some(c) = sim.quasi_static_counts() {
         summary["quasi_static"] = json!(c);
     }
+    summary["output_estimate_bytes"] = json!(disk.total);
     if sim.params().output.checkpoint_every.is_some() {
         summary["checkpoints"] = json!(sim.checkpoint_stats());
     }
@@ -349,6 +359,35 @@ pub fn run_scenario(scenario: Scenario, opts: &RunOptions) -> Result<RunReport, 
         ),
         residual_aperture: sim.params().residual_aperture,
     })
+}
+
+/// What decides the run's output size ([`crate::resources::output_estimate`]), from the
+/// simulation after setup (or after a restart: the steps left).
+fn output_plan(sim: &Simulation) -> crate::resources::OutputPlan {
+    let p = sim.params();
+    let solid = sim.solid();
+    let cells = match sim.flow() {
+        Some(f) => f.view.n_cells(),
+        None => sim.fracture_view().map_or(0, |v| v.n_cells()),
+    };
+    let end = match p.time.end {
+        crate::scenario::End::Time(te) => Some(te - sim.time()),
+        _ => None,
+    };
+    let left = p.time.max_steps.saturating_sub(sim.step());
+    let (steps, steps_from) = crate::resources::planned_steps(end, sim.dt(), left);
+    crate::resources::OutputPlan {
+        nodes: solid.x0.len() as f64,
+        triangles: solid.conn.len() as f64,
+        cells: cells as f64,
+        fields: p.output.fields.clone(),
+        frame_every: p.output.frame_every,
+        series_every: p.output.series_every,
+        series_columns: sim.series_columns().len(),
+        figures: p.output.figure_times.len(),
+        steps,
+        steps_from,
+    }
 }
 
 /// The fracture cells as they are now: the coupled flow's view, else the fractures' view.

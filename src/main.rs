@@ -53,6 +53,11 @@ enum Command {
         /// [default: the machine's memory, MemTotal of /proc/meminfo, else 16GiB]
         #[arg(long, value_name = "SIZE", value_parser = hydrofrac::resources::parse_size)]
         max_memory: Option<u64>,
+        /// Refuse a run whose outputs (frames, time series, figures) would take more than
+        /// SIZE on disk (bytes, or with KiB, MiB, GiB, TiB), estimated after setup and before
+        /// anything is written [default: the free space of the output folder's disk]
+        #[arg(long, value_name = "SIZE", value_parser = hydrofrac::resources::parse_size)]
+        max_disk: Option<u64>,
         /// Continue from a checkpoint (`output.checkpoint_every` writes checkpoint.ckpt in
         /// the output folder): bit for bit the run that wrote it. Refused unless written by
         /// this hydrofrac for the same scenario, --set overrides and --disable list
@@ -188,6 +193,7 @@ fn real_main() -> Result<ExitCode> {
             quiet,
             force,
             max_memory,
+            max_disk,
             restart,
         } => {
             let opts = RunOptions {
@@ -199,6 +205,7 @@ fn real_main() -> Result<ExitCode> {
                 force,
                 stop: Some(install_stop_handlers()?),
                 max_memory,
+                max_disk,
                 restart,
             };
             let report = run_file(&scenario, &opts)?;
@@ -234,10 +241,13 @@ fn real_main() -> Result<ExitCode> {
             // listed in the manifest as this run's.
             let folder = hydrofrac::output::folder::Folder::prepare(&out, force)?;
             let before = folder.snapshot();
-            let result = hydrofrac::verify::run_cases(&cases, &out, quick);
+            // SIGINT/SIGTERM: the case in progress finishes and is written, the rest is not
+            // run (a second signal ends the process at once).
+            let stop = install_stop_handlers()?;
+            let result = hydrofrac::verify::run_cases_until(&cases, &out, quick, Some(&stop));
             folder.adopt_changed(&before)?;
             // A closed stdout stops the cases at their next line: not a quiet success here.
-            let ok = result.map_err(|e| {
+            let verdict = result.map_err(|e| {
                 if is_broken_pipe(&e) {
                     anyhow::anyhow!(
                         "stdout was closed: the verification stopped before it finished"
@@ -246,7 +256,18 @@ fn real_main() -> Result<ExitCode> {
                     e
                 }
             })?;
-            Ok(if ok {
+            if let Some(sig) = verdict.interrupted_by {
+                let _ = writeln!(
+                    std::io::stderr(),
+                    "interrupted by {} after {} of {} cases: their CSV and PNG are in {}",
+                    hydrofrac::driver::signal_name(sig),
+                    verdict.finished.len(),
+                    verdict.total,
+                    out.display()
+                );
+                return Ok(signal_exit(sig));
+            }
+            Ok(if verdict.passed {
                 ExitCode::SUCCESS
             } else {
                 ExitCode::FAILURE

@@ -224,6 +224,8 @@ fn physics(s: &serde_json::Value) -> serde_json::Value {
         "frames",
         "checkpoints",
         "restarted_from",
+        // The output estimate of a restarted run counts the steps left.
+        "output_estimate_bytes",
     ] {
         o.remove(k);
     }

@@ -351,7 +351,8 @@ fn temporaries(dir: &Path) -> Vec<String> {
 /// the signal, a last frame of the state reached (indexed in `solid.pvd`, readable, one more
 /// than the regular frames), a last `timeseries.csv` row at the step reached, no `*.tmp.*` file
 /// left, and every listed file present. Example I cross (20,000 triangles), made to last
-/// (end 15 s, a frame every 20 steps); the signal is sent once the second frame exists.
+/// (end 15 s, a frame every 20 steps, `--max-disk 1TiB` over its estimate of 225 GiB); the
+/// signal is sent once the second frame exists.
 #[cfg(unix)]
 #[test]
 fn a_signal_stops_the_run_and_finishes_the_outputs() {
@@ -371,6 +372,10 @@ fn a_signal_stops_the_run_and_finishes_the_outputs() {
                 "time.end=Time(15.0)",
                 "--set",
                 "output.frame_every=20",
+                // Its 15 s would write 225 GiB of frames: above the free space of most disks,
+                // refused before the run without this (it is stopped after two frames).
+                "--max-disk",
+                "1TiB",
             ])
             .stdout(Stdio::null())
             .stderr(Stdio::piped())
@@ -509,4 +514,136 @@ fn a_failing_trace_file_is_a_warning_not_a_panic() {
     assert!(o.status.success(), "{e}");
     let s = std::fs::read_to_string(out.join("summary.json")).unwrap();
     assert!(s.contains("trace /dev/full is incomplete"), "{s}");
+}
+
+/// The output size is bounded before anything is written (README "Reliability"): a run whose
+/// frames would take more than `--max-disk` is refused with the estimate and the limit, naming
+/// `output.frame_every`, and creates no folder; a run within the limit writes at most its
+/// estimate (`summary.json` `output_estimate_bytes`), and the estimate is not absurdly high
+/// (within 5x the files written plus the 2.4 MB allowance for figures).
+#[test]
+fn the_output_size_is_estimated_and_bounded_before_the_run() {
+    let out = tmp("disk-refused");
+    let o = run(&[
+        "run",
+        &scenario("insitu_stress.ron"),
+        "--out",
+        out.to_str().unwrap(),
+        "--quiet",
+        "--set",
+        "output.frame_every=1",
+        "--max-disk",
+        "10MiB",
+    ]);
+    assert_refused(
+        &o,
+        &[
+            "output.frame_every",
+            "estimated",
+            "frames of",
+            "limit of 10.0 MiB",
+            "--max-disk",
+        ],
+    );
+    assert!(!out.exists(), "the refused run created {}", out.display());
+
+    let out = tmp("disk-ok");
+    let o = run(&[
+        "run",
+        &scenario("insitu_stress.ron"),
+        "--out",
+        out.to_str().unwrap(),
+        "--quiet",
+        "--set",
+        "time.max_steps=400",
+        "--set",
+        "output.frame_every=50",
+        "--max-disk",
+        "1GiB",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let s: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let estimate = s["output_estimate_bytes"].as_f64().unwrap();
+    let written: usize = files(&out).values().map(Vec::len).sum();
+    let written = written as f64;
+    assert!(
+        written <= estimate && estimate <= 5.0 * written + 2.4e6,
+        "written {written} bytes, estimated {estimate}"
+    );
+    std::fs::remove_dir_all(&out).unwrap();
+}
+
+/// SIGINT and SIGTERM stop `hydrofrac verify` after the case in progress (README
+/// "Reliability"): exit status 130 and 143, the finished cases' CSV and PNG written and listed
+/// in the manifest, the cases after it not run, the last stdout line saying `verification
+/// interrupted by SIG...` and a line on stderr. `patch` (0.04 s), `insitu` (about 1 s, the
+/// signal is sent when its header line appears) and `stability` (about 2 s, not run).
+#[cfg(unix)]
+#[test]
+fn a_signal_stops_verify_after_the_case_in_progress() {
+    use std::io::BufRead;
+    for (sig, code, name) in [
+        (libc::SIGINT, 130, "SIGINT"),
+        (libc::SIGTERM, 143, "SIGTERM"),
+    ] {
+        let out = tmp(&format!("verify-{name}"));
+        let mut child = bin()
+            .args([
+                "verify",
+                "patch",
+                "insitu",
+                "stability",
+                "--quick",
+                "--out",
+                out.to_str().unwrap(),
+            ])
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        let mut lines = std::io::BufReader::new(child.stdout.take().unwrap()).lines();
+        let mut seen = Vec::new();
+        for line in lines.by_ref() {
+            let line = line.unwrap();
+            seen.push(line.clone());
+            if line.starts_with("== insitu") {
+                // SAFETY: kill(2) on the child's pid, which has not been waited for.
+                assert_eq!(unsafe { libc::kill(child.id() as i32, sig) }, 0);
+                break;
+            }
+        }
+        seen.extend(lines.map(|l| l.unwrap()));
+        let status = wait_at_most(&mut child, Duration::from_secs(60), name);
+        let mut err = String::new();
+        std::io::Read::read_to_string(child.stderr.as_mut().unwrap(), &mut err).unwrap();
+        assert_eq!(status.code(), Some(code), "{name}: {err}\n{seen:?}");
+        assert!(!err.contains("panicked"), "{err}");
+        assert!(
+            err.contains(&format!("interrupted by {name} after 2 of 3 cases")),
+            "{err}"
+        );
+        let last = seen.last().unwrap();
+        assert!(
+            last.starts_with(&format!(
+                "verification interrupted by {name} after 2 of 3 cases"
+            )) && last.contains("not run: stability"),
+            "{last}"
+        );
+        assert!(
+            !seen.iter().any(|l| l.starts_with("== stability")),
+            "{seen:?}"
+        );
+        let listed = listed(&out);
+        for case in ["patch", "insitu"] {
+            for ext in ["csv", "png"] {
+                let f = format!("{case}.{ext}");
+                assert!(out.join(&f).is_file(), "{name}: {f} missing");
+                assert!(listed.contains(&f), "{name}: {f} not in the manifest");
+            }
+        }
+        assert!(!out.join("stability.csv").exists(), "{name}");
+        assert_eq!(temporaries(&out), Vec::<String>::new(), "{name}");
+        std::fs::remove_dir_all(&out).unwrap();
+    }
 }

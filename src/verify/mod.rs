@@ -298,9 +298,34 @@ pub fn write_plot(dir: &Path, name: &str, res: &CaseResult) -> anyhow::Result<()
     Ok(())
 }
 
+/// How a verification ended.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Verdict {
+    /// Every check of the cases that ran passed.
+    pub passed: bool,
+    /// The cases that ran to the end (their CSV and PNG written), of `total` asked for.
+    pub finished: Vec<&'static str>,
+    pub total: usize,
+    /// The signal that stopped the verification after a case, if one did.
+    pub interrupted_by: Option<usize>,
+}
+
 /// Run the named cases (all when empty), print tables, write CSVs and plots. Returns whether
 /// every check passed.
 pub fn run_cases(names: &[String], out: &Path, quick: bool) -> anyhow::Result<bool> {
+    Ok(run_cases_until(names, out, quick, None)?.passed)
+}
+
+/// [`run_cases`], stopping after the case in progress once `stop` holds a signal number (the
+/// binary's SIGINT/SIGTERM handlers, [`crate::sim::StopFlag`]): the finished cases' CSV and
+/// PNG are written, the last line says `verification interrupted by SIGINT after K of N
+/// cases` and the cases not run.
+pub fn run_cases_until(
+    names: &[String],
+    out: &Path,
+    quick: bool,
+    stop: Option<&crate::sim::StopFlag>,
+) -> anyhow::Result<Verdict> {
     let all = cases();
     for n in names {
         if !all.iter().any(|c| c.name == n) {
@@ -315,10 +340,36 @@ pub fn run_cases(names: &[String], out: &Path, quick: bool) -> anyhow::Result<bo
         .map_err(|e| anyhow::anyhow!("cannot create {}: {e}", out.display()))?;
     let mut ok = true;
     let mut stdout = std::io::stdout();
-    for case in all
+    let chosen: Vec<&Case> = all
         .iter()
         .filter(|c| names.is_empty() || names.iter().any(|n| n == c.name))
-    {
+        .collect();
+    let signal = || {
+        stop.map(|s| s.load(std::sync::atomic::Ordering::SeqCst))
+            .filter(|&s| s != 0)
+    };
+    let mut finished = Vec::new();
+    for case in &chosen {
+        if let Some(sig) = signal() {
+            let rest: Vec<&str> = chosen[finished.len()..].iter().map(|c| c.name).collect();
+            writeln!(
+                stdout,
+                "verification interrupted by {} after {} of {} cases (CSV and PNG of those in \
+                 {}; not run: {}); checks of the finished cases {}",
+                crate::driver::signal_name(sig),
+                finished.len(),
+                chosen.len(),
+                out.display(),
+                rest.join(", "),
+                if ok { "passed" } else { "FAILED" }
+            )?;
+            return Ok(Verdict {
+                passed: ok,
+                finished,
+                total: chosen.len(),
+                interrupted_by: Some(sig),
+            });
+        }
         writeln!(stdout, "== {}: {}", case.name, case.about)?;
         let res = (case.run)(quick)?;
         writeln!(
@@ -352,12 +403,20 @@ pub fn run_cases(names: &[String], out: &Path, quick: bool) -> anyhow::Result<bo
         }
         write_plot(out, case.name, &res)?;
         ok &= res.passed();
+        finished.push(case.name);
     }
+    // A signal during the last case: it finished, nothing was left out.
+    let interrupted_by = signal();
     writeln!(
         stdout,
         "verification {} (CSV and PNG in {})",
         if ok { "passed" } else { "FAILED" },
         out.display()
     )?;
-    Ok(ok)
+    Ok(Verdict {
+        passed: ok,
+        finished,
+        total: chosen.len(),
+        interrupted_by,
+    })
 }
