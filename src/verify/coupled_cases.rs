@@ -254,6 +254,17 @@ pub fn kgd(quick: bool) -> anyhow::Result<CaseResult> {
         }
         let (first, last) = (errs[0], errs[errs.len() - 1]);
         for (k, m) in ["length", "opening", "pressure"].iter().enumerate() {
+            if quick && k == 0 && scheme == "QuasiStaticToughness" {
+                // The toughness criterion's length is within 2.3 % already at h = 2 m and
+                // stays there at 1 m (it falls to 1.7 % at 0.25 m): the quick run checks the
+                // level, the full run the fall.
+                res.check_max(
+                    format!("{m} error at h = 1 m, {suffix}"),
+                    last[k].abs(),
+                    0.03,
+                );
+                continue;
+            }
             res.check_max(
                 format!("{m} error finest / coarsest, {suffix}"),
                 last[k].abs() / first[k].abs(),
