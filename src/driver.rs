@@ -324,8 +324,11 @@ pub fn run_scenario(scenario: Scenario, opts: &RunOptions) -> Result<RunReport, 
         }
         if let (Some(o), None) = (sim.output(), &production_error) {
             let csv = crate::production::production_csv(&rows);
-            write_atomic(&o.claim("production.csv").map_err(DriverError::Output)?, csv.as_bytes())
-                .map_err(DriverError::Output)?;
+            write_atomic(
+                &o.claim("production.csv").map_err(DriverError::Output)?,
+                csv.as_bytes(),
+            )
+            .map_err(DriverError::Output)?;
             let w = &stage.wells;
             let markers = [(w.injection, "injection"), (w.production, "production")];
             for s in &figures {
@@ -338,7 +341,9 @@ pub fn run_scenario(scenario: Scenario, opts: &RunOptions) -> Result<RunReport, 
                     s.row.rate
                 );
                 let path = o.claim(&name).map_err(DriverError::Output)?;
-                if let Err(e) = crate::reservoir::production::flow_map(&path, &title, &s.flow, &markers) {
+                if let Err(e) =
+                    crate::reservoir::production::flow_map(&path, &title, &s.flow, &markers)
+                {
                     warnings.push(format!("{name} not written: {e}"));
                 }
             }
@@ -350,7 +355,10 @@ pub fn run_scenario(scenario: Scenario, opts: &RunOptions) -> Result<RunReport, 
             for (state, view, time) in views {
                 let Some(view) = view else { continue };
                 let name = format!("network_{state}.png");
-                let title = format!("{}: fracture network {state} (t = {time:.3} s)", sim.params().name);
+                let title = format!(
+                    "{}: fracture network {state} (t = {time:.3} s)",
+                    sim.params().name
+                );
                 let path = o.claim(&name).map_err(DriverError::Output)?;
                 if let Err(e) = crate::production::network_figure(&path, &title, view, &markers) {
                     warnings.push(format!("{name} not written: {e}"));

@@ -124,7 +124,10 @@ pub fn production_scenario(sc: &Scenario) -> Scenario {
 /// A simulation of [`production_scenario`] at setup, or from `start` (the end of the run). Its
 /// step is the explicit bound of the rock and the joints without the fluid's stiffness (the
 /// fluid does not move here: its pressure is a load).
-pub fn production_sim(sc: &Scenario, start: Option<SimState>) -> Result<Simulation, ProductionError> {
+pub fn production_sim(
+    sc: &Scenario,
+    start: Option<SimState>,
+) -> Result<Simulation, ProductionError> {
     let mut sim = Simulation::new(production_scenario(sc), &["flow_substeps".to_string()])?;
     if let Some(state) = start {
         sim.adopt(state).map_err(ProductionError::Adopt)?;
@@ -217,7 +220,8 @@ fn steady(
         return Ok((0.0, vec![0.0; net.cells.len()], net.clone()));
     }
     let prod = steady_production(net, wells, viscosity, reach).map_err(|e| e.to_string())?;
-    Ok((-prod.wells[1].1, prod.pressure, prod.flow))
+    // 0 - q, not -q: no negative zero in the table.
+    Ok((0.0 - prod.wells[1].1, prod.pressure, prod.flow))
 }
 
 /// Solve one production state at pressure drop `dp` (Pa) on `sim` (freshly made by
@@ -269,9 +273,11 @@ pub fn solve_state(
     let mut p = vec![0.0; target.len()];
     let (mut rate, mut flow, mut a) = (rate_frozen, frozen.clone(), Vec::new());
     let (mut iterations, mut converged, mut change) = (0, false, f64::INFINITY);
+    let mut first = true;
     while iterations < stage.max_iterations {
         iterations += 1;
-        let omega = if iterations == 1 { 1.0 } else { stage.relaxation };
+        let omega = if first { 1.0 } else { stage.relaxation };
+        first = false;
         for (pc, tc) in p.iter_mut().zip(&target) {
             *pc += omega * (tc - *pc);
         }
@@ -282,6 +288,7 @@ pub fn solve_state(
         if grew {
             // A fracture grew: start again from the flow of the new network.
             (p, target, rate, flow) = (next.clone(), next, r, fl);
+            first = true;
             continue;
         }
         let dp_change = p
@@ -407,12 +414,18 @@ pub fn production_json(stage: &ProductionStage, rows: &[ProductionRow]) -> serde
                     .find(|r| r.state == s && r.dp == dp)
                     .map_or(0.0, |r| if frozen { r.rate_frozen } else { r.rate })
             };
-            let ratio = |frozen| {
+            // Omitted (not null) when nothing flows before.
+            let mut v = serde_json::json!({"dp": dp});
+            for (key, frozen) in [
+                ("after_over_before", false),
+                ("after_over_before_frozen", true),
+            ] {
                 let b = rate(NetworkState::Before, frozen);
-                (b > 0.0).then(|| rate(NetworkState::After, frozen) / b)
-            };
-            serde_json::json!({"dp": dp, "after_over_before": ratio(false),
-                "after_over_before_frozen": ratio(true)})
+                if b > 0.0 {
+                    v[key] = serde_json::json!(rate(NetworkState::After, frozen) / b);
+                }
+            }
+            v
         })
         .collect();
     serde_json::json!({

@@ -96,7 +96,10 @@ impl ProductionSpec {
     /// errors name `field.<field>`.
     pub fn validate(&self, field: &str) -> Result<(), SetupError> {
         let bad = |f: &str, why: String| SetupError::invalid(&format!("{field}.{f}"), why);
-        for (f, v) in [("injection", self.injection), ("production", self.production)] {
+        for (f, v) in [
+            ("injection", self.injection),
+            ("production", self.production),
+        ] {
             if !v.iter().all(|x| x.is_finite()) {
                 return Err(bad(f, format!("{v:?} is not a finite position")));
             }
@@ -140,7 +143,7 @@ impl ProductionSpec {
 pub struct ProductionStage {
     pub wells: ProductionSpec,
     /// The iteration ends when the production rate and every cell pressure change by less
-    /// than this, relative to the rate and to the pressure drop (default 1e-4).
+    /// than this, relative to the rate and to the pressure drop (default 1e-3).
     #[serde(default = "default_production_tol")]
     pub tolerance: f64,
     /// Under-relaxation of the cell pressures between iterations, in (0, 1] (default 0.7).
@@ -159,7 +162,7 @@ pub struct ProductionStage {
 }
 
 fn default_production_tol() -> f64 {
-    1e-4
+    1e-3
 }
 fn default_production_relaxation() -> f64 {
     0.7
@@ -180,7 +183,10 @@ impl ProductionStage {
         self.wells.validate("production.wells")?;
         let bad = |f: &str, why: String| SetupError::invalid(&format!("production.{f}"), why);
         if !(self.tolerance.is_finite() && self.tolerance > 0.0 && self.tolerance < 1.0) {
-            return Err(bad("tolerance", format!("{} is not in (0, 1)", self.tolerance)));
+            return Err(bad(
+                "tolerance",
+                format!("{} is not in (0, 1)", self.tolerance),
+            ));
         }
         if !(self.relaxation > 0.0 && self.relaxation <= 1.0) {
             return Err(bad(
