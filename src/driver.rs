@@ -79,8 +79,10 @@ pub enum DriverError {
     Folder(#[from] FolderError),
     #[error(transparent)]
     Checkpoint(#[from] crate::checkpoint::CheckpointError),
+    /// Boxed: a production error carries a run error, and every `Result` of the driver would
+    /// grow with it.
     #[error(transparent)]
-    Production(#[from] crate::production::ProductionError),
+    Production(Box<crate::production::ProductionError>),
     #[error("--trace {}: {why}", .path.display())]
     Trace { path: PathBuf, why: String },
 }
@@ -390,7 +392,7 @@ pub fn run_scenario(scenario: Scenario, opts: &RunOptions) -> Result<RunReport, 
         o.folder().remove_temporaries();
     }
     if let Some(e) = production_error {
-        return Err(e.into());
+        return Err(DriverError::Production(Box::new(e)));
     }
     if let Err(e) = result {
         return Err(DriverError::Run {
