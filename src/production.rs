@@ -256,9 +256,10 @@ pub fn solve_state(
         dp,
         why,
     };
-    // p_0 = 0: the frozen apertures (relaxed again after any growth, until none).
+    // p_0 = 0: the frozen apertures (relaxed again after any growth, until none, at most
+    // `max_iterations` times).
     let mut steps = 0;
-    loop {
+    for _ in 0..stage.max_iterations {
         let p0 = vec![0.0; sim.flow().map_or(0, |f| f.view.n_cells())];
         let (n, grew) = relax(sim, &p0, stage.static_tol, stage.max_steps).map_err(run_err)?;
         steps += n;
