@@ -83,6 +83,10 @@ pub enum DriverError {
     Folder(#[from] FolderError),
     #[error(transparent)]
     Checkpoint(#[from] crate::checkpoint::CheckpointError),
+    /// Boxed: a production error carries a run error, and every `Result` of the driver would
+    /// grow with it.
+    #[error(transparent)]
+    Production(Box<crate::production::ProductionError>),
     #[error("--trace {}: {why}", .path.display())]
     Trace { path: PathBuf, why: String },
 }
@@ -306,6 +310,74 @@ pub fn run_scenario(scenario: Scenario, opts: &RunOptions) -> Result<RunReport, 
             warnings.push(format!("figures not written: {e}"));
         }
     }
+    // The production stage (`production:`): before and after the run, after a run that ended.
+    let mut production_error = None;
+    if result.is_ok()
+        && sim.interrupted_by().is_none()
+        && let Some(stage) = sim.scenario().production.clone()
+    {
+        let t = Instant::now();
+        let end = sim
+            .checkpoint_state()
+            .map_err(|e| DriverError::Output(std::io::Error::other(format!("production: {e}"))))?
+            .1;
+        let solved = crate::production::run_production(sim.scenario(), end);
+        let (rows, figures) = match solved {
+            Ok(x) => x,
+            Err(e) => {
+                summary["production"] = json!({"error": e.to_string()});
+                production_error = Some(e);
+                (Vec::new(), Vec::new())
+            }
+        };
+        if production_error.is_none() {
+            summary["production"] = crate::production::production_json(&stage, &rows);
+            summary["production"]["wall_s"] = json!(t.elapsed().as_secs_f64());
+        }
+        if let (Some(o), None) = (sim.output(), &production_error) {
+            let csv = crate::production::production_csv(&rows);
+            write_atomic(
+                &o.claim("production.csv").map_err(DriverError::Output)?,
+                csv.as_bytes(),
+            )
+            .map_err(DriverError::Output)?;
+            let w = &stage.wells;
+            let markers = [(w.injection, "injection"), (w.production, "production")];
+            for s in &figures {
+                let name = format!("production_flow_{}.png", s.row.state.name());
+                let title = format!(
+                    "{}: production flow {}, dp = {:.0} MPa, coupled; rate {:.3e} m^2/s",
+                    sim.params().name,
+                    s.row.state.name(),
+                    s.row.dp / 1e6,
+                    s.row.rate
+                );
+                let path = o.claim(&name).map_err(DriverError::Output)?;
+                if let Err(e) =
+                    crate::reservoir::production::flow_map(&path, &title, &s.flow, &markers)
+                {
+                    warnings.push(format!("{name} not written: {e}"));
+                }
+            }
+            let now = network_now(&sim);
+            let views = [
+                ("before", start_network.as_ref(), 0.0),
+                ("after", now.as_ref(), sim.time()),
+            ];
+            for (state, view, time) in views {
+                let Some(view) = view else { continue };
+                let name = format!("network_{state}.png");
+                let title = format!(
+                    "{}: fracture network {state} (t = {time:.3} s)",
+                    sim.params().name
+                );
+                let path = o.claim(&name).map_err(DriverError::Output)?;
+                if let Err(e) = crate::production::network_figure(&path, &title, view, &markers) {
+                    warnings.push(format!("{name} not written: {e}"));
+                }
+            }
+        }
+    }
     if let (Some(e), Some(path)) = (trace_error.lock().expect("trace error").take(), &opts.trace) {
         warnings.push(format!(
             "trace {} is incomplete: writing it failed: {e}",
@@ -328,6 +400,9 @@ pub fn run_scenario(scenario: Scenario, opts: &RunOptions) -> Result<RunReport, 
     .map_err(DriverError::Output)?;
     if let Some(o) = sim.output() {
         o.folder().remove_temporaries();
+    }
+    if let Some(e) = production_error {
+        return Err(DriverError::Production(Box::new(e)));
     }
     if let Err(e) = result {
         return Err(DriverError::Run {

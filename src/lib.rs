@@ -30,6 +30,7 @@ pub mod output;
 pub mod params;
 pub mod pipeline;
 pub mod plot;
+pub mod production;
 pub mod reference;
 pub mod reservoir;
 pub mod resources;

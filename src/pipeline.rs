@@ -22,7 +22,7 @@ use crate::reservoir::continuum::{
     ContinuumRun, ContinuumSpec, Well, WellControl, WellIndex, run_continuum,
 };
 use crate::reservoir::discrete::{DiscreteRun, DiscreteSpec, RockGrid, TimeStep, run_discrete};
-use crate::reservoir::production::{PressureWell, nearest_node, steady_production};
+use crate::reservoir::production::{PressureWell, steady_production};
 use crate::reservoir::upscale::{BlockPermeability, upscale};
 use crate::reservoir::{Grid2, NetworkFlow, ReservoirError, ThermalProps};
 use serde::{Deserialize, Serialize};
@@ -145,21 +145,7 @@ pub enum PermeabilityChoice {
 }
 
 /// The wells of the production stage, in the stimulated block's coordinates.
-#[derive(Clone, Debug, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
-pub struct ProductionSpec {
-    /// Injection well position, m (connected to the nearest fracture node).
-    pub injection: [f64; 2],
-    /// Production well position, m.
-    pub production: [f64; 2],
-    /// Production well pressure, Pa.
-    pub production_pressure: f64,
-    /// Pressure drops from the injection to the production well, Pa (the seed's Table 1: 9, 12
-    /// and 15 MPa).
-    pub pressure_drops: Vec<f64>,
-    /// Largest distance from a well to the fracture node it connects to, m.
-    pub reach: f64,
-}
+pub use crate::scenario::ProductionSpec;
 
 /// The grid the networks are upscaled onto.
 #[derive(Clone, Debug, Deserialize, Serialize)]
@@ -230,41 +216,7 @@ impl PipelineSpec {
             field: field.to_string(),
             why,
         };
-        let p = &self.production;
-        for (f, v) in [
-            ("production.injection", p.injection),
-            ("production.production", p.production),
-        ] {
-            if !v.iter().all(|x| x.is_finite()) {
-                return Err(bad(f, format!("{v:?} is not a finite position")));
-            }
-        }
-        if !p.production_pressure.is_finite() {
-            return Err(bad(
-                "production.production_pressure",
-                format!("{} Pa is not finite", p.production_pressure),
-            ));
-        }
-        if p.pressure_drops.is_empty() {
-            return Err(bad(
-                "production.pressure_drops",
-                "give at least one pressure drop".into(),
-            ));
-        }
-        for (k, dp) in p.pressure_drops.iter().enumerate() {
-            if !(dp.is_finite() && *dp > 0.0) {
-                return Err(bad(
-                    &format!("production.pressure_drops[{k}]"),
-                    format!("{dp} Pa is not finite and positive"),
-                ));
-            }
-        }
-        if !(p.reach.is_finite() && p.reach > 0.0) {
-            return Err(bad(
-                "production.reach",
-                format!("{} m is not finite and positive", p.reach),
-            ));
-        }
+        self.production.validate("production")?;
         let u = &self.upscaling;
         if u.blocks.iter().any(|&n| n == 0 || n > 10_000) {
             return Err(bad(
@@ -370,28 +322,7 @@ impl State {
     }
 }
 
-/// Every well has a fracture node within `reach` (m).
-fn reaches(net: &NetworkFlow, wells: &[PressureWell], reach: f64) -> bool {
-    wells
-        .iter()
-        .all(|w| nearest_node(net, w.position).is_some_and(|(_, d)| d <= reach))
-}
-
-/// The network of a flow view: reference node positions and the cells' hydraulic apertures
-/// (`residual`: every cell at that aperture instead).
-pub fn network_of_view(v: &FlowView, residual: Option<f64>) -> NetworkFlow {
-    NetworkFlow {
-        nodes: v.node_ref.clone(),
-        cells: v
-            .cell_nodes
-            .iter()
-            .zip(&v.aperture)
-            .map(|(n, &a)| (n[0], n[1], residual.unwrap_or(a)))
-            .collect(),
-        fluxes: Vec::new(),
-        boundary: Vec::new(),
-    }
-}
+pub use crate::reservoir::production::{network_of_view, reaches};
 
 /// One row of `network_production.csv`.
 #[derive(Clone, Debug, PartialEq)]
@@ -826,20 +757,6 @@ fn field_png(
         .map_err(|e| PipelineError::Output(std::io::Error::other(e.to_string())))
 }
 
-/// Cell throughput of a network flow: half the summed |flux| of its pairs plus its exchange
-/// with the wells, m^2/s.
-pub fn cell_throughput(net: &NetworkFlow) -> Vec<f64> {
-    let mut t = vec![0.0; net.cells.len()];
-    for &(i, j, q) in &net.fluxes {
-        t[i as usize] += 0.5 * q.abs();
-        t[j as usize] += 0.5 * q.abs();
-    }
-    for &(c, q) in &net.boundary {
-        t[c as usize] += 0.5 * q.abs();
-    }
-    t
-}
-
 /// The network coloured by each cell's throughput (log scale; cells without flow grey).
 fn flow_png(
     folder: &Folder,
@@ -848,26 +765,9 @@ fn flow_png(
     net: &NetworkFlow,
     markers: &[([f64; 2], &str)],
 ) -> Result<(), PipelineError> {
-    let segments: Vec<crate::plot::Segment> = net
-        .cells
-        .iter()
-        .map(|&(a, b, _)| crate::plot::Segment {
-            a: net.nodes[a as usize],
-            b: net.nodes[b as usize],
-        })
-        .collect();
     let path = folder.claim(name).map_err(PipelineError::Output)?;
-    crate::plot::network(
-        &path,
-        title,
-        &segments,
-        &cell_throughput(net),
-        "flow rate [m^2/s]",
-        crate::plot::ColourScale::Log,
-        None,
-        markers,
-    )
-    .map_err(|e| PipelineError::Output(std::io::Error::other(e.to_string())))
+    crate::reservoir::production::flow_map(&path, title, net, markers)
+        .map_err(|e| PipelineError::Output(std::io::Error::other(e.to_string())))
 }
 
 /// Seconds per year (365.25 days).

@@ -305,9 +305,24 @@ impl Simulation {
     /// Continue from a checkpoint's state: this simulation must be freshly set up from the
     /// scenario the checkpoint was written for ([`crate::checkpoint::check_scenario`]).
     pub fn restore(&mut self, state: State) -> Result<(), String> {
-        let parts = (state.flow.is_some(), self.flow.is_some());
         let qs = (state.qs_counts.is_some(), self.solid.quasi_static.is_some());
-        if parts.0 != parts.1 || qs.0 != qs.1 {
+        if qs.0 != qs.1 {
+            return Err("its flow network or solid scheme differs from this scenario's".into());
+        }
+        self.take_state(state)
+    }
+
+    /// Take over the model and the state of another run of the same model (the production
+    /// stage starts from the end of a stimulation, `crate::production`): as
+    /// [`Simulation::restore`], but the other run's solid scheme may differ from this one's;
+    /// its step length and adaptive-step state are taken too and are for the caller to set.
+    pub fn adopt(&mut self, state: State) -> Result<(), String> {
+        self.take_state(state)
+    }
+
+    fn take_state(&mut self, state: State) -> Result<(), String> {
+        let parts = (state.flow.is_some(), self.flow.is_some());
+        if parts.0 != parts.1 {
             return Err("its flow network or solid scheme differs from this scenario's".into());
         }
         let m = &mut self.model;

@@ -48,6 +48,7 @@ const LAYERS: &[(&str, u8)] = &[
     // 6: driver, verification, reference kernels.
     ("driver", 6),
     ("pipeline", 6),
+    ("production", 6),
     ("verify", 6),
     ("reference", 6),
 ];

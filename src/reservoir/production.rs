@@ -208,6 +208,71 @@ pub fn steady_production(
     })
 }
 
+/// Every well has a fracture node within `reach` (m).
+pub fn reaches(net: &NetworkFlow, wells: &[PressureWell], reach: f64) -> bool {
+    wells
+        .iter()
+        .all(|w| nearest_node(net, w.position).is_some_and(|(_, d)| d <= reach))
+}
+
+/// The network of a flow view: reference node positions and the cells' hydraulic apertures
+/// (`residual`: every cell at that aperture instead).
+pub fn network_of_view(v: &crate::flow::FlowView, residual: Option<f64>) -> NetworkFlow {
+    NetworkFlow {
+        nodes: v.node_ref.clone(),
+        cells: v
+            .cell_nodes
+            .iter()
+            .zip(&v.aperture)
+            .map(|(n, &a)| (n[0], n[1], residual.unwrap_or(a)))
+            .collect(),
+        fluxes: Vec::new(),
+        boundary: Vec::new(),
+    }
+}
+
+/// Cell throughput of a network flow: half the summed |flux| of its pairs plus its exchange
+/// with the wells, m^2/s.
+pub fn cell_throughput(net: &NetworkFlow) -> Vec<f64> {
+    let mut t = vec![0.0; net.cells.len()];
+    for &(i, j, q) in &net.fluxes {
+        t[i as usize] += 0.5 * q.abs();
+        t[j as usize] += 0.5 * q.abs();
+    }
+    for &(c, q) in &net.boundary {
+        t[c as usize] += 0.5 * q.abs();
+    }
+    t
+}
+
+/// The seed's Fig. 10: the network at `path` (PNG) coloured by each cell's throughput
+/// ([`cell_throughput`], log scale; cells without flow grey), with labelled `markers` (wells).
+pub fn flow_map(
+    path: &std::path::Path,
+    title: &str,
+    net: &NetworkFlow,
+    markers: &[([f64; 2], &str)],
+) -> Result<(), crate::plot::PlotError> {
+    let segments: Vec<crate::plot::Segment> = net
+        .cells
+        .iter()
+        .map(|&(a, b, _)| crate::plot::Segment {
+            a: net.nodes[a as usize],
+            b: net.nodes[b as usize],
+        })
+        .collect();
+    crate::plot::network(
+        path,
+        title,
+        &segments,
+        &cell_throughput(net),
+        "flow rate [m^2/s]",
+        crate::plot::ColourScale::Log,
+        None,
+        markers,
+    )
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

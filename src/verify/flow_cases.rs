@@ -59,6 +59,7 @@ pub fn flow_scenario(
         damping: Damping::None,
         systems: SystemsSpec::default(),
         output: OutputSpec::default(),
+        production: None,
     }
 }
 

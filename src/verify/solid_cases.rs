@@ -55,6 +55,7 @@ pub fn scenario(
         damping,
         systems: SystemsSpec::default(),
         output: OutputSpec::default(),
+        production: None,
     }
 }
 

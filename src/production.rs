@@ -1,0 +1,478 @@
+//! The production stage of `hydrofrac run` (`production:` in a scenario; the seed's Example II,
+//! Table 1 and Fig. 10): the steady flow between an injection and a production well held at
+//! pressures, with apertures that respond to the fluid pressure through the joint model, on the
+//! network at setup ("before") and at the end of the run ("after"); and the same with frozen
+//! apertures. The derivation is in `docs/production.md`.
+//!
+//! Each (state, pressure drop) is a fixed-point iteration between two solves the engine has:
+//! 1. the rock's equilibrium under the in-situ stress and a pressure p_c on both faces of every
+//!    fracture cell c: dynamic relaxation with the run's own systems (`internal_force`,
+//!    `external_load`, `contact`, `fluid_pressure`, `damping`, `integrate`, and the fracture
+//!    criterion and `split`, so a fracture may grow), the network's flow switched off and its
+//!    mean pressures held at p; the hydraulic apertures a_c = max(delta_n, a_r) of that
+//!    equilibrium (seed (12));
+//! 2. the network's steady flow through those apertures between the wells
+//!    ([`steady_production`]): new cell pressures G(p).
+//!
+//! p_0 = 0 (the pump off, the fractures drained): its apertures give the frozen rate. Then
+//! p_{k+1} = p_k + w (G(p_k) - p_k) until max_c |G(p_k) - p_k| / dp and the rate's change are
+//! below `production.tolerance`. SI units: m, Pa, s; rates m^2/s per metre of thickness.
+
+use crate::checkpoint::State as SimState;
+use crate::error::SetupError;
+use crate::reservoir::NetworkFlow;
+use crate::reservoir::production::{PressureWell, network_of_view, reaches, steady_production};
+use crate::scenario::{Damping, End, ProductionStage, Scenario, SolidScheme};
+use crate::sim::Simulation;
+use crate::systems::RunError;
+use std::time::Instant;
+
+/// Which network a production state is solved on.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum NetworkState {
+    /// The model at setup (the pre-existing fractures).
+    Before,
+    /// The state at the end of the run (after the stimulation).
+    After,
+}
+
+impl NetworkState {
+    pub fn name(self) -> &'static str {
+        match self {
+            NetworkState::Before => "before",
+            NetworkState::After => "after",
+        }
+    }
+}
+
+/// One production state at one pressure drop (a row of `production.csv`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ProductionRow {
+    pub state: NetworkState,
+    /// Pressure drop between the wells, Pa.
+    pub dp: f64,
+    /// Production rate of the coupled steady state, m^2/s per metre (0: a well reaches no
+    /// fracture).
+    pub rate: f64,
+    /// The same through the apertures of the rock's equilibrium without fluid pressure.
+    pub rate_frozen: f64,
+    /// Fixed-point iterations taken, whether the tolerance was met, and the last change
+    /// (max of the relative pressure and rate changes).
+    pub iterations: usize,
+    pub converged: bool,
+    pub change: f64,
+    /// Dynamic-relaxation steps of all the equilibria of this state.
+    pub relax_steps: u64,
+    /// Fracture cells the production pressure opened (0: no fracture grew).
+    pub new_cells: usize,
+    /// Largest hydraulic aperture of the coupled state, m.
+    pub max_aperture: f64,
+    /// Wall time of this state, s.
+    pub wall_s: f64,
+}
+
+/// A solved production state: its row, and the coupled and frozen flows (for figures).
+#[derive(Clone, Debug)]
+pub struct StateSolve {
+    pub row: ProductionRow,
+    pub flow: NetworkFlow,
+    pub frozen: NetworkFlow,
+}
+
+/// Errors of the production stage.
+#[derive(Debug, thiserror::Error)]
+pub enum ProductionError {
+    #[error(transparent)]
+    Setup(#[from] SetupError),
+    #[error("production ({state}, dp = {dp:.4e} Pa): {error}")]
+    Run {
+        state: &'static str,
+        dp: f64,
+        error: RunError,
+    },
+    #[error("production: cannot start from the end of the run: {0}")]
+    Adopt(String),
+    #[error("production ({state}, dp = {dp:.4e} Pa): {why}")]
+    Flow {
+        state: &'static str,
+        dp: f64,
+        why: String,
+    },
+}
+
+/// The scenario the production equilibria run: the run's model and joints, explicit rock with
+/// local damping 0.8 (dynamic relaxation; its static answer does not depend on the damping),
+/// no outputs, no production stage. The flow boundaries stay (they make the run coupled, so
+/// the fluid loads the faces) but the flow system is switched off.
+pub fn production_scenario(sc: &Scenario) -> Scenario {
+    let mut p = sc.clone();
+    p.production = None;
+    p.time.solid_scheme = SolidScheme::Explicit;
+    p.time.end = End::Static {
+        tol: sc.production.as_ref().map_or(1e-6, |s| s.static_tol),
+        min_steps: 1,
+    };
+    p.time.max_steps = u64::MAX;
+    p.time.dt = None;
+    p.output.checkpoint_every = None;
+    p.output.figure_times.clear();
+    p.damping = Damping::Local(0.8);
+    p.boundary_schedule.clear();
+    p
+}
+
+/// A simulation of [`production_scenario`] at setup, or from `start` (the end of the run). Its
+/// step is the explicit bound of the rock and the joints without the fluid's stiffness (the
+/// fluid does not move here: its pressure is a load).
+pub fn production_sim(
+    sc: &Scenario,
+    start: Option<SimState>,
+) -> Result<Simulation, ProductionError> {
+    let mut sim = Simulation::new(production_scenario(sc), &["flow_substeps".to_string()])?;
+    if let Some(state) = start {
+        sim.adopt(state).map_err(ProductionError::Adopt)?;
+    }
+    set_relaxation_step(&mut sim);
+    Ok(sim)
+}
+
+fn set_relaxation_step(sim: &mut Simulation) {
+    let p = sim.params();
+    let bound = crate::stability::solid(
+        sim.model(),
+        p.c_p,
+        p.joint.k_max(),
+        0.0,
+        p.residual_aperture,
+    );
+    let dt = p.time.safety * bound;
+    let p = sim.params_mut();
+    p.solid.dt = dt;
+    p.time.forced_dt = true;
+    p.time.aim = None;
+}
+
+/// Hold every cell's face pressure at `pressure` (Pa) and relax the rock to equilibrium.
+/// Returns the steps taken and whether the topology changed (a fracture grew: the views were
+/// rebuilt and `pressure` no longer fits).
+fn relax(
+    sim: &mut Simulation,
+    pressure: &[f64],
+    tol: f64,
+    max_steps: u64,
+) -> Result<(u64, bool), RunError> {
+    let generation = sim.model().topology_generation;
+    {
+        let f = sim.flow_mut().expect("coupled run");
+        f.view.pressure.copy_from_slice(pressure);
+        let c = f.coupling.as_mut().expect("coupled run");
+        c.p_mean.copy_from_slice(pressure);
+    }
+    for k in 1..=max_steps {
+        sim.step_once()?;
+        if sim.model().topology_generation != generation {
+            // The new cells arrive empty; the caller solves the flow on the new network.
+            set_relaxation_step(sim);
+            return Ok((k, true));
+        }
+        if sim.stats().residual() < tol {
+            return Ok((k, false));
+        }
+    }
+    Ok((max_steps, false))
+}
+
+/// The hydraulic apertures max(delta_n, a_r) of the rock's current state, per cell, m (seed
+/// (12); cells without a joint keep their aperture).
+pub fn apertures(sim: &Simulation) -> Vec<f64> {
+    let f = sim.flow().expect("coupled run");
+    let c = f.coupling.as_ref().expect("coupled run");
+    let a_r = sim.params().residual_aperture;
+    (0..f.view.n_cells())
+        .map(|cell| match c.cell_joint[cell] {
+            u32::MAX => f.view.aperture[cell],
+            k => crate::fractures::hydraulic_aperture(
+                crate::view::joint_frame(sim.solid(), k as usize).dn,
+                a_r,
+            ),
+        })
+        .collect()
+}
+
+/// The network of the rock's current state with apertures `a`.
+fn network(sim: &Simulation, a: &[f64]) -> NetworkFlow {
+    let mut net = network_of_view(&sim.flow().expect("coupled run").view, None);
+    for (cell, &ap) in net.cells.iter_mut().zip(a) {
+        cell.2 = ap;
+    }
+    net
+}
+
+/// The steady flow of `net` between the wells: (production rate, cell pressures, the flow).
+/// A network that a well does not reach produces nothing (zero pressures).
+fn steady(
+    net: &NetworkFlow,
+    wells: &[PressureWell; 2],
+    viscosity: f64,
+    reach: f64,
+) -> Result<(f64, Vec<f64>, NetworkFlow), String> {
+    if !reaches(net, wells, reach) {
+        return Ok((0.0, vec![0.0; net.cells.len()], net.clone()));
+    }
+    let prod = steady_production(net, wells, viscosity, reach).map_err(|e| e.to_string())?;
+    // 0 - q, not -q: no negative zero in the table.
+    Ok((0.0 - prod.wells[1].1, prod.pressure, prod.flow))
+}
+
+/// Solve one production state at pressure drop `dp` (Pa) on `sim` (freshly made by
+/// [`production_sim`]: the iteration moves its rock).
+pub fn solve_state(
+    sim: &mut Simulation,
+    stage: &ProductionStage,
+    state: NetworkState,
+    dp: f64,
+) -> Result<StateSolve, ProductionError> {
+    let t0 = Instant::now();
+    let w = &stage.wells;
+    let wells = [
+        PressureWell {
+            position: w.injection,
+            pressure: w.production_pressure + dp,
+        },
+        PressureWell {
+            position: w.production,
+            pressure: w.production_pressure,
+        },
+    ];
+    let mu = sim.params().fluid.mu;
+    let (name, cells0) = (state.name(), sim.flow().map_or(0, |f| f.view.n_cells()));
+    let run_err = |error| ProductionError::Run {
+        state: name,
+        dp,
+        error,
+    };
+    let flow_err = |why| ProductionError::Flow {
+        state: name,
+        dp,
+        why,
+    };
+    // p_0 = 0: the frozen apertures (relaxed again after any growth, until none, at most
+    // `max_iterations` times).
+    let mut steps = 0;
+    for _ in 0..stage.max_iterations {
+        let p0 = vec![0.0; sim.flow().map_or(0, |f| f.view.n_cells())];
+        let (n, grew) = relax(sim, &p0, stage.static_tol, stage.max_steps).map_err(run_err)?;
+        steps += n;
+        if !grew {
+            break;
+        }
+    }
+    let frozen_net = network(sim, &apertures(sim));
+    let (rate_frozen, mut target, frozen) =
+        steady(&frozen_net, &wells, mu, w.reach).map_err(flow_err)?;
+    // The first iterate is G(p_0) itself; the later ones are under-relaxed.
+    let mut p = vec![0.0; target.len()];
+    let (mut rate, mut flow, mut a) = (rate_frozen, frozen.clone(), Vec::new());
+    let (mut iterations, mut converged, mut change) = (0, false, f64::INFINITY);
+    let mut first = true;
+    while iterations < stage.max_iterations {
+        iterations += 1;
+        let omega = if first { 1.0 } else { stage.relaxation };
+        first = false;
+        for (pc, tc) in p.iter_mut().zip(&target) {
+            *pc += omega * (tc - *pc);
+        }
+        let (n, grew) = relax(sim, &p, stage.static_tol, stage.max_steps).map_err(run_err)?;
+        steps += n;
+        a = apertures(sim);
+        let (r, next, fl) = steady(&network(sim, &a), &wells, mu, w.reach).map_err(flow_err)?;
+        if grew {
+            // A fracture grew: start again from the flow of the new network.
+            (p, target, rate, flow) = (next.clone(), next, r, fl);
+            first = true;
+            continue;
+        }
+        let dp_change = p
+            .iter()
+            .zip(&next)
+            .map(|(x, y)| (x - y).abs())
+            .fold(0.0, f64::max)
+            / dp;
+        let rate_change = (r - rate).abs() / r.abs().max(f64::MIN_POSITIVE);
+        change = if r == 0.0 && rate == 0.0 {
+            dp_change
+        } else {
+            dp_change.max(rate_change)
+        };
+        (target, rate, flow) = (next, r, fl);
+        if change < stage.tolerance {
+            converged = true;
+            break;
+        }
+    }
+    let cells = sim.flow().map_or(0, |f| f.view.n_cells());
+    Ok(StateSolve {
+        row: ProductionRow {
+            state,
+            dp,
+            rate,
+            rate_frozen,
+            iterations,
+            converged,
+            change,
+            relax_steps: steps,
+            new_cells: cells.saturating_sub(cells0),
+            max_aperture: a.iter().fold(0.0, |m: f64, &x| m.max(x)),
+            wall_s: t0.elapsed().as_secs_f64(),
+        },
+        flow,
+        frozen,
+    })
+}
+
+/// Every production state of `sc.production`: before (from setup) and after (from `end`, the
+/// state at the end of the run), at each pressure drop, each from its own start. Also returns
+/// the solved states at the middle pressure drop (the seed's Fig. 10).
+pub fn run_production(
+    sc: &Scenario,
+    end: SimState,
+) -> Result<(Vec<ProductionRow>, Vec<StateSolve>), ProductionError> {
+    let stage = sc
+        .production
+        .as_ref()
+        .ok_or_else(|| SetupError::invalid("production", "the scenario has no production"))?;
+    let drops = &stage.wells.pressure_drops;
+    let middle = drops.len() / 2;
+    let (mut rows, mut figures) = (Vec::new(), Vec::new());
+    for state in [NetworkState::Before, NetworkState::After] {
+        for (k, &dp) in drops.iter().enumerate() {
+            let start = (state == NetworkState::After).then(|| end.clone());
+            let mut sim = production_sim(sc, start)?;
+            let s = solve_state(&mut sim, stage, state, dp)?;
+            tracing::info!(
+                "production {} dp = {:.1} MPa: rate {:.4e} (frozen {:.4e}) m^2/s, {} iterations",
+                state.name(),
+                dp / 1e6,
+                s.row.rate,
+                s.row.rate_frozen,
+                s.row.iterations
+            );
+            rows.push(s.row.clone());
+            if k == middle {
+                figures.push(s);
+            }
+        }
+    }
+    Ok((rows, figures))
+}
+
+/// `production.csv`: `state,dp,rate,rate_frozen` (Pa, m^2/s per metre) and the iteration's
+/// record (`iterations,converged,change,relax_steps,new_cells,max_aperture,wall_s`).
+pub fn production_csv(rows: &[ProductionRow]) -> String {
+    let mut s = String::from(
+        "state,dp,rate,rate_frozen,iterations,converged,change,relax_steps,new_cells,max_aperture,wall_s\n",
+    );
+    for r in rows {
+        s += &format!(
+            "{},{},{:e},{:e},{},{},{:e},{},{},{:e},{:.3}\n",
+            r.state.name(),
+            r.dp,
+            r.rate,
+            r.rate_frozen,
+            r.iterations,
+            r.converged,
+            if r.change.is_finite() { r.change } else { 0.0 },
+            r.relax_steps,
+            r.new_cells,
+            r.max_aperture,
+            r.wall_s
+        );
+    }
+    s
+}
+
+/// `summary.json`'s `production`: the wells and one entry per row (ratios after / before).
+pub fn production_json(stage: &ProductionStage, rows: &[ProductionRow]) -> serde_json::Value {
+    let w = &stage.wells;
+    let entries: Vec<serde_json::Value> = rows
+        .iter()
+        .map(|r| {
+            serde_json::json!({
+                "state": r.state.name(), "dp": r.dp, "rate": r.rate, "rate_frozen": r.rate_frozen,
+                "iterations": r.iterations, "converged": r.converged,
+                "change": if r.change.is_finite() { r.change } else { 0.0 },
+                "relax_steps": r.relax_steps, "new_cells": r.new_cells,
+                "max_aperture": r.max_aperture, "wall_s": r.wall_s,
+            })
+        })
+        .collect();
+    let ratios: Vec<serde_json::Value> = w
+        .pressure_drops
+        .iter()
+        .map(|&dp| {
+            let rate = |s: NetworkState, frozen: bool| {
+                rows.iter()
+                    .find(|r| r.state == s && r.dp == dp)
+                    .map_or(0.0, |r| if frozen { r.rate_frozen } else { r.rate })
+            };
+            // Omitted (not null) when nothing flows before.
+            let mut v = serde_json::json!({"dp": dp});
+            for (key, frozen) in [
+                ("after_over_before", false),
+                ("after_over_before_frozen", true),
+            ] {
+                let b = rate(NetworkState::Before, frozen);
+                if b > 0.0 {
+                    v[key] = serde_json::json!(rate(NetworkState::After, frozen) / b);
+                }
+            }
+            v
+        })
+        .collect();
+    serde_json::json!({
+        "injection": w.injection, "production": w.production,
+        "production_pressure": w.production_pressure, "reach": w.reach,
+        "rows": entries, "ratios": ratios,
+        "fractures_grew": rows.iter().any(|r| r.new_cells > 0),
+    })
+}
+
+/// The seed's Fig. 9: the network of `view` (reference positions), new fracture cells coloured
+/// by the time they opened (s), pre-existing ones grey.
+pub fn network_figure(
+    path: &std::path::Path,
+    title: &str,
+    view: &crate::flow::FlowView,
+    markers: &[([f64; 2], &str)],
+) -> Result<(), crate::plot::PlotError> {
+    let segments: Vec<crate::plot::Segment> = view
+        .cell_nodes
+        .iter()
+        .map(|n| crate::plot::Segment {
+            a: view.node_ref[n[0] as usize],
+            b: view.node_ref[n[1] as usize],
+        })
+        .collect();
+    let values: Vec<f64> = view
+        .kind
+        .iter()
+        .zip(&view.created_t)
+        .map(|(k, &t)| {
+            if *k == crate::components::CellKind::New {
+                t
+            } else {
+                f64::NAN
+            }
+        })
+        .collect();
+    crate::plot::network(
+        path,
+        title,
+        &segments,
+        &values,
+        "new fracture: time opened [s] (grey: pre-existing)",
+        crate::plot::ColourScale::Linear,
+        None,
+        markers,
+    )
+}

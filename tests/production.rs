@@ -1,0 +1,155 @@
+//! The production stage of `hydrofrac run` (`production:`, `src/production.rs`): the coupled
+//! hydro-mechanical steady state between two pressure wells against the rigid steady solver,
+//! what the coupling adds when the fractures can open, and named errors for a bad
+//! `production` section.
+
+use hydrofrac::production::{NetworkState, production_sim, solve_state};
+use hydrofrac::reservoir::production::{PressureWell, network_of_view, steady_production};
+use hydrofrac::scenario::Scenario;
+
+/// A 20 m x 20 m block under Example I's in-situ stress (sigma_yy = -10 MPa across the
+/// fracture) with one horizontal fracture from the pump at (0, 10) m to (14, 10) m; wells at its
+/// ends. `scale` multiplies the rock's E and the joints' K_n, K_t.
+fn scene(scale: f64, production: &str) -> Scenario {
+    let text = format!(
+        r#"(
+    name: "production_test",
+    mesh: Regular(width: 20.0, height: 20.0, h: 1.0),
+    material: (young: {e}, poisson: 0.2, density: 2700.0),
+    boundary: InSitu(sxx: -20e6, syy: -10e6),
+    initial_state: InSitu,
+    fracture: Some((
+        strength: Some(1e6),
+        residual_aperture: 5e-4,
+        preexisting: [(from: (0.0, 10.0), to: (14.0, 10.0))],
+        normal_stiffness: Some({kn}),
+        shear_stiffness: Some({kt}),
+    )),
+    flow_boundaries: [(name: "pump", at: Node((0.0, 10.0)), kind: Pump(p_max: 18e6, q_half: 2.0))],
+    time: (end: Time(1.0), flow_scheme: Implicit),
+    {production}
+)"#,
+        e = 20e9 * scale,
+        kn = 20e9 * scale,
+        kt = 8.3e9 * scale,
+    );
+    Scenario::parse(&text, "production_test.ron").expect("valid scenario")
+}
+
+const WELLS: &str = "production: Some((wells: (injection: (0.0, 10.0), production: (14.0, 10.0), \
+                     production_pressure: 0.0, pressure_drops: [15e6], reach: 0.5))),";
+
+/// The rigid steady solver's rate through the network at setup with every cell at the residual
+/// aperture, m^2/s.
+fn rigid_rate(sc: &Scenario, dp: f64) -> f64 {
+    let sim = production_sim(sc, None).unwrap();
+    let net = network_of_view(&sim.flow().unwrap().view, Some(5e-4));
+    let wells = [
+        PressureWell {
+            position: [0.0, 10.0],
+            pressure: dp,
+        },
+        PressureWell {
+            position: [14.0, 10.0],
+            pressure: 0.0,
+        },
+    ];
+    let prod = steady_production(&net, &wells, sim.params().fluid.mu, 0.5).unwrap();
+    -prod.wells[1].1
+}
+
+/// With the rock and the joints 1000 times stiffer, 15 MPa of injection pressure against 10 MPa
+/// of normal stress opens the fracture by about (p - sigma_n) L / E' = 3e-7 m, far below the
+/// residual aperture: every hydraulic aperture stays a_r, so the coupled steady state must
+/// give the rigid solver's rate. 1e-6: the iteration's tolerance is 1e-4 on pressure changes,
+/// but with constant apertures the flow is the same linear solve, so the rates agree to
+/// round-off. With the real rock (E = 20 GPa) the same pressure opens the fracture near the
+/// injector by millimetres: the coupled rate must exceed the frozen one by more than 10 %
+/// (measured: see the assertion message), and the frozen one (no fluid pressure: closed) must be
+/// the rigid one.
+#[test]
+fn coupled_steady_state_matches_the_rigid_solver_when_the_rock_is_stiff() {
+    let dp = 15e6;
+    let stiff = scene(1000.0, WELLS);
+    let stage = stiff.production.clone().unwrap();
+    let mut sim = production_sim(&stiff, None).unwrap();
+    let s = solve_state(&mut sim, &stage, NetworkState::Before, dp).unwrap();
+    let rigid = rigid_rate(&stiff, dp);
+    assert!(rigid > 0.0, "the wells are connected: rigid rate {rigid}");
+    let rel = (s.row.rate - rigid).abs() / rigid;
+    assert!(
+        rel < 1e-6,
+        "stiff rock: coupled {:.9e} vs rigid {rigid:.9e} m^2/s (rel {rel:.2e}); max aperture {:.3e} m",
+        s.row.rate,
+        s.row.max_aperture
+    );
+    assert!(s.row.converged, "{:?}", s.row);
+    assert_eq!(s.row.new_cells, 0);
+
+    let soft = scene(1.0, WELLS);
+    let mut sim = production_sim(&soft, None).unwrap();
+    let s = solve_state(&mut sim, &stage, NetworkState::Before, dp).unwrap();
+    let rigid = rigid_rate(&soft, dp);
+    eprintln!(
+        "soft rock, dp = 15 MPa: coupled {:.4e}, frozen {:.4e}, rigid {rigid:.4e} m^2/s, {} iterations, max aperture {:.3e} m",
+        s.row.rate, s.row.rate_frozen, s.row.iterations, s.row.max_aperture
+    );
+    let frozen_rel = (s.row.rate_frozen - rigid).abs() / rigid;
+    assert!(
+        frozen_rel < 1e-6,
+        "frozen {:.6e} vs rigid {rigid:.6e}",
+        s.row.rate_frozen
+    );
+    assert!(s.row.converged, "{:?}", s.row);
+    assert!(
+        s.row.rate > 1.1 * s.row.rate_frozen && s.row.max_aperture > 1e-3,
+        "the coupling opens the fracture: coupled {:.4e}, frozen {:.4e} m^2/s, max aperture {:.3e} m",
+        s.row.rate,
+        s.row.rate_frozen,
+        s.row.max_aperture
+    );
+}
+
+/// A bad `production` section is refused at validation with one line naming the field.
+#[test]
+fn bad_production_sections_are_named() {
+    let good = "(injection: (0.0, 10.0), production: (14.0, 10.0), production_pressure: 0.0, \
+                pressure_drops: [9e6], reach: 0.5)";
+    for (section, field) in [
+        (
+            good.replace("[9e6]", "[]"),
+            "production.wells.pressure_drops",
+        ),
+        (
+            good.replace("[9e6]", "[9e6, -1.0]"),
+            "production.wells.pressure_drops[1]",
+        ),
+        (
+            good.replace("reach: 0.5", "reach: 0.0"),
+            "production.wells.reach",
+        ),
+        (
+            good.replace("(0.0, 10.0)", "(NaN, 10.0)"),
+            "production.wells.injection",
+        ),
+        (format!("{good}, relaxation: 1.5"), "production.relaxation"),
+        (format!("{good}, tolerance: 0.0"), "production.tolerance"),
+        (
+            format!("{good}, max_iterations: 0"),
+            "production.max_iterations",
+        ),
+    ] {
+        let text = format!("production: Some((wells: {section})),");
+        let sc = scene(1.0, &text);
+        let err = sc.validate().unwrap_err().to_string();
+        assert!(
+            err.contains(field) && !err.contains('\n'),
+            "{field}: got `{err}`"
+        );
+    }
+    // Production needs a coupled run: no flow boundaries.
+    let mut sc = scene(1.0, WELLS);
+    sc.flow_boundaries.clear();
+    let err = sc.validate().unwrap_err().to_string();
+    assert!(err.contains("production"), "{err}");
+}
