@@ -420,13 +420,20 @@ pub fn conforming_mesh(
 
     // 5. Triangulate and refine.
     let points: Vec<Point2<f64>> = verts.iter().map(|q| Point2::new(q[0], q[1])).collect();
-    let mut conflicts = 0usize;
-    let mut cdt =
-        ConstrainedDelaunayTriangulation::<Point2<f64>>::try_bulk_load_cdt(points, edges, |_| {
-            conflicts += 1
-        })
-        .map_err(|e| SetupError::invalid("mesh", format!("the triangulation failed: {e:?}")))?;
-    report.conflicts = conflicts;
+    // Points and then constraints one by one, in input order: spade's bulk loader re-inserts
+    // the vertices it skips and their constraints from a hash set, whose order (and so the
+    // mesh, where points are co-circular) changes from process to process.
+    let failed = |e| SetupError::invalid("mesh", format!("the triangulation failed: {e:?}"));
+    let mut cdt = ConstrainedDelaunayTriangulation::<Point2<f64>>::new();
+    let mut handles = Vec::with_capacity(points.len());
+    for q in points {
+        handles.push(cdt.insert(q).map_err(failed)?);
+    }
+    for [a, b] in edges {
+        if cdt.try_add_constraint(handles[a], handles[b]).is_empty() {
+            report.conflicts += 1;
+        }
+    }
     let max_area = 3f64.sqrt() / 4.0 * p.h_far * p.h_far;
     // Faces below this are left as they are: a small angle between two fractures cannot be
     // refined away and would otherwise take the whole vertex budget.

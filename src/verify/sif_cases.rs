@@ -15,6 +15,7 @@
 //! rerun at 40a and 80a, K is extrapolated to r -> infinity with the 1/r^2 law of a fixed far
 //! boundary (as `sneddon` does for the area), and the corrected error is checked.
 
+use super::conforming_cases::CrackMesh;
 use super::{CaseResult, Row};
 use crate::scenario::{Boundary, Damping, End, Material, MeshSpec, SideBc, SolidScheme};
 use crate::sim::{Finish, Simulation};
@@ -44,12 +45,20 @@ pub struct SifRun {
     pub unknowns: usize,
 }
 
-/// The crack of half-length `a` (m) through the origin at `angle` (rad, from the x axis; 0 or
-/// pi/4, with the ends on mesh nodes) on a graded mesh of fine size `h` (m) in a square of
-/// half-width `r` (m), loaded by `load`, solved to its static state.
-pub fn crack_sif(a: f64, h: f64, r: f64, angle: f64, load: CrackLoad) -> anyhow::Result<SifRun> {
+/// The crack of half-length `a` (m) through the origin at `angle` (rad, from the x axis) in a
+/// square of half-width `r` (m), loaded by `load`, solved to its static state. `Snapped`: a
+/// graded mesh of fine size `h` (m), with the angle 0 or pi/4 so that the ends sit on mesh
+/// nodes and the crack on edges; `Conforming`: a mesh that follows the crack at any angle
+/// ([`conforming_square`]).
+pub fn crack_sif(
+    a: f64,
+    h: f64,
+    r: f64,
+    angle: f64,
+    load: CrackLoad,
+    mesh: CrackMesh,
+) -> anyhow::Result<SifRun> {
     let (c, s) = (a * angle.cos(), a * angle.sin());
-    let fine = fine_box(a, h, angle);
     let mat = Material {
         young: 20e9,
         poisson: 0.2,
@@ -72,16 +81,20 @@ pub fn crack_sif(a: f64, h: f64, r: f64, angle: f64, load: CrackLoad) -> anyhow:
             },
         },
     };
-    let mut sc = scenario(
-        "sif",
-        MeshSpec::Graded {
+    let spec = match mesh {
+        CrackMesh::Snapped => MeshSpec::Graded {
             width: 2.0 * r,
             height: 2.0 * r,
             origin: [-r, -r],
             h,
-            fine,
+            fine: fine_box(a, h, angle),
             ratio: 1.15,
         },
+        CrackMesh::Conforming => conforming_square(r, h, a),
+    };
+    let mut sc = scenario(
+        "sif",
+        spec,
         mat,
         boundary,
         End::Static {
@@ -127,6 +140,23 @@ pub fn crack_sif(a: f64, h: f64, r: f64, angle: f64, load: CrackLoad) -> anyhow:
     })
 }
 
+/// A conforming mesh of the square of half-width `r` (m) around a crack of half-length `a`
+/// (m): edges of `h` (m) along the crack, graded to at most 2a away from it, angles of at least
+/// 25 degrees.
+pub(crate) fn conforming_square(r: f64, h: f64, a: f64) -> MeshSpec {
+    MeshSpec::Conforming {
+        width: 2.0 * r,
+        height: 2.0 * r,
+        origin: [-r, -r],
+        h,
+        h_far: Some(2.0 * a),
+        min_angle_deg: 25.0,
+        merge: 0.25,
+        grading: 0.1,
+        follow: Vec::new(),
+    }
+}
+
 /// The fine box of the graded mesh around the crack of half-length `a` at `angle`: the crack
 /// with 0.2a to spare, in whole cells of `h`.
 pub(crate) fn fine_box(a: f64, h: f64, angle: f64) -> [f64; 4] {
@@ -138,9 +168,9 @@ pub(crate) fn fine_box(a: f64, h: f64, angle: f64) -> [f64; 4] {
     [-fx, -fy, fx, fy]
 }
 
-/// Domain correction of K_I for the pressurised crack at 20a: runs at about 40a and 80a with
-/// the same diagonal parity as the 20a mesh (`fracture_cases::mesh_parity`), extrapolated
-/// with the 1/r^2 law; returns K_inf / K(20a) - 1 and the extra wall time (s).
+/// Domain correction of K_I for the pressurised crack at 20a on the graded mesh: runs at about
+/// 40a and 80a with the same diagonal parity as the 20a mesh (`fracture_cases::mesh_parity`),
+/// extrapolated with the 1/r^2 law; returns K_inf / K(20a) - 1 and the extra wall time (s).
 fn domain_effect(a: f64, h: f64, angle: f64, p: f64, at_20a: f64) -> anyhow::Result<(f64, f64)> {
     let fine = fine_box(a, h, angle);
     let parity = super::fracture_cases::mesh_parity(h, 20.0 * a, fine)?;
@@ -154,8 +184,9 @@ fn domain_effect(a: f64, h: f64, angle: f64, p: f64, at_20a: f64) -> anyhow::Res
         anyhow::bail!("no domain near {base} m with the crack's diagonal parity")
     };
     let (r1, r2) = (same(40.0 * a)?, same(80.0 * a)?);
-    let c1 = crack_sif(a, h, r1, angle, CrackLoad::Pressure(p))?;
-    let c2 = crack_sif(a, h, r2, angle, CrackLoad::Pressure(p))?;
+    let load = CrackLoad::Pressure(p);
+    let c1 = crack_sif(a, h, r1, angle, load, CrackMesh::Snapped)?;
+    let c2 = crack_sif(a, h, r2, angle, load, CrackMesh::Snapped)?;
     let (k1, k2) = (c1.k1[1], c2.k1[1]);
     let k_inf = k2 + (k2 - k1) / ((r2 / r1).powi(2) - 1.0);
     Ok((k_inf / at_20a - 1.0, c1.wall_s + c2.wall_s))
@@ -172,28 +203,52 @@ pub fn sif(quick: bool) -> anyhow::Result<CaseResult> {
     let (p, sigma) = (1e6, 1e6);
     let mut res = CaseResult::default();
     let quarter = 0.25 * PI;
-    for (case, angle, load) in [
-        ("pressure_0deg", 0.0, CrackLoad::Pressure(p)),
-        ("pressure_45deg", quarter, CrackLoad::Pressure(p)),
-        ("tension_45deg", quarter, CrackLoad::TensionY(sigma)),
+    let (snapped, conforming) = (CrackMesh::Snapped, CrackMesh::Conforming);
+    // The far boundary's effect on K_I of the horizontal crack, per level.
+    let mut horizontal_domain = Vec::new();
+    for (case, angle, load, mesh) in [
+        ("pressure_0deg", 0.0, CrackLoad::Pressure(p), snapped),
+        ("pressure_45deg", quarter, CrackLoad::Pressure(p), snapped),
+        (
+            "tension_45deg",
+            quarter,
+            CrackLoad::TensionY(sigma),
+            snapped,
+        ),
+        // 30 degrees is no direction of the graded mesh: the mesh follows the crack.
+        (
+            "pressure_30deg_conforming",
+            PI / 6.0,
+            CrackLoad::Pressure(p),
+            conforming,
+        ),
+        (
+            "tension_30deg_conforming",
+            PI / 6.0,
+            CrackLoad::TensionY(sigma),
+            conforming,
+        ),
     ] {
         for (level, &n) in levels.iter().enumerate() {
-            let (a, h) = if angle == 0.0 {
+            let (a, h) = if angle == 0.0 || mesh == conforming {
                 (1.0, 1.0 / n)
             } else {
                 let nd = (n / 2f64.sqrt()).round();
                 (1.0, 1.0 / (nd * 2f64.sqrt()))
             };
             let ah = a / h;
-            let run = crack_sif(a, h, 20.0 * a, angle, load)?;
+            let run = crack_sif(a, h, 20.0 * a, angle, load, mesh)?;
             let k0 = match load {
                 CrackLoad::Pressure(p) => p * (PI * a).sqrt(),
                 CrackLoad::TensionY(s) => s * (PI * a).sqrt(),
             };
             let (k1_exact, k2_exact) = match load {
                 CrackLoad::Pressure(_) => (k0, 0.0),
-                // beta = 45 degrees between the crack and the load.
-                CrackLoad::TensionY(_) => (0.5 * k0, 0.5 * k0),
+                // The remote sigma_yy resolved on the crack at `angle` from the x axis:
+                // sigma_nn = sigma cos^2, tau = sigma sin cos.
+                CrackLoad::TensionY(_) => {
+                    (k0 * angle.cos().powi(2), k0 * angle.sin() * angle.cos())
+                }
             };
             res.check_max(
                 format!("{case}: snapping error, a/h = {ah:.1} (m)"),
@@ -201,26 +256,44 @@ pub fn sif(quick: bool) -> anyhow::Result<CaseResult> {
                 1e-9,
             );
             // Both tips alike: the problem is symmetric under a half turn, the mesh nearly
-            // (its diagonal pattern and, under tension, the rollers on two sides only).
+            // (its diagonal pattern and, under tension, the rollers on two sides only; the
+            // conforming mesh's refinement is not exactly symmetric: measured up to 8.4e-5).
             res.check_max(
                 format!("{case}: K_I tips differ, a/h = {ah:.1}"),
                 (run.k1[0] - run.k1[1]).abs() / k0,
-                1e-4,
+                if mesh == conforming { 5e-4 } else { 1e-4 },
             );
             let e1 = (run.k1[1] - k1_exact) / k1_exact;
             let mut rows = vec![("k1".to_string(), e1, run.wall_s)];
             match load {
                 CrackLoad::Pressure(p) => {
-                    let (d, wall) = domain_effect(a, h, angle, p, run.k1[1])?;
+                    // On the conforming mesh, larger squares also change the mesh near the
+                    // crack (measured: +0.93 % at a/h = 10, -0.19 % at 20), so the far
+                    // boundary's effect is taken from the horizontal crack on the graded mesh
+                    // at the same a/h (0.34-0.37 %; 0.31-0.33 % at 45 degrees: it hardly
+                    // depends on the angle).
+                    let (d, wall) = match mesh {
+                        CrackMesh::Conforming => (
+                            *horizontal_domain.get(level).ok_or_else(|| {
+                                anyhow::anyhow!("sif: no horizontal domain effect at level {level}")
+                            })?,
+                            0.0,
+                        ),
+                        CrackMesh::Snapped => domain_effect(a, h, angle, p, run.k1[1])?,
+                    };
+                    if case == "pressure_0deg" {
+                        horizontal_domain.push(d);
+                    }
                     let corrected = (1.0 + e1) * (1.0 + d) - 1.0;
                     rows.push(("k1_corrected".into(), corrected, run.wall_s + wall));
                     rows.push(("domain_effect".into(), d, wall));
                     // Zero by symmetry about the crack line; the diagonal pattern is not
-                    // mirror-symmetric about it (measured 1.2e-4 to 1.4e-4).
+                    // mirror-symmetric about it (measured 1.2e-4 to 1.4e-4), nor is the
+                    // conforming mesh (measured 2.0e-3 to 3.2e-3).
                     res.check_max(
                         format!("{case}: |K_II| / p sqrt(pi a), a/h = {ah:.1}"),
                         run.k2[1].abs() / k0,
-                        1e-3,
+                        if mesh == conforming { 5e-3 } else { 1e-3 },
                     );
                     res.check_range(
                         format!("{case}: domain effect on K_I at 20a, a/h = {ah:.1}"),
@@ -239,9 +312,10 @@ pub fn sif(quick: bool) -> anyhow::Result<CaseResult> {
                 CrackLoad::TensionY(_) => {
                     let e2 = (run.k2[1].abs() - k2_exact) / k2_exact;
                     rows.push(("k2".into(), e2, run.wall_s));
-                    let exact_theta = crate::systems::toughness::max_hoop_stress(1.0, 1.0).0;
-                    // The growth angle at the upper tip, against -53.13 degrees for K_I = K_II
-                    // (the sign of K_II follows the slip).
+                    let exact_theta =
+                        crate::systems::toughness::max_hoop_stress(k1_exact, k2_exact).0;
+                    // The growth angle at the upper tip, against the maximum hoop stress's
+                    // (-53.13 degrees for K_I = K_II; the sign of K_II follows the slip).
                     let theta = run.theta[1].abs();
                     rows.push((
                         "theta".into(),
