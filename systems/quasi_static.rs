@@ -171,22 +171,8 @@ pub struct QuasiStatic {
     lu_rhs: Vec<f64>,
 }
 
-/// The linear algebra of the Newton direction.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
-pub enum Linear {
-    /// [`Linear::Lu`] when more than [`LU_MIN_SLIDING`] joints slide or more than
-    /// [`LU_MIN_CELLS`] fracture cells load the rock, else [`Linear::Cholesky`].
-    #[default]
-    Auto,
-    /// The symmetric tangent by sparse Cholesky (kept while the contact states are), the
-    /// sliding joints' Coulomb term by Sherman-Morrison-Woodbury (one solve per sliding
-    /// joint), coupled steps reduced to the cells through W = K_T^-1 G (one solve per cell
-    /// and factor, a dense cells x cells LU).
-    Cholesky,
-    /// The full unsymmetric Newton matrix, rock and cells together, with the exact joint
-    /// tangent, by sparse LU every iteration (`systems::quasi_static_lu`).
-    Lu,
-}
+/// The linear algebra of the Newton direction (`time.linear_solver`).
+pub use crate::scenario::LinearSolver as Linear;
 
 /// [`Linear::Auto`] takes the LU when more joints than this slide.
 pub const LU_MIN_SLIDING: usize = 32;
@@ -207,11 +193,7 @@ impl QuasiStatic {
             tol: DEFAULT_TOL,
             counts: QsCounts::default(),
             rows: FlowRows::default(),
-            linear: match std::env::var("QS_LINEAR").as_deref() {
-                Ok("lu") => Linear::Lu,
-                Ok("chol") => Linear::Cholesky,
-                _ => Linear::Auto,
-            },
+            linear: Linear::Auto,
             full: None,
             lu_rhs: Vec::new(),
         }
