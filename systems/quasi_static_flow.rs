@@ -384,13 +384,19 @@ impl FlowRows {
         Ok(pat)
     }
 
-    /// The linearisation's values of J (in the pattern [`FlowRows::linearise`] returned), the
-    /// rows of A, and dP/dy of each cell (1 when full, 0 when filling).
-    pub(crate) fn jacobian_parts(&self) -> (&[f64], &[Vec<(usize, f64)>], impl Fn(usize) -> f64) {
-        let y = &self.y;
-        (&self.values, &self.a_rows, move |c: usize| {
-            if y[c] >= 0.0 { 1.0 } else { 0.0 }
-        })
+    /// The linearisation's values of J, in the pattern [`FlowRows::linearise`] returned.
+    pub(crate) fn jacobian_values(&self) -> &[f64] {
+        &self.values
+    }
+
+    /// The linearisation's rows of A = dr/du: (rock dof, value) per cell.
+    pub(crate) fn a_rows(&self) -> &[Vec<(usize, f64)>] {
+        &self.a_rows
+    }
+
+    /// dP/dy of cell `c` at the iterate: 1 when full, 0 when filling.
+    pub(crate) fn dp_dy(&self, c: usize) -> f64 {
+        if self.y[c] >= 0.0 { 1.0 } else { 0.0 }
     }
 
     /// Set the Newton update of the pseudo-pressures (the line search's dy).

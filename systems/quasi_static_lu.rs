@@ -263,8 +263,8 @@ impl FullTangent {
         if let Some((f, rows)) = flow {
             let c_map = f.part.coupling.as_ref().expect("coupled flow");
             let n = self.n;
-            let (jv, a_rows, h) = rows.jacobian_parts();
-            for (slot, val) in self.j_slots.iter().zip(jv) {
+            let a_rows = rows.a_rows();
+            for (slot, val) in self.j_slots.iter().zip(rows.jacobian_values()) {
                 self.values[*slot] += val;
             }
             for c in 0..self.nc {
@@ -273,7 +273,7 @@ impl FullTangent {
                     self.values[s] += a;
                 }
                 let kj = c_map.cell_joint[c];
-                if kj == u32::MAX || !FlowRows::has_faces(f, c) || h(c) == 0.0 {
+                if kj == u32::MAX || !FlowRows::has_faces(f, c) || rows.dp_dy(c) == 0.0 {
                     continue;
                 }
                 // -G H: the face pressure's force per unit pressure, len d(delta_n)/du.
@@ -295,12 +295,7 @@ impl FullTangent {
                 MemStack::new(&mut self.mem),
                 Default::default(),
             )
-            .map_err(|e| {
-                format!(
-                    "the Newton matrix is singular ({e:?}): the rock can move as a rigid body, \
-                     or a block is held by open or sliding joints only"
-                )
-            })?;
+            .map_err(|e| singular(&format!("{e:?}"), states))?;
         let len = rhs.len();
         lu.solve_in_place_with_conj(
             Conj::No,
@@ -309,12 +304,29 @@ impl FullTangent {
             MemStack::new(&mut self.mem),
         );
         if let Some(i) = rhs.iter().position(|x| !x.is_finite()) {
-            return Err(format!(
-                "the Newton update is not finite (unknown {i} of {len}): the Newton matrix is \
-                 singular"
+            return Err(singular(
+                &format!("the update of unknown {i} of {len} is not finite"),
+                states,
             ));
         }
         Ok(())
+    }
+}
+
+/// The error of a singular Newton matrix, with a hint when joints slide.
+fn singular(why: &str, states: &[JointTangent]) -> String {
+    let sliding = states.iter().filter(|s| **s == JointTangent::Slip).count();
+    if sliding > 0 {
+        format!(
+            "the Newton matrix is singular ({why}) with {sliding} joints in slip: the joints \
+             slide past the Coulomb limit and hold a block by friction alone, which has no \
+             static equilibrium (use time.solid_scheme: Explicit to follow the sliding)"
+        )
+    } else {
+        format!(
+            "the Newton matrix is singular ({why}): the rock can move as a rigid body (too few \
+             supports) or a block is held by open joints only"
+        )
     }
 }
 
@@ -371,8 +383,7 @@ pub(crate) fn joint_tangent(v: &SolidView, p: &RunParams, k: usize, st: JointTan
     let (f_n, f_t) = (js.normal_force, js.shear_force);
     for i in 0..8 {
         for j in 0..8 {
-            out[8 * i + j] =
-                an[i] * dfn[j] + at[i] * dft[j] - (f_t * an[i] - f_n * at[i]) * b[j];
+            out[8 * i + j] = an[i] * dfn[j] + at[i] * dft[j] - (f_t * an[i] - f_n * at[i]) * b[j];
         }
     }
     out

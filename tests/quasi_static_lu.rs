@@ -9,12 +9,14 @@
 use hydrofrac::scenario::{LinearSolver, Scenario};
 use hydrofrac::sim::{Finish, Simulation};
 use hydrofrac::verify::slip_cases::{
-    R, SlipMesh, STIFFNESS_FACTOR, closed_form, slip_run, slip_scenario,
+    R, STIFFNESS_FACTOR, SlipMesh, closed_form, slip_run, slip_scenario,
 };
 
 /// The slip of every joint of the 20-degree crack of `verify slip_inclined` (conforming mesh,
 /// b/h = 10: 20 joints, all sliding) with the linear solver `linear`, and the solver's counts.
-fn slip_inclined(linear: LinearSolver) -> (Vec<[f64; 2]>, hydrofrac::systems::quasi_static::QsCounts) {
+fn slip_inclined(
+    linear: LinearSolver,
+) -> (Vec<[f64; 2]>, hydrofrac::systems::quasi_static::QsCounts) {
     let mut sc = slip_scenario(SlipMesh::Conforming, 0.1, R, STIFFNESS_FACTOR);
     sc.time.linear_solver = linear;
     let mut sim = Simulation::new(sc, &[]).unwrap();
@@ -90,11 +92,19 @@ fn lu_and_cholesky_agree_on_a_coupled_sliding_run() {
         assert_eq!(sim.finish(), Some(Finish::EndTime));
         let (inj, _, _, err) = sim.flow_balance().unwrap();
         assert!(err < 1e-9, "mass balance {err:e}");
-        (inj, sim.fracture().splits, slid, sim.quasi_static_counts().unwrap())
+        (
+            inj,
+            sim.fracture().splits,
+            slid,
+            sim.quasi_static_counts().unwrap(),
+        )
     };
     let (inj_c, splits_c, slid_c, c) = run("Cholesky");
     let (inj_l, splits_l, slid_l, l) = run("Lu");
-    assert!(slid_c && slid_l, "no joint slid: the comparison would not cover friction");
+    assert!(
+        slid_c && slid_l,
+        "no joint slid: the comparison would not cover friction"
+    );
     assert_eq!(c.lu_factorisations, 0);
     assert_eq!(l.lu_factorisations, l.newton_iterations, "{l:?}");
     assert_eq!(splits_l, splits_c);
