@@ -4,10 +4,17 @@
 //! each including its two force evaluations. The load factor alternates between 0.5 and 1, so
 //! every step has one Newton iteration.
 //!
+//! Frictional: the closed 20-degree crack of `verify slip_inclined` on its conforming mesh at
+//! b/h = 80 (160 joints, all sliding), solved to equilibrium from the unloaded crack in one
+//! step, by each linear solver (`time.linear_solver`): `Cholesky` (symmetric tangent, the
+//! sliding joints' Coulomb term by Sherman-Morrison-Woodbury: 160 extra solves and a 160 x 160
+//! LU per Newton iteration) and `Lu` (the full unsymmetric matrix with the exact joint tangent,
+//! one sparse LU per iteration).
+//!
 //! Run: `cargo bench --bench quasi_static`.
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use hydrofrac::scenario::{Damping, End, SolidScheme};
+use hydrofrac::scenario::{Damping, End, LinearSolver, SolidScheme};
 use hydrofrac::sim::Simulation;
 use hydrofrac::systems::quasi_static::{QuasiStatic, Systems, solve};
 use hydrofrac::verify::solid_cases::seed_block;
@@ -53,9 +60,41 @@ fn quasi_static(c: &mut Criterion) {
     eprintln!("{:?}", qs.counts);
 }
 
+fn frictional(c: &mut Criterion) {
+    use hydrofrac::verify::slip_cases::{R, STIFFNESS_FACTOR, SlipMesh, slip_scenario};
+    let sc = slip_scenario(SlipMesh::Conforming, 1.0 / 80.0, R, STIFFNESS_FACTOR);
+    let sim = Simulation::new(sc, &[]).unwrap();
+    let (v0, mut p) = (sim.solid().clone(), sim.params().clone());
+    p.solid.load_factor = 1.0;
+    let mut group = c.benchmark_group("quasi_static_slip_160_joints");
+    group
+        .sample_size(10)
+        .warm_up_time(Duration::from_millis(500))
+        .measurement_time(Duration::from_secs(5));
+    for (name, linear) in [
+        ("cholesky_smw", LinearSolver::Cholesky),
+        ("sparse_lu", LinearSolver::Lu),
+    ] {
+        let mut qs = QuasiStatic::new(Systems {
+            load: true,
+            contact: true,
+            fluid: false,
+        });
+        qs.linear = linear;
+        group.bench_function(name, |b| {
+            b.iter(|| {
+                let mut v = v0.clone();
+                solve(&mut v, &mut qs, None, &p, 1, 1.0).unwrap()
+            })
+        });
+        eprintln!("{name}: {:?}", qs.counts);
+    }
+    group.finish();
+}
+
 criterion_group! {
     name = benches;
     config = Criterion::default().without_plots();
-    targets = quasi_static
+    targets = quasi_static, frictional
 }
 criterion_main!(benches);

@@ -902,6 +902,10 @@ pub struct TimeControl {
     /// `time.dt` steps (default: the end time in 100 steps).
     #[serde(default)]
     pub solid_scheme: SolidScheme,
+    /// Quasi-static scheme: the linear algebra of the Newton direction (default `Auto`; see
+    /// [`LinearSolver`]). The converged answers agree to the solver's tolerance.
+    #[serde(default)]
+    pub linear_solver: LinearSolver,
     /// Adaptive quasi-static step: the longest step, s (default: the end time / 100).
     #[serde(default)]
     pub dt_max: Option<f64>,
@@ -947,6 +951,23 @@ pub enum FlowScheme {
     Explicit,
     /// One backward-Euler step per step (unconditionally stable, first order in time).
     Implicit,
+}
+
+/// The quasi-static Newton direction's linear algebra (`time.linear_solver`).
+#[derive(Clone, Copy, Debug, Default, Serialize, Deserialize, PartialEq, Eq)]
+pub enum LinearSolver {
+    /// `Lu` when more than 32 joints slide or more than 200 fracture cells load the rock
+    /// (`systems::quasi_static::LU_MIN_SLIDING`, `LU_MIN_CELLS`), else `Cholesky`.
+    #[default]
+    Auto,
+    /// The symmetric tangent by sparse Cholesky (kept while the contact states are), the
+    /// sliding joints' Coulomb term by Sherman-Morrison-Woodbury (one solve per sliding
+    /// joint), coupled steps reduced to the cells through W = K_T^-1 G (one solve per cell
+    /// and factor, a dense cells x cells LU).
+    Cholesky,
+    /// The full unsymmetric Newton matrix, rock and cells together, with the exact joint
+    /// tangent, by sparse LU every iteration (`systems::quasi_static_lu`).
+    Lu,
 }
 
 /// Time integration of the rock (see [`TimeControl::solid_scheme`]).

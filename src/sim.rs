@@ -107,7 +107,10 @@ impl Simulation {
         let mut disabled = scenario.systems.disable.clone();
         disabled.extend(extra_disable.iter().cloned());
         let schedule = crate::setup::schedule(&disabled, &view, &p, flow.is_some())?;
-        let qs = crate::setup::quasi_static(&schedule);
+        let mut qs = crate::setup::quasi_static(&schedule);
+        if let Some(q) = qs.as_mut() {
+            q.linear = scenario.time.linear_solver;
+        }
         let next_checkpoint_time = match p.output.checkpoint_every {
             Some(crate::scenario::CheckpointEvery::Time(t)) => t,
             _ => f64::INFINITY,

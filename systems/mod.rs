@@ -27,6 +27,7 @@ pub mod monitor;
 pub mod output;
 pub mod quasi_static;
 pub mod quasi_static_flow;
+pub mod quasi_static_lu;
 pub mod solid;
 pub mod split;
 pub mod state;

@@ -327,17 +327,15 @@ impl FlowRows {
         self.w_factor = None;
     }
 
-    /// The reduced Newton system: given du0 = K_T^-1 F on the rock's free dofs, solve
-    /// (J + A W H) dy = -(r + A du0) for dy (into `self.b`) and add W H dy to du0 (making it
-    /// du). Errors: a singular reduced matrix.
-    pub fn reduce_and_solve(
+    /// The flow rows' linearisation at the iterate: J = dr/dy into `values` (the implicit
+    /// solver's pattern, returned with the diagonal slots, V/V^n - 1 added on the diagonal),
+    /// the rows of A = dr/du into `a_rows` and -r into `b`.
+    pub(crate) fn linearise<'p>(
         &mut self,
-        s: &mut FlowStep,
+        s: &'p mut FlowStep,
         solid: &SolidView,
         dof: &[usize],
-        n: usize,
-        du: &mut [f64],
-    ) -> Result<(), String> {
+    ) -> Result<&'p crate::flow::implicit::Pattern, String> {
         let c_map = s.part.coupling.as_ref().expect("coupled flow");
         let fv = &s.part.view;
         let nc = fv.n_cells();
@@ -346,15 +344,6 @@ impl FlowRows {
         let pat = solver.pattern(fv).map_err(|e| e.to_string())?;
         let t1 = s.t0 + s.dt;
         assemble(fv, s.specs, t1, &self.y, &self.w, pat, &mut self.values);
-        self.s.clear();
-        self.s.resize(nc * nc, 0.0);
-        let (cp, ri) = (pat.sparse.col_ptr(), pat.sparse.row_idx());
-        for col in 0..nc {
-            for slot in cp[col]..cp[col + 1] {
-                self.s[col * nc + ri[slot]] += self.values[slot];
-            }
-        }
-        let h = |y: f64| if y >= 0.0 { 1.0 } else { 0.0 };
         // A = dr/du, row by row: the volume term on the cell's own joint, and the mid-step
         // transmissibilities' term on both cells' joints of each pair it belongs to.
         self.a_rows.resize_with(nc, Vec::new);
@@ -365,7 +354,7 @@ impl FlowRows {
             opening_gradient(solid, kj, normal, dof, |q, a| row.push((q, scale * a)));
         };
         for c in 0..nc {
-            self.s[c * nc + c] += self.vol[c] / self.v0[c] - 1.0;
+            self.values[pat.diag[c]] += self.vol[c] / self.v0[c] - 1.0;
             self.b[c] = -self.r[c];
             if self.active[c] {
                 // (K + y_c) / V^n L d(delta_n)/du.
@@ -392,6 +381,57 @@ impl FlowRows {
                 joint_dn(side, -self.w[j] * dp * dk, &mut self.a_rows[j]);
             }
         }
+        Ok(pat)
+    }
+
+    /// The linearisation's values of J, in the pattern [`FlowRows::linearise`] returned.
+    pub(crate) fn jacobian_values(&self) -> &[f64] {
+        &self.values
+    }
+
+    /// The linearisation's rows of A = dr/du: (rock dof, value) per cell.
+    pub(crate) fn a_rows(&self) -> &[Vec<(usize, f64)>] {
+        &self.a_rows
+    }
+
+    /// dP/dy of cell `c` at the iterate: 1 when full, 0 when filling.
+    pub(crate) fn dp_dy(&self, c: usize) -> f64 {
+        if self.y[c] >= 0.0 { 1.0 } else { 0.0 }
+    }
+
+    /// Set the Newton update of the pseudo-pressures (the line search's dy).
+    pub(crate) fn set_dy(&mut self, dy: &[f64]) {
+        self.b.copy_from_slice(dy);
+    }
+
+    /// The cells' W columns after [`FlowRows::load_g`]: whether cell c loads the faces.
+    pub(crate) fn has_faces(s: &FlowStep, c: usize) -> bool {
+        s.faces && s.part.coupling.as_ref().expect("coupled flow").cell_joint[c] != u32::MAX
+    }
+
+    /// The reduced Newton system: given du0 = K_T^-1 F on the rock's free dofs, solve
+    /// (J + A W H) dy = -(r + A du0) for dy (into `self.b`) and add W H dy to du0 (making it
+    /// du). Errors: a singular reduced matrix.
+    pub fn reduce_and_solve(
+        &mut self,
+        s: &mut FlowStep,
+        solid: &SolidView,
+        dof: &[usize],
+        n: usize,
+        du: &mut [f64],
+    ) -> Result<(), String> {
+        let nc = s.part.view.n_cells();
+        let pat = self.linearise(s, solid, dof)?;
+        self.s.clear();
+        self.s.resize(nc * nc, 0.0);
+        let (cp, ri) = (pat.sparse.col_ptr(), pat.sparse.row_idx());
+        for col in 0..nc {
+            for slot in cp[col]..cp[col + 1] {
+                self.s[col * nc + ri[slot]] += self.values[slot];
+            }
+        }
+        let h = |y: f64| if y >= 0.0 { 1.0 } else { 0.0 };
+        let fv = &s.part.view;
         for c in 0..nc {
             let row = &self.a_rows[c];
             if row.is_empty() {

@@ -126,7 +126,7 @@ pub(crate) struct Pattern {
     bc_cells: Vec<Vec<u32>>,
     pub(crate) sparse: SparsePattern,
     /// Value slot of the diagonal of each cell.
-    diag: Vec<usize>,
+    pub(crate) diag: Vec<usize>,
     /// Value slots of each pair (i, j): entry (row i, col j) and (row j, col i).
     pair_slots: Vec<[usize; 2]>,
     /// Per boundary with m cells, m x m slots: (row cell k, col cell l) at k * m + l.

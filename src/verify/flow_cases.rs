@@ -49,6 +49,7 @@ pub fn flow_scenario(
             flow_dt: None,
             flow_scheme: Default::default(),
             solid_scheme: Default::default(),
+            linear_solver: Default::default(),
             dt_max: None,
             dt_min: None,
             max_resolves: 200,

@@ -310,7 +310,8 @@ pub fn slip_run_with(
     })
 }
 
-/// `slip_inclined`: the crack above at b/h = 10, 20, 40 (10, 20 with `quick`) on both meshes.
+/// `slip_inclined`: the crack above at b/h = 10, 20, 40, 80 (10, 20 with `quick`) on both
+/// meshes.
 /// Rows per mesh (`_conforming`, `_snapped`): `max_slip` (the slip at the joint nearest the
 /// centre against the closed form there), `slip_profile` (relative L2 over |s| < 0.8 b),
 /// `opening` (largest |opening| over the closed-form max slip), `mean_normal_stress` (mean
@@ -318,10 +319,15 @@ pub fn slip_run_with(
 /// `peak_normal_stress` (largest contact normal stress over |sigma_n|, not an error: the
 /// asperities of a zigzag).
 pub fn slip_inclined(quick: bool) -> anyhow::Result<CaseResult> {
-    // b/h = 10 and 80: the quasi-static Newton iteration finds no equilibrium on the
-    // conforming mesh (15 of 19 and 139 of 158 joints sliding; an open defect, not yet
-    // investigated), so only 20 and 40 run.
-    let ratios: &[f64] = if quick { &[20.0] } else { &[20.0, 40.0] };
+    // The quasi-static Newton iteration on the snapped zigzag cycled at b/h = 10 and 80 (a
+    // joint opening and closing at every iteration, the residual stalled at 1e-3 with the
+    // states fixed): the solid Newton's line search after `SOLID_LINE_SEARCH_AFTER`
+    // iterations breaks the cycle (`systems/quasi_static.rs`), so all four levels run.
+    let ratios: &[f64] = if quick {
+        &[10.0, 20.0]
+    } else {
+        &[10.0, 20.0, 40.0, 80.0]
+    };
     let (sigma_n, tau, dtau, dmax) = closed_form();
     let mut res = CaseResult::default();
     res.notes.push(format!(
@@ -356,17 +362,18 @@ pub fn slip_inclined(quick: bool) -> anyhow::Result<CaseResult> {
                     wall_s: run.wall_s,
                 });
             }
-            // Targets: the conforming mesh's max slip within 5 % at every level and 4 % at
-            // the finest (measured -4.5 % at b/h = 20, linear elements
-            // converging at about first order); the snapped crack's slip short by more than
-            // 20 % at every level (the zigzag interlocks: the defect the conforming mesh
-            // fixes, measured -99 % at b/h = 20).
+            // Targets: the conforming mesh's max slip within 9 % at b/h = 10, 5 % at 20 and
+            // 40, and 3 % at the finest level, b/h = 80 (the issue's target; measured -7.9,
+            // -4.6, -3.2 and -2.45 %: linear elements converging at about first order, the
+            // error halving from 10 to 40 and slowing above); the snapped crack's slip short by
+            // more than 20 % at every level (the zigzag interlocks: the defect the conforming
+            // mesh fixes, measured -99 % at every level).
             match mesh {
                 SlipMesh::Conforming => {
-                    // The issue asks 3 % at the finest level; measured -3.20 % at b/h = 40,
-                    // so the check holds 4 % and the 3 % target is not met yet.
                     let limit = if level + 1 == ratios.len() && !quick {
-                        0.04
+                        0.03
+                    } else if bh < 15.0 {
+                        0.09
                     } else {
                         0.05
                     };
