@@ -70,17 +70,7 @@ pub fn inclined_crack(
         density: 2700.0,
     };
     let spec = match mesh {
-        CrackMesh::Conforming => MeshSpec::Conforming {
-            width: 2.0 * r,
-            height: 2.0 * r,
-            origin: [-r, -r],
-            h,
-            h_far: Some(2.0 * a),
-            min_angle_deg: 25.0,
-            merge: 0.25,
-            grading: 0.1,
-            follow: Vec::new(),
-        },
+        CrackMesh::Conforming => super::sif_cases::conforming_square(r, h, a),
         CrackMesh::Snapped => MeshSpec::Graded {
             width: 2.0 * r,
             height: 2.0 * r,
