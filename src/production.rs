@@ -100,14 +100,18 @@ pub enum ProductionError {
     },
 }
 
-/// The scenario the production equilibria run: the run's model and joints, explicit rock with
-/// local damping 0.8 (dynamic relaxation; its static answer does not depend on the damping),
-/// no outputs, no production stage. The flow boundaries stay (they make the run coupled, so
-/// the fluid loads the faces) but the flow system is switched off.
+/// The scenario the production equilibria run: the run's model and joints, the rock of
+/// `production.rock` (the quasi-static scheme's Newton solve, or the explicit scheme with local
+/// damping 0.8 as dynamic relaxation; their static answer does not depend on the damping), no
+/// outputs, no production stage. The flow boundaries stay (they make the run coupled, so the
+/// fluid loads the faces) but the flow system is switched off.
 pub fn production_scenario(sc: &Scenario) -> Scenario {
     let mut p = sc.clone();
     p.production = None;
-    p.time.solid_scheme = SolidScheme::Explicit;
+    p.time.solid_scheme = sc
+        .production
+        .as_ref()
+        .map_or(SolidScheme::QuasiStatic, |s| s.rock);
     p.time.end = End::Static {
         tol: sc.production.as_ref().map_or(1e-6, |s| s.static_tol),
         min_steps: 1,
@@ -133,6 +137,10 @@ pub fn production_sim(
         sim.adopt(state).map_err(ProductionError::Adopt)?;
     }
     set_relaxation_step(&mut sim);
+    if let (Some(qs), Some(stage)) = (sim.quasi_static_mut(), sc.production.as_ref()) {
+        // The Newton solve's relative residual, as the relaxation's.
+        qs.tol = stage.static_tol;
+    }
     Ok(sim)
 }
 

@@ -152,13 +152,23 @@ pub struct ProductionStage {
     /// Most iterations per state (default 40); not converged is reported, not an error.
     #[serde(default = "default_production_iterations")]
     pub max_iterations: usize,
-    /// The rock is in equilibrium when the unbalanced force over the internal force is below
-    /// this (default 1e-6).
+    /// The rock is in equilibrium when the unbalanced force over the internal force (the
+    /// quasi-static solve: over the reactions and loads) is below this (default 1e-6).
     #[serde(default = "default_production_static_tol")]
     pub static_tol: f64,
-    /// Most relaxation steps per equilibrium (default 200000).
+    /// Most relaxation steps per equilibrium (default 200000; `rock: Explicit`).
     #[serde(default = "default_production_steps")]
     pub max_steps: u64,
+    /// How the rock's equilibria are found: `QuasiStatic` (default: one Newton solve of the
+    /// quasi-static scheme per equilibrium, to `static_tol`) or `Explicit` (dynamic
+    /// relaxation with the explicit scheme and local damping 0.8, to `static_tol`). The same
+    /// static answer; see docs/production.md.
+    #[serde(default = "default_production_rock")]
+    pub rock: SolidScheme,
+}
+
+fn default_production_rock() -> SolidScheme {
+    SolidScheme::QuasiStatic
 }
 
 fn default_production_tol() -> f64 {

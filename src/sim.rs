@@ -551,20 +551,31 @@ impl Simulation {
             .expect("quasi-static scheme");
         let faces = qs.on.fluid;
         let flow_on = self.schedule.is_enabled(SystemId::FlowSubsteps);
-        let flow = self
-            .flow
-            .as_mut()
-            .filter(|f| f.coupling.is_some() && flow_on)
-            .map(|part| quasi_static_flow::FlowStep {
-                part,
-                specs: &p.flow_boundaries,
-                fluid: &p.fluid,
-                faces,
-                t0,
-                dt,
-            });
+        // With `flow_substeps` off the network's pressures stay where they are and load the
+        // faces, as the explicit scheme's `fluid_pressure` holds them.
+        let (flow, held) = match self.flow.as_mut() {
+            Some(part) if part.coupling.is_some() && flow_on => (
+                Some(quasi_static_flow::FlowStep {
+                    part,
+                    specs: &p.flow_boundaries,
+                    fluid: &p.fluid,
+                    faces,
+                    t0,
+                    dt,
+                }),
+                None,
+            ),
+            Some(part) => (
+                None,
+                part.coupling.as_ref().map(|c| quasi_static::Held {
+                    joint_cell: &c.joint_cell,
+                    pressure: &part.view.pressure,
+                }),
+            ),
+            None => (None, None),
+        };
         let (step, t1) = (self.clock.step + 1, t0 + dt);
-        self.solid.stats = quasi_static::solve(&mut self.solid.view, qs, flow, p, step, t1)?;
+        self.solid.stats = quasi_static::solve(&mut self.solid.view, qs, flow, held, p, step, t1)?;
         Ok(())
     }
 

@@ -759,15 +759,25 @@ pub struct Systems {
     pub fluid: bool,
 }
 
+/// Fluid pressures held fixed on the fracture faces (a coupled run whose `flow_substeps` is
+/// switched off, as the explicit scheme's `fluid_pressure` holds them; the production stage's
+/// equilibria): joint k's faces carry `pressure[joint_cell[k]]` (Pa) as a load.
+#[derive(Clone, Copy, Debug)]
+pub struct Held<'a> {
+    pub joint_cell: &'a [u32],
+    pub pressure: &'a [f64],
+}
+
 /// `solve`: equilibrium at the end of the step (load factor already set); with `flow`, the
 /// network's backward-Euler step over the same step in the same Newton iteration
 /// ([`crate::systems::quasi_static_flow`]), the converged state left for the flow system's
-/// commit. `step` and `time` (the step's end) name the step in errors. Velocities are set to
-/// zero (no inertia).
+/// commit; without it, `held` face pressures as a fixed load. `step` and `time` (the step's
+/// end) name the step in errors. Velocities are set to zero (no inertia).
 pub fn solve(
     v: &mut SolidView,
     qs: &mut QuasiStatic,
     mut flow: Option<FlowStep>,
+    held: Option<Held>,
     p: &RunParams,
     step: u64,
     time: f64,
@@ -803,7 +813,7 @@ pub fn solve(
     let (res2, ref2) = loop {
         let (res2, ref2, flow_ok) = match evaluated.take() {
             Some(e) => e,
-            None => evaluate(v, qs, &mut flow, p, &joint0, &mut rhs),
+            None => evaluate(v, qs, &mut flow, held, p, &joint0, &mut rhs),
         };
         if on.contact {
             for (st, js) in states.iter_mut().zip(&v.joint_state) {
@@ -943,7 +953,7 @@ pub fn solve(
                 if coupled {
                     qs.rows.set_trial(alpha, at);
                 }
-                let e = evaluate(v, qs, &mut flow, p, &joint0, &mut rhs_try);
+                let e = evaluate(v, qs, &mut flow, held, p, &joint0, &mut rhs_try);
                 evaluated = Some(e);
                 if e.0 / tol2 + phi_of(&qs.rows) <= (1.0 - 1e-4 * alpha) * phi0 {
                     break;
@@ -990,6 +1000,7 @@ fn evaluate(
     v: &mut SolidView,
     qs: &mut QuasiStatic,
     flow: &mut Option<FlowStep>,
+    held: Option<Held>,
     p: &RunParams,
     joint0: &[crate::components::JointState],
     rhs: &mut [f64],
@@ -1005,7 +1016,12 @@ fn evaluate(
             }
             ok
         }
-        None => true,
+        None => {
+            if let (true, Some(h)) = (on.fluid, held) {
+                fluid_pressure(v, h.joint_cell, h.pressure);
+            }
+            true
+        }
     };
     let lf = p.solid.load_factor;
     let dof = &qs.structure.as_ref().expect("structure").dof;
