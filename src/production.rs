@@ -6,7 +6,8 @@
 //!
 //! Each (state, pressure drop) is a fixed-point iteration between two solves the engine has:
 //! 1. the rock's equilibrium under the in-situ stress and a pressure p_c on both faces of every
-//!    fracture cell c: dynamic relaxation with the run's own systems (`internal_force`,
+//!    fracture cell c: the quasi-static scheme's Newton solve (`production.rock`, default), or
+//!    dynamic relaxation, with the run's own systems (`internal_force`,
 //!    `external_load`, `contact`, `fluid_pressure`, `damping`, `integrate`, and the fracture
 //!    criterion and `split`, so a fracture may grow), the network's flow switched off and its
 //!    mean pressures held at p; the hydraulic apertures a_c = max(delta_n, a_r) of that
@@ -61,7 +62,8 @@ pub struct ProductionRow {
     pub iterations: usize,
     pub converged: bool,
     pub change: f64,
-    /// Dynamic-relaxation steps of all the equilibria of this state.
+    /// Steps of the rock in all the equilibria of this state (quasi-static solves, or
+    /// dynamic-relaxation steps).
     pub relax_steps: u64,
     /// Fracture cells the production pressure opened (0: no fracture grew).
     pub new_cells: usize,
@@ -160,7 +162,8 @@ fn set_relaxation_step(sim: &mut Simulation) {
     p.time.aim = None;
 }
 
-/// Hold every cell's face pressure at `pressure` (Pa) and relax the rock to equilibrium.
+/// Hold every cell's face pressure at `pressure` (Pa) and bring the rock to equilibrium (one
+/// quasi-static step, or dynamic relaxation until the residual is below `tol`).
 /// Returns the steps taken and whether the topology changed (a fracture grew: the views were
 /// rebuilt and `pressure` no longer fits).
 fn relax(
