@@ -51,7 +51,7 @@ fn quasi_static(c: &mut Criterion) {
         if refactor {
             qs.forget_factor();
         }
-        solve(&mut v, qs, None, &p, k, 0.0).unwrap()
+        solve(&mut v, qs, None, None, &p, k, 0.0).unwrap()
     };
     step(&mut qs, true);
     group.bench_function("factorise_and_solve", |b| b.iter(|| step(&mut qs, true)));
@@ -84,7 +84,7 @@ fn frictional(c: &mut Criterion) {
         group.bench_function(name, |b| {
             b.iter(|| {
                 let mut v = v0.clone();
-                solve(&mut v, &mut qs, None, &p, 1, 1.0).unwrap()
+                solve(&mut v, &mut qs, None, None, &p, 1, 1.0).unwrap()
             })
         });
         eprintln!("{name}: {:?}", qs.counts);

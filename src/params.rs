@@ -63,6 +63,8 @@ pub struct TimeParams {
     pub aim: Option<f64>,
     /// Re-solves at the same time after splits, at most per step.
     pub max_resolves: u64,
+    /// Newton iterations at or below which the adaptive step grows (`time.newton_easy`).
+    pub newton_easy: u64,
 }
 
 /// What is written and when.
@@ -194,6 +196,7 @@ impl RunParams {
                 dt_max: t.dt_max.unwrap_or(end_time / 100.0),
                 aim: None,
                 max_resolves: t.max_resolves,
+                newton_easy: t.newton_easy,
             },
             output: OutputParams {
                 frame_every: sc.output.frame_every,

@@ -923,6 +923,14 @@ pub struct TimeControl {
     /// (default: the end time x 1e-9).
     #[serde(default)]
     pub dt_min: Option<f64>,
+    /// Adaptive quasi-static step: a step whose Newton solve took at most this many iterations
+    /// is followed by one 1.5 times longer; above three times this many the next is halved;
+    /// between, it is kept (default 4; 1 to 20). Where many joints slide every step takes
+    /// several iterations whatever its length (contact states settle, the coupled line
+    /// search), so a larger value lets the step grow there; the pressure-change and
+    /// new-cell limits still bound each step.
+    #[serde(default = "default_newton_easy")]
+    pub newton_easy: u64,
     /// Quasi-static scheme: the most re-solves at the same time after splits in one step
     /// (default 200); reaching it is counted in `summary.json` (`resolve_cap_hits`).
     #[serde(default = "default_max_resolves")]
@@ -945,6 +953,9 @@ pub struct TimeControl {
     pub mass_scaling: bool,
 }
 
+fn default_newton_easy() -> u64 {
+    crate::systems::monitor::NEWTON_EASY
+}
 fn default_max_resolves() -> u64 {
     200
 }
@@ -1584,6 +1595,17 @@ impl Scenario {
         }
         if t.max_resolves == 0 {
             return Err(SetupError::invalid("time.max_resolves", "must be >= 1"));
+        }
+        if !(1..=20).contains(&t.newton_easy) {
+            return Err(SetupError::invalid(
+                "time.newton_easy",
+                format!(
+                    "{} is not in 1..=20 (three times it must stay below the {} Newton \
+                     iterations a step may take)",
+                    t.newton_easy,
+                    crate::systems::quasi_static::MAX_ITER
+                ),
+            ));
         }
         if let Some(dt) = t.flow_dt {
             positive("time.flow_dt", dt, "the flow step")?;

@@ -161,9 +161,10 @@ pub struct Effort {
     pub new_cells: usize,
 }
 
-/// Newton iterations at or below which the step grows, and above which it shrinks.
+/// Newton iterations at or below which the step grows (the default of `time.newton_easy`);
+/// above [`NEWTON_HARD_FACTOR`] times it the step shrinks.
 pub const NEWTON_EASY: u64 = 4;
-pub const NEWTON_HARD: u64 = 12;
+pub const NEWTON_HARD_FACTOR: u64 = 3;
 /// Growth factor of an easy step.
 pub const GROWTH: f64 = 1.5;
 /// Target relative pressure change per step.
@@ -172,15 +173,17 @@ pub const PRESSURE_CHANGE: f64 = 0.1;
 pub const NEW_CELLS: usize = 1;
 
 /// The next adaptive quasi-static step after the step that ended at `clock.time`: grown by
-/// [`GROWTH`] after an easy Newton solve, halved after a hard one, shortened so the pressure
+/// [`GROWTH`] after an easy Newton solve (at most `time.newton_easy` iterations), halved after
+/// a hard one, shortened so the pressure
 /// changes by about [`PRESSURE_CHANGE`] and at most [`NEW_CELLS`] cells open per step (never
 /// below half the last step), kept in [`dt_min`, `dt_max`], and landing exactly on the next
 /// figure time or the end (a step within twice its length of it is split in two equal ones).
 pub fn next_step(clock: &Clock, p: &mut RunParams, e: Effort) {
     let dt = p.solid.dt;
-    let mut f = if e.iterations <= NEWTON_EASY {
+    let easy = p.time.newton_easy;
+    let mut f = if e.iterations <= easy {
         GROWTH
-    } else if e.iterations <= NEWTON_HARD {
+    } else if e.iterations <= NEWTON_HARD_FACTOR * easy {
         1.0
     } else {
         0.5

@@ -49,6 +49,7 @@ pub fn scenario(
             dt_max: None,
             dt_min: None,
             max_resolves: 200,
+            newton_easy: crate::systems::monitor::NEWTON_EASY,
             max_steps: 2_000_000,
             max_substeps: 100_000,
             mass_scaling: false,
