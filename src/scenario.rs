@@ -2023,11 +2023,15 @@ mod tests {
         let sc = Scenario::parse(&coupled, "coupled.ron").unwrap();
         sc.validate().unwrap();
         for nu in ["0.48", "0.45", "0"] {
-            let o = sc.with_overrides(&[format!("material.poisson={nu}")]).unwrap();
+            let o = sc
+                .with_overrides(&[format!("material.poisson={nu}")])
+                .unwrap();
             o.validate().unwrap();
         }
         for nu in ["0.481", "0.49", "0.499"] {
-            let o = sc.with_overrides(&[format!("material.poisson={nu}")]).unwrap();
+            let o = sc
+                .with_overrides(&[format!("material.poisson={nu}")])
+                .unwrap();
             let e = o.validate().unwrap_err().to_string();
             assert!(
                 e.starts_with(&format!("invalid material.poisson: {nu} is above 0.48")),
