@@ -67,7 +67,12 @@ fn run(sc: Scenario) -> (f64, f64) {
         assert!(p.is_finite(), "step {}: pressure {p}", sim.step());
         peak = peak.max(p);
     }
-    assert_eq!(sim.finish(), Some(Finish::EndTime), "stopped at {}", sim.time());
+    assert_eq!(
+        sim.finish(),
+        Some(Finish::EndTime),
+        "stopped at {}",
+        sim.time()
+    );
     (peak, max_p(&sim))
 }
 
