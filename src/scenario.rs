@@ -614,6 +614,21 @@ pub struct PreFracture {
     pub to: [f64; 2],
 }
 
+/// Largest Poisson's ratio of a coupled run (a mesh with flow boundaries acting on its
+/// fractures). The seed's fluid volume of a cell, L max(delta_n, a_r) (m^2 per m, seed (12)),
+/// does not follow a closed joint's opening (delta_n < a_r), so the faces of a filled closed
+/// joint move under the pressure with no change of fluid volume; in rock held at its sides that
+/// free opening Delta A (m^2) compresses the rock, whose mean stress, and the fluid pressure
+/// with it, rises by about M Delta A / A, M = E / (2 (1 + nu) (1 - 2 nu)) the plane-strain area
+/// modulus (Pa): 8.5 E at nu = 0.48, 16.8 E at 0.49, 167 E at 0.499. Measured on the
+/// `verify extreme` coupled block (20 m, pump p_max = 18 MPa, to 0.06 s): the largest fracture
+/// pressure over the run stays within p_max + 5 % + 0.1 MPa (19.0 MPa) up to nu = 0.48 with
+/// both solid schemes (17.7 MPa explicit, 17.9 MPa quasi-static; also at E = 30 GPa and a
+/// joint normal stiffness of 5 GPa/m: 17.8 and 18.4 MPa) and leaves it from 0.485 (19.4 MPa at
+/// E = 30 GPa, 20.2 MPa at 5 GPa/m), 0.49 (19.4 MPa) to 0.499 (34.9 MPa explicit, 29.1 MPa
+/// quasi-static at the end). README "Reliability".
+pub const MAX_COUPLED_POISSON: f64 = 0.48;
+
 /// Most fractures of a random network in the rock (each is snapped by a shortest-path search
 /// over the mesh).
 pub const MAX_ROCK_FRACTURES: usize = 10_000;
@@ -1525,6 +1540,27 @@ impl Scenario {
                     ),
                 ));
             }
+            if self.mesh.is_some()
+                && !self.flow_boundaries.is_empty()
+                && m.poisson > MAX_COUPLED_POISSON
+            {
+                let nu = m.poisson;
+                let area_modulus = m.young / (2.0 * (1.0 + nu) * (1.0 - 2.0 * nu));
+                return Err(SetupError::invalid(
+                    "material.poisson",
+                    format!(
+                        "{nu} is above {MAX_COUPLED_POISSON} for a coupled run (flow boundaries \
+                         on the rock's fractures): the seed's fluid volume L max(delta_n, a_r) \
+                         does not follow a closed joint's opening, and in nearly incompressible \
+                         rock (area modulus E / (2 (1 + nu)(1 - 2 nu)) = {area_modulus:.2e} Pa, \
+                         {:.0} E) that free opening compresses the rock and drives the fracture \
+                         pressure past the pump's p_max (measured: 1.08 x p_max at nu 0.49, 1.9 x \
+                         at 0.499; README, Reliability); use material.poisson <= \
+                         {MAX_COUPLED_POISSON} (runs without flow take up to 0.5)",
+                        area_modulus / m.young
+                    ),
+                ));
+            }
         }
         // Boundary.
         match &self.boundary {
@@ -2003,6 +2039,49 @@ mod tests {
             let e = sc.validate().unwrap_err().to_string();
             assert!(e.contains(field), "{e}");
         }
+    }
+
+    /// Poisson's ratio above `MAX_COUPLED_POISSON` is refused for a coupled run only (the
+    /// seed's fluid volume does not bound its pressure there; README "Reliability"), naming the
+    /// field, the limit and the reason; the same rock without flow is accepted up to 0.5.
+    #[test]
+    fn coupled_runs_refuse_a_nearly_incompressible_rock() {
+        let coupled = GOOD.replace(
+            "time: (end",
+            "fracture: Some((preexisting: [(from: (0.0, 5.0), to: (3.0, 5.0))])),\n        \
+             flow_boundaries: [(name: \"pump\", at: Node((0.0, 5.0)), \
+             kind: Pump(p_max: 18e6, q_half: 2.0))],\n        time: (end",
+        );
+        let sc = Scenario::parse(&coupled, "coupled.ron").unwrap();
+        sc.validate().unwrap();
+        for nu in ["0.48", "0.45", "0"] {
+            let o = sc
+                .with_overrides(&[format!("material.poisson={nu}")])
+                .unwrap();
+            o.validate().unwrap();
+        }
+        for nu in ["0.481", "0.49", "0.499"] {
+            let o = sc
+                .with_overrides(&[format!("material.poisson={nu}")])
+                .unwrap();
+            let e = o.validate().unwrap_err().to_string();
+            assert!(
+                e.starts_with(&format!("invalid material.poisson: {nu} is above 0.48")),
+                "{e}"
+            );
+            assert!(
+                e.contains("L max(delta_n, a_r)") && e.contains("p_max") && !e.contains('\n'),
+                "{e}"
+            );
+        }
+        // Without flow boundaries (the same fracture, dry) and without fractures: accepted.
+        let dry = Scenario::parse(&coupled, "dry.ron")
+            .unwrap()
+            .with_overrides(&["flow_boundaries=[]".into(), "material.poisson=0.499".into()])
+            .unwrap();
+        dry.validate().unwrap();
+        let plain = Scenario::parse(&GOOD.replace("poisson: 0.2", "poisson: 0.499"), "x.ron");
+        plain.unwrap().validate().unwrap();
     }
 
     /// A byte-order mark before the scenario is skipped (it failed at 1:1).

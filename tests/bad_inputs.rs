@@ -371,6 +371,25 @@ const CASES: &[Case] = &[
         &["--set", "material.poisson=-0.1"],
         &["material.poisson", "[0, 0.5)"],
     ),
+    // A coupled run (Example I: a pump into the rock's fractures) with nearly incompressible
+    // rock: the seed's fluid volume does not bound its pressure (README "Reliability"). In the
+    // file and by --set; the same nu without flow is accepted (`dry in-situ nu 0.499` of
+    // `verify extreme`).
+    set(
+        EX1,
+        &["--set", "material.poisson=0.499"],
+        &[
+            "material.poisson",
+            "0.499 is above 0.48 for a coupled run",
+            "L max(delta_n, a_r)",
+            "use material.poisson <= 0.48",
+        ],
+    ),
+    edit(
+        EX1,
+        &[("poisson: 0.2", "poisson: 0.49")],
+        &["material.poisson", "0.49 is above 0.48", "p_max"],
+    ),
     set(
         INSITU,
         &["--set", "material.density=0"],
