@@ -71,6 +71,11 @@ pub struct ProductionRow {
     pub max_aperture: f64,
     /// Wall time of this state, s.
     pub wall_s: f64,
+    /// The rock that found the equilibria: `quasi-static`, or `relaxation` (by choice, or
+    /// after the quasi-static Newton solve found no equilibrium: see `fallback`).
+    pub rock: &'static str,
+    /// Why the quasi-static solve was given up for this state, if it was.
+    pub fallback: Option<String>,
 }
 
 /// A solved production state: its row, and the coupled and frozen flows (for figures).
@@ -335,6 +340,11 @@ pub fn solve_state(
             new_cells: cells.saturating_sub(cells0),
             max_aperture: a.iter().fold(0.0, |m: f64, &x| m.max(x)),
             wall_s: t0.elapsed().as_secs_f64(),
+            rock: match sim.params().time.solid_scheme {
+                SolidScheme::QuasiStatic => "quasi-static",
+                SolidScheme::Explicit => "relaxation",
+            },
+            fallback: None,
         },
         flow,
         frozen,
@@ -358,8 +368,32 @@ pub fn run_production(
     for state in [NetworkState::Before, NetworkState::After] {
         for (k, &dp) in drops.iter().enumerate() {
             let start = (state == NetworkState::After).then(|| end.clone());
-            let mut sim = production_sim(sc, start)?;
-            let s = solve_state(&mut sim, stage, state, dp)?;
+            let mut sim = production_sim(sc, start.clone())?;
+            let s = match solve_state(&mut sim, stage, state, dp) {
+                // Past the friction limit the rock may have no static equilibrium under a
+                // trial pressure (a block held by sliding joints alone): the Newton solve
+                // cannot find one, the relaxation follows the sliding until it stops.
+                Err(ProductionError::Run {
+                    error: error @ RunError::QuasiStatic { .. },
+                    ..
+                }) => {
+                    tracing::warn!(
+                        "production {} dp = {:.1} MPa: the quasi-static rock failed ({error}); \
+                         dynamic relaxation instead",
+                        state.name(),
+                        dp / 1e6
+                    );
+                    let mut relaxed = sc.clone();
+                    if let Some(p) = relaxed.production.as_mut() {
+                        p.rock = SolidScheme::Explicit;
+                    }
+                    let mut sim = production_sim(&relaxed, start)?;
+                    let mut s = solve_state(&mut sim, stage, state, dp)?;
+                    s.row.fallback = Some(error.to_string());
+                    s
+                }
+                r => r?,
+            };
             tracing::info!(
                 "production {} dp = {:.1} MPa: rate {:.4e} (frozen {:.4e}) m^2/s, {} iterations",
                 state.name(),
@@ -378,14 +412,14 @@ pub fn run_production(
 }
 
 /// `production.csv`: `state,dp,rate,rate_frozen` (Pa, m^2/s per metre) and the iteration's
-/// record (`iterations,converged,change,relax_steps,new_cells,max_aperture,wall_s`).
+/// record (`iterations,converged,change,relax_steps,new_cells,max_aperture,wall_s,rock`).
 pub fn production_csv(rows: &[ProductionRow]) -> String {
     let mut s = String::from(
-        "state,dp,rate,rate_frozen,iterations,converged,change,relax_steps,new_cells,max_aperture,wall_s\n",
+        "state,dp,rate,rate_frozen,iterations,converged,change,relax_steps,new_cells,max_aperture,wall_s,rock\n",
     );
     for r in rows {
         s += &format!(
-            "{},{},{:e},{:e},{},{},{:e},{},{},{:e},{:.3}\n",
+            "{},{},{:e},{:e},{},{},{:e},{},{},{:e},{:.3},{}\n",
             r.state.name(),
             r.dp,
             r.rate,
@@ -396,7 +430,8 @@ pub fn production_csv(rows: &[ProductionRow]) -> String {
             r.relax_steps,
             r.new_cells,
             r.max_aperture,
-            r.wall_s
+            r.wall_s,
+            r.rock
         );
     }
     s
@@ -408,13 +443,17 @@ pub fn production_json(stage: &ProductionStage, rows: &[ProductionRow]) -> serde
     let entries: Vec<serde_json::Value> = rows
         .iter()
         .map(|r| {
-            serde_json::json!({
+            let mut e = serde_json::json!({
                 "state": r.state.name(), "dp": r.dp, "rate": r.rate, "rate_frozen": r.rate_frozen,
                 "iterations": r.iterations, "converged": r.converged,
                 "change": if r.change.is_finite() { r.change } else { 0.0 },
                 "relax_steps": r.relax_steps, "new_cells": r.new_cells,
-                "max_aperture": r.max_aperture, "wall_s": r.wall_s,
-            })
+                "max_aperture": r.max_aperture, "wall_s": r.wall_s, "rock": r.rock,
+            });
+            if let Some(why) = &r.fallback {
+                e["quasi_static_failed"] = serde_json::json!(why);
+            }
+            e
         })
         .collect();
     let ratios: Vec<serde_json::Value> = w

@@ -946,6 +946,12 @@ pub struct TimeControl {
     /// new-cell limits still bound each step.
     #[serde(default = "default_newton_easy")]
     pub newton_easy: u64,
+    /// Quasi-static scheme: a step is in equilibrium when the free degrees of freedom's
+    /// unbalanced force is below this times the reactions and loads (or the step's first
+    /// unbalanced force), N/m over N/m (default 1e-10; 1e-14 to 1e-3). On a network where
+    /// hundreds of joints slide the iteration can stall at round-off near 1e-9.
+    #[serde(default = "default_newton_tol")]
+    pub newton_tol: f64,
     /// Quasi-static scheme: the most re-solves at the same time after splits in one step
     /// (default 200); reaching it is counted in `summary.json` (`resolve_cap_hits`).
     #[serde(default = "default_max_resolves")]
@@ -968,6 +974,9 @@ pub struct TimeControl {
     pub mass_scaling: bool,
 }
 
+fn default_newton_tol() -> f64 {
+    crate::systems::quasi_static::DEFAULT_TOL
+}
 fn default_newton_easy() -> u64 {
     crate::systems::monitor::NEWTON_EASY
 }
@@ -1631,6 +1640,16 @@ impl Scenario {
         }
         if t.max_resolves == 0 {
             return Err(SetupError::invalid("time.max_resolves", "must be >= 1"));
+        }
+        if !(t.newton_tol >= 1e-14 && t.newton_tol <= 1e-3) {
+            return Err(SetupError::invalid(
+                "time.newton_tol",
+                format!(
+                    "{} is not in [1e-14, 1e-3] (a relative residual: below 1e-14 round-off \
+                     cannot reach it, above 1e-3 the rock is not in equilibrium)",
+                    t.newton_tol
+                ),
+            ));
         }
         if !(1..=20).contains(&t.newton_easy) {
             return Err(SetupError::invalid(

@@ -110,6 +110,7 @@ impl Simulation {
         let mut qs = crate::setup::quasi_static(&schedule);
         if let Some(q) = qs.as_mut() {
             q.linear = scenario.time.linear_solver;
+            q.tol = scenario.time.newton_tol;
         }
         let next_checkpoint_time = match p.output.checkpoint_every {
             Some(crate::scenario::CheckpointEvery::Time(t)) => t,

@@ -54,6 +54,7 @@ pub fn flow_scenario(
             dt_min: None,
             max_resolves: 200,
             newton_easy: crate::systems::monitor::NEWTON_EASY,
+            newton_tol: crate::systems::quasi_static::DEFAULT_TOL,
             max_steps: 5_000_000,
             max_substeps: 100_000,
             mass_scaling: false,
