@@ -147,6 +147,10 @@ pub fn production_sim(
     if let (Some(qs), Some(stage)) = (sim.quasi_static_mut(), sc.production.as_ref()) {
         // The Newton solve's relative residual, as the relaxation's.
         qs.tol = stage.static_tol;
+        // No time passes for the rock here (the fluid's pressure is a load), so halving a
+        // step that found no equilibrium would retry the same problem: a failure is final
+        // (and the state goes to relaxation, `run_production`).
+        sim.params_mut().time.adaptive = false;
     }
     Ok(sim)
 }
