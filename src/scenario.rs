@@ -614,6 +614,10 @@ pub struct PreFracture {
     pub to: [f64; 2],
 }
 
+/// Largest Young's modulus accepted, Pa, and largest density, kg/m^3 (see `validate`).
+pub const MAX_YOUNG: f64 = 1e14;
+pub const MAX_DENSITY: f64 = 1e9;
+
 /// Largest Poisson's ratio of a coupled run (a mesh with flow boundaries acting on its
 /// fractures). The seed's fluid volume of a cell, L max(delta_n, a_r) (m^2 per m, seed (12)),
 /// does not follow a closed joint's opening (delta_n < a_r), so the faces of a filled closed
@@ -1538,6 +1542,30 @@ impl Scenario {
         if let Some(m) = &self.material {
             positive("material.young", m.young, "Young's modulus")?;
             positive("material.density", m.density, "the density")?;
+            // Upper bounds far above any rock (diamond: E 1.2e12 Pa; osmium: 22,600 kg/m^3),
+            // so the energies and stresses (E u, rho v^2 A) stay finite: a density of 1e308
+            // made the kinetic energy inf * 0 = NaN (the fuzzer's finding, kept in
+            // tests/fuzz_regressions/).
+            if m.young > MAX_YOUNG {
+                return Err(SetupError::invalid(
+                    "material.young",
+                    format!(
+                        "{:e} Pa is above {MAX_YOUNG:e} Pa (diamond is 1.2e12 Pa): energies \
+                         and stresses would overflow",
+                        m.young
+                    ),
+                ));
+            }
+            if m.density > MAX_DENSITY {
+                return Err(SetupError::invalid(
+                    "material.density",
+                    format!(
+                        "{:e} kg/m^3 is above {MAX_DENSITY:e} kg/m^3 (rock is 2,000-3,500; \
+                         room is left for mass scaling): the kinetic energy would overflow",
+                        m.density
+                    ),
+                ));
+            }
             finite("material.poisson", m.poisson)?;
             if !(0.0..0.5).contains(&m.poisson) {
                 return Err(SetupError::invalid(
@@ -2052,6 +2080,8 @@ mod tests {
         for (from, to, field) in [
             ("poisson: 0.2", "poisson: 0.5", "material.poisson"),
             ("young: 20e9", "young: -1.0", "material.young"),
+            ("young: 20e9", "young: 1e15", "material.young"),
+            ("density: 2700.0", "density: 1e308", "material.density"),
             ("h: 1.0", "h: 20.0", "mesh.h"),
         ] {
             let sc = Scenario::parse(&GOOD.replace(from, to), "x.ron").unwrap();
