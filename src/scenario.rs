@@ -978,11 +978,16 @@ pub struct TimeControl {
     pub mass_scaling: bool,
 }
 
+/// Default of `time.newton_tol` (the quasi-static solver's `DEFAULT_TOL`).
+pub const DEFAULT_NEWTON_TOL: f64 = 1e-10;
+/// Default of `time.newton_easy` (the adaptive step's `NEWTON_EASY`).
+pub const DEFAULT_NEWTON_EASY: u64 = 4;
+
 fn default_newton_tol() -> f64 {
-    crate::systems::quasi_static::DEFAULT_TOL
+    DEFAULT_NEWTON_TOL
 }
 fn default_newton_easy() -> u64 {
-    crate::systems::monitor::NEWTON_EASY
+    DEFAULT_NEWTON_EASY
 }
 fn default_max_resolves() -> u64 {
     200
@@ -1683,10 +1688,9 @@ impl Scenario {
             return Err(SetupError::invalid(
                 "time.newton_easy",
                 format!(
-                    "{} is not in 1..=20 (three times it must stay below the {} Newton \
-                     iterations a step may take)",
-                    t.newton_easy,
-                    crate::systems::quasi_static::MAX_ITER
+                    "{} is not in 1..=20 (three times it must stay below the cap on Newton \
+                     iterations of a step)",
+                    t.newton_easy
                 ),
             ));
         }
@@ -2082,6 +2086,26 @@ mod tests {
             ("young: 20e9", "young: -1.0", "material.young"),
             ("young: 20e9", "young: 1e15", "material.young"),
             ("density: 2700.0", "density: 1e308", "material.density"),
+            (
+                "tol: 1e-8)",
+                "tol: 1e-8), newton_easy: 0",
+                "time.newton_easy",
+            ),
+            (
+                "tol: 1e-8)",
+                "tol: 1e-8), newton_easy: 21",
+                "time.newton_easy",
+            ),
+            (
+                "tol: 1e-8)",
+                "tol: 1e-8), newton_tol: 1e-2",
+                "time.newton_tol",
+            ),
+            (
+                "tol: 1e-8)",
+                "tol: 1e-8), newton_tol: NaN",
+                "time.newton_tol",
+            ),
             ("h: 1.0", "h: 20.0", "mesh.h"),
         ] {
             let sc = Scenario::parse(&GOOD.replace(from, to), "x.ron").unwrap();

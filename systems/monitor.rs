@@ -163,7 +163,7 @@ pub struct Effort {
 
 /// Newton iterations at or below which the step grows (the default of `time.newton_easy`);
 /// above [`NEWTON_HARD_FACTOR`] times it the step shrinks.
-pub const NEWTON_EASY: u64 = 4;
+pub const NEWTON_EASY: u64 = crate::scenario::DEFAULT_NEWTON_EASY;
 pub const NEWTON_HARD_FACTOR: u64 = 3;
 /// Growth factor of an easy step.
 pub const GROWTH: f64 = 1.5;

@@ -48,7 +48,7 @@ use faer::sparse::linalg::cholesky::{
 use faer::{Conj, MatMut, Par, Side};
 
 /// Default relative residual tolerance of the equilibrium iteration.
-pub const DEFAULT_TOL: f64 = 1e-10;
+pub const DEFAULT_TOL: f64 = crate::scenario::DEFAULT_NEWTON_TOL;
 /// Newton iterations before the run stops with an error.
 pub const MAX_ITER: usize = 60;
 /// Halvings the coupled line search tries after the full step and the first kink (the last
