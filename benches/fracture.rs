@@ -73,6 +73,7 @@ fn bench(c: &mut Criterion) {
                 strength: None,
                 criterion: None,
                 face_stress: Default::default(),
+                tip_handover: None,
                 residual_aperture: 5e-4,
                 preexisting: (1..=10)
                     .map(|k| PreFracture {

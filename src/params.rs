@@ -7,7 +7,7 @@ use crate::flow::FlowParams;
 use crate::scenario::SolidScheme;
 use crate::scenario::{
     CriterionSpec, DEFAULT_RESIDUAL_APERTURE, End, FaceStress, Field, FlowBoundary, FlowScheme,
-    Material, Scenario,
+    Material, MeshSpec, Scenario,
 };
 
 /// Joint constants: penalty stiffnesses K_n, K_t (Pa) and the friction coefficient tan(phi).
@@ -38,6 +38,9 @@ pub struct CriterionParams {
     /// Face stress from the two elements beside the edge (`FaceStress::Elements`) instead of
     /// the edge's patch.
     pub by_elements: bool,
+    /// The strength test hands a ready far side of a tip triangle to the tip
+    /// (`fracture.tip_handover`; `systems::fracture::hand_over`).
+    pub tip_handover: bool,
 }
 
 /// Time control.
@@ -160,6 +163,10 @@ impl RunParams {
                         strength,
                         toughness,
                         by_elements: f.face_stress == FaceStress::Elements,
+                        tip_handover: f.tip_handover.unwrap_or(matches!(
+                            sc.mesh,
+                            Some(MeshSpec::Conforming { .. } | MeshSpec::Gmsh { .. })
+                        )),
                     })
                 })
                 .filter(|_| has_solid),

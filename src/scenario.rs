@@ -538,6 +538,15 @@ pub struct FractureSpec {
     /// the two elements beside the edge. See `systems::fracture::fracture_criterion`.
     #[serde(default)]
     pub face_stress: FaceStress,
+    /// The strength test's hand-over at fracture tips: a fracture-ready face that is the far
+    /// side of a triangle at a tip node touches no tip, so no node can split and the fracture
+    /// stops; with the hand-over its mark also goes to the edge of that triangle at the tip
+    /// that best continues the fracture (`systems::fracture::hand_over`). `None` (default): on
+    /// for meshes that are not the seed's grids (`Conforming`, `Gmsh`), where tips meet such
+    /// triangles; off on `Regular`, `Perturbed` and `Graded`, where the seed's rule runs as
+    /// written. No effect under `Toughness`, which marks edges at the tips itself.
+    #[serde(default)]
+    pub tip_handover: Option<bool>,
     /// Residual hydraulic aperture a_r, m (seed: 0.5 mm).
     #[serde(default = "default_residual_aperture")]
     pub residual_aperture: f64,

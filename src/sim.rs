@@ -621,6 +621,11 @@ impl Simulation {
                 &mut fr.strength_counts,
                 &mut new,
             );
+            if c.tip_handover && c.toughness.is_none() {
+                let n = fracture::hand_over(v, &mut fr.handover, &mut new);
+                fr.strength_counts.ready += n;
+                fr.handed_over += n;
+            }
             // Initiation away from tips: one new fracture per neighbourhood and pass.
             if c.toughness.is_some() {
                 for k in crate::systems::toughness::one_per_neighbourhood(v, &mut new) {

@@ -465,6 +465,148 @@ pub fn contact(v: &mut SolidView, p: &JointParams) {
     }
 }
 
+/// The strength test's hand-over at fracture tips (`fracture.tip_handover`).
+///
+/// A node splits when two of its edges are fracture-ready, or one is and two are external
+/// (`crate::split`); a fracture's tip node has the two external sister edges behind it, so it
+/// splits as soon as one of its edges ahead is marked. On the seed's grids the edge straight
+/// ahead of a tip carries the tip's tension and is marked. On an unstructured mesh the face
+/// that reaches the strength is often the far side a-b of a triangle (T, a, b) at the tip T:
+/// it touches no tip, neither a nor b can split, and the fracture stops (seen on Example I on a
+/// conforming mesh). The hand-over marks, for such a triangle, its edge at the tip, T-a or
+/// T-b, whose direction from T is closest to the fracture's direction at T (and ahead of it):
+/// T splits along it, a (or b) becomes the new tip with a-b ready and splits in the same batch,
+/// so the fracture runs along the face that reached the strength. It only adds marks next to
+/// faces the strength test marked, and the faces it marks touch a tip.
+#[derive(Clone, Debug, Default)]
+pub struct HandOver {
+    generation: Option<u64>,
+    /// Tip nodes (dense) and the unit direction of the fracture there (reference geometry,
+    /// from the daughter pair behind to the tip).
+    tips: Vec<(u32, [f64; 2])>,
+    /// The internal edges of every element (view indices; `u32::MAX` for a side that is on the
+    /// boundary or opened).
+    elem_edges: Vec<[u32; 3]>,
+}
+
+impl HandOver {
+    /// Tips and element sides of the view's topology (once per generation): O(joints + edges).
+    fn refresh(&mut self, v: &SolidView) {
+        if self.generation == Some(v.generation) {
+            return;
+        }
+        self.generation = Some(v.generation);
+        // A joint whose two faces share one end node ends there; a node where two joints end
+        // that way joins two fracture pieces and is no tip.
+        let mut ends: Vec<(u32, u32)> = Vec::new();
+        for nodes in &v.joint_nodes {
+            let [pa, pb, qa, qb] = *nodes;
+            if pa == qa && pb != qb {
+                ends.push((pa, pb));
+            } else if pb == qb && pa != qa {
+                ends.push((pb, pa));
+            }
+        }
+        ends.sort_unstable();
+        self.tips.clear();
+        for group in ends.chunk_by(|a, b| a.0 == b.0) {
+            let [(tip, behind)] = group[..] else {
+                continue;
+            };
+            let (x, xb) = (v.x0[tip as usize], v.x0[behind as usize]);
+            let d = [x[0] - xb[0], x[1] - xb[1]];
+            let l = d[0].hypot(d[1]);
+            if l > 0.0 {
+                self.tips.push((tip, [d[0] / l, d[1] / l]));
+            }
+        }
+        self.elem_edges.clear();
+        if self.tips.is_empty() {
+            return;
+        }
+        self.elem_edges.resize(v.conn.len(), [u32::MAX; 3]);
+        for (k, els) in v.edge_elems.iter().enumerate() {
+            for &e in els {
+                if let Some(slot) = self.elem_edges[e as usize]
+                    .iter_mut()
+                    .find(|s| **s == u32::MAX)
+                {
+                    *slot = k as u32;
+                }
+            }
+        }
+    }
+}
+
+/// The hand-over ([`HandOver`]): at every tip T, among the triangles (T, a, b) whose far side
+/// a-b is fracture-ready while neither T-a nor T-b is, the edge T-a or T-b whose direction
+/// from T is closest to the fracture's direction there (and ahead of it) is marked: one edge
+/// per tip and pass, so a tip whose fan of triangles reaches the strength on several far sides
+/// still grows one way. Returns the number of edges marked; they are appended to `new_marks`.
+/// The hand-over takes a ready far side only when it is within 45 degrees of the fracture's
+/// direction at the tip (the face opens along its own line, so a face across the fracture's
+/// path would turn it by more than that in one edge).
+pub const HANDOVER_COS: f64 = std::f64::consts::FRAC_1_SQRT_2;
+/// ... and an edge at the tip only within 63 degrees of that direction: on a mesh of angles
+/// from 25 degrees the edges at a node are up to 60-odd degrees apart, so this leaves a tip
+/// at least one way forward while never turning it back.
+pub const HANDOVER_TIP_COS: f64 = 0.45;
+
+pub fn hand_over(v: &mut SolidView, h: &mut HandOver, new_marks: &mut Vec<u32>) -> usize {
+    if !v.edge_ready.iter().any(|&r| r) {
+        return 0;
+    }
+    h.refresh(v);
+    let mut marked = 0;
+    for &(t, d) in &h.tips {
+        let (s, e) = (
+            v.inc_ptr[t as usize] as usize,
+            v.inc_ptr[t as usize + 1] as usize,
+        );
+        let touches_t = |k: u32| v.edge_nodes[k as usize].contains(&t);
+        let x = v.x0[t as usize];
+        let mut best: Option<(f64, u32)> = None;
+        for c in s..e {
+            let sides = h.elem_edges[(v.inc[c] / 6) as usize];
+            let Some(&far) = sides.iter().find(|&&k| k != u32::MAX && !touches_t(k)) else {
+                continue;
+            };
+            if !v.edge_ready[far as usize] {
+                continue;
+            }
+            // The far side opens along itself: only one that continues the fracture's line.
+            let [f0, f1] = v.edge_nodes[far as usize].map(|n| v.x0[n as usize]);
+            let (fx, fy) = (f1[0] - f0[0], f1[1] - f0[1]);
+            if (fx * d[0] + fy * d[1]).abs() < HANDOVER_COS * fx.hypot(fy) {
+                continue;
+            }
+            let at_tip = sides.iter().filter(|&&k| k != u32::MAX && touches_t(k));
+            if at_tip.clone().any(|&k| v.edge_ready[k as usize]) {
+                continue;
+            }
+            for &k in at_tip {
+                let [n0, n1] = v.edge_nodes[k as usize];
+                let o = v.x0[if n0 == t { n1 } else { n0 } as usize];
+                let (dx, dy) = (o[0] - x[0], o[1] - x[1]);
+                let cos = (dx * d[0] + dy * d[1]) / dx.hypot(dy);
+                if cos >= HANDOVER_TIP_COS
+                    && best.is_none_or(|(c, j)| cos > c || (cos == c && k < j))
+                {
+                    best = Some((cos, k));
+                }
+            }
+        }
+        if let Some((_, k)) = best {
+            let [a, b] = v.edge_nodes[k as usize].map(|n| v.x0[n as usize]);
+            tracing::debug!("hand-over at tip {t}: edge {a:?}-{b:?}, fracture direction {d:?}");
+            v.edge_ready[k as usize] = true;
+            new_marks.push(k);
+            marked += 1;
+        }
+    }
+    marked
+}
+
 /// Counters of the fracture systems.
 #[derive(Clone, Debug, Default, serde::Serialize, serde::Deserialize)]
 pub struct FractureState {
@@ -483,4 +625,10 @@ pub struct FractureState {
     pub screen: StrengthScreen,
     pub new_marks: Vec<u32>,
     pub strength_counts: StrengthCounts,
+    /// The hand-over's tips and element sides (rebuilt from the view; not in checkpoints).
+    #[serde(skip)]
+    pub handover: HandOver,
+    /// Edges marked by the hand-over by this process (a diagnostic, not in checkpoints).
+    #[serde(skip)]
+    pub handed_over: usize,
 }

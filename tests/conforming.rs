@@ -234,3 +234,52 @@ fn the_mesh_quality_and_patch_checks_pass() {
     assert!(res.errors("patch_stress_max").len() == 2);
     assert!(res.errors("below_20_deg_share").len() == 2);
 }
+
+/// The strength test's hand-over at tips (`fracture.tip_handover`, on by default on conforming
+/// meshes; `systems::fracture::hand_over`): the seed's Example I crossing case on the
+/// conforming mesh (`scenarios/example1_cross_conforming.ron`), quasi-static rock, to 0.3 s.
+/// Without the hand-over the faces that reach the strength are far sides of the triangles at the
+/// pre-existing fracture's tip (x = 10 m), no node can split and nothing grows: 0 new cells
+/// (the defect it fixes; the pump is at its limit by then). With it the hydraulic fracture
+/// leaves the tip towards the vertical fracture at x = 16 m: at least one edge handed over,
+/// new cells reaching past x = 10.5 m (measured: 1 hand-over, 3 new cells, to x = 11.1 m; by
+/// 0.35 s, 14 cells to x = 14 m, after which the quasi-static solve stops with sliding joints
+/// among the branches, `docs/conforming.md`), every new cell ahead of the pre-existing
+/// fracture's tip region (x > 9 m), and the topology invariants hold.
+#[test]
+fn the_tip_handover_lets_the_strength_test_grow_fractures_on_a_conforming_mesh() {
+    use hydrofrac::verify::example_cases::cells;
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("scenarios")
+        .join("example1_cross_conforming.ron");
+    let run = |handover: bool| {
+        let sets = [
+            "time.end=Time(0.3)".to_string(),
+            "time.solid_scheme=\"QuasiStatic\"".to_string(),
+            format!("fracture.tip_handover={handover}"),
+        ];
+        let sc = Scenario::load(&path, &sets).unwrap();
+        let mut sim = Simulation::new(sc, &[]).unwrap();
+        sim.run(|_| {}).unwrap();
+        hydrofrac::split::check_invariants(sim.model()).unwrap();
+        let new: Vec<[f64; 2]> = cells(&sim.flow().unwrap().view)
+            .into_iter()
+            .filter(|c| c.created > 0.0)
+            .map(|c| [c.x[0].max(c.x[1]), c.y[0]])
+            .collect();
+        (new, sim.fracture().handed_over)
+    };
+    let (without, handed) = run(false);
+    assert_eq!(handed, 0);
+    assert!(
+        without.is_empty(),
+        "grew without the hand-over: {without:?}"
+    );
+    let (with, handed) = run(true);
+    eprintln!("hand-over: {handed} edges, new cells {with:?}");
+    assert!(handed >= 1);
+    assert!(with.len() >= 2, "{} new cells", with.len());
+    let farthest = with.iter().map(|c| c[0]).fold(0.0, f64::max);
+    assert!(farthest > 10.5, "farthest new cell at x = {farthest} m");
+    assert!(with.iter().all(|c| c[0] > 9.0), "{with:?}");
+}

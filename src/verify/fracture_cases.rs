@@ -73,6 +73,7 @@ pub fn crack_spec(from: [f64; 2], to: [f64; 2], pressure: Option<f64>) -> Fractu
         strength: None,
         criterion: None,
         face_stress: Default::default(),
+        tip_handover: None,
         residual_aperture: 5e-4,
         preexisting: vec![PreFracture { from, to }],
         pressure,
@@ -388,6 +389,7 @@ fn block_scenario(phi_deg: f64, h: f64, gravity: [f64; 2]) -> crate::scenario::S
         strength: None,
         criterion: None,
         face_stress: Default::default(),
+        tip_handover: None,
         residual_aperture: 5e-4,
         preexisting: vec![PreFracture {
             from: [0.0, 1.0],

@@ -225,6 +225,7 @@ pub fn slip_scenario(mesh: SlipMesh, h: f64, r: f64, k_factor: f64) -> crate::sc
         strength: None,
         criterion: None,
         face_stress: Default::default(),
+        tip_handover: None,
         residual_aperture: 5e-4,
         preexisting: vec![PreFracture {
             from: [-B * t[0], -B * t[1]],
