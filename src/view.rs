@@ -103,6 +103,32 @@ pub fn incidence<const K: usize>(
 }
 
 impl SolidView {
+    /// Joints whose two faces share one end node, by node then joint: (that node, joint, the
+    /// daughter pair at the joint's other end [face p's, face q's]). A node listed once is a
+    /// fracture tip (intact rock ahead); a node listed by two joints joins two fracture pieces.
+    pub fn joint_ends(&self) -> Vec<(u32, usize, [u32; 2])> {
+        let mut ends: Vec<(u32, usize, [u32; 2])> = Vec::new();
+        for (k, nodes) in self.joint_nodes.iter().enumerate() {
+            let [pa, pb, qa, qb] = *nodes;
+            if pa == qa && pb != qb {
+                ends.push((pa, k, [pb, qb]));
+            } else if pb == qb && pa != qa {
+                ends.push((pb, k, [pa, qa]));
+            }
+        }
+        ends.sort_by_key(|s| (s.0, s.1));
+        ends
+    }
+
+    /// Elements at node i: (element, local index), from the incidence.
+    pub fn elements_at(&self, i: u32) -> impl Iterator<Item = (u32, u8)> + '_ {
+        let (s, e) = (
+            self.inc_ptr[i as usize] as usize,
+            self.inc_ptr[i as usize + 1] as usize,
+        );
+        self.inc[s..e].iter().map(|&c| (c / 6, ((c % 6) / 2) as u8))
+    }
+
     /// Build the view from the model (nodes in the solid only), ordered by stable id.
     pub fn build(model: &Model) -> Self {
         let world = &model.world;

@@ -496,21 +496,11 @@ impl HandOver {
             return;
         }
         self.generation = Some(v.generation);
-        // A joint whose two faces share one end node ends there; a node where two joints end
-        // that way joins two fracture pieces and is no tip.
-        let mut ends: Vec<(u32, u32)> = Vec::new();
-        for nodes in &v.joint_nodes {
-            let [pa, pb, qa, qb] = *nodes;
-            if pa == qa && pb != qb {
-                ends.push((pa, pb));
-            } else if pb == qb && pa != qa {
-                ends.push((pb, pa));
-            }
-        }
-        ends.sort_unstable();
+        // A node where one joint ends is a tip; where two end, it joins two fracture pieces.
         self.tips.clear();
+        let ends = v.joint_ends();
         for group in ends.chunk_by(|a, b| a.0 == b.0) {
-            let [(tip, behind)] = group[..] else {
+            let [(tip, _, [behind, _])] = group[..] else {
                 continue;
             };
             let (x, xb) = (v.x0[tip as usize], v.x0[behind as usize]);
@@ -538,11 +528,6 @@ impl HandOver {
     }
 }
 
-/// The hand-over ([`HandOver`]): at every tip T, among the triangles (T, a, b) whose far side
-/// a-b is fracture-ready while neither T-a nor T-b is, the edge T-a or T-b whose direction
-/// from T is closest to the fracture's direction there (and ahead of it) is marked: one edge
-/// per tip and pass, so a tip whose fan of triangles reaches the strength on several far sides
-/// still grows one way. Returns the number of edges marked; they are appended to `new_marks`.
 /// The hand-over takes a ready far side only when it is within 45 degrees of the fracture's
 /// direction at the tip (the face opens along its own line, so a face across the fracture's
 /// path would turn it by more than that in one edge).
@@ -552,22 +537,26 @@ pub const HANDOVER_COS: f64 = std::f64::consts::FRAC_1_SQRT_2;
 /// at least one way forward while never turning it back.
 pub const HANDOVER_TIP_COS: f64 = 0.45;
 
+/// The hand-over ([`HandOver`]): at every tip T, among the triangles (T, a, b) whose far side
+/// a-b is fracture-ready while neither T-a nor T-b is, the edge T-a or T-b whose direction
+/// from T is closest to the fracture's direction there (and ahead of it) is marked: one edge
+/// per tip and pass, so a tip whose fan of triangles reaches the strength on several far sides
+/// still grows one way. Returns the number of edges marked; they are appended to `new_marks`.
+///
+/// `new_marks` holds the strength test's marks of this pass: with none and the topology
+/// unchanged since the last call, nothing can have changed and the pass is skipped.
 pub fn hand_over(v: &mut SolidView, h: &mut HandOver, new_marks: &mut Vec<u32>) -> usize {
-    if !v.edge_ready.iter().any(|&r| r) {
+    if new_marks.is_empty() && h.generation == Some(v.generation) {
         return 0;
     }
     h.refresh(v);
     let mut marked = 0;
     for &(t, d) in &h.tips {
-        let (s, e) = (
-            v.inc_ptr[t as usize] as usize,
-            v.inc_ptr[t as usize + 1] as usize,
-        );
         let touches_t = |k: u32| v.edge_nodes[k as usize].contains(&t);
         let x = v.x0[t as usize];
         let mut best: Option<(f64, u32)> = None;
-        for c in s..e {
-            let sides = h.elem_edges[(v.inc[c] / 6) as usize];
+        for (el, _) in v.elements_at(t) {
+            let sides = h.elem_edges[el as usize];
             let Some(&far) = sides.iter().find(|&&k| k != u32::MAX && !touches_t(k)) else {
                 continue;
             };

@@ -152,7 +152,7 @@ pub fn mark_rings(v: &SolidView, start: &[u32], rings: usize, near: &mut [bool])
     for _ in 0..rings {
         let mut next = Vec::new();
         for &i in &ring {
-            for (e, _) in elements_at(v, i) {
+            for (e, _) in v.elements_at(i) {
                 for j in v.conn[e as usize] {
                     if !near[j as usize] {
                         near[j as usize] = true;
@@ -205,15 +205,6 @@ pub fn max_hoop_stress(k1: f64, k2: f64) -> (f64, f64) {
     };
     let c = (0.5 * theta).cos();
     (theta, c * (k1 * c * c - 1.5 * k2 * theta.sin()))
-}
-
-/// Elements at node i: (element, local index), from the view's incidence.
-fn elements_at(v: &SolidView, i: u32) -> impl Iterator<Item = (u32, u8)> + '_ {
-    let (s, e) = (
-        v.inc_ptr[i as usize] as usize,
-        v.inc_ptr[i as usize + 1] as usize,
-    );
-    v.inc[s..e].iter().map(|&c| (c / 6, ((c % 6) / 2) as u8))
 }
 
 fn unit(d: [f64; 2]) -> ([f64; 2], f64) {
@@ -332,16 +323,7 @@ impl Tips {
         self.generation = Some(v.generation);
         let n = v.n_nodes();
         // Joints whose faces share a node there, per node.
-        let mut shared: Vec<(u32, usize, [u32; 2])> = Vec::new();
-        for (k, nodes) in v.joint_nodes.iter().enumerate() {
-            let [pa, pb, qa, qb] = *nodes;
-            if pa == qa && pb != qb {
-                shared.push((pa, k, [pb, qb]));
-            } else if pb == qb && pa != qa {
-                shared.push((pb, k, [pa, qa]));
-            }
-        }
-        shared.sort_by_key(|s| (s.0, s.1));
+        let shared = v.joint_ends();
         // Element sides inside the rock: the internal edges and the joints' faces (the others
         // lie on the outer boundary).
         let faces: std::collections::HashSet<(u32, u32)> = v
@@ -437,7 +419,7 @@ impl Tips {
                 let mut frontier = vec![node];
                 let mut nearest = f64::INFINITY;
                 while let Some(i) = frontier.pop() {
-                    for (e, _) in elements_at(v, i) {
+                    for (e, _) in v.elements_at(i) {
                         if seen_e.contains(&e) {
                             continue;
                         }
