@@ -369,6 +369,9 @@ impl Simulation {
             }
         }
         self.fracture = state.fracture;
+        if self.solid.quasi_static.is_none() {
+            self.fracture.screen.track_motion(&mut self.solid.view);
+        }
         self.effort = state.effort;
         self.cells_at_start = state.cells_at_start;
         self.next_checkpoint_time = state.next_checkpoint_time;

@@ -72,6 +72,22 @@ pub struct SolidView {
     pub joint_nodes: Vec<[u32; 4]>,
     pub joint_sign: Vec<f64>,
     pub joint_state: Vec<JointState>,
+    /// Motion regions, set by the strength test's screen
+    /// (`systems::fracture::StrengthScreen`): runs of consecutive nodes in one region (first
+    /// node, end, region; covering every node in order), and per region the sum
+    /// over the `integrate` calls since the screen last read it of that call's largest change
+    /// of a node's displacement component, m; `motion_steps` counts those calls. Empty: not
+    /// tracked. Not in checkpoints (the screen installs them again on restore).
+    #[serde(skip)]
+    pub motion_runs: Vec<(u32, u32, u32)>,
+    #[serde(skip)]
+    pub motion_du: Vec<f64>,
+    #[serde(skip)]
+    pub motion_steps: u32,
+    #[serde(skip)]
+    pub motion_scratch: Vec<f64>,
+    #[serde(skip)]
+    pub motion_node: Vec<f64>,
 }
 
 /// CSR incidence of `n` targets from items that each name `K` targets: for target i,

@@ -140,6 +140,18 @@ impl StrengthScreen {
         self.recheck.push(k);
     }
 
+    /// Let `integrate` track each region's displacement change from now on (`SolidView`'s
+    /// motion fields; after a rebuild, and after a restore, which does not carry them).
+    pub fn track_motion(&self, v: &mut SolidView) {
+        if self.generation != Some(v.generation) || self.node_region.len() != v.u.len() {
+            return;
+        }
+        v.motion_runs.clone_from(&self.runs);
+        v.motion_du.clear();
+        v.motion_du.resize(self.acc.len(), 0.0);
+        v.motion_steps = 0;
+    }
+
     /// Regions and their face lists for a new topology.
     fn rebuild(&mut self, v: &SolidView, by_elements: bool) {
         let h_min = v
@@ -266,11 +278,22 @@ pub fn fracture_criterion(
         counts.ready = v.edge_ready.iter().filter(|r| **r).count();
         return counts.ready;
     };
-    if sc.generation != Some(v.generation) || sc.u_ref.len() != v.u.len() {
+    // `integrate` tracked the motion since the last pass (the explicit scheme: every change
+    // of the displacements between passes is its), or the displacements are compared with
+    // those of the last pass (the quasi-static solve).
+    let tracked = stress_lags
+        && sc.generation == Some(v.generation)
+        && v.motion_steps > 0
+        && v.motion_du.len() == sc.acc.len()
+        && v.motion_runs.len() == sc.runs.len();
+    if sc.generation != Some(v.generation) || (!tracked && sc.u_ref.len() != v.u.len()) {
         // Every face again (new topology, or the first pass).
         sc.generation = Some(v.generation);
         sc.u_ref.clone_from(&v.u);
         sc.rebuild(v, by_elements);
+        if stress_lags {
+            sc.track_motion(v);
+        }
         let s_max = v
             .geom
             .iter()
@@ -296,18 +319,26 @@ pub fn fracture_criterion(
     let n_regions = sc.acc.len();
     let mut du = std::mem::take(&mut sc.du);
     du.clear();
-    du.resize(n_regions, 0.0);
-    for &(a, b, r) in &sc.runs {
-        let (a, b) = (a as usize, b as usize);
-        let (now, before) = (v.u[a..b].as_flattened(), sc.u_ref[a..b].as_flattened());
-        let d = now
-            .iter()
-            .zip(before)
-            .map(|(x, y)| (x - y).abs())
-            .fold(0.0, f64::max);
-        du[r as usize] = du[r as usize].max(d);
+    if tracked {
+        // Summed over the steps since the last pass; the reference displacements go stale.
+        du.extend_from_slice(&v.motion_du);
+        v.motion_du.fill(0.0);
+        v.motion_steps = 0;
+        sc.u_ref.clear();
+    } else {
+        du.resize(n_regions, 0.0);
+        for &(a, b, r) in &sc.runs {
+            let (a, b) = (a as usize, b as usize);
+            let (now, before) = (v.u[a..b].as_flattened(), sc.u_ref[a..b].as_flattened());
+            let d = now
+                .iter()
+                .zip(before)
+                .map(|(x, y)| (x - y).abs())
+                .fold(0.0, f64::max);
+            du[r as usize] = du[r as usize].max(d);
+        }
+        sc.u_ref.copy_from_slice(&v.u);
     }
-    sc.u_ref.copy_from_slice(&v.u);
     du[n_regions - 1] = du.iter().fold(0.0, |m: f64, &x| m.max(x));
     for r in 0..n_regions {
         sc.acc_before[r] = sc.acc[r];

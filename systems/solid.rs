@@ -220,6 +220,56 @@ impl StepStats {
     }
 }
 
+/// `integrate`'s data for one node's update.
+struct NodeStep<'a> {
+    dt: f64,
+    lf: f64,
+    force: &'a [[f64; 2]],
+    fdamp: &'a [[f64; 2]],
+    inv_m: &'a [f64],
+    mass: &'a [f64],
+    fixed: &'a [u8],
+    presc: &'a [[f64; 2]],
+    load: &'a [[f64; 2]],
+}
+
+impl NodeStep<'_> {
+    /// Node i's central-difference update, adding to the step statistics; returns the
+    /// largest change of its displacement components, m.
+    #[inline(always)]
+    fn node(&self, i: usize, u: &mut [f64; 2], vel: &mut [f64; 2], st: &mut StepStats) -> f64 {
+        let (dt, lf) = (self.dt, self.lf);
+        let v_old = *vel;
+        let u_old = *u;
+        for d in 0..2 {
+            let f = self.force[i][d];
+            let l = lf * self.load[i][d];
+            st.strain -= 0.5 * u[d] * (f - l);
+            st.ref2 += l * l;
+            if self.fixed[i] & (1 << d) != 0 {
+                st.ref2 += f * f;
+                u[d] = lf * self.presc[i][d];
+                vel[d] = 0.0;
+            } else {
+                st.res2 += f * f;
+                vel[d] = flush_tiny(vel[d] + dt * (f + self.fdamp[i][d]) * self.inv_m[i]);
+                u[d] = flush_tiny(u[d] + dt * vel[d]);
+            }
+        }
+        let s2 = vel[0] * vel[0] + vel[1] * vel[1];
+        st.kinetic += 0.5 * self.mass[i] * s2;
+        st.kinetic_mid += 0.5 * self.mass[i] * (v_old[0] * vel[0] + v_old[1] * vel[1]);
+        if !(s2.is_finite() && u[0].is_finite() && u[1].is_finite()) {
+            st.non_finite.get_or_insert(i);
+        } else if s2 > st.vmax * st.vmax {
+            st.vmax = s2.sqrt();
+            st.vmax_node = i;
+        }
+        let (d0, d1) = ((u[0] - u_old[0]).abs(), (u[1] - u_old[1]).abs());
+        if d1 > d0 { d1 } else { d0 }
+    }
+}
+
 /// `integrate`: central difference, v += dt (F + F_damp)/m, u += dt v; prescribed components
 /// are held at their value with zero velocity. Returns the step statistics.
 pub fn integrate(v: &mut SolidView, p: &SolidParams) -> StepStats {
@@ -233,47 +283,97 @@ pub fn integrate(v: &mut SolidView, p: &SolidParams) -> StepStats {
         &v.presc,
         &v.load,
     );
-    let partials: Vec<StepStats> =
-        v.u.par_chunks_mut(NODE_CHUNK)
+    let ctx = NodeStep {
+        dt,
+        lf,
+        force,
+        fdamp,
+        inv_m,
+        mass,
+        fixed,
+        presc,
+        load,
+    };
+    let node = |i: usize, u: &mut [f64; 2], vel: &mut [f64; 2], st: &mut StepStats| {
+        ctx.node(i, u, vel, st)
+    };
+    // Motion regions (the strength screen's runs of consecutive nodes in one region): each
+    // run's largest displacement change this step, from the nodes' changes in `motion_node`.
+    let runs = (!v.motion_du.is_empty()
+        && v.motion_runs
+            .last()
+            .is_some_and(|r| r.1 as usize == v.u.len()))
+    .then_some(&v.motion_runs[..]);
+    let mut dnode = std::mem::take(&mut v.motion_node);
+    dnode.resize(if runs.is_some() { v.u.len() } else { 0 }, 0.0);
+    let partials: Vec<(StepStats, Vec<(u32, f64)>)> = match runs {
+        None => {
+            v.u.par_chunks_mut(NODE_CHUNK)
+                .zip(v.v.par_chunks_mut(NODE_CHUNK))
+                .enumerate()
+                .map(|(c, (uc, vc))| {
+                    let mut st = StepStats::default();
+                    for (k, (u, vel)) in uc.iter_mut().zip(vc.iter_mut()).enumerate() {
+                        node(c * NODE_CHUNK + k, u, vel, &mut st);
+                    }
+                    (st, Vec::new())
+                })
+                .collect()
+        }
+        Some(runs) => v
+            .u
+            .par_chunks_mut(NODE_CHUNK)
             .zip(v.v.par_chunks_mut(NODE_CHUNK))
+            .zip(dnode.par_chunks_mut(NODE_CHUNK))
             .enumerate()
-            .map(|(c, (uc, vc))| {
+            .map(|(c, ((uc, vc), dc))| {
                 let mut st = StepStats::default();
                 let base = c * NODE_CHUNK;
-                for (k, (u, vel)) in uc.iter_mut().zip(vc.iter_mut()).enumerate() {
-                    let i = base + k;
-                    let v_old = *vel;
-                    for d in 0..2 {
-                        let f = force[i][d];
-                        let l = lf * load[i][d];
-                        st.strain -= 0.5 * u[d] * (f - l);
-                        st.ref2 += l * l;
-                        if fixed[i] & (1 << d) != 0 {
-                            st.ref2 += f * f;
-                            u[d] = lf * presc[i][d];
-                            vel[d] = 0.0;
-                        } else {
-                            st.res2 += f * f;
-                            vel[d] = flush_tiny(vel[d] + dt * (f + fdamp[i][d]) * inv_m[i]);
-                            u[d] = flush_tiny(u[d] + dt * vel[d]);
-                        }
-                    }
-                    let s2 = vel[0] * vel[0] + vel[1] * vel[1];
-                    st.kinetic += 0.5 * mass[i] * s2;
-                    st.kinetic_mid += 0.5 * mass[i] * (v_old[0] * vel[0] + v_old[1] * vel[1]);
-                    if !(s2.is_finite() && u[0].is_finite() && u[1].is_finite()) {
-                        st.non_finite.get_or_insert(i);
-                    } else if s2 > st.vmax * st.vmax {
-                        st.vmax = s2.sqrt();
-                        st.vmax_node = i;
-                    }
+                for (k, ((u, vel), d)) in uc
+                    .iter_mut()
+                    .zip(vc.iter_mut())
+                    .zip(dc.iter_mut())
+                    .enumerate()
+                {
+                    *d = node(base + k, u, vel, &mut st);
                 }
-                st
+                let end = base + uc.len();
+                let first = runs.partition_point(|r| (r.1 as usize) <= base);
+                let moved = runs[first..]
+                    .iter()
+                    .take_while(|r| (r.0 as usize) < end)
+                    .map(|&(a, b, r)| {
+                        let (a, b) = ((a as usize).max(base) - base, (b as usize).min(end) - base);
+                        // As f64::max (a NaN change is passed over).
+                        let m = dc[a..b]
+                            .iter()
+                            .fold(0.0f64, |m, &d| if d > m { d } else { m });
+                        (r, m)
+                    })
+                    .collect();
+                (st, moved)
             })
-            .collect();
-    partials
-        .into_iter()
-        .fold(StepStats::default(), StepStats::merge)
+            .collect(),
+    };
+    v.motion_node = dnode;
+    let mut stats = StepStats::default();
+    if runs.is_some() {
+        let mut step = std::mem::take(&mut v.motion_scratch);
+        step.clear();
+        step.resize(v.motion_du.len(), 0.0);
+        for &(r, d) in partials.iter().flat_map(|p| &p.1) {
+            step[r as usize] = step[r as usize].max(d);
+        }
+        for (acc, d) in v.motion_du.iter_mut().zip(&step) {
+            *acc += d;
+        }
+        v.motion_scratch = step;
+        v.motion_steps += 1;
+    }
+    for (st, _) in partials {
+        stats = stats.merge(st);
+    }
+    stats
 }
 
 /// Strain energy 1/2 sum_e A sigma:epsilon, J/m, from the current element stresses
