@@ -369,6 +369,7 @@ impl Simulation {
             }
         }
         self.fracture = state.fracture;
+        self.fracture.tips.invalidate();
         if self.solid.quasi_static.is_none() {
             self.fracture.screen.track_motion(&mut self.solid.view);
         }

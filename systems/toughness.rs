@@ -59,6 +59,15 @@ use std::f64::consts::PI;
 /// the linear elements' stiffness error, and a wider disc weighs them less.
 pub const RADIUS_EDGES: f64 = 10.0;
 
+/// The smallest distance, in edge lengths at the tip, from a tip to another fracture at
+/// which its integrals are trusted (a disc of 3 edges is about 4 % low on Sneddon's crack, see
+/// [`RADIUS_EDGES`]). A tip with another fracture closer than that (e.g. a fracture that has
+/// just crossed another, or started beside one) is not measured well enough to decide growth:
+/// there the strength test decides, as in the seed (`Tips::mark` passes it over and its faces
+/// are not kept from the strength test). A disc cut by the outer boundary (e.g. a half
+/// model's symmetry plane behind a short crack) is kept.
+pub const TRUSTED_RADIUS_EDGES: f64 = 3.0;
+
 /// One tip's geometry, fixed for a topology generation.
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct TipGeometry {
@@ -75,6 +84,10 @@ pub struct TipGeometry {
     pub b: f64,
     /// Radius R of the integrals' disc, m.
     pub radius: f64,
+    /// No other fracture within [`TRUSTED_RADIUS_EDGES`] edge lengths; not in checkpoints
+    /// ([`Tips::invalidate`] after a restore).
+    #[serde(skip)]
+    pub trusted: bool,
     /// The intact edges at the tip (view indices) with their unit directions away from it.
     pub ahead: Vec<(u32, [f64; 2])>,
     /// The elements in the disc with grad q (global axes, 1/m).
@@ -315,6 +328,12 @@ fn auxiliary(
 }
 
 impl Tips {
+    /// Find the tips again at the next refresh (after a restore, which does not carry the
+    /// geometry's `trusted`; the geometry is a function of the view, so nothing else changes).
+    pub fn invalidate(&mut self) {
+        self.generation = None;
+    }
+
     /// Find the tips of the view's topology (once per generation): O(joints + internal edges).
     pub fn refresh(&mut self, v: &SolidView, p: &SolidParams) {
         if self.generation == Some(v.generation) {
@@ -414,6 +433,7 @@ impl Tips {
             };
             let mut seen_e: Vec<u32>;
             let mut seen_n: Vec<u32>;
+            let mut nearest_fracture = f64::INFINITY;
             loop {
                 (seen_e, seen_n) = (Vec::new(), vec![node]);
                 let mut frontier = vec![node];
@@ -430,12 +450,15 @@ impl Tips {
                             let side = (j.min(k), j.max(k));
                             // An outer boundary side, or a face of another fracture (or of
                             // this one off the straight line behind the tip).
-                            let foreign = !inner.contains(&side)
-                                || (faces.contains(&side)
-                                    && ![j, k].iter().all(|&i| behind_line(i)));
-                            if foreign {
+                            let fracture =
+                                faces.contains(&side) && ![j, k].iter().all(|&i| behind_line(i));
+                            if fracture || !inner.contains(&side) {
                                 for y in [j, k].map(|i| v.x0[i as usize]) {
-                                    nearest = nearest.min((y[0] - x[0]).hypot(y[1] - x[1]));
+                                    let d = (y[0] - x[0]).hypot(y[1] - x[1]);
+                                    nearest = nearest.min(d);
+                                    if fracture {
+                                        nearest_fracture = nearest_fracture.min(d);
+                                    }
                                 }
                             }
                             if q(j, radius) > 0.0 && !seen_n.contains(&j) {
@@ -540,6 +563,7 @@ impl Tips {
                 left,
                 b,
                 radius,
+                trusted: nearest_fracture >= 0.999 * TRUSTED_RADIUS_EDGES * shortest,
                 ahead,
                 elements,
                 aux,
@@ -680,8 +704,9 @@ impl Tips {
         let open: Vec<u32> = self
             .state
             .iter()
-            .filter(|s| s.delta[0] > 0.0)
-            .map(|s| s.node)
+            .zip(&self.geometry)
+            .filter(|(s, t)| s.delta[0] > 0.0 && t.trusted)
+            .map(|(s, _)| s.node)
             .collect();
         self.near_marked = mark_rings(v, &open, 2, &mut self.near_tip);
     }
@@ -715,7 +740,7 @@ impl Tips {
     pub fn mark(&self, v: &mut SolidView, k_ic: f64) -> usize {
         let mut marked = 0;
         for (t, s) in self.geometry.iter().zip(&self.state) {
-            if s.k_eq < k_ic || s.k_eq <= 0.0 {
+            if s.k_eq < k_ic || s.k_eq <= 0.0 || !t.trusted {
                 continue;
             }
             let (c, sn) = (s.theta.cos(), s.theta.sin());

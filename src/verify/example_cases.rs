@@ -317,7 +317,9 @@ pub fn example1(_quick: bool) -> anyhow::Result<CaseResult> {
             );
         }
     }
-    // The toughness criterion on the same scenes (reported, not checked against Fig. 7):
+    // The toughness criterion on the same scenes, checked for Fig. 7's outcome (cross: the
+    // fracture runs on past x = 17 m on y = 50 m and nothing starts off it; offset: nothing
+    // past x = 17 m on y = 50 m, new fractures near the vertical fracture's tips):
     // K_Ic = 38.5 MPa sqrt(m), the toughness the seed's strength test acts like on this mesh
     // (3.5 (s0 + lambda T0) sqrt(h) with s0 = 10 MPa, lambda T0 = 1 MPa, h = 1 m), and the
     // seed's 1 MPa as the initiation strength away from tips. The shipped scenarios keep the
@@ -356,11 +358,37 @@ pub fn example1(_quick: bool) -> anyhow::Result<CaseResult> {
                     let reach = new.iter().map(|c| c.x[1].max(c.x[0])).fold(0.0, f64::max);
                     let outcome = if name == "cross" {
                         let (beyond, closed, off) = cross_outcome(&r);
+                        res.check_range(
+                            format!("{name}: new cells past x = 17 m, toughness, {scheme}"),
+                            beyond as f64,
+                            1.0,
+                            1e9,
+                        );
+                        res.check_max(
+                            format!("{name}: new cells off y = 50 m, toughness, {scheme}"),
+                            off as f64,
+                            0.0,
+                        );
                         format!(
                             "{beyond} new cells past x = 17 m on y = 50 m, {closed} of 8 vertical cells closed, {off} new cells off y = 50 m"
                         )
                     } else {
                         let (beyond, filled, tips) = offset_outcome(&r);
+                        res.check_max(
+                            format!(
+                                "{name}: new cells past x = 17 m on y = 50 m, toughness, {scheme}"
+                            ),
+                            beyond as f64,
+                            0.0,
+                        );
+                        res.check_range(
+                            format!(
+                                "{name}: new cells near the vertical tips, toughness, {scheme}"
+                            ),
+                            tips as f64,
+                            1.0,
+                            1e9,
+                        );
                         format!(
                             "{beyond} new cells past x = 17 m on y = 50 m, {filled} of 8 vertical cells above 10 MPa, {tips} new cells near the vertical tips"
                         )
