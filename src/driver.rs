@@ -244,6 +244,9 @@ pub fn run_scenario(scenario: Scenario, opts: &RunOptions) -> Result<RunReport, 
     if let Some(c) = sim.quasi_static_counts() {
         summary["quasi_static"] = json!(c);
     }
+    if result.is_ok() && sim.interrupted_by().is_none() && sim.params().has_fractures {
+        summary["tips"] = tips_summary(&mut sim);
+    }
     summary["output_estimate_bytes"] = json!(disk.total);
     if sim.params().output.checkpoint_every.is_some() {
         summary["checkpoints"] = json!(sim.checkpoint_stats());
@@ -693,6 +696,28 @@ pub fn zigzag_warning(placed: &[crate::fractures::Placed]) -> Option<String> {
         worst.from,
         worst.to
     ))
+}
+
+/// The fracture tips at the end of a run in `summary.json` (`tips`), whatever the criterion:
+/// their number and the largest K_eq (Pa sqrt(m), the interaction integral and the maximum
+/// hoop stress, `systems::toughness`) with its K_I, K_II and tip position (m). It tells how far
+/// the tips are from growing: under the strength criterion compare K_eq with the toughness
+/// the strength test acts like, about 3.5 (s0 + lambda T0) sqrt(h) (README, "Example II").
+fn tips_summary(sim: &mut Simulation) -> serde_json::Value {
+    let x0 = sim.solid().x0.clone();
+    let tips = sim.measure_tips();
+    let best = tips
+        .iter()
+        .filter(|t| t.k_eq.is_finite() && t.k1.is_finite() && t.k2.is_finite())
+        .max_by(|a, b| a.k_eq.total_cmp(&b.k_eq).then(b.node.cmp(&a.node)));
+    let mut v = json!({ "count": tips.len() });
+    if let Some(t) = best {
+        v["k_eq_max"] = json!(t.k_eq);
+        v["k1"] = json!(t.k1);
+        v["k2"] = json!(t.k2);
+        v["at"] = json!(x0[t.node as usize]);
+    }
+    v
 }
 
 /// The fracture criterion's work in `summary.json` (`null`, omitted, without a criterion):
