@@ -315,6 +315,7 @@ pub fn run_scenario(scenario: Scenario, opts: &RunOptions) -> Result<RunReport, 
     }
     // The production stage (`production:`): before and after the run, after a run that ended.
     let mut production_error = None;
+    let mut production_interrupted = None;
     if result.is_ok()
         && sim.interrupted_by().is_none()
         && let Some(stage) = sim.scenario().production.clone()
@@ -324,20 +325,33 @@ pub fn run_scenario(scenario: Scenario, opts: &RunOptions) -> Result<RunReport, 
             .checkpoint_state()
             .map_err(|e| DriverError::Output(std::io::Error::other(format!("production: {e}"))))?
             .1;
-        let solved = crate::production::run_production(sim.scenario(), end);
+        let solved = crate::production::run_production(sim.scenario(), end, opts.stop.as_ref());
         let (rows, figures) = match solved {
             Ok(x) => x,
+            Err(crate::production::ProductionError::Interrupted(sig)) => {
+                // Stopped between two steps of an equilibrium: the run's outputs are complete,
+                // the production table is not written.
+                summary["status"] = json!("interrupted");
+                summary["reason"] = json!(format!(
+                    "interrupted by {} during the production stage, after {:.1} s of it",
+                    signal_name(sig),
+                    t.elapsed().as_secs_f64()
+                ));
+                summary["production"] = json!({"interrupted": true});
+                production_interrupted = Some(sig);
+                (Vec::new(), Vec::new())
+            }
             Err(e) => {
                 summary["production"] = json!({"error": e.to_string()});
                 production_error = Some(e);
                 (Vec::new(), Vec::new())
             }
         };
-        if production_error.is_none() {
+        if production_error.is_none() && production_interrupted.is_none() {
             summary["production"] = crate::production::production_json(&stage, &rows);
             summary["production"]["wall_s"] = json!(t.elapsed().as_secs_f64());
         }
-        if let (Some(o), None) = (sim.output(), &production_error) {
+        if let (Some(o), None, None) = (sim.output(), &production_error, production_interrupted) {
             let csv = crate::production::production_csv(&rows);
             write_atomic(
                 &o.claim("production.csv").map_err(DriverError::Output)?,
@@ -417,7 +431,7 @@ pub fn run_scenario(scenario: Scenario, opts: &RunOptions) -> Result<RunReport, 
         out,
         summary,
         timing_table,
-        interrupted_by: sim.interrupted_by(),
+        interrupted_by: sim.interrupted_by().or(production_interrupted),
         networks: start_network.zip(network_now(&sim)).map(|(a, b)| [a, b]),
         mesh_box: sim.solid().x0.iter().fold(
             [

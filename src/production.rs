@@ -24,7 +24,7 @@ use crate::error::SetupError;
 use crate::reservoir::NetworkFlow;
 use crate::reservoir::production::{PressureWell, network_of_view, reaches, steady_production};
 use crate::scenario::{Damping, End, ProductionStage, Scenario, SolidScheme};
-use crate::sim::Simulation;
+use crate::sim::{Simulation, StopFlag};
 use crate::systems::RunError;
 use std::time::Instant;
 
@@ -99,6 +99,10 @@ pub enum ProductionError {
     },
     #[error("production: cannot start from the end of the run: {0}")]
     Adopt(String),
+    /// A signal asked the run to stop (`Simulation::set_stop`): the stage ends between two
+    /// steps of an equilibrium.
+    #[error("production interrupted by signal {0}")]
+    Interrupted(usize),
     #[error("production ({state}, dp = {dp:.4e} Pa): {why}")]
     Flow {
         state: &'static str,
@@ -138,8 +142,12 @@ pub fn production_scenario(sc: &Scenario) -> Scenario {
 pub fn production_sim(
     sc: &Scenario,
     start: Option<SimState>,
+    stop: Option<&StopFlag>,
 ) -> Result<Simulation, ProductionError> {
     let mut sim = Simulation::new(production_scenario(sc), &["flow_substeps".to_string()])?;
+    if let Some(stop) = stop {
+        sim.set_stop(stop.clone());
+    }
     if let Some(state) = start {
         sim.adopt(state).map_err(ProductionError::Adopt)?;
     }
@@ -189,6 +197,9 @@ fn relax(
         c.p_mean.copy_from_slice(pressure);
     }
     for k in 1..=max_steps {
+        if sim.stop_signal().is_some() {
+            return Ok((k - 1, false));
+        }
         sim.step_once()?;
         if sim.model().topology_generation != generation {
             // The new cells arrive empty; the caller solves the flow on the new network.
@@ -280,6 +291,9 @@ pub fn solve_state(
     // `max_iterations` times).
     let mut steps = 0;
     for _ in 0..stage.max_iterations {
+        if sim.stop_signal().is_some() {
+            break;
+        }
         let p0 = vec![0.0; sim.flow().map_or(0, |f| f.view.n_cells())];
         let (n, grew) = relax(sim, &p0, stage.static_tol, stage.max_steps).map_err(run_err)?;
         steps += n;
@@ -295,7 +309,7 @@ pub fn solve_state(
     let (mut rate, mut flow, mut a) = (rate_frozen, frozen.clone(), Vec::new());
     let (mut iterations, mut converged, mut change) = (0, false, f64::INFINITY);
     let mut first = true;
-    while iterations < stage.max_iterations {
+    while iterations < stage.max_iterations && sim.stop_signal().is_none() {
         iterations += 1;
         let omega = if first { 1.0 } else { stage.relaxation };
         first = false;
@@ -361,7 +375,9 @@ pub fn solve_state(
 pub fn run_production(
     sc: &Scenario,
     end: SimState,
+    stop: Option<&StopFlag>,
 ) -> Result<(Vec<ProductionRow>, Vec<StateSolve>), ProductionError> {
+    let interrupted = |sim: &Simulation| sim.stop_signal().map(ProductionError::Interrupted);
     let stage = sc
         .production
         .as_ref()
@@ -372,8 +388,12 @@ pub fn run_production(
     for state in [NetworkState::Before, NetworkState::After] {
         for (k, &dp) in drops.iter().enumerate() {
             let start = (state == NetworkState::After).then(|| end.clone());
-            let mut sim = production_sim(sc, start.clone())?;
-            let s = match solve_state(&mut sim, stage, state, dp) {
+            let mut sim = production_sim(sc, start.clone(), stop)?;
+            let solved = solve_state(&mut sim, stage, state, dp);
+            if let Some(e) = interrupted(&sim) {
+                return Err(e);
+            }
+            let s = match solved {
                 // Past the friction limit the rock may have no static equilibrium under a
                 // trial pressure (a block held by sliding joints alone): the Newton solve
                 // cannot find one, the relaxation follows the sliding until it stops.
@@ -391,8 +411,12 @@ pub fn run_production(
                     if let Some(p) = relaxed.production.as_mut() {
                         p.rock = SolidScheme::Explicit;
                     }
-                    let mut sim = production_sim(&relaxed, start)?;
-                    let mut s = solve_state(&mut sim, stage, state, dp)?;
+                    let mut sim = production_sim(&relaxed, start, stop)?;
+                    let solved = solve_state(&mut sim, stage, state, dp);
+                    if let Some(e) = interrupted(&sim) {
+                        return Err(e);
+                    }
+                    let mut s = solved?;
                     s.row.fallback = Some(error.to_string());
                     s
                 }

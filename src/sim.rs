@@ -196,6 +196,13 @@ impl Simulation {
         self.interrupted_by
     }
 
+    /// The signal that asked the run to stop ([`Simulation::set_stop`]), if one has, whether
+    /// or not a run has acted on it (the production stage's equilibria check it between
+    /// steps).
+    pub fn stop_signal(&self) -> Option<usize> {
+        self.stop_requested()
+    }
+
     fn stop_requested(&self) -> Option<usize> {
         let sig = self
             .stop

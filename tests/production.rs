@@ -42,7 +42,7 @@ const WELLS: &str = "production: Some((wells: (injection: (0.0, 10.0), productio
 /// The rigid steady solver's rate through the network at setup with every cell at the residual
 /// aperture, m^2/s.
 fn rigid_rate(sc: &Scenario, dp: f64) -> f64 {
-    let sim = production_sim(sc, None).unwrap();
+    let sim = production_sim(sc, None, None).unwrap();
     let net = network_of_view(&sim.flow().unwrap().view, Some(5e-4));
     let wells = [
         PressureWell {
@@ -72,7 +72,7 @@ fn coupled_steady_state_matches_the_rigid_solver_when_the_rock_is_stiff() {
     let dp = 15e6;
     let stiff = scene(1000.0, WELLS);
     let stage = stiff.production.clone().unwrap();
-    let mut sim = production_sim(&stiff, None).unwrap();
+    let mut sim = production_sim(&stiff, None, None).unwrap();
     let s = solve_state(&mut sim, &stage, NetworkState::Before, dp).unwrap();
     let rigid = rigid_rate(&stiff, dp);
     assert!(rigid > 0.0, "the wells are connected: rigid rate {rigid}");
@@ -87,7 +87,7 @@ fn coupled_steady_state_matches_the_rigid_solver_when_the_rock_is_stiff() {
     assert_eq!(s.row.new_cells, 0);
 
     let soft = scene(1.0, WELLS);
-    let mut sim = production_sim(&soft, None).unwrap();
+    let mut sim = production_sim(&soft, None, None).unwrap();
     let s = solve_state(&mut sim, &stage, NetworkState::Before, dp).unwrap();
     let rigid = rigid_rate(&soft, dp);
     eprintln!(
@@ -167,7 +167,7 @@ fn quasi_static_and_relaxed_rock_give_the_same_production() {
         let wells = WELLS.replace("reach: 0.5)", &format!("reach: 0.5), rock: {rock}"));
         let sc = scene(1.0, &wells);
         let stage = sc.production.clone().unwrap();
-        let mut sim = production_sim(&sc, None).unwrap();
+        let mut sim = production_sim(&sc, None, None).unwrap();
         let t0 = std::time::Instant::now();
         let s = solve_state(&mut sim, &stage, NetworkState::Before, dp).unwrap();
         eprintln!(
@@ -203,7 +203,7 @@ fn production_is_the_same_for_any_thread_count() {
             .build()
             .unwrap();
         pool.install(|| {
-            let mut sim = production_sim(&sc, None).unwrap();
+            let mut sim = production_sim(&sc, None, None).unwrap();
             let s = solve_state(&mut sim, &stage, NetworkState::Before, dp).unwrap();
             let mut b = vec![s.row.rate.to_bits(), s.row.rate_frozen.to_bits()];
             b.extend(s.flow.cells.iter().map(|c| c.2.to_bits()));

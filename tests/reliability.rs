@@ -441,6 +441,66 @@ fn a_signal_stops_the_run_and_finishes_the_outputs() {
     }
 }
 
+/// A signal during the production stage (`production:`, after the run) stops it between two
+/// steps of an equilibrium: exit 143, `summary.json` status `interrupted` with a reason naming
+/// the stage, the run's own outputs complete, no `production.csv`, no temporaries. The small
+/// Example II with `production.rock=Explicit` (dynamic relaxation, about 37 s of production
+/// after a 0.01 s stimulation); the signal is sent once `network.csv`, written before the
+/// stage, exists. Before this the stage did not look at the signal and ran to its end.
+#[cfg(unix)]
+#[test]
+fn a_signal_stops_the_production_stage() {
+    let out = tmp("signal-production");
+    let mut child = bin()
+        .args([
+            "run",
+            &scenario("example2_small.ron"),
+            "--out",
+            out.to_str().unwrap(),
+            "--quiet",
+            "--set",
+            "time.end=Time(0.01)",
+            "--set",
+            "production.rock=Explicit",
+        ])
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let t0 = Instant::now();
+    while !out.join("network.csv").exists() {
+        assert!(
+            child.try_wait().unwrap().is_none(),
+            "the run ended before its production stage"
+        );
+        assert!(t0.elapsed() < Duration::from_secs(120), "no network.csv");
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    std::thread::sleep(Duration::from_millis(500));
+    assert!(child.try_wait().unwrap().is_none(), "the production ended");
+    // SAFETY: kill(2) on the child's pid, which has not been waited for (so not reused).
+    assert_eq!(unsafe { libc::kill(child.id() as i32, libc::SIGTERM) }, 0);
+    let status = wait_at_most(&mut child, Duration::from_secs(20), "production");
+    let mut err = String::new();
+    std::io::Read::read_to_string(child.stderr.as_mut().unwrap(), &mut err).unwrap();
+    assert_eq!(status.code(), Some(143), "{err}");
+    assert!(!err.contains("panicked"), "{err}");
+    let s: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(s["status"], "interrupted", "{s}");
+    let reason = s["reason"].as_str().unwrap();
+    assert!(
+        reason.contains("SIGTERM") && reason.contains("production stage"),
+        "{reason}"
+    );
+    assert!(!out.join("production.csv").exists());
+    assert_eq!(temporaries(&out), Vec::<String>::new());
+    for rel in listed(&out) {
+        assert!(out.join(&rel).is_file(), "listed {rel} missing");
+    }
+    std::fs::remove_dir_all(&out).unwrap();
+}
+
 /// A closed stdout (`hydrofrac run ... | head -1` after head has gone, or `hydrofrac systems`
 /// into a closed pipe) is not a panic: the run finishes, writes its outputs and exits 0 with
 /// nothing on stderr about a broken pipe (`println!` panicked with "failed printing to
