@@ -84,7 +84,7 @@ impl PartialOrd for Due {
     }
 }
 
-/// Regions of the screen: square cells of this many shortest edge lengths.
+/// Regions of the screen: square cells of this many median edge lengths.
 const REGION_EDGES: f64 = 8.0;
 /// A face whose stress reads nodes in more regions than this uses the whole mesh's bound.
 const MAX_REGIONS: usize = 6;
@@ -96,8 +96,9 @@ const MAX_REGIONS: usize = 6;
 /// by at most (2 lambda + 3 G) S_e du, with S_e = sum over its nodes of |dN/dx| + |dN/dy| and
 /// du the largest change of its nodes' displacements (either component); a face's normal
 /// stress, a convex combination of such stresses projected on a unit normal, by the same
-/// bound with S = max S_e and du over the nodes its stress reads. The mesh is cut into square
-/// regions (`REGION_EDGES` shortest edges wide); each keeps the sum over passes of its nodes'
+/// bound with S = max S_e over the elements its stress reads (per face, so small elements
+/// elsewhere do not tighten it) and du over the nodes it reads. The mesh is cut into square
+/// regions (`REGION_EDGES` median edges wide); each keeps the sum over passes of its nodes'
 /// largest displacement change. A face reads nodes in a few regions R(F); its stress can have
 /// changed by at most (2 lambda + 3 G) S times the sum over R(F) of those sums' growth since
 /// its evaluation, so it cannot reach the strength (margin m) before one of its regions has
@@ -125,8 +126,12 @@ pub struct StrengthScreen {
     due: Vec<BinaryHeap<Due>>,
     /// Per face: the version of its current heap entries.
     version: Vec<u32>,
-    /// Stress change per metre of displacement change, Pa/m: (2 lambda + 3 G) max S_e.
+    /// Stress change per metre of displacement change per unit S, Pa: 2 lambda + 3 G.
     rate: f64,
+    /// Per face, the largest S_e of the elements its stress reads, 1/m (a function of the
+    /// view; not in checkpoints, found again when missing).
+    #[serde(skip)]
+    face_s: Vec<f64>,
     /// Faces to evaluate at the next pass whatever their bound (marks taken back, faces near
     /// a tip), and the scratch of the pass (due faces, per-region displacement change).
     recheck: Vec<u32>,
@@ -154,14 +159,23 @@ impl StrengthScreen {
 
     /// Regions and their face lists for a new topology.
     fn rebuild(&mut self, v: &SolidView, by_elements: bool) {
-        let h_min = v
+        // The median edge (the shortest on the seed's grids): on a mesh graded to tiny edges
+        // at fracture intersections the shortest made millions of regions, each looked at
+        // every pass (a conforming Example II: 870,000, 10 ms a step).
+        let mut lengths: Vec<f64> = v
             .edge_nodes
             .iter()
             .map(|e| {
                 let (a, b) = (v.x0[e[0] as usize], v.x0[e[1] as usize]);
                 (a[0] - b[0]).hypot(a[1] - b[1])
             })
-            .fold(f64::INFINITY, f64::min);
+            .collect();
+        let h_typical = if lengths.is_empty() {
+            1.0
+        } else {
+            let mid = lengths.len() / 2;
+            *lengths.select_nth_unstable_by(mid, f64::total_cmp).1
+        };
         let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
         for x in &v.x0 {
             for d in 0..2 {
@@ -169,7 +183,7 @@ impl StrengthScreen {
                 hi[d] = hi[d].max(x[d]);
             }
         }
-        let size = REGION_EDGES * h_min;
+        let size = REGION_EDGES * h_typical;
         let cells = |d: usize| (((hi[d] - lo[d]) / size).floor() as usize + 1).clamp(1, 4096);
         let (nx, ny) = (cells(0), cells(1));
         let whole = (nx * ny) as u32;
@@ -186,18 +200,10 @@ impl StrengthScreen {
         let mut rs: Vec<u32> = Vec::new();
         for k in 0..v.edge_nodes.len() {
             rs.clear();
-            let mut add = |e: u32| {
+            for e in face_elements(v, k, by_elements) {
                 for n in v.conn[e as usize] {
                     rs.push(self.node_region[n as usize]);
                 }
-            };
-            if by_elements {
-                v.edge_elems[k].iter().for_each(|&e| add(e));
-            } else {
-                for &(e, _) in &v.patch[v.patch_ptr[k] as usize..v.patch_ptr[k + 1] as usize] {
-                    add(e);
-                }
-                v.edge_elems[k].iter().for_each(|&e| add(e));
             }
             rs.sort_unstable();
             rs.dedup();
@@ -223,13 +229,26 @@ impl StrengthScreen {
         self.recheck.clear();
     }
 
+    /// Each face's largest S_e over the elements its stress reads, S_e = sum over the
+    /// element's nodes of |dN/dx| + |dN/dy|.
+    fn find_face_s(&mut self, v: &SolidView, by_elements: bool) {
+        let s_e = |e: u32| v.geom[e as usize][1..].iter().map(|x| x.abs()).sum::<f64>();
+        self.face_s = (0..v.edge_nodes.len())
+            .map(|k| {
+                face_elements(v, k, by_elements)
+                    .map(s_e)
+                    .fold(0.0, f64::max)
+            })
+            .collect();
+    }
+
     /// Queue face `k` (margin `margin`, Pa) in each of its regions' heaps.
     fn wait(&mut self, k: u32, margin: f64, stress_lags: bool) {
         let (s, e) = (
             self.face_ptr[k as usize] as usize,
             self.face_ptr[k as usize + 1] as usize,
         );
-        let share = margin / (self.rate * (e - s) as f64);
+        let share = margin / (self.rate * self.face_s[k as usize] * (e - s) as f64);
         self.version[k as usize] = self.version[k as usize].wrapping_add(1);
         let version = self.version[k as usize];
         for &r in &self.face_regions[s..e] {
@@ -245,6 +264,20 @@ impl StrengthScreen {
             });
         }
     }
+}
+
+/// The elements whose stresses face `k`'s stress reads: its patch and the two beside it, or
+/// with `by_elements` only those two (an element may come twice).
+fn face_elements(v: &SolidView, k: usize, by_elements: bool) -> impl Iterator<Item = u32> + '_ {
+    let patch: &[(u32, f64)] = if by_elements {
+        &[]
+    } else {
+        &v.patch[v.patch_ptr[k] as usize..v.patch_ptr[k + 1] as usize]
+    };
+    patch
+        .iter()
+        .map(|&(e, _)| e)
+        .chain(v.edge_elems[k].iter().copied())
 }
 
 /// `fracture_criterion`'s strength test: sigma_n of internal edges, marking edges with
@@ -294,12 +327,8 @@ pub fn fracture_criterion(
         if stress_lags {
             sc.track_motion(v);
         }
-        let s_max = v
-            .geom
-            .iter()
-            .map(|g| g[1..].iter().map(|x| x.abs()).sum::<f64>())
-            .fold(0.0, f64::max);
-        sc.rate = (2.0 * p.lam + 3.0 * p.g) * s_max;
+        sc.rate = 2.0 * p.lam + 3.0 * p.g;
+        sc.find_face_s(v, by_elements);
         counts.evaluated += evaluate_all(v, strength, by_elements, &skipped, new_marks);
         for k in 0..v.edge_nodes.len() {
             if v.edge_ready[k] {
@@ -314,6 +343,10 @@ pub fn fracture_criterion(
         }
         counts.ready = v.edge_ready.iter().filter(|r| **r).count();
         return counts.ready;
+    }
+    if sc.face_s.len() != v.edge_nodes.len() {
+        // After a restore.
+        sc.find_face_s(v, by_elements);
     }
     // Each region's largest displacement change since the last pass.
     let n_regions = sc.acc.len();
