@@ -718,18 +718,19 @@ pub fn zigzag_warning(placed: &[crate::fractures::Placed]) -> Option<String> {
 /// the tips are from growing: under the strength criterion compare K_eq with the toughness
 /// the strength test acts like, about 3.5 (s0 + lambda T0) sqrt(h) (README, "Example II").
 fn tips_summary(sim: &mut Simulation) -> serde_json::Value {
-    let x0 = sim.solid().x0.clone();
     let tips = sim.measure_tips();
+    let count = tips.len();
     let best = tips
         .iter()
         .filter(|t| t.k_eq.is_finite() && t.k1.is_finite() && t.k2.is_finite())
-        .max_by(|a, b| a.k_eq.total_cmp(&b.k_eq).then(b.node.cmp(&a.node)));
-    let mut v = json!({ "count": tips.len() });
+        .max_by(|a, b| a.k_eq.total_cmp(&b.k_eq).then(b.node.cmp(&a.node)))
+        .copied();
+    let mut v = json!({ "count": count });
     if let Some(t) = best {
         v["k_eq_max"] = json!(t.k_eq);
         v["k1"] = json!(t.k1);
         v["k2"] = json!(t.k2);
-        v["at"] = json!(x0[t.node as usize]);
+        v["at"] = json!(sim.solid().x0[t.node as usize]);
     }
     v
 }

@@ -110,7 +110,8 @@ const MAX_REGIONS: usize = 6;
 #[derive(Clone, Debug, Default, serde::Serialize, serde::Deserialize)]
 pub struct StrengthScreen {
     generation: Option<u64>,
-    /// Displacements at the last pass, m.
+    /// Displacements at the last pass, m (the quasi-static scheme's; empty when `integrate`
+    /// tracks the motion).
     u_ref: Vec<[f64; 2]>,
     /// Region of each node (the last region index is the whole mesh).
     node_region: Vec<u32>,
@@ -322,10 +323,12 @@ pub fn fracture_criterion(
     if sc.generation != Some(v.generation) || (!tracked && sc.u_ref.len() != v.u.len()) {
         // Every face again (new topology, or the first pass).
         sc.generation = Some(v.generation);
-        sc.u_ref.clone_from(&v.u);
         sc.rebuild(v, by_elements);
         if stress_lags {
+            sc.u_ref.clear();
             sc.track_motion(v);
+        } else {
+            sc.u_ref.clone_from(&v.u);
         }
         sc.rate = 2.0 * p.lam + 3.0 * p.g;
         sc.find_face_s(v, by_elements);
@@ -353,11 +356,10 @@ pub fn fracture_criterion(
     let mut du = std::mem::take(&mut sc.du);
     du.clear();
     if tracked {
-        // Summed over the steps since the last pass; the reference displacements go stale.
+        // Summed over the steps since the last pass.
         du.extend_from_slice(&v.motion_du);
         v.motion_du.fill(0.0);
         v.motion_steps = 0;
-        sc.u_ref.clear();
     } else {
         du.resize(n_regions, 0.0);
         for &(a, b, r) in &sc.runs {

@@ -273,29 +273,16 @@ impl NodeStep<'_> {
 /// `integrate`: central difference, v += dt (F + F_damp)/m, u += dt v; prescribed components
 /// are held at their value with zero velocity. Returns the step statistics.
 pub fn integrate(v: &mut SolidView, p: &SolidParams) -> StepStats {
-    let (dt, lf) = (p.dt, p.load_factor);
-    let (force, fdamp, inv_m, mass, fixed, presc, load) = (
-        &v.force,
-        &v.f_damp,
-        &v.inv_mass,
-        &v.mass,
-        &v.fixed,
-        &v.presc,
-        &v.load,
-    );
-    let ctx = NodeStep {
-        dt,
-        lf,
-        force,
-        fdamp,
-        inv_m,
-        mass,
-        fixed,
-        presc,
-        load,
-    };
-    let node = |i: usize, u: &mut [f64; 2], vel: &mut [f64; 2], st: &mut StepStats| {
-        ctx.node(i, u, vel, st)
+    let step = NodeStep {
+        dt: p.dt,
+        lf: p.load_factor,
+        force: &v.force,
+        fdamp: &v.f_damp,
+        inv_m: &v.inv_mass,
+        mass: &v.mass,
+        fixed: &v.fixed,
+        presc: &v.presc,
+        load: &v.load,
     };
     // Motion regions (the strength screen's runs of consecutive nodes in one region): each
     // run's largest displacement change this step, from the nodes' changes in `motion_node`.
@@ -314,7 +301,7 @@ pub fn integrate(v: &mut SolidView, p: &SolidParams) -> StepStats {
                 .map(|(c, (uc, vc))| {
                     let mut st = StepStats::default();
                     for (k, (u, vel)) in uc.iter_mut().zip(vc.iter_mut()).enumerate() {
-                        node(c * NODE_CHUNK + k, u, vel, &mut st);
+                        step.node(c * NODE_CHUNK + k, u, vel, &mut st);
                     }
                     (st, Vec::new())
                 })
@@ -335,7 +322,7 @@ pub fn integrate(v: &mut SolidView, p: &SolidParams) -> StepStats {
                     .zip(dc.iter_mut())
                     .enumerate()
                 {
-                    *d = node(base + k, u, vel, &mut st);
+                    *d = step.node(base + k, u, vel, &mut st);
                 }
                 let end = base + uc.len();
                 let first = runs.partition_point(|r| (r.1 as usize) <= base);
@@ -358,16 +345,16 @@ pub fn integrate(v: &mut SolidView, p: &SolidParams) -> StepStats {
     v.motion_node = dnode;
     let mut stats = StepStats::default();
     if runs.is_some() {
-        let mut step = std::mem::take(&mut v.motion_scratch);
-        step.clear();
-        step.resize(v.motion_du.len(), 0.0);
+        let mut this = std::mem::take(&mut v.motion_scratch);
+        this.clear();
+        this.resize(v.motion_du.len(), 0.0);
         for &(r, d) in partials.iter().flat_map(|p| &p.1) {
-            step[r as usize] = step[r as usize].max(d);
+            this[r as usize] = this[r as usize].max(d);
         }
-        for (acc, d) in v.motion_du.iter_mut().zip(&step) {
+        for (acc, d) in v.motion_du.iter_mut().zip(&this) {
             *acc += d;
         }
-        v.motion_scratch = step;
+        v.motion_scratch = this;
         v.motion_steps += 1;
     }
     for (st, _) in partials {

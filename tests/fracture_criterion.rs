@@ -99,42 +99,28 @@ fn criterion_runs_every_step_and_marks_persist_in_the_components() {
 /// displacement change since its last evaluation could have closed its margin) marks exactly
 /// what the full evaluation would: along the seed's crossing run (explicit, through its first
 /// splits), after every step no unmarked face has a stress at or above the strength. And it
-/// does skip work: under 2 % of the faces per step.
+/// does skip work: under 0.5 % of the faces per step (measured 28 of 29,778, 0.09 %).
 #[test]
 fn screened_strength_test_misses_no_face() {
-    let (checked, splits, per_step, faces) = screen_run("example1_cross.ron", 0.34, 1);
-    assert!(
-        splits > 0 && checked > 1000,
-        "{splits} splits, {checked} steps checked"
-    );
-    assert!(
-        per_step < 0.02 * faces as f64,
-        "{per_step:.0} faces evaluated per step of {faces}"
-    );
+    screen_run("example1_cross.ron", 0.34, 1, 0.005);
 }
 
 /// The same on the seed's crossing case on a mesh that follows the fractures (edges from
 /// 0.05 to 1.4 m, the hand-over on), where each face's bound uses the elements its stress
 /// reads and the regions are 8 median edges wide (a bound from the smallest element anywhere
 /// and regions 8 of the shortest edges wide made the criterion 82 % of a conforming Example
-/// II's run): checked every 4th step, through the first splits.
+/// II's run): checked every 4th step, through the first splits; under 0.15 % of the faces
+/// evaluated per step (measured 40 of 56,320, 0.07 %; with one bound from the smallest
+/// element 128, 0.23 %, so this fails if the per-face bound is lost).
 #[test]
 fn screened_strength_test_misses_no_face_on_a_conforming_mesh() {
-    let (checked, splits, per_step, faces) = screen_run("example1_cross_conforming.ron", 0.3, 4);
-    assert!(
-        splits > 0 && checked > 1000,
-        "{splits} splits, {checked} steps checked"
-    );
-    assert!(
-        per_step < 0.05 * faces as f64,
-        "{per_step:.0} faces evaluated per step of {faces}"
-    );
+    screen_run("example1_cross_conforming.ron", 0.3, 4, 0.0015);
 }
 
 /// Run `scenarios/NAME` to `end` (s), checking after every `every`-th step (and not after a
-/// split) that no unmarked face is at or above the strength (1 MPa). Returns the steps
-/// checked, the splits, the faces evaluated per step and the faces at the end.
-fn screen_run(name: &str, end: f64, every: u64) -> (usize, usize, f64, usize) {
+/// split) that no unmarked face is at or above the strength (1 MPa); the run must split and
+/// be checked over 1000 times, and evaluate fewer than `max_fraction` of the faces per step.
+fn screen_run(name: &str, end: f64, every: u64, max_fraction: f64) {
     let src = std::fs::read_to_string(format!("scenarios/{name}")).unwrap();
     let sc = Scenario::parse(&src, name)
         .unwrap()
@@ -166,7 +152,15 @@ fn screen_run(name: &str, end: f64, every: u64) -> (usize, usize, f64, usize) {
         }
         checked += 1;
     }
-    let c = sim.fracture().strength_counts;
-    let per_step = c.evaluated as f64 / sim.clock().step as f64;
-    (checked, splits, per_step, sim.solid().edge_nodes.len())
+    assert!(
+        splits > 0 && checked > 1000,
+        "{name}: {splits} splits, {checked} steps checked"
+    );
+    let per_step = sim.fracture().strength_counts.evaluated as f64 / sim.clock().step as f64;
+    let faces = sim.solid().edge_nodes.len();
+    eprintln!("{name}: {per_step:.0} faces evaluated per step of {faces}");
+    assert!(
+        per_step < max_fraction * faces as f64,
+        "{name}: {per_step:.0} faces evaluated per step of {faces}"
+    );
 }

@@ -338,6 +338,24 @@ fn wait_at_most(child: &mut Child, limit: Duration, what: &str) -> std::process:
     }
 }
 
+/// Wait (at most 120 s) until `file` exists, failing if `child` ends first.
+fn wait_for_file(child: &mut Child, file: &Path, what: &str) {
+    let t0 = Instant::now();
+    while !file.exists() {
+        assert!(
+            child.try_wait().unwrap().is_none(),
+            "{what}: the run ended before {} existed",
+            file.display()
+        );
+        assert!(
+            t0.elapsed() < Duration::from_secs(120),
+            "{what}: no {}",
+            file.display()
+        );
+        std::thread::sleep(Duration::from_millis(10));
+    }
+}
+
 /// Every file under `dir` whose name contains `.tmp` (a temporary of an atomic write).
 fn temporaries(dir: &Path) -> Vec<String> {
     files(dir)
@@ -381,15 +399,7 @@ fn a_signal_stops_the_run_and_finishes_the_outputs() {
             .stderr(Stdio::piped())
             .spawn()
             .unwrap();
-        let t0 = Instant::now();
-        while !out.join("frames/solid_00001.vtu").exists() {
-            assert!(
-                child.try_wait().unwrap().is_none(),
-                "{name}: the run ended before its second frame"
-            );
-            assert!(t0.elapsed() < Duration::from_secs(120), "{name}: no frame");
-            std::thread::sleep(Duration::from_millis(10));
-        }
+        wait_for_file(&mut child, &out.join("frames/solid_00001.vtu"), name);
         // SAFETY: kill(2) on the child's pid, which has not been waited for (so not reused).
         assert_eq!(unsafe { libc::kill(child.id() as i32, sig) }, 0);
         let status = wait_at_most(&mut child, Duration::from_secs(60), name);
@@ -467,15 +477,7 @@ fn a_signal_stops_the_production_stage() {
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
-    let t0 = Instant::now();
-    while !out.join("network.csv").exists() {
-        assert!(
-            child.try_wait().unwrap().is_none(),
-            "the run ended before its production stage"
-        );
-        assert!(t0.elapsed() < Duration::from_secs(120), "no network.csv");
-        std::thread::sleep(Duration::from_millis(10));
-    }
+    wait_for_file(&mut child, &out.join("network.csv"), "production");
     std::thread::sleep(Duration::from_millis(500));
     assert!(child.try_wait().unwrap().is_none(), "the production ended");
     // SAFETY: kill(2) on the child's pid, which has not been waited for (so not reused).
