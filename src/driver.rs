@@ -325,7 +325,14 @@ pub fn run_scenario(scenario: Scenario, opts: &RunOptions) -> Result<RunReport, 
             .checkpoint_state()
             .map_err(|e| DriverError::Output(std::io::Error::other(format!("production: {e}"))))?
             .1;
-        let solved = crate::production::run_production(sim.scenario(), end, opts.stop.as_ref());
+        let bar = production_bar(opts.quiet);
+        let solved = crate::production::run_production(
+            sim.scenario(),
+            end,
+            opts.stop.as_ref(),
+            &|m: &str| bar.set_message(m.to_string()),
+        );
+        bar.finish_and_clear();
         let (rows, figures) = match solved {
             Ok(x) => x,
             Err(crate::production::ProductionError::Interrupted(sig)) => {
@@ -585,6 +592,19 @@ fn progress_bar(quiet: bool) -> ProgressBar {
         ProgressStyle::with_template("{spinner} [{elapsed_precise}] {bar:40} {percent:>3}% {msg}")
             .expect("template"),
     );
+    bar
+}
+
+/// The production stage's spinner: the state and where its iteration is.
+fn production_bar(quiet: bool) -> ProgressBar {
+    if quiet {
+        return ProgressBar::hidden();
+    }
+    let bar = ProgressBar::with_draw_target(None, ProgressDrawTarget::stderr());
+    bar.set_style(
+        ProgressStyle::with_template("{spinner} [{elapsed_precise}] {msg}").expect("template"),
+    );
+    bar.enable_steady_tick(std::time::Duration::from_millis(250));
     bar
 }
 

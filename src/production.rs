@@ -188,14 +188,13 @@ fn relax(
     pressure: &[f64],
     tol: f64,
     max_steps: u64,
+    report: &dyn Fn(&str),
 ) -> Result<(u64, bool), RunError> {
-    let generation = sim.model().topology_generation;
-    {
-        let f = sim.flow_mut().expect("coupled run");
-        f.view.pressure.copy_from_slice(pressure);
-        let c = f.coupling.as_mut().expect("coupled run");
-        c.p_mean.copy_from_slice(pressure);
+    if sim.params().time.solid_scheme == SolidScheme::QuasiStatic {
+        return equilibrate(sim, pressure, report);
     }
+    let generation = sim.model().topology_generation;
+    hold(sim, pressure);
     for k in 1..=max_steps {
         if sim.stop_signal().is_some() {
             return Ok((k - 1, false));
@@ -209,8 +208,86 @@ fn relax(
         if sim.stats().residual() < tol {
             return Ok((k, false));
         }
+        if k % RELAX_REPORT_EVERY == 0 {
+            report(&format!(
+                "relaxation step {k}, residual {:.2e} (tolerance {tol:.0e})",
+                sim.stats().residual()
+            ));
+        }
     }
     Ok((max_steps, false))
+}
+
+/// Hold `pressure` (Pa, per cell) on the faces.
+fn hold(sim: &mut Simulation, pressure: &[f64]) {
+    let f = sim.flow_mut().expect("coupled run");
+    f.view.pressure.copy_from_slice(pressure);
+    let c = f.coupling.as_mut().expect("coupled run");
+    c.p_mean.copy_from_slice(pressure);
+}
+
+/// Smallest share of a pressure change that [`equilibrate`] applies as one load increment.
+pub const MIN_LOAD_INCREMENT: f64 = 1.0 / 64.0;
+
+/// The quasi-static rock's equilibrium under `pressure`: one Newton solve from the last
+/// equilibrium; where it finds none (1,690 joints switched to slip at once when Example II's
+/// network on a conforming mesh took 9 MPa, and the iteration diverged), the change from the
+/// pressure the rock holds now is applied in smaller increments, halved on each failure down
+/// to [`MIN_LOAD_INCREMENT`] and doubled after two successes in a row, each an equilibrium with the
+/// joints' slip committed (a quasi-static loading path, as a relaxation follows one).
+/// Returns the solves that converged and whether a fracture grew.
+fn equilibrate(
+    sim: &mut Simulation,
+    pressure: &[f64],
+    report: &dyn Fn(&str),
+) -> Result<(u64, bool), RunError> {
+    let generation = sim.model().topology_generation;
+    let from = sim.flow().expect("coupled run").view.pressure.clone();
+    let (mut done, mut inc, mut solves, mut streak) = (0.0f64, 1.0f64, 0, 0);
+    let mut trial = vec![0.0; pressure.len()];
+    while done < 1.0 {
+        if sim.stop_signal().is_some() {
+            break;
+        }
+        let s = (done + inc).min(1.0);
+        for ((t, a), b) in trial.iter_mut().zip(&from).zip(pressure) {
+            *t = a + s * (b - a);
+        }
+        hold(sim, &trial);
+        let saved = (sim.solid().u.clone(), sim.solid().joint_state.clone());
+        match sim.step_once() {
+            Ok(()) => {
+                solves += 1;
+                if sim.model().topology_generation != generation {
+                    return Ok((solves, true));
+                }
+                done = s;
+                // Grow after two successes in a row: doubling right after a failure retries
+                // the step that failed.
+                if streak > 0 {
+                    inc = (2.0 * inc).min(1.0);
+                }
+                streak += 1;
+            }
+            Err(e @ RunError::QuasiStatic { .. }) => {
+                let v = sim.solid_mut();
+                v.u.copy_from_slice(&saved.0);
+                v.joint_state.copy_from_slice(&saved.1);
+                if inc <= MIN_LOAD_INCREMENT {
+                    return Err(e);
+                }
+                inc *= 0.5;
+                streak = 0;
+                report(&format!(
+                    "no equilibrium at {:.0} % of the pressure change; increments of {:.1} %",
+                    100.0 * s,
+                    100.0 * inc
+                ));
+            }
+            Err(e) => return Err(e),
+        }
+    }
+    Ok((solves, false))
 }
 
 /// The hydraulic apertures max(delta_n, a_r) of the rock's current state, per cell, m (seed
@@ -255,6 +332,9 @@ fn steady(
     Ok((0.0 - prod.wells[1].1, prod.pressure, prod.flow))
 }
 
+/// Relaxation steps between two progress reports.
+const RELAX_REPORT_EVERY: u64 = 2000;
+
 /// Solve one production state at pressure drop `dp` (Pa) on `sim` (freshly made by
 /// [`production_sim`]: the iteration moves its rock).
 pub fn solve_state(
@@ -262,6 +342,18 @@ pub fn solve_state(
     stage: &ProductionStage,
     state: NetworkState,
     dp: f64,
+) -> Result<StateSolve, ProductionError> {
+    solve_state_reporting(sim, stage, state, dp, &|_| {})
+}
+
+/// [`solve_state`], telling `report` where the iteration is (each fixed-point iteration, and
+/// every [`RELAX_REPORT_EVERY`] relaxation steps), so a slow state can be told from a stuck one.
+pub fn solve_state_reporting(
+    sim: &mut Simulation,
+    stage: &ProductionStage,
+    state: NetworkState,
+    dp: f64,
+    report: &dyn Fn(&str),
 ) -> Result<StateSolve, ProductionError> {
     let t0 = Instant::now();
     let w = &stage.wells;
@@ -295,7 +387,9 @@ pub fn solve_state(
             break;
         }
         let p0 = vec![0.0; sim.flow().map_or(0, |f| f.view.n_cells())];
-        let (n, grew) = relax(sim, &p0, stage.static_tol, stage.max_steps).map_err(run_err)?;
+        report("the rock without fluid pressure (frozen apertures)");
+        let (n, grew) =
+            relax(sim, &p0, stage.static_tol, stage.max_steps, report).map_err(run_err)?;
         steps += n;
         if !grew {
             break;
@@ -316,7 +410,8 @@ pub fn solve_state(
         for (pc, tc) in p.iter_mut().zip(&target) {
             *pc += omega * (tc - *pc);
         }
-        let (n, grew) = relax(sim, &p, stage.static_tol, stage.max_steps).map_err(run_err)?;
+        let (n, grew) =
+            relax(sim, &p, stage.static_tol, stage.max_steps, report).map_err(run_err)?;
         steps += n;
         a = apertures(sim);
         let (r, next, fl) = steady(&network(sim, &a), &wells, mu, w.reach).map_err(flow_err)?;
@@ -339,6 +434,12 @@ pub fn solve_state(
             dp_change.max(rate_change)
         };
         (target, rate, flow) = (next, r, fl);
+        report(&format!(
+            "iteration {iterations}: rate {rate:.4e} m^2/s, change {change:.2e} (tolerance \
+             {:.0e}), {:.0} s",
+            stage.tolerance,
+            t0.elapsed().as_secs_f64()
+        ));
         if change < stage.tolerance {
             converged = true;
             break;
@@ -372,10 +473,12 @@ pub fn solve_state(
 /// Every production state of `sc.production`: before (from setup) and after (from `end`, the
 /// state at the end of the run), at each pressure drop, each from its own start. Also returns
 /// the solved states at the middle pressure drop (the seed's Fig. 10).
+/// `report` hears where the stage is (the state, its iteration), for a progress display.
 pub fn run_production(
     sc: &Scenario,
     end: SimState,
     stop: Option<&StopFlag>,
+    report: &dyn Fn(&str),
 ) -> Result<(Vec<ProductionRow>, Vec<StateSolve>), ProductionError> {
     let interrupted = |sim: &Simulation| sim.stop_signal().map(ProductionError::Interrupted);
     let stage = sc
@@ -388,8 +491,10 @@ pub fn run_production(
     for state in [NetworkState::Before, NetworkState::After] {
         for (k, &dp) in drops.iter().enumerate() {
             let start = (state == NetworkState::After).then(|| end.clone());
+            let label = format!("production {} dp = {:.1} MPa", state.name(), dp / 1e6);
+            let tell = |m: &str| report(&format!("{label}: {m}"));
             let mut sim = production_sim(sc, start.clone(), stop)?;
-            let solved = solve_state(&mut sim, stage, state, dp);
+            let solved = solve_state_reporting(&mut sim, stage, state, dp, &tell);
             if let Some(e) = interrupted(&sim) {
                 return Err(e);
             }
@@ -407,12 +512,16 @@ pub fn run_production(
                         state.name(),
                         dp / 1e6
                     );
+                    report(&format!(
+                        "{label}: the quasi-static rock failed ({error}); relaxation instead"
+                    ));
                     let mut relaxed = sc.clone();
                     if let Some(p) = relaxed.production.as_mut() {
                         p.rock = SolidScheme::Explicit;
                     }
                     let mut sim = production_sim(&relaxed, start, stop)?;
-                    let solved = solve_state(&mut sim, stage, state, dp);
+                    let tell = |m: &str| report(&format!("{label} (relaxation): {m}"));
+                    let solved = solve_state_reporting(&mut sim, stage, state, dp, &tell);
                     if let Some(e) = interrupted(&sim) {
                         return Err(e);
                     }

@@ -2034,8 +2034,9 @@ fn display_path(path: &str) -> String {
         .join(".")
 }
 
-/// Read an override VALUE: JSON (`3e10`, `true`, `[1, 2]`, `{"Time": 5.0}`), a newtype variant
-/// written as in RON (`Local(0.5)`, `Time(5.0)`), or else a plain string (unit variants: `None`).
+/// Read an override VALUE: JSON (`3e10`, `true`, `[1, 2]`, `{"Time": 5.0}`), a newtype or
+/// struct variant written as in RON (`Local(0.5)`, `Time(5.0)`, `Regular(width: 10.0, height:
+/// 10.0, h: 1.0)`), or else a plain string (unit variants: `None`).
 fn override_value(text: &str) -> serde_json::Value {
     if let Ok(v) = serde_json::from_str(text) {
         return v;
@@ -2045,8 +2046,16 @@ fn override_value(text: &str) -> serde_json::Value {
         && name.starts_with(|c: char| c.is_ascii_uppercase())
         && name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_')
     {
+        // A struct variant's fields (`Conforming(width: 100.0, h: 2.0, ...)`) as a table.
+        let fields = match ron::from_str::<ron::Value>(&format!("({inner})")) {
+            Ok(v @ ron::Value::Map(_)) if inner.contains(':') => serde_json::to_value(v).ok(),
+            _ => None,
+        };
         let mut obj = serde_json::Map::new();
-        obj.insert(name.to_string(), override_value(inner.trim()));
+        obj.insert(
+            name.to_string(),
+            fields.unwrap_or_else(|| override_value(inner.trim())),
+        );
         return serde_json::Value::Object(obj);
     }
     serde_json::Value::String(text.to_string())
@@ -2214,6 +2223,14 @@ mod tests {
             .unwrap();
         assert_eq!(o.damping, Damping::Local(0.5));
         assert_eq!(o.time.end, End::Time(2.5));
+        // A struct variant in RON's words: the whole mesh replaced.
+        let o = sc
+            .with_overrides(&[
+                "mesh=Conforming(width: 8.0, height: 6.0, h: 0.5, h_far: 2.0)".into(),
+            ])
+            .unwrap();
+        let m = o.mesh.as_ref().unwrap();
+        assert_eq!((m.h(), m.kind()), (Some(0.5), "Conforming"));
         let e = sc
             .with_overrides(&["material.colour=1".into()])
             .unwrap_err()

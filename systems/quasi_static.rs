@@ -59,6 +59,11 @@ pub const LINE_SEARCH_HALVINGS: i32 = 10;
 /// opening and closing at every iteration on the interlocked zigzag of `verify slip_inclined`)
 /// is broken, while the steps that converge sooner keep their full Newton updates.
 pub const SOLID_LINE_SEARCH_AFTER: usize = 8;
+/// Relative residual (against the larger of the reactions and the step's first residual)
+/// past which the iteration has diverged and stops: on a conforming Example II mesh under a
+/// sudden 9 MPa, 1,690 joints switched to slip and the updates grew to 1e9 m within three
+/// iterations and to non-finite values after 33 (each a sparse LU).
+pub const DIVERGED: f64 = 1e4;
 /// Iterations after which the contact states are frozen.
 pub const FREEZE_AFTER: usize = 30;
 /// Low-rank updates of W in a row before it is solved again in full (bounds round-off drift).
@@ -806,6 +811,8 @@ pub fn solve(
     // that is larger (a prescribed displacement into a stress-free state, e.g. a lifted block
     // on an opening joint, ends with no reaction at all).
     let mut first2 = None;
+    // The most joints in slip at any iterate of this step (for the failure's hint).
+    let mut max_slip = 0;
     let (mut u_base, mut rhs_try) = (Vec::new(), Vec::new());
     let (mut gx, mut wx, mut w_keep) = (Vec::new(), Vec::new(), Vec::new());
     // The coupled line search leaves the residual of the point it accepted.
@@ -828,17 +835,34 @@ pub fn solve(
                 }
             }
         }
+        max_slip = max_slip.max(states.iter().filter(|s| **s == State::Slip).count());
         let ref2 = ref2.max(*first2.get_or_insert(res2));
         let settled = prev.as_deref() == Some(&states[..]);
         if !res2.is_finite() {
             return Err(fail(step, time, "the residual is not finite".into()));
+        }
+        if res2 > DIVERGED * DIVERGED * ref2 {
+            return Err(fail(
+                step,
+                time,
+                format!(
+                    "the Newton iteration diverged: relative residual {:.1e} after {iterations} \
+                     iterations{}",
+                    (res2 / ref2).sqrt(),
+                    slip_hint(v, max_slip)
+                ),
+            ));
         }
         let tol2 = qs.tol * qs.tol * ref2.max(f64::MIN_POSITIVE);
         if res2 <= tol2 && flow_ok && (settled || !on.contact) {
             break (res2, ref2);
         }
         if iterations >= MAX_ITER {
-            return Err(fail(step, time, not_converged(v, qs, &flow, res2, ref2)));
+            return Err(fail(
+                step,
+                time,
+                not_converged(v, qs, &flow, res2, ref2, max_slip),
+            ));
         }
         if qs.use_lu(&states, flow.as_ref()) {
             qs.lu_direction(v, p, &states, &mut flow, &mut rhs)
@@ -1043,6 +1067,21 @@ fn evaluate(
     (res2, ref2, flow_ok)
 }
 
+/// A hint for a failed iteration when joints slide (empty when none does): the larger of the
+/// joints sliding at the iterate and `seen`, the most that slid at an iterate of the step.
+fn slip_hint(v: &SolidView, seen: usize) -> String {
+    let slip = v.joint_state.iter().filter(|s| s.sliding).count().max(seen);
+    if slip > 0 {
+        format!(
+            "; {slip} of {} joints slide: past the friction limit there may be no static \
+             equilibrium (the explicit scheme follows the sliding)",
+            v.joint_nodes.len()
+        )
+    } else {
+        String::new()
+    }
+}
+
 /// The message of a step that did not converge: the rock's residual, the worst cell's, and a
 /// hint when joints slide.
 fn not_converged(
@@ -1051,17 +1090,9 @@ fn not_converged(
     flow: &Option<FlowStep>,
     res2: f64,
     ref2: f64,
+    seen: usize,
 ) -> String {
-    let slip = v.joint_state.iter().filter(|s| s.sliding).count();
-    let hint = if slip > 0 {
-        format!(
-            "; {slip} of {} joints slide: past the friction limit there may be no static \
-             equilibrium (the explicit scheme follows the sliding)",
-            v.joint_nodes.len()
-        )
-    } else {
-        String::new()
-    };
+    let hint = slip_hint(v, seen);
     let cell = match flow {
         Some(f) if qs.rows.worst > 1.0 => format!(
             "; {} has mass residual {:.3e} times its tolerance",
