@@ -329,6 +329,10 @@ fn equilibrate(
                 let v = sim.solid_mut();
                 v.u.copy_from_slice(&saved.0);
                 v.joint_state.copy_from_slice(&saved.1);
+                // The kept factor's joint axes are the failed iterate's.
+                if let Some(qs) = sim.quasi_static_mut() {
+                    qs.forget_factor();
+                }
                 if inc <= MIN_LOAD_INCREMENT {
                     return Err(e);
                 }

@@ -1294,6 +1294,7 @@ impl Scenario {
             why: e.to_string(),
         })?;
         let original = root.clone();
+        let mut nones: Vec<Vec<String>> = Vec::new();
         for spec in overrides {
             let err = |why: String| SetupError::Override {
                 spec: spec.clone(),
@@ -1337,8 +1338,32 @@ impl Scenario {
                 node = obj.get_mut(*key).expect("key exists");
             }
             *node = value;
+            if node.as_str() == Some("None") {
+                nones.push(keys.iter().map(|k| k.to_string()).collect::<Vec<_>>());
+            }
         }
-        serde_path_to_error::deserialize(root).map_err(|e| {
+        // `None` is a unit variant for an enum (`damping=None`) and null for an optional
+        // field (`production=None`, as RON writes it): a `None` the reading fails at is read
+        // again as null.
+        let first = serde_path_to_error::deserialize::<_, Scenario>(root.clone());
+        let mut at = first
+            .as_ref()
+            .err()
+            .map(|e| display_path(&e.path().to_string()));
+        let mut retry = root;
+        while let Some(path) = at.take() {
+            let Some(k) = nones.iter().position(|keys| keys.join(".") == path) else {
+                break;
+            };
+            if let Some(n) = pointer_mut(&mut retry, &nones.swap_remove(k)) {
+                *n = serde_json::Value::Null;
+            }
+            match serde_path_to_error::deserialize::<_, Scenario>(retry.clone()) {
+                Ok(sc) => return Ok(sc),
+                Err(e) => at = Some(display_path(&e.path().to_string())),
+            }
+        }
+        first.map_err(|e| {
             // The overrides travel through JSON, which has no NaN or infinity: a non-finite
             // number of the file comes back as `null` and fails here, though no override is to
             // blame. When the file's own values fail at the same field, say so.
@@ -2027,6 +2052,24 @@ impl Scenario {
 
 /// A serde path as the scenario's fields are named in messages: enum variant wrappers left out
 /// (`mesh.Graded.ratio` is `mesh.ratio`, as `--set` and the validation name it).
+/// The node at `keys` under `root`, stepping through enum variant wrappers as the override
+/// paths do.
+fn pointer_mut<'a>(
+    root: &'a mut serde_json::Value,
+    keys: &[String],
+) -> Option<&'a mut serde_json::Value> {
+    let mut node = root;
+    for key in keys {
+        while node.get(key).is_none() {
+            let obj = node.as_object()?;
+            let only = obj.keys().next().filter(|_| obj.len() == 1)?.clone();
+            node = node.get_mut(&only)?;
+        }
+        node = node.get_mut(key)?;
+    }
+    Some(node)
+}
+
 fn display_path(path: &str) -> String {
     path.split('.')
         .filter(|k| !k.starts_with(|c: char| c.is_ascii_uppercase()))
@@ -2231,6 +2274,22 @@ mod tests {
             .unwrap();
         let m = o.mesh.as_ref().unwrap();
         assert_eq!((m.h(), m.kind()), (Some(0.5), "Conforming"));
+        // `None` for an optional field, as RON writes it, beside a unit variant `None`.
+        let with = Scenario::parse(
+            &GOOD.replace(
+                "time:",
+                "production: Some((wells: (injection: (0.0, 5.0), production: (10.0, 5.0), \
+                 production_pressure: 0.0, pressure_drops: [1e6], reach: 1.0))), time:",
+            ),
+            "p.ron",
+        )
+        .unwrap();
+        assert!(with.production.is_some());
+        let o = with
+            .with_overrides(&["production=None".into(), "damping=None".into()])
+            .unwrap();
+        assert!(o.production.is_none());
+        assert_eq!(o.damping, Damping::None);
         let e = sc
             .with_overrides(&["material.colour=1".into()])
             .unwrap_err()

@@ -567,7 +567,8 @@ impl QuasiStatic {
         Ok(())
     }
 
-    /// Drop the numeric factor, so the next iteration refactorises (benchmarks).
+    /// Drop the numeric factor, so the next iteration refactorises with the joints' geometry
+    /// taken afresh (benchmarks; the production stage after restoring a failed solve's start).
     pub fn forget_factor(&mut self) {
         self.factored = None;
     }
