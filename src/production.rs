@@ -174,7 +174,7 @@ fn set_relaxation_step(sim: &mut Simulation) {
     );
     let mut dt = p.time.safety * bound;
     if p.time.solid_scheme == SolidScheme::Explicit {
-        dt = scale_masses(sim, dt);
+        dt = fictitious_masses(sim, dt);
     }
     let p = sim.params_mut();
     p.solid.dt = dt;
@@ -186,33 +186,21 @@ fn set_relaxation_step(sim: &mut Simulation) {
 /// does not depend on them), so each node gets the mass that makes one common step stable
 /// for it instead of every node taking the step of the smallest element (edges of 1.3 cm at
 /// near-misses of fractures on a conforming mesh). Node i's Gershgorin bound is
-/// dt_i = 2 sqrt(m_i / g_i), with g_i the largest row sum of |K| over its two dofs (the CST
-/// stiffness of its elements, plus max(K_n, K_t) per joint at it: a joint's spring acts on
-/// the faces' mean displacements with coefficients +-1/2); the step is the larger of `dt`
+/// dt_i = 2 sqrt(m_i / g_i), with g_i the larger of its two row sums of |K|
+/// ([`crate::systems::solid::gershgorin_rows`], joints at max(K_n, K_t)), as
+/// `time.mass_scaling` uses for static relaxation; unlike it, a node keeps its own mass where
+/// that is already heavy enough, since the step is the larger of `dt`
 /// and `safety` times the median dt_i, and m_i becomes max(m_i, g_i (dt / (2 safety))^2), so
 /// every node satisfies dt <= safety dt_i. Returns the step (s); the view's masses are
 /// changed (a rebuild after a split restores the model's, and the caller scales again).
-fn scale_masses(sim: &mut Simulation, dt: f64) -> f64 {
+fn fictitious_masses(sim: &mut Simulation, dt: f64) -> f64 {
     let p = sim.params();
     let (safety, kj) = (p.time.safety, p.joint.k_max());
     let v = sim.solid();
-    let mut g = vec![[0.0f64; 2]; v.n_nodes()];
-    for (c, geom) in v.conn.iter().zip(&v.geom) {
-        let ke = crate::element::element_stiffness(geom, &p.solid);
-        for (a, &node) in c.iter().enumerate() {
-            for d in 0..2 {
-                g[node as usize][d] += (0..6).map(|b| ke[(2 * a + d, b)].abs()).sum::<f64>();
-            }
-        }
-    }
-    for j in &v.joint_nodes {
-        for &node in j {
-            for gd in &mut g[node as usize] {
-                *gd += kj;
-            }
-        }
-    }
-    let g: Vec<f64> = g.iter().map(|r| r[0].max(r[1])).collect();
+    let g: Vec<f64> = crate::systems::solid::gershgorin_rows(v, &p.solid, kj)
+        .iter()
+        .map(|r| r[0].max(r[1]))
+        .collect();
     let mut dt_node: Vec<f64> = g
         .iter()
         .zip(&v.mass)

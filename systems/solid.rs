@@ -128,6 +128,22 @@ pub fn damping(v: &mut SolidView, p: &SolidParams) {
 /// large elements of a graded mesh stop slowing the relaxation. Serial, fixed order:
 /// deterministic.
 pub fn scale_masses(v: &mut SolidView, p: &SolidParams, k_joint: f64, dt_crit: f64) {
+    let row = gershgorin_rows(v, p, k_joint);
+    for (i, r) in row.iter().enumerate() {
+        let m = 0.25 * r[0].max(r[1]) * dt_crit * dt_crit;
+        if m > 0.0 {
+            v.mass[i] = m;
+            v.inv_mass[i] = 1.0 / m;
+        }
+    }
+}
+
+/// Each node's Gershgorin row sums sum_j |K_ij| of the stiffness, per dof (N/m per m): the
+/// elements' CST stiffness, plus `k_joint` per joint face at the node (the contact's row sum:
+/// its springs act on the faces' mean displacements with coefficients +-1/2). The one home of
+/// the bound that [`scale_masses`] and the production stage's relaxation
+/// (`production::fictitious_masses`) use.
+pub fn gershgorin_rows(v: &SolidView, p: &SolidParams, k_joint: f64) -> Vec<[f64; 2]> {
     let mut row = vec![[0.0f64; 2]; v.n_nodes()];
     let d = [
         [p.lam2g, p.lam, 0.0],
@@ -161,13 +177,7 @@ pub fn scale_masses(v: &mut SolidView, p: &SolidParams, k_joint: f64, dt_crit: f
             row[n as usize][1] += k_joint;
         }
     }
-    for (i, r) in row.iter().enumerate() {
-        let m = 0.25 * r[0].max(r[1]) * dt_crit * dt_crit;
-        if m > 0.0 {
-            v.mass[i] = m;
-            v.inv_mass[i] = 1.0 / m;
-        }
-    }
+    row
 }
 
 /// Quantities reduced over the nodes during integration.

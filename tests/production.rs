@@ -174,7 +174,7 @@ fn quasi_static_and_relaxed_rock_give_the_same_production() {
 }
 
 /// The same on a mesh of 0.2 m triangles along the fracture and 1 m ones away from it, where
-/// dynamic relaxation gives each node the mass of one common step (`production::scale_masses`):
+/// dynamic relaxation gives each node the mass of one common step (`production::fictitious_masses`):
 /// the fine elements would otherwise set the step for all. The relaxation must reach the same
 /// static answer, in fewer steps than the fine elements' step allows: measured 41,590 steps
 /// with the scaled masses against 87,672 with the rock's (the bound below lies between; rates
