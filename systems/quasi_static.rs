@@ -12,7 +12,8 @@
 //! starts from the step-start state at every iteration, so iterates do not accumulate slip.
 //! Converged when the free-dof residual is below `tol` times the larger of the reactions-and-
 //! loads norm and the step's first residual, and the contact states did not change in the
-//! last iteration; after `freeze_after` iterations the
+//! last iteration; stopped as diverged when it passes [`DIVERGED`] times that scale (the
+//! step then fails as one that does not converge); after `freeze_after` iterations the
 //! states are frozen in the tangent (the residual keeps the true return map). From
 //! [`SOLID_LINE_SEARCH_AFTER`] iterations on, a step without flow damps each update by a
 //! line search on |F|^2 (coupled steps search from the first iteration): on the interlocked
