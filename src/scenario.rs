@@ -1294,7 +1294,8 @@ impl Scenario {
             why: e.to_string(),
         })?;
         let original = root.clone();
-        let mut nones: Vec<Vec<String>> = Vec::new();
+        // The `None` values set: (the path as messages name it, its JSON pointer in `root`).
+        let mut nones: Vec<(String, String)> = Vec::new();
         for spec in overrides {
             let err = |why: String| SetupError::Override {
                 spec: spec.clone(),
@@ -1305,6 +1306,7 @@ impl Scenario {
                 .ok_or_else(|| err("expected PATH=VALUE".into()))?;
             let value = override_value(value.trim());
             let mut node = &mut root;
+            let mut pointer = String::new();
             let keys: Vec<&str> = path.trim().split('.').collect();
             for (k, key) in keys.iter().enumerate() {
                 // Step into an enum variant wrapper ({"Regular": {...}}) when the key is not here.
@@ -1321,6 +1323,7 @@ impl Scenario {
                     {
                         break;
                     }
+                    pointer = format!("{pointer}/{only}");
                     node = node.get_mut(&only).expect("key exists");
                 }
                 let obj = node
@@ -1335,11 +1338,12 @@ impl Scenario {
                         valid.join(", ")
                     )));
                 }
+                pointer = format!("{pointer}/{key}");
                 node = obj.get_mut(*key).expect("key exists");
             }
             *node = value;
             if node.as_str() == Some("None") {
-                nones.push(keys.iter().map(|k| k.to_string()).collect::<Vec<_>>());
+                nones.push((keys.join("."), pointer));
             }
         }
         // `None` is a unit variant for an enum (`damping=None`) and null for an optional
@@ -1352,10 +1356,10 @@ impl Scenario {
             .map(|e| display_path(&e.path().to_string()));
         let mut retry = root;
         while let Some(path) = at.take() {
-            let Some(k) = nones.iter().position(|keys| keys.join(".") == path) else {
+            let Some(k) = nones.iter().position(|(p, _)| *p == path) else {
                 break;
             };
-            if let Some(n) = pointer_mut(&mut retry, &nones.swap_remove(k)) {
+            if let Some(n) = retry.pointer_mut(&nones.swap_remove(k).1) {
                 *n = serde_json::Value::Null;
             }
             match serde_path_to_error::deserialize::<_, Scenario>(retry.clone()) {
@@ -2052,24 +2056,6 @@ impl Scenario {
 
 /// A serde path as the scenario's fields are named in messages: enum variant wrappers left out
 /// (`mesh.Graded.ratio` is `mesh.ratio`, as `--set` and the validation name it).
-/// The node at `keys` under `root`, stepping through enum variant wrappers as the override
-/// paths do.
-fn pointer_mut<'a>(
-    root: &'a mut serde_json::Value,
-    keys: &[String],
-) -> Option<&'a mut serde_json::Value> {
-    let mut node = root;
-    for key in keys {
-        while node.get(key).is_none() {
-            let obj = node.as_object()?;
-            let only = obj.keys().next().filter(|_| obj.len() == 1)?.clone();
-            node = node.get_mut(&only)?;
-        }
-        node = node.get_mut(key)?;
-    }
-    Some(node)
-}
-
 fn display_path(path: &str) -> String {
     path.split('.')
         .filter(|k| !k.starts_with(|c: char| c.is_ascii_uppercase()))

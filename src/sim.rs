@@ -168,7 +168,7 @@ impl Simulation {
             self.write_now()?;
         }
         while self.clock.finish.is_none() {
-            if let Some(sig) = self.stop_requested() {
+            if let Some(sig) = self.stop_signal() {
                 self.interrupt(sig)?;
                 break;
             }
@@ -200,10 +200,6 @@ impl Simulation {
     /// or not a run has acted on it (the production stage's equilibria check it between
     /// steps).
     pub fn stop_signal(&self) -> Option<usize> {
-        self.stop_requested()
-    }
-
-    fn stop_requested(&self) -> Option<usize> {
         let sig = self
             .stop
             .as_ref()?
