@@ -682,6 +682,12 @@ fn summary_json(
         "time": sim.time(),
         "dt": sim.params().solid.dt,
         "dt_critical": finite(sim.dt_crit()),
+        "mass_scaling": sim.params().time.selective.map(|j| {
+            let r = sim.raised_masses();
+            let total: f64 = sim.solid().mass.iter().sum();
+            json!({"critical_step": j.dt_crit, "unscaled_critical_step": j.dt_unscaled,
+                   "nodes": r.nodes, "added_mass_fraction": r.added / (total - r.added)})
+        }),
         "wall_s": wall,
         "residual": sim.residual(),
         "kinetic_energy": sim.stats().kinetic,
@@ -780,13 +786,14 @@ fn criterion_summary(sim: &Simulation) -> serde_json::Value {
 /// Fields of `summary.json` that do not apply to every run, omitted when they do not (a
 /// successful run's summary has no `null`): no `flow` without a network, no `finish` and
 /// `error` of the other outcome, no `dt_critical` without a stability bound (the implicit
-/// or quasi-static schemes, a scene without a solid), no `fracture_ready_edges` without a
-/// fracture criterion.
+/// or quasi-static schemes, a scene without a solid), no `mass_scaling` without
+/// `time.selective_mass_scaling`, no `fracture_ready_edges` without a fracture criterion.
 const OPTIONAL: &[&str] = &[
     "flow",
     "finish",
     "error",
     "dt_critical",
+    "mass_scaling",
     "fracture_ready_edges",
     "criterion",
     "mesh",

@@ -43,6 +43,14 @@ pub struct CriterionParams {
     pub tip_handover: bool,
 }
 
+/// Selective mass scaling (`time.selective_mass_scaling`): the critical step its raised masses
+/// guarantee and the scene's with the rock's masses at setup, s.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SelectiveScaling {
+    pub dt_crit: f64,
+    pub dt_unscaled: f64,
+}
+
 /// Time control.
 #[derive(Clone, Debug)]
 pub struct TimeParams {
@@ -57,6 +65,8 @@ pub struct TimeParams {
     pub max_steps: u64,
     pub max_substeps: u64,
     pub mass_scaling: bool,
+    /// `time.selective_mass_scaling`, resolved at setup (`Simulation::new`).
+    pub selective: Option<SelectiveScaling>,
     /// Quasi-static coupled runs: the step adapts (see `time.solid_scheme`) within
     /// [dt_min, dt_max] (s); `aim` is the time (s) the current step is meant to land on
     /// exactly (the end or a figure time), if any.
@@ -198,6 +208,7 @@ impl RunParams {
                 max_steps: t.max_steps,
                 max_substeps: t.max_substeps,
                 mass_scaling: t.mass_scaling,
+                selective: None,
                 adaptive,
                 dt_min: t.dt_min.unwrap_or(end_time * 1e-9),
                 dt_max: t.dt_max.unwrap_or(end_time / 100.0),

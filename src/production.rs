@@ -129,6 +129,8 @@ pub fn production_scenario(sc: &Scenario) -> Scenario {
     };
     p.time.max_steps = u64::MAX;
     p.time.dt = None;
+    // The relaxation sets fictitious masses of its own (`fictitious_masses`).
+    p.time.selective_mass_scaling = None;
     p.output.checkpoint_every = None;
     p.output.figure_times.clear();
     p.damping = Damping::Local(0.8);
@@ -197,14 +199,12 @@ fn fictitious_masses(sim: &mut Simulation, dt: f64) -> f64 {
     let p = sim.params();
     let (safety, kj) = (p.time.safety, p.joint.k_max());
     let v = sim.solid();
-    let g: Vec<f64> = crate::systems::solid::gershgorin_rows(v, &p.solid, kj)
-        .iter()
-        .map(|r| r[0].max(r[1]))
-        .collect();
-    let mut dt_node: Vec<f64> = g
+    let rows = crate::systems::solid::gershgorin_rows(v, &p.solid, |_| kj);
+    let mut dt_node: Vec<f64> = rows
         .iter()
         .zip(&v.mass)
-        .filter(|(gi, m)| **gi > 0.0 && **m > 0.0)
+        .map(|(r, m)| (r[0].max(r[1]), m))
+        .filter(|(gi, m)| *gi > 0.0 && **m > 0.0)
         .map(|(gi, m)| 2.0 * (m / gi).sqrt())
         .collect();
     if dt_node.is_empty() {
@@ -213,13 +213,7 @@ fn fictitious_masses(sim: &mut Simulation, dt: f64) -> f64 {
     let mid = dt_node.len() / 2;
     let median = *dt_node.select_nth_unstable_by(mid, f64::total_cmp).1;
     let dt = dt.max(safety * median);
-    let v = sim.solid_mut();
-    for ((m, im), gi) in v.mass.iter_mut().zip(&mut v.inv_mass).zip(&g) {
-        if *m > 0.0 {
-            *m = m.max(gi * (dt / (2.0 * safety)).powi(2));
-            *im = 1.0 / *m;
-        }
-    }
+    crate::systems::solid::raise_masses(sim.solid_mut(), &rows, dt / safety);
     dt
 }
 
@@ -543,47 +537,63 @@ pub fn run_production(
     let middle = drops.len() / 2;
     let (mut rows, mut figures) = (Vec::new(), Vec::new());
     for state in [NetworkState::Before, NetworkState::After] {
+        // Where the quasi-static rock found no equilibrium at a lower drop of this state, a
+        // higher drop (more pressure, more sliding) goes to relaxation without trying it.
+        let mut failed_at: Option<String> = None;
         for (k, &dp) in drops.iter().enumerate() {
             let start = (state == NetworkState::After).then(|| end.clone());
             let label = format!("production {} dp = {:.1} MPa", state.name(), dp / 1e6);
-            let tell = |m: &str| report(&format!("{label}: {m}"));
-            let mut sim = production_sim(sc, start.clone(), stop)?;
-            let solved = solve_state_reporting(&mut sim, stage, state, dp, &tell);
-            if let Some(e) = interrupted(&sim) {
-                return Err(e);
-            }
-            let s = match solved {
-                // Past the friction limit the rock may have no static equilibrium under a
-                // trial pressure (a block held by sliding joints alone): the Newton solve
-                // cannot find one, the relaxation follows the sliding until it stops.
-                Err(ProductionError::Run {
-                    error: error @ RunError::QuasiStatic { .. },
-                    ..
-                }) => {
-                    tracing::warn!(
-                        "production {} dp = {:.1} MPa: the quasi-static rock failed ({error}); \
-                         dynamic relaxation instead",
-                        state.name(),
-                        dp / 1e6
-                    );
-                    report(&format!(
-                        "{label}: the quasi-static rock failed ({error}); relaxation instead"
-                    ));
-                    let mut relaxed = sc.clone();
-                    if let Some(p) = relaxed.production.as_mut() {
-                        p.rock = SolidScheme::Explicit;
-                    }
-                    let mut sim = production_sim(&relaxed, start, stop)?;
-                    let tell = |m: &str| report(&format!("{label} (relaxation): {m}"));
-                    let solved = solve_state_reporting(&mut sim, stage, state, dp, &tell);
-                    if let Some(e) = interrupted(&sim) {
-                        return Err(e);
-                    }
-                    let mut s = solved?;
-                    s.row.fallback = Some(error.to_string());
-                    s
+            let relax = |start: Option<SimState>, why: String| {
+                let mut relaxed = sc.clone();
+                if let Some(p) = relaxed.production.as_mut() {
+                    p.rock = SolidScheme::Explicit;
                 }
-                r => r?,
+                let mut sim = production_sim(&relaxed, start, stop)?;
+                let tell = |m: &str| report(&format!("{label} (relaxation): {m}"));
+                let solved = solve_state_reporting(&mut sim, stage, state, dp, &tell);
+                if let Some(e) = interrupted(&sim) {
+                    return Err(e);
+                }
+                let mut s = solved?;
+                s.row.fallback = Some(why);
+                Ok(s)
+            };
+            let s = if let Some(lower) = &failed_at {
+                report(&format!("{label}: relaxation ({lower})"));
+                relax(start, lower.clone())?
+            } else {
+                let tell = |m: &str| report(&format!("{label}: {m}"));
+                let mut sim = production_sim(sc, start.clone(), stop)?;
+                let solved = solve_state_reporting(&mut sim, stage, state, dp, &tell);
+                if let Some(e) = interrupted(&sim) {
+                    return Err(e);
+                }
+                match solved {
+                    // Past the friction limit the rock may have no static equilibrium under a
+                    // trial pressure (a block held by sliding joints alone): the Newton solve
+                    // cannot find one, the relaxation follows the sliding until it stops.
+                    Err(ProductionError::Run {
+                        error: error @ RunError::QuasiStatic { .. },
+                        ..
+                    }) => {
+                        tracing::warn!(
+                            "production {} dp = {:.1} MPa: the quasi-static rock failed \
+                             ({error}); dynamic relaxation instead",
+                            state.name(),
+                            dp / 1e6
+                        );
+                        report(&format!(
+                            "{label}: the quasi-static rock failed ({error}); relaxation instead"
+                        ));
+                        failed_at = Some(format!(
+                            "not tried: the quasi-static rock failed at dp = {:.1} MPa of this \
+                             state",
+                            dp / 1e6
+                        ));
+                        relax(start, error.to_string())?
+                    }
+                    r => r?,
+                }
             };
             tracing::info!(
                 "production {} dp = {:.1} MPa: rate {:.4e} (frozen {:.4e}) m^2/s, {} iterations",

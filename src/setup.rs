@@ -148,18 +148,39 @@ pub fn build_model(
     Ok((m, placed, info))
 }
 
-/// The rock's view (masses scaled with `time.mass_scaling`), and the coupling maps of a coupled
-/// flow part, which need it.
+/// The fictitious masses a run asks for, on a view just built from the model:
+/// `time.mass_scaling`'s (static relaxation, for the critical step `dt_crit`, s) or
+/// `time.selective_mass_scaling`'s (returned: what it raised).
+pub fn scale_masses(
+    view: &mut crate::view::SolidView,
+    p: &RunParams,
+    dt_crit: f64,
+) -> crate::systems::solid::RaisedMasses {
+    use crate::systems::solid;
+    if p.time.mass_scaling {
+        solid::scale_masses(view, &p.solid, p.joint.k_max(), dt_crit);
+    }
+    match &p.time.selective {
+        Some(s) => {
+            let k =
+                crate::stability::joint_spring(p.joint.k_max(), p.k_fluid(), p.residual_aperture);
+            let rows = solid::gershgorin_rows(view, &p.solid, k);
+            solid::raise_masses(view, &rows, s.dt_crit)
+        }
+        None => solid::RaisedMasses::default(),
+    }
+}
+
+/// The rock's view (masses scaled by [`scale_masses`], what the joint scaling raised), and the
+/// coupling maps of a coupled flow part, which need it.
 pub fn solid_view(
     model: &Model,
     p: &RunParams,
     dt_crit: f64,
     flow: Option<&mut FlowPart>,
-) -> crate::view::SolidView {
+) -> (crate::view::SolidView, crate::systems::solid::RaisedMasses) {
     let mut view = crate::view::SolidView::build(model);
-    if p.time.mass_scaling {
-        crate::systems::solid::scale_masses(&mut view, &p.solid, p.joint.k_max(), dt_crit);
-    }
+    let raised = scale_masses(&mut view, p, dt_crit);
     if let Some(f) = flow
         && f.coupling.is_some()
     {
@@ -167,7 +188,7 @@ pub fn solid_view(
         let c = crate::systems::coupling::Coupling::build(model, &view, &f.view, &p.fluid, a_r);
         f.coupling = Some(c);
     }
-    view
+    (view, raised)
 }
 
 /// The quasi-static solver when the schedule runs `solve`, its residual made of the force

@@ -88,7 +88,7 @@ impl Simulation {
         let (mut model, placed, mesh_info) = crate::setup::build_model(&scenario)?;
         let mut p = RunParams::resolve(&scenario, model.material);
         let has_solid = scenario.mesh.is_some();
-        let dt_crit = if has_solid {
+        let mut dt_crit = if has_solid {
             crate::stability::solid(
                 &model,
                 p.c_p,
@@ -99,11 +99,19 @@ impl Simulation {
         } else {
             f64::INFINITY
         };
+        if let (Some(f), true) = (scenario.time.selective_mass_scaling, has_solid) {
+            let s = crate::params::SelectiveScaling {
+                dt_crit: f * dt_crit,
+                dt_unscaled: dt_crit,
+            };
+            dt_crit = s.dt_crit;
+            p.time.selective = Some(s);
+        }
         let mut flow = crate::setup::build_flow(&mut model, &scenario, &p)?;
         let (dt, steps_to_end) =
             crate::setup::time_step(&p.time, &scenario.time, has_solid, dt_crit, flow.as_mut())?;
         p.solid.dt = dt;
-        let view = crate::setup::solid_view(&model, &p, dt_crit, flow.as_mut());
+        let (view, raised) = crate::setup::solid_view(&model, &p, dt_crit, flow.as_mut());
         let mut disabled = scenario.systems.disable.clone();
         disabled.extend(extra_disable.iter().cloned());
         let schedule = crate::setup::schedule(&disabled, &view, &p, flow.is_some())?;
@@ -124,6 +132,7 @@ impl Simulation {
                 view,
                 stats: StepStats::default(),
                 dt_crit,
+                raised,
                 quasi_static: qs,
             },
             flow,
@@ -373,6 +382,12 @@ impl Simulation {
         }
         self.fracture = state.fracture;
         self.fracture.tips.invalidate();
+        if self.params.time.selective.is_some() {
+            // The checkpoint's view carries the raised masses; count them again on a view of
+            // the restored model.
+            let mut v = SolidView::build(&self.model);
+            self.solid.raised = crate::setup::scale_masses(&mut v, &self.params, state.dt_crit);
+        }
         if self.solid.quasi_static.is_none() {
             self.fracture.screen.track_motion(&mut self.solid.view);
         }
@@ -784,10 +799,7 @@ impl Simulation {
         let generation = self.model.topology_generation;
         if self.solid.view.generation != generation {
             let mut view = SolidView::build(&self.model);
-            if p.time.mass_scaling {
-                let k = p.joint.k_max();
-                solid::scale_masses(&mut view, &p.solid, k, self.solid.dt_crit);
-            }
+            self.solid.raised = crate::setup::scale_masses(&mut view, p, self.solid.dt_crit);
             let has_load = view.has_load();
             self.schedule.set_data(SystemId::ExternalLoad, has_load);
             self.solid.view = view;
@@ -877,6 +889,11 @@ impl Simulation {
     /// The quasi-static solver, to change its settings (tolerance, W updates) before a run.
     pub fn quasi_static_mut(&mut self) -> Option<&mut quasi_static::QuasiStatic> {
         self.solid.quasi_static.as_mut()
+    }
+    /// `time.selective_mass_scaling`: the nodes the current view's masses raise and the mass
+    /// they add, kg/m.
+    pub fn raised_masses(&self) -> crate::systems::solid::RaisedMasses {
+        self.solid.raised
     }
     /// Critical solid step of the current topology, s.
     pub fn dt_crit(&self) -> f64 {

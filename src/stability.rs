@@ -24,9 +24,17 @@ pub fn elements(min_altitude: f64, c_p: f64) -> f64 {
 /// cell of length L at the residual aperture a_r pushes back on an opening change; `k_fluid`
 /// is 0 when no fluid fills the fractures).
 pub fn solid(model: &Model, c_p: f64, k_joint: f64, k_fluid: f64, a_r: f64) -> f64 {
-    with_joint_stiffness(model, elements(model.min_altitude, c_p), |len| {
-        k_joint + k_fluid * len / a_r
-    })
+    with_joint_stiffness(
+        model,
+        elements(model.min_altitude, c_p),
+        joint_spring(k_joint, k_fluid, a_r),
+    )
+}
+
+/// The stiffness a joint of reference length L (m) adds to its nodes' rows, Pa:
+/// `k_joint` + `k_fluid` L / a_r (see [`solid`]).
+pub fn joint_spring(k_joint: f64, k_fluid: f64, a_r: f64) -> impl Fn(f64) -> f64 {
+    move |len| k_joint + k_fluid * len / a_r
 }
 
 /// Stability bound of one flow cell, s: V / (K sum of its transmissibilities), with V its

@@ -128,7 +128,7 @@ pub fn damping(v: &mut SolidView, p: &SolidParams) {
 /// large elements of a graded mesh stop slowing the relaxation. Serial, fixed order:
 /// deterministic.
 pub fn scale_masses(v: &mut SolidView, p: &SolidParams, k_joint: f64, dt_crit: f64) {
-    let row = gershgorin_rows(v, p, k_joint);
+    let row = gershgorin_rows(v, p, |_| k_joint);
     for (i, r) in row.iter().enumerate() {
         let m = 0.25 * r[0].max(r[1]) * dt_crit * dt_crit;
         if m > 0.0 {
@@ -138,12 +138,44 @@ pub fn scale_masses(v: &mut SolidView, p: &SolidParams, k_joint: f64, dt_crit: f
     }
 }
 
+/// What [`raise_masses`] did: the nodes raised and the mass they gained, kg/m.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct RaisedMasses {
+    pub nodes: usize,
+    pub added: f64,
+}
+
+/// Raise each node's mass to what makes the step `dt_crit` (s) stable for it by Gershgorin's
+/// bound: m_i = max(m_i, g_i dt_crit^2 / 4), kg/m, with g_i the larger of the node's two
+/// `rows` ([`gershgorin_rows`]). Then lambda_max(M^-1 K) <= max_i g_i / m_i <= 4 / dt_crit^2,
+/// so central difference is stable at any step up to `dt_crit`, and nodes already that heavy
+/// keep their masses. Used by `time.selective_mass_scaling` and by the production stage's
+/// relaxation (`production::fictitious_masses`). Serial, in the view's order: deterministic.
+pub fn raise_masses(v: &mut SolidView, rows: &[[f64; 2]], dt_crit: f64) -> RaisedMasses {
+    let mut out = RaisedMasses::default();
+    for ((m, im), r) in v.mass.iter_mut().zip(&mut v.inv_mass).zip(rows) {
+        let need = r[0].max(r[1]) * dt_crit * dt_crit / 4.0;
+        if *m > 0.0 && need > *m {
+            out.nodes += 1;
+            out.added += need - *m;
+            *m = need;
+            *im = 1.0 / need;
+        }
+    }
+    out
+}
+
 /// Each node's Gershgorin row sums sum_j |K_ij| of the stiffness, per dof (N/m per m): the
-/// elements' CST stiffness, plus `k_joint` per joint face at the node (the contact's row sum:
+/// elements' CST stiffness, plus `k_joint(L)` (Pa, L the joint's reference length, m) per
+/// joint face at the node (the contact's row sum:
 /// its springs act on the faces' mean displacements with coefficients +-1/2). The one home of
-/// the bound that [`scale_masses`] and the production stage's relaxation
+/// the bound that [`scale_masses`], [`raise_masses`] and the production stage's relaxation
 /// (`production::fictitious_masses`) use.
-pub fn gershgorin_rows(v: &SolidView, p: &SolidParams, k_joint: f64) -> Vec<[f64; 2]> {
+pub fn gershgorin_rows(
+    v: &SolidView,
+    p: &SolidParams,
+    k_joint: impl Fn(f64) -> f64,
+) -> Vec<[f64; 2]> {
     let mut row = vec![[0.0f64; 2]; v.n_nodes()];
     let d = [
         [p.lam2g, p.lam, 0.0],
@@ -172,9 +204,11 @@ pub fn gershgorin_rows(v: &SolidView, p: &SolidParams, k_joint: f64) -> Vec<[f64
         }
     }
     for j in &v.joint_nodes {
+        let [a, b] = [j[0], j[1]].map(|n| v.x0[n as usize]);
+        let k = k_joint((b[0] - a[0]).hypot(b[1] - a[1]));
         for &n in j {
-            row[n as usize][0] += k_joint;
-            row[n as usize][1] += k_joint;
+            row[n as usize][0] += k;
+            row[n as usize][1] += k;
         }
     }
     row

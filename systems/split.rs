@@ -52,13 +52,18 @@ pub fn shorten_step(
     p: &mut RunParams,
     t: f64,
 ) {
-    let bound = crate::stability::solid(
-        model,
-        p.c_p,
-        p.joint.k_max(),
-        p.k_fluid(),
-        p.residual_aperture,
-    );
+    // With `time.selective_mass_scaling` the view rebuilt for the new topology raises the new
+    // joints' nodes to the scaling's step, so that stays the bound.
+    let bound = match &p.time.selective {
+        Some(s) => s.dt_crit,
+        None => crate::stability::solid(
+            model,
+            p.c_p,
+            p.joint.k_max(),
+            p.k_fluid(),
+            p.residual_aperture,
+        ),
+    };
     solid.dt_crit = bound;
     let safe = p.time.safety * bound;
     if !p.time.forced_dt && safe < p.solid.dt {

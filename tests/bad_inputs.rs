@@ -539,6 +539,26 @@ const CASES: &[Case] = &[
         &["time.mass_scaling", "static"],
     ),
     set(
+        INSITU,
+        &["--set", "time.selective_mass_scaling=Some(0.5)"],
+        &["time.selective_mass_scaling", "at least 1"],
+    ),
+    set(
+        INSITU,
+        &["--set", "time.selective_mass_scaling=Some(inf)"],
+        &["time.selective_mass_scaling", "expected f64"],
+    ),
+    set(
+        INSITU,
+        &[
+            "--set",
+            "time.selective_mass_scaling=Some(4)",
+            "--set",
+            "time.solid_scheme=\"QuasiStatic\"",
+        ],
+        &["time.selective_mass_scaling", "quasi-static"],
+    ),
+    set(
         SMALL,
         &["--set", "time.solid_scheme=\"QuasiStatic\""],
         &["time.solid_scheme", "mesh"],

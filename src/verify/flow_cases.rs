@@ -58,6 +58,7 @@ pub fn flow_scenario(
             max_steps: 5_000_000,
             max_substeps: 100_000,
             mass_scaling: false,
+            selective_mass_scaling: None,
         },
         damping: Damping::None,
         systems: SystemsSpec::default(),

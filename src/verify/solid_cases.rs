@@ -54,6 +54,7 @@ pub fn scenario(
             max_steps: 2_000_000,
             max_substeps: 100_000,
             mass_scaling: false,
+            selective_mass_scaling: None,
         },
         damping,
         systems: SystemsSpec::default(),
