@@ -5,7 +5,7 @@
 //! `cubic_law`, `diffusion`, `mass_balance`, `pump_curve`, `steady`, `flow_stability`; fracture
 //! (R5, R7b, R8, R12b) `sneddon`, `sif`,
 //! `friction`, `slip_inclined`; coupled (R6) `kgd`, `kgd_k`, `kgd_mk`; the seed's
-//! Example I (R9) `example1`; reservoir: upscaling `oda`, continuum heat (R17)
+//! Example I (R9) `example1`, and with selective mass scaling `mass_scaling`; reservoir: upscaling `oda`, continuum heat (R17)
 //! `heat_continuum`, discrete heat (R15, R16) `lauwerier`, `gringarten`, the two against each other
 //! `heat_models`; reliability: `extreme` (corners of the parameter space: finite and bounded,
 //! or refused naming the parameter).
@@ -219,6 +219,11 @@ pub fn cases() -> Vec<Case> {
             name: "example1",
             about: "the seed's Example I, cross and offset, explicit and quasi-static side by side: Fig. 7's outcome, the same cells, creation times and injected volume",
             run: example_cases::example1,
+        },
+        Case {
+            name: "mass_scaling",
+            about: "Example I with time.selective_mass_scaling 2, 4, 8 against the unscaled rock: volume, creation times, wall",
+            run: example_cases::mass_scaling,
         },
         Case {
             name: "oda",
