@@ -333,7 +333,7 @@ pub fn run_scenario(scenario: Scenario, opts: &RunOptions) -> Result<RunReport, 
             &|m: &str| bar.set_message(m.to_string()),
         );
         bar.finish_and_clear();
-        let (rows, figures) = match solved {
+        let stage_result = match solved {
             Ok(x) => x,
             Err(crate::production::ProductionError::Interrupted(sig)) => {
                 // Stopped between two steps of an equilibrium: the run's outputs are complete,
@@ -346,17 +346,30 @@ pub fn run_scenario(scenario: Scenario, opts: &RunOptions) -> Result<RunReport, 
                 ));
                 summary["production"] = json!({"interrupted": true});
                 production_interrupted = Some(sig);
-                (Vec::new(), Vec::new())
+                Default::default()
             }
             Err(e) => {
                 summary["production"] = json!({"error": e.to_string()});
                 production_error = Some(e);
-                (Vec::new(), Vec::new())
+                Default::default()
             }
         };
+        let crate::production::StageResult {
+            rows,
+            figures,
+            failed,
+        } = stage_result;
         if production_error.is_none() && production_interrupted.is_none() {
-            summary["production"] = crate::production::production_json(&stage, &rows);
+            summary["production"] = crate::production::production_json(&stage, &rows, &failed);
             summary["production"]["wall_s"] = json!(t.elapsed().as_secs_f64());
+            for f in &failed {
+                warnings.push(format!(
+                    "production {} dp = {:.1} MPa failed, no row: {}",
+                    f.state.name(),
+                    f.dp / 1e6,
+                    f.error
+                ));
+            }
         }
         if let (Some(o), None, None) = (sim.output(), &production_error, production_interrupted) {
             let csv = crate::production::production_csv(&rows);

@@ -527,7 +527,7 @@ pub fn run_production(
     end: SimState,
     stop: Option<&StopFlag>,
     report: &dyn Fn(&str),
-) -> Result<(Vec<ProductionRow>, Vec<StateSolve>), ProductionError> {
+) -> Result<StageResult, ProductionError> {
     let interrupted = |sim: &Simulation| sim.stop_signal().map(ProductionError::Interrupted);
     let stage = sc
         .production
@@ -535,7 +535,7 @@ pub fn run_production(
         .ok_or_else(|| SetupError::invalid("production", "the scenario has no production"))?;
     let drops = &stage.wells.pressure_drops;
     let middle = drops.len() / 2;
-    let (mut rows, mut figures) = (Vec::new(), Vec::new());
+    let mut out = StageResult::default();
     for state in [NetworkState::Before, NetworkState::After] {
         // Where the quasi-static rock found no equilibrium at a lower drop of this state, a
         // higher drop (more pressure, more sliding) goes to relaxation without trying it.
@@ -558,9 +558,9 @@ pub fn run_production(
                 s.row.fallback = Some(why);
                 Ok(s)
             };
-            let s = if let Some(lower) = &failed_at {
+            let solved = if let Some(lower) = &failed_at {
                 report(&format!("{label}: relaxation ({lower})"));
-                relax(start, lower.clone())?
+                relax(start, lower.clone())
             } else {
                 let tell = |m: &str| report(&format!("{label}: {m}"));
                 let mut sim = production_sim(sc, start.clone(), stop)?;
@@ -590,10 +590,27 @@ pub fn run_production(
                              state",
                             dp / 1e6
                         ));
-                        relax(start, error.to_string())?
+                        relax(start, error.to_string())
                     }
-                    r => r?,
+                    r => r,
                 }
+            };
+            let s = match solved {
+                Ok(s) => s,
+                // A state that fails (a blow-up: a block expelled where no static equilibrium
+                // holds it, say) is reported and the stage goes on with the next one, so the
+                // states solved are kept.
+                Err(e @ (ProductionError::Run { .. } | ProductionError::Flow { .. })) => {
+                    tracing::warn!("{e}");
+                    report(&format!("{label}: failed ({e})"));
+                    out.failed.push(FailedState {
+                        state,
+                        dp,
+                        error: e.to_string(),
+                    });
+                    continue;
+                }
+                Err(e) => return Err(e),
             };
             tracing::info!(
                 "production {} dp = {:.1} MPa: rate {:.4e} (frozen {:.4e}) m^2/s, {} iterations",
@@ -603,13 +620,30 @@ pub fn run_production(
                 s.row.rate_frozen,
                 s.row.iterations
             );
-            rows.push(s.row.clone());
+            out.rows.push(s.row.clone());
             if k == middle {
-                figures.push(s);
+                out.figures.push(s);
             }
         }
     }
-    Ok((rows, figures))
+    Ok(out)
+}
+
+/// A production state that failed (`summary.json` `production.failed`; no row).
+#[derive(Clone, Debug)]
+pub struct FailedState {
+    pub state: NetworkState,
+    pub dp: f64,
+    pub error: String,
+}
+
+/// What [`run_production`] solved: a row per state solved, the middle drop's flows (figures),
+/// and the states that failed.
+#[derive(Clone, Debug, Default)]
+pub struct StageResult {
+    pub rows: Vec<ProductionRow>,
+    pub figures: Vec<StateSolve>,
+    pub failed: Vec<FailedState>,
 }
 
 /// `production.csv`: `state,dp,rate,rate_frozen` (Pa, m^2/s per metre) and the iteration's
@@ -639,7 +673,11 @@ pub fn production_csv(rows: &[ProductionRow]) -> String {
 }
 
 /// `summary.json`'s `production`: the wells and one entry per row (ratios after / before).
-pub fn production_json(stage: &ProductionStage, rows: &[ProductionRow]) -> serde_json::Value {
+pub fn production_json(
+    stage: &ProductionStage,
+    rows: &[ProductionRow],
+    failed: &[FailedState],
+) -> serde_json::Value {
     let w = &stage.wells;
     let entries: Vec<serde_json::Value> = rows
         .iter()
@@ -664,28 +702,37 @@ pub fn production_json(stage: &ProductionStage, rows: &[ProductionRow]) -> serde
             let rate = |s: NetworkState, frozen: bool| {
                 rows.iter()
                     .find(|r| r.state == s && r.dp == dp)
-                    .map_or(0.0, |r| if frozen { r.rate_frozen } else { r.rate })
+                    .map(|r| if frozen { r.rate_frozen } else { r.rate })
             };
-            // Omitted (not null) when nothing flows before.
+            // Omitted (not null) when nothing flows before or a state failed.
             let mut v = serde_json::json!({"dp": dp});
             for (key, frozen) in [
                 ("after_over_before", false),
                 ("after_over_before_frozen", true),
             ] {
                 let b = rate(NetworkState::Before, frozen);
-                if b > 0.0 {
-                    v[key] = serde_json::json!(rate(NetworkState::After, frozen) / b);
+                if let (Some(b), Some(a)) = (b, rate(NetworkState::After, frozen))
+                    && b > 0.0
+                {
+                    v[key] = serde_json::json!(a / b);
                 }
             }
             v
         })
         .collect();
-    serde_json::json!({
+    let mut v = serde_json::json!({
         "injection": w.injection, "production": w.production,
         "production_pressure": w.production_pressure, "reach": w.reach,
         "rows": entries, "ratios": ratios,
         "fractures_grew": rows.iter().any(|r| r.new_cells > 0),
-    })
+    });
+    if !failed.is_empty() {
+        v["failed"] = failed
+            .iter()
+            .map(|f| serde_json::json!({"state": f.state.name(), "dp": f.dp, "error": f.error}))
+            .collect();
+    }
+    v
 }
 
 /// The seed's Fig. 9: the network of `view` (reference positions), new fracture cells coloured
@@ -726,4 +773,53 @@ pub fn network_figure(
         None,
         markers,
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A state that failed leaves its drop without a ratio (not a ratio against a zero rate)
+    /// and is listed under `failed`; the rest of the summary is as with every state solved.
+    #[test]
+    fn a_failed_state_is_listed_and_leaves_no_ratio() {
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/scenarios/example2_small.ron");
+        let sc = Scenario::load(std::path::Path::new(path), &[]).unwrap();
+        let stage = sc.production.clone().unwrap();
+        let row = |state, dp, rate| ProductionRow {
+            state,
+            dp,
+            rate,
+            rate_frozen: rate,
+            iterations: 1,
+            converged: true,
+            change: 0.0,
+            relax_steps: 1,
+            new_cells: 0,
+            max_aperture: 5e-4,
+            wall_s: 0.1,
+            rock: "quasi-static",
+            fallback: None,
+        };
+        use NetworkState::{After, Before};
+        let rows = [
+            row(Before, 9e6, 1e-3),
+            row(Before, 12e6, 2e-3),
+            row(After, 9e6, 3e-3),
+        ];
+        let failed = [FailedState {
+            state: After,
+            dp: 12e6,
+            error: "blow-up".into(),
+        }];
+        let v = production_json(&stage, &rows, &failed);
+        let ratio = |k: usize| v["ratios"][k].get("after_over_before").map(|x| x.as_f64());
+        assert_eq!(ratio(0), Some(Some(3.0)));
+        assert_eq!(ratio(1), None, "{v}");
+        assert_eq!(v["failed"][0]["state"], "after");
+        assert_eq!(v["failed"][0]["dp"], 12e6);
+        assert!(!v.to_string().contains("null"), "{v}");
+        let all = production_json(&stage, &rows, &[]);
+        assert!(all.get("failed").is_none());
+    }
 }
