@@ -171,8 +171,8 @@ pub fn scale_masses(
     }
 }
 
-/// The rock's view (masses scaled by [`scale_masses`], what the joint scaling raised), and the
-/// coupling maps of a coupled flow part, which need it.
+/// The rock's view (masses scaled by [`scale_masses`]) with what the selective scaling raised,
+/// and the coupling maps of a coupled flow part, which need it.
 pub fn solid_view(
     model: &Model,
     p: &RunParams,
