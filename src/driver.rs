@@ -696,10 +696,10 @@ fn summary_json(
         "dt": sim.params().solid.dt,
         "dt_critical": finite(sim.dt_crit()),
         "mass_scaling": sim.params().time.selective.map(|j| {
-            let r = sim.raised_masses();
+            let (nodes, added) = sim.raised_masses();
             let total: f64 = sim.solid().mass.iter().sum();
             json!({"critical_step": j.dt_crit, "unscaled_critical_step": j.dt_unscaled,
-                   "nodes": r.nodes, "added_mass_fraction": r.added / (total - r.added)})
+                   "nodes": nodes, "added_mass_fraction": added / (total - added)})
         }),
         "wall_s": wall,
         "residual": sim.residual(),

@@ -992,7 +992,7 @@ pub struct TimeControl {
     /// coupled runs, the fluid's K L / a_r of a full cell at the residual aperture;
     /// `systems::solid::raise_masses`). Other nodes keep their masses. The joints' and the
     /// fluid's springs set the step of a coupled run (on Example II 6x below the elements'),
-    /// so up to that factor only the nodes on fracture faces get heavier. The rock's response
+    /// so up to a factor of about 16 there only the nodes on fracture faces get heavier. The rock's response
     /// to pumping is quasi-static, so added inertia changes it little; how little is measured
     /// on Example II in the README. Body forces keep the true density. `summary.json`
     /// `mass_scaling` reports the nodes raised and the mass added.

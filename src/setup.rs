@@ -150,37 +150,29 @@ pub fn build_model(
 
 /// The fictitious masses a run asks for, on a view just built from the model:
 /// `time.mass_scaling`'s (static relaxation, for the critical step `dt_crit`, s) or
-/// `time.selective_mass_scaling`'s (returned: what it raised).
-pub fn scale_masses(
-    view: &mut crate::view::SolidView,
-    p: &RunParams,
-    dt_crit: f64,
-) -> crate::systems::solid::RaisedMasses {
+/// `time.selective_mass_scaling`'s.
+pub fn scale_masses(view: &mut crate::view::SolidView, p: &RunParams, dt_crit: f64) {
     use crate::systems::solid;
     if p.time.mass_scaling {
         solid::scale_masses(view, &p.solid, p.joint.k_max(), dt_crit);
     }
-    match &p.time.selective {
-        Some(s) => {
-            let k =
-                crate::stability::joint_spring(p.joint.k_max(), p.k_fluid(), p.residual_aperture);
-            let rows = solid::gershgorin_rows(view, &p.solid, k);
-            solid::raise_masses(view, &rows, s.dt_crit)
-        }
-        None => solid::RaisedMasses::default(),
+    if let Some(s) = &p.time.selective {
+        let k = crate::stability::joint_spring(p.joint.k_max(), p.k_fluid(), p.residual_aperture);
+        let rows = solid::gershgorin_rows(view, &p.solid, k);
+        solid::raise_masses(view, &rows, s.dt_crit);
     }
 }
 
-/// The rock's view (masses scaled by [`scale_masses`]) with what the selective scaling raised,
-/// and the coupling maps of a coupled flow part, which need it.
+/// The rock's view (masses scaled by [`scale_masses`]), and the coupling maps of a coupled
+/// flow part, which need it.
 pub fn solid_view(
     model: &Model,
     p: &RunParams,
     dt_crit: f64,
     flow: Option<&mut FlowPart>,
-) -> (crate::view::SolidView, crate::systems::solid::RaisedMasses) {
+) -> crate::view::SolidView {
     let mut view = crate::view::SolidView::build(model);
-    let raised = scale_masses(&mut view, p, dt_crit);
+    scale_masses(&mut view, p, dt_crit);
     if let Some(f) = flow
         && f.coupling.is_some()
     {
@@ -188,7 +180,7 @@ pub fn solid_view(
         let c = crate::systems::coupling::Coupling::build(model, &view, &f.view, &p.fluid, a_r);
         f.coupling = Some(c);
     }
-    (view, raised)
+    view
 }
 
 /// The quasi-static solver when the schedule runs `solve`, its residual made of the force

@@ -111,7 +111,7 @@ impl Simulation {
         let (dt, steps_to_end) =
             crate::setup::time_step(&p.time, &scenario.time, has_solid, dt_crit, flow.as_mut())?;
         p.solid.dt = dt;
-        let (view, raised) = crate::setup::solid_view(&model, &p, dt_crit, flow.as_mut());
+        let view = crate::setup::solid_view(&model, &p, dt_crit, flow.as_mut());
         let mut disabled = scenario.systems.disable.clone();
         disabled.extend(extra_disable.iter().cloned());
         let schedule = crate::setup::schedule(&disabled, &view, &p, flow.is_some())?;
@@ -132,7 +132,6 @@ impl Simulation {
                 view,
                 stats: StepStats::default(),
                 dt_crit,
-                raised,
                 quasi_static: qs,
             },
             flow,
@@ -382,12 +381,6 @@ impl Simulation {
         }
         self.fracture = state.fracture;
         self.fracture.tips.invalidate();
-        if self.params.time.selective.is_some() {
-            // The checkpoint's view carries the raised masses; count them again on a view of
-            // the restored model.
-            let mut v = SolidView::build(&self.model);
-            self.solid.raised = crate::setup::scale_masses(&mut v, &self.params, state.dt_crit);
-        }
         if self.solid.quasi_static.is_none() {
             self.fracture.screen.track_motion(&mut self.solid.view);
         }
@@ -799,7 +792,7 @@ impl Simulation {
         let generation = self.model.topology_generation;
         if self.solid.view.generation != generation {
             let mut view = SolidView::build(&self.model);
-            self.solid.raised = crate::setup::scale_masses(&mut view, p, self.solid.dt_crit);
+            crate::setup::scale_masses(&mut view, p, self.solid.dt_crit);
             let has_load = view.has_load();
             self.schedule.set_data(SystemId::ExternalLoad, has_load);
             self.solid.view = view;
@@ -890,10 +883,24 @@ impl Simulation {
     pub fn quasi_static_mut(&mut self) -> Option<&mut quasi_static::QuasiStatic> {
         self.solid.quasi_static.as_mut()
     }
-    /// `time.selective_mass_scaling`: the nodes the current view's masses raise and the mass
-    /// they add, kg/m.
-    pub fn raised_masses(&self) -> crate::systems::solid::RaisedMasses {
-        self.solid.raised
+    /// The nodes whose mass in the view is above their lumped mass (`time.mass_scaling`,
+    /// `time.selective_mass_scaling`), and the mass they add, kg/m. Reads the components:
+    /// for summaries, not for the step.
+    pub fn raised_masses(&self) -> (usize, f64) {
+        let v = &self.solid.view;
+        let mut out = (0, 0.0);
+        for (&e, &m) in v.node_entity.iter().zip(&v.mass) {
+            let own = self
+                .model
+                .world
+                .get::<&crate::components::NodeMass>(e)
+                .map_or(m, |n| n.0);
+            if m > own {
+                out.0 += 1;
+                out.1 += m - own;
+            }
+        }
+        out
     }
     /// Critical solid step of the current topology, s.
     pub fn dt_crit(&self) -> f64 {

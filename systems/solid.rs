@@ -138,31 +138,20 @@ pub fn scale_masses(v: &mut SolidView, p: &SolidParams, k_joint: f64, dt_crit: f
     }
 }
 
-/// What [`raise_masses`] did: the nodes raised and the mass they gained, kg/m.
-#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
-pub struct RaisedMasses {
-    pub nodes: usize,
-    pub added: f64,
-}
-
 /// Raise each node's mass to what makes the step `dt_crit` (s) stable for it by Gershgorin's
 /// bound: m_i = max(m_i, g_i dt_crit^2 / 4), kg/m, with g_i the larger of the node's two
 /// `rows` ([`gershgorin_rows`]). Then lambda_max(M^-1 K) <= max_i g_i / m_i <= 4 / dt_crit^2,
 /// so central difference is stable at any step up to `dt_crit`, and nodes already that heavy
 /// keep their masses. Used by `time.selective_mass_scaling` and by the production stage's
 /// relaxation (`production::fictitious_masses`). Serial, in the view's order: deterministic.
-pub fn raise_masses(v: &mut SolidView, rows: &[[f64; 2]], dt_crit: f64) -> RaisedMasses {
-    let mut out = RaisedMasses::default();
+pub fn raise_masses(v: &mut SolidView, rows: &[[f64; 2]], dt_crit: f64) {
     for ((m, im), r) in v.mass.iter_mut().zip(&mut v.inv_mass).zip(rows) {
         let need = r[0].max(r[1]) * dt_crit * dt_crit / 4.0;
         if *m > 0.0 && need > *m {
-            out.nodes += 1;
-            out.added += need - *m;
             *m = need;
             *im = 1.0 / need;
         }
     }
-    out
 }
 
 /// Each node's Gershgorin row sums sum_j |K_ij| of the stiffness, per dof (N/m per m): the

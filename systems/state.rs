@@ -14,9 +14,6 @@ pub struct SolidPart {
     /// Critical solid step (elements, joints, fluid stiffness; [`crate::stability::solid`]), s;
     /// infinite without a solid.
     pub dt_crit: f64,
-    /// `time.selective_mass_scaling`: the nodes whose masses the current view raised and the
-    /// mass they gained (kg/m).
-    pub raised: crate::systems::solid::RaisedMasses,
     /// `time.solid_scheme: QuasiStatic`: the equilibrium solver.
     pub quasi_static: Option<QuasiStatic>,
 }
