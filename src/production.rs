@@ -521,109 +521,130 @@ pub fn solve_state_reporting(
 /// Every production state of `sc.production`: before (from setup) and after (from `end`, the
 /// state at the end of the run), at each pressure drop, each from its own start. Also returns
 /// the solved states at the middle pressure drop (the seed's Fig. 10).
+/// The before and the after states run side by side (`rayon::join`: independent simulations,
+/// so the same bits for any number of threads; rows in the order before, after).
 /// `report` hears where the stage is (the state, its iteration), for a progress display.
 pub fn run_production(
     sc: &Scenario,
     end: SimState,
     stop: Option<&StopFlag>,
-    report: &dyn Fn(&str),
+    report: &(dyn Fn(&str) + Sync),
 ) -> Result<StageResult, ProductionError> {
-    let interrupted = |sim: &Simulation| sim.stop_signal().map(ProductionError::Interrupted);
     let stage = sc
         .production
         .as_ref()
         .ok_or_else(|| SetupError::invalid("production", "the scenario has no production"))?;
+    let (before, after) = rayon::join(
+        || run_states(sc, stage, NetworkState::Before, None, stop, report),
+        || run_states(sc, stage, NetworkState::After, Some(&end), stop, report),
+    );
+    let (mut out, after) = (before?, after?);
+    out.rows.extend(after.rows);
+    out.figures.extend(after.figures);
+    out.failed.extend(after.failed);
+    Ok(out)
+}
+
+/// The production states of one network `state` (from setup, or from `end`), at each pressure
+/// drop in turn, each from its own start.
+fn run_states(
+    sc: &Scenario,
+    stage: &ProductionStage,
+    state: NetworkState,
+    end: Option<&SimState>,
+    stop: Option<&StopFlag>,
+    report: &(dyn Fn(&str) + Sync),
+) -> Result<StageResult, ProductionError> {
+    let interrupted = |sim: &Simulation| sim.stop_signal().map(ProductionError::Interrupted);
     let drops = &stage.wells.pressure_drops;
     let middle = drops.len() / 2;
     let mut out = StageResult::default();
-    for state in [NetworkState::Before, NetworkState::After] {
-        // Where the quasi-static rock found no equilibrium at a lower drop of this state, a
-        // higher drop (more pressure, more sliding) goes to relaxation without trying it.
-        let mut failed_at: Option<String> = None;
-        for (k, &dp) in drops.iter().enumerate() {
-            let start = (state == NetworkState::After).then(|| end.clone());
-            let label = format!("production {} dp = {:.1} MPa", state.name(), dp / 1e6);
-            let relax = |start: Option<SimState>, why: String| {
-                let mut relaxed = sc.clone();
-                if let Some(p) = relaxed.production.as_mut() {
-                    p.rock = SolidScheme::Explicit;
-                }
-                let mut sim = production_sim(&relaxed, start, stop)?;
-                let tell = |m: &str| report(&format!("{label} (relaxation): {m}"));
-                let solved = solve_state_reporting(&mut sim, stage, state, dp, &tell);
-                if let Some(e) = interrupted(&sim) {
-                    return Err(e);
-                }
-                let mut s = solved?;
-                s.row.fallback = Some(why);
-                Ok(s)
-            };
-            let solved = if let Some(lower) = &failed_at {
-                report(&format!("{label}: relaxation ({lower})"));
-                relax(start, lower.clone())
-            } else {
-                let tell = |m: &str| report(&format!("{label}: {m}"));
-                let mut sim = production_sim(sc, start.clone(), stop)?;
-                let solved = solve_state_reporting(&mut sim, stage, state, dp, &tell);
-                if let Some(e) = interrupted(&sim) {
-                    return Err(e);
-                }
-                match solved {
-                    // Past the friction limit the rock may have no static equilibrium under a
-                    // trial pressure (a block held by sliding joints alone): the Newton solve
-                    // cannot find one, the relaxation follows the sliding until it stops.
-                    Err(ProductionError::Run {
-                        error: error @ RunError::QuasiStatic { .. },
-                        ..
-                    }) => {
-                        tracing::warn!(
-                            "production {} dp = {:.1} MPa: the quasi-static rock failed \
-                             ({error}); dynamic relaxation instead",
-                            state.name(),
-                            dp / 1e6
-                        );
-                        report(&format!(
-                            "{label}: the quasi-static rock failed ({error}); relaxation instead"
-                        ));
-                        failed_at = Some(format!(
-                            "not tried: the quasi-static rock failed at dp = {:.1} MPa of this \
-                             state",
-                            dp / 1e6
-                        ));
-                        relax(start, error.to_string())
-                    }
-                    r => r,
-                }
-            };
-            let s = match solved {
-                Ok(s) => s,
-                // A state that fails (a blow-up: a block expelled where no static equilibrium
-                // holds it, say) is reported and the stage goes on with the next one, so the
-                // states solved are kept.
-                Err(e @ (ProductionError::Run { .. } | ProductionError::Flow { .. })) => {
-                    tracing::warn!("{e}");
-                    report(&format!("{label}: failed ({e})"));
-                    out.failed.push(FailedState {
-                        state,
-                        dp,
-                        error: e.to_string(),
-                    });
-                    continue;
-                }
-                Err(e) => return Err(e),
-            };
-            tracing::info!(
-                "production {} dp = {:.1} MPa: rate {:.4e} (frozen {:.4e}) m^2/s, {} iterations",
-                state.name(),
-                dp / 1e6,
-                s.row.rate,
-                s.row.rate_frozen,
-                s.row.iterations
-            );
-            out.rows.push(s.row.clone());
-            if k == middle {
-                out.figures.push(s);
+    // Where the quasi-static rock found no equilibrium at a lower drop of this state, a
+    // higher drop (more pressure, more sliding) goes to relaxation without trying it.
+    let mut failed_at: Option<String> = None;
+    for (k, &dp) in drops.iter().enumerate() {
+        let start = end.cloned();
+        let label = format!("production {} dp = {:.1} MPa", state.name(), dp / 1e6);
+        let relax = |start: Option<SimState>, why: String| {
+            let mut relaxed = sc.clone();
+            if let Some(p) = relaxed.production.as_mut() {
+                p.rock = SolidScheme::Explicit;
             }
+            let mut sim = production_sim(&relaxed, start, stop)?;
+            let tell = |m: &str| report(&format!("{label} (relaxation): {m}"));
+            let solved = solve_state_reporting(&mut sim, stage, state, dp, &tell);
+            if let Some(e) = interrupted(&sim) {
+                return Err(e);
+            }
+            let mut s = solved?;
+            s.row.fallback = Some(why);
+            Ok(s)
+        };
+        let solved = if let Some(lower) = &failed_at {
+            report(&format!("{label}: relaxation ({lower})"));
+            relax(start, lower.clone())
+        } else {
+            let tell = |m: &str| report(&format!("{label}: {m}"));
+            let mut sim = production_sim(sc, start.clone(), stop)?;
+            let solved = solve_state_reporting(&mut sim, stage, state, dp, &tell);
+            if let Some(e) = interrupted(&sim) {
+                return Err(e);
+            }
+            match solved {
+                // Past the friction limit the rock may have no static equilibrium under a
+                // trial pressure (a block held by sliding joints alone): the Newton solve
+                // cannot find one, the relaxation follows the sliding until it stops.
+                Err(ProductionError::Run {
+                    error: error @ RunError::QuasiStatic { .. },
+                    ..
+                }) => {
+                    tracing::warn!(
+                        "production {} dp = {:.1} MPa: the quasi-static rock failed \
+                         ({error}); dynamic relaxation instead",
+                        state.name(),
+                        dp / 1e6
+                    );
+                    report(&format!(
+                        "{label}: the quasi-static rock failed ({error}); relaxation instead"
+                    ));
+                    failed_at = Some(format!(
+                        "not tried: the quasi-static rock failed at dp = {:.1} MPa of this \
+                         state",
+                        dp / 1e6
+                    ));
+                    relax(start, error.to_string())
+                }
+                r => r,
+            }
+        };
+        let s = match solved {
+            Ok(s) => s,
+            // A state that fails (a blow-up: a block expelled where no static equilibrium
+            // holds it, say) is reported and the stage goes on with the next one, so the
+            // states solved are kept.
+            Err(e @ (ProductionError::Run { .. } | ProductionError::Flow { .. })) => {
+                tracing::warn!("{e}");
+                report(&format!("{label}: failed ({e})"));
+                out.failed.push(FailedState {
+                    state,
+                    dp,
+                    error: e.to_string(),
+                });
+                continue;
+            }
+            Err(e) => return Err(e),
+        };
+        tracing::info!(
+            "production {} dp = {:.1} MPa: rate {:.4e} (frozen {:.4e}) m^2/s, {} iterations",
+            state.name(),
+            dp / 1e6,
+            s.row.rate,
+            s.row.rate_frozen,
+            s.row.iterations
+        );
+        out.rows.push(s.row.clone());
+        if k == middle {
+            out.figures.push(s);
         }
     }
     Ok(out)

@@ -3,7 +3,9 @@
 //! what the coupling adds when the fractures can open, and named errors for a bad
 //! `production` section.
 
-use hydrofrac::production::{NetworkState, production_sim, solve_state, solve_state_reporting};
+use hydrofrac::production::{
+    NetworkState, production_sim, run_production, solve_state, solve_state_reporting,
+};
 use hydrofrac::reservoir::production::{PressureWell, network_of_view, steady_production};
 use hydrofrac::scenario::Scenario;
 
@@ -294,4 +296,61 @@ fn production_equilibria_are_reached_by_load_increments_where_one_newton_solve_d
     );
     assert!(sim.stats().residual() < stage.static_tol);
     assert_eq!(s.row.rate, 0.0);
+}
+
+/// The whole stage (`run_production`: the before and the after states side by side, on two
+/// threads when the pool has them) gives the same rows, bit for bit, in pools of 1 and 2
+/// threads, in the order before, after. Started from the setup's own state, the after states
+/// are the before states' problems, so their rows must equal them too: the two sides share no
+/// state.
+#[test]
+fn production_stage_is_the_same_for_any_thread_count() {
+    let sc = scene(1.0, &WELLS.replace("[15e6]", "[9e6, 15e6]"));
+    let end = hydrofrac::sim::Simulation::new(sc.clone(), &[])
+        .unwrap()
+        .checkpoint_state()
+        .unwrap()
+        .1;
+    let rows = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| {
+            let out = run_production(&sc, end.clone(), None, &|_| {}).unwrap();
+            assert!(out.failed.is_empty());
+            assert_eq!(out.figures.len(), 2);
+            out.rows
+                .iter()
+                .map(|r| {
+                    (
+                        r.state.name(),
+                        r.dp,
+                        r.rate.to_bits(),
+                        r.rate_frozen.to_bits(),
+                        r.iterations,
+                    )
+                })
+                .collect::<Vec<_>>()
+        })
+    };
+    let one = rows(1);
+    let names: Vec<_> = one.iter().map(|r| (r.0, r.1)).collect();
+    assert_eq!(
+        names,
+        [
+            ("before", 9e6),
+            ("before", 15e6),
+            ("after", 9e6),
+            ("after", 15e6)
+        ]
+    );
+    assert!(one[1].4 > 1, "15 MPa opens the fracture: {one:?}");
+    for k in 0..2 {
+        assert_eq!(
+            (one[k].2, one[k].3, one[k].4),
+            (one[k + 2].2, one[k + 2].3, one[k + 2].4)
+        );
+    }
+    assert_eq!(one, rows(2));
 }
