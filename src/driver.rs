@@ -326,11 +326,23 @@ pub fn run_scenario(scenario: Scenario, opts: &RunOptions) -> Result<RunReport, 
             .map_err(|e| DriverError::Output(std::io::Error::other(format!("production: {e}"))))?
             .1;
         let bar = production_bar(opts.quiet);
+        // The before and the after states run side by side: the spinner shows the latest
+        // message of each.
+        let lines = std::sync::Mutex::new([String::new(), String::new()]);
         let solved = crate::production::run_production(
             sim.scenario(),
             end,
             opts.stop.as_ref(),
-            &|m: &str| bar.set_message(m.to_string()),
+            &|m: &str| {
+                let mut l = lines.lock().unwrap_or_else(|e| e.into_inner());
+                l[usize::from(m.starts_with("production after"))] = m.to_string();
+                let shown: Vec<&str> = l
+                    .iter()
+                    .filter(|x| !x.is_empty())
+                    .map(|x| x.as_str())
+                    .collect();
+                bar.set_message(shown.join("\n  "));
+            },
         );
         bar.finish_and_clear();
         let stage_result = match solved {
