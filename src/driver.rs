@@ -374,6 +374,27 @@ pub fn run_scenario(scenario: Scenario, opts: &RunOptions) -> Result<RunReport, 
         if production_error.is_none() && production_interrupted.is_none() {
             summary["production"] = crate::production::production_json(&stage, &rows, &failed);
             summary["production"]["wall_s"] = json!(t.elapsed().as_secs_f64());
+            for r in &rows {
+                if !r.converged {
+                    warnings.push(format!(
+                        "production {} dp = {:.1} MPa did not converge in {} iterations \
+                         (last change {:.1e})",
+                        r.state.name(),
+                        r.dp / 1e6,
+                        r.iterations,
+                        r.change
+                    ));
+                }
+                if !r.frozen_settled {
+                    warnings.push(format!(
+                        "production {} dp = {:.1} MPa: the rock without fluid pressure did \
+                         not settle (a fracture grew in each relaxation), so rate_frozen is \
+                         not an equilibrium's",
+                        r.state.name(),
+                        r.dp / 1e6
+                    ));
+                }
+            }
             for f in &failed {
                 warnings.push(format!(
                     "production {} dp = {:.1} MPa failed, no row: {}",

@@ -76,6 +76,11 @@ pub struct ProductionRow {
     pub rock: &'static str,
     /// Why the quasi-static solve was given up for this state, if it was.
     pub fallback: Option<String>,
+    /// Whether the rock without fluid pressure reached its equilibrium before `rate_frozen`
+    /// was taken: false where a fracture grew in each of the `max_iterations` relaxations
+    /// (cells opening at tips without fluid pressure), so `rate_frozen` is of a rock that had
+    /// not settled.
+    pub frozen_settled: bool,
 }
 
 /// A solved production state: its row, and the coupled and frozen flows (for figures).
@@ -423,7 +428,7 @@ pub fn solve_state_reporting(
     };
     // p_0 = 0: the frozen apertures (relaxed again after any growth, until none, at most
     // `max_iterations` times).
-    let mut steps = 0;
+    let (mut steps, mut frozen_settled) = (0, false);
     for _ in 0..stage.max_iterations {
         if sim.stop_signal().is_some() {
             break;
@@ -434,6 +439,7 @@ pub fn solve_state_reporting(
             relax(sim, &p0, stage.static_tol, stage.max_steps, report).map_err(run_err)?;
         steps += n;
         if !grew {
+            frozen_settled = true;
             break;
         }
     }
@@ -512,6 +518,7 @@ pub fn solve_state_reporting(
                 SolidScheme::Explicit => "relaxation",
             },
             fallback: None,
+            frozen_settled,
         },
         flow,
         frozen,
@@ -709,6 +716,7 @@ pub fn production_json(
                 "change": if r.change.is_finite() { r.change } else { 0.0 },
                 "relax_steps": r.relax_steps, "new_cells": r.new_cells,
                 "max_aperture": r.max_aperture, "wall_s": r.wall_s, "rock": r.rock,
+                "frozen_settled": r.frozen_settled,
             });
             if let Some(why) = &r.fallback {
                 e["quasi_static_failed"] = serde_json::json!(why);
@@ -821,6 +829,7 @@ mod tests {
             wall_s: 0.1,
             rock: "quasi-static",
             fallback: None,
+            frozen_settled: true,
         };
         use NetworkState::{After, Before};
         let rows = [
