@@ -706,6 +706,8 @@ fn summary_json(
             "substeps": f.substeps,
             "scheme": if f.implicit.is_some() { "implicit" } else { "explicit" },
             "newton_iterations": f.implicit.as_ref().map(|s| s.total_iterations),
+            "lu_factorisations": f.implicit.as_ref().map(|s| s.factorisations),
+            "chord_iterations": f.implicit.as_ref().map(|s| s.chord_iterations),
             "residual": f.residual,
             "boundaries": bcs,
             "injected_volume": inj,
@@ -844,8 +846,14 @@ const OPTIONAL: &[&str] = &[
     "criterion",
     "mesh",
 ];
-/// The same in `summary.json`'s `flow`: `newton_iterations` (implicit only), `dt_critical`.
-const OPTIONAL_FLOW: &[&str] = &["newton_iterations", "dt_critical"];
+/// The same in `summary.json`'s `flow`: `newton_iterations`, `lu_factorisations` and
+/// `chord_iterations` (implicit only), `dt_critical`.
+const OPTIONAL_FLOW: &[&str] = &[
+    "newton_iterations",
+    "lu_factorisations",
+    "chord_iterations",
+    "dt_critical",
+];
 
 fn omit_if_null(v: &mut serde_json::Value, keys: &[&str]) {
     if let Some(obj) = v.as_object_mut() {
