@@ -29,9 +29,10 @@
 //! iterations with it (the direction from an earlier iterate's Jacobian, full steps), as long
 //! as each shrinks the residual's norm by [`CHORD_CONTRACTION`], and only then refactorises
 //! and goes on with Newton; the converged answer is the same to the tolerance. The kept
-//! Jacobian's values travel in checkpoints, so a restart continues bit for bit. A line search on the scaled residual norm (full step, else
-//! the first kink at e = 0 on the way, else Armijo backtracking) keeps the kink from making
-//! Newton cycle or creep towards it. Convergence: for every cell
+//! Jacobian's values travel in checkpoints, so a restart continues bit for bit. A line search
+//! on the scaled residual norm (full step, else the first kink at e = 0 on the way, else
+//! Armijo backtracking) keeps the kink from making Newton cycle or creep towards it.
+//! Convergence: for every cell
 //! |R_i| <= tol rho_r V_i + 64 eps F_i, a relative mass residual of `tol` (default 1e-12) of
 //! the cell's reference mass, or the round-off floor of the flux sum when that is larger:
 //! F_i = dt rho_r (sum_j kappa_ij (P_i + P_j) + sum_b kappa_b (|P_b| + P_i)) (kg/m) is the
@@ -56,6 +57,7 @@ use crate::scenario::{FlowBcKind, FlowBoundary};
 use crate::sparse::SparsePattern;
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
 use faer::sparse::SparseColMatRef;
+use faer::sparse::linalg::LuError;
 use faer::sparse::linalg::lu::{LuRef, NumericLu, SymbolicLu, factorize_symbolic_lu};
 use faer::{Conj, MatMut, Par};
 
@@ -343,7 +345,7 @@ impl ImplicitSolver {
             last_residual: self.last_residual,
             factorisations: self.factorisations,
             chord_iterations: self.chord_iterations,
-            jacobian: if self.kept.is_some() && self.kept == Some(self.symbolic_count) {
+            jacobian: if self.kept == Some(self.symbolic_count) {
                 self.values.clone()
             } else {
                 Vec::new()
@@ -651,18 +653,7 @@ pub fn implicit_step(
             && values.len() == pat.sparse.nnz()
         {
             s.values = values;
-            let a = SparseColMatRef::new(pat.sparse.as_ref(), &s.values);
-            if pat
-                .symbolic
-                .factorize_numeric_lu(
-                    &mut s.numeric,
-                    a,
-                    Par::Seq,
-                    MemStack::new(&mut pat.mem),
-                    Default::default(),
-                )
-                .is_ok()
-            {
+            if factorise(pat, &mut s.numeric, &s.values).is_ok() {
                 s.kept = Some(s.symbolic_count);
             }
         }
@@ -707,16 +698,7 @@ pub fn implicit_step(
         it += 1;
         if chord {
             let pat = s.pattern.as_mut().expect("built above");
-            let lu = LuRef::new_unchecked(&pat.symbolic, &s.numeric);
-            for (d, r) in s.delta.iter_mut().zip(&s.r) {
-                *d = -r;
-            }
-            lu.solve_in_place_with_conj(
-                Conj::No,
-                MatMut::from_column_major_slice_mut(&mut s.delta, n, 1),
-                Par::Seq,
-                MemStack::new(&mut pat.mem),
-            );
+            direction(pat, &s.numeric, &s.r, &mut s.delta);
             if s.delta.iter().all(|d| d.is_finite()) {
                 for i in 0..n {
                     s.y_try[i] = s.y[i] + s.delta[i];
@@ -746,31 +728,13 @@ pub fn implicit_step(
         // Newton direction: J delta = -r.
         let pat = s.pattern.as_mut().expect("built above");
         assemble(v, specs, t1, &s.y, &s.w, pat, &mut s.values);
-        let a = SparseColMatRef::new(pat.sparse.as_ref(), &s.values);
         s.kept = None;
-        let lu = pat
-            .symbolic
-            .factorize_numeric_lu(
-                &mut s.numeric,
-                a,
-                Par::Seq,
-                MemStack::new(&mut pat.mem),
-                Default::default(),
-            )
-            .map_err(|e| ImplicitError::Factorisation {
-                detail: format!("{e:?}"),
-            })?;
+        factorise(pat, &mut s.numeric, &s.values).map_err(|e| ImplicitError::Factorisation {
+            detail: format!("{e:?}"),
+        })?;
         s.kept = Some(s.symbolic_count);
         s.factorisations += 1;
-        for (d, r) in s.delta.iter_mut().zip(&s.r) {
-            *d = -r;
-        }
-        lu.solve_in_place_with_conj(
-            Conj::No,
-            MatMut::from_column_major_slice_mut(&mut s.delta, n, 1),
-            Par::Seq,
-            MemStack::new(&mut pat.mem),
-        );
+        direction(pat, &s.numeric, &s.r, &mut s.delta);
         if let Some(c) = s.delta.iter().position(|d| !d.is_finite()) {
             return Err(not_finite(v, it, c, "Newton update"));
         }
@@ -835,6 +799,39 @@ pub fn implicit_step(
     s.total_iterations += it as u64;
     s.steps += 1;
     Ok(st)
+}
+
+/// The numeric LU of the Jacobian `values` (in `pat`'s pattern) into `numeric`.
+fn factorise(
+    pat: &mut Pattern,
+    numeric: &mut NumericLu<usize, f64>,
+    values: &[f64],
+) -> Result<(), LuError> {
+    let a = SparseColMatRef::new(pat.sparse.as_ref(), values);
+    pat.symbolic
+        .factorize_numeric_lu(
+            numeric,
+            a,
+            Par::Seq,
+            MemStack::new(&mut pat.mem),
+            Default::default(),
+        )
+        .map(|_| ())
+}
+
+/// delta = -J^-1 r with the factor `numeric` of `pat`'s pattern (Newton's freshly made, or
+/// the chord's kept one).
+fn direction(pat: &mut Pattern, numeric: &NumericLu<usize, f64>, r: &[f64], delta: &mut [f64]) {
+    for (d, r) in delta.iter_mut().zip(r) {
+        *d = -r;
+    }
+    let n = delta.len();
+    LuRef::new_unchecked(&pat.symbolic, numeric).solve_in_place_with_conj(
+        Conj::No,
+        MatMut::from_column_major_slice_mut(delta, n, 1),
+        Par::Seq,
+        MemStack::new(&mut pat.mem),
+    );
 }
 
 #[cfg(test)]
