@@ -370,12 +370,18 @@ impl FlowRows {
             }
             // kappa at the mid-step apertures: d a_s / du = d(delta_n)/du / 2.
             let kap = fv.kappa[pk];
-            for side in [i, j] {
+            let slopes = s.fluid.pair_kappa_slopes(
+                kap,
+                fv.length[i],
+                fv.aperture[i],
+                fv.length[j],
+                fv.aperture[j],
+            );
+            for (side, slope) in [(i, slopes[0]), (j, slopes[1])] {
                 if !self.active[side] {
                     continue;
                 }
-                let (l, a) = (fv.length[side], fv.aperture[side]);
-                let dk = 0.5 * crate::flow::pair_kappa_slope(kap, l, a, s.fluid.mu);
+                let dk = 0.5 * slope;
                 // r_i = ... - w_i N_i with N_i = -q, N_j = +q, q = kappa (P_i - P_j).
                 joint_dn(side, self.w[i] * dp * dk, &mut self.a_rows[i]);
                 joint_dn(side, -self.w[j] * dp * dk, &mut self.a_rows[j]);

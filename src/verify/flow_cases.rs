@@ -16,6 +16,7 @@ pub const WATER: Fluid = Fluid {
     viscosity: 8.9e-4,
     bulk_modulus: 2.2e9,
     density: 1000.0,
+    transmissibility: crate::scenario::Transmissibility::CellMean,
 };
 
 /// A flow-only scenario built in code.
