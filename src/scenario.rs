@@ -799,7 +799,10 @@ pub struct Fluid {
 /// The transmissibility between two cells i and j that share a node (lengths L, apertures a,
 /// viscosity mu; m^2/(Pa s)). Both are the cubic law q = a^3/(12 mu) dP/ds integrated from one
 /// cell's centre to the other's; they differ in the opening assumed along the way
-/// (`crate::flow::pair_kappa`, `crate::flow::pair_kappa_linear`).
+/// (`crate::flow::pair_kappa`, `crate::flow::pair_kappa_linear`). The choice applies to the
+/// run's network flow (explicit, implicit and coupled quasi-static) and to everything built on
+/// its flow view; the reservoir pipeline's frozen-network solves (`crate::reservoir`) use
+/// `CellMean`.
 #[derive(Clone, Copy, Debug, Default, Serialize, Deserialize, PartialEq, Eq)]
 pub enum Transmissibility {
     /// Each half-cell at its cell's mean aperture: 1 / (6 mu (L_i/a_i^3 + L_j/a_j^3)) (seed
