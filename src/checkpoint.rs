@@ -251,7 +251,8 @@ pub fn fingerprint(scenario: &Scenario, extra_disable: &[String]) -> u64 {
     // use them as it was, so its checkpoints stay readable.
     let text = text
         .replace(",\"selective_mass_scaling\":null", "")
-        .replace(",\"transmissibility\":\"CellMean\"", "");
+        .replace(",\"transmissibility\":\"CellMean\"", "")
+        .replace(",\"filling\":\"Dry\"", "");
     fnv1a(text.as_bytes())
 }
 

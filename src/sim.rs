@@ -12,7 +12,7 @@ use crate::fractures::Placed;
 use crate::model::Model;
 use crate::output::Outputs;
 use crate::params::RunParams;
-use crate::scenario::{End, Scenario};
+use crate::scenario::{End, Filling, Scenario};
 use crate::schedule::{Schedule, Status};
 use crate::systems::flow::FlowPart;
 use crate::systems::fracture::FractureState;
@@ -678,7 +678,11 @@ impl Simulation {
             match flow.and_then(|f| f.coupling.as_ref().map(|c| (f, c))) {
                 Some((f, c)) => match c.joint_cell[k] {
                     u32::MAX => 0.0,
-                    cell if quasi_static => f.view.pressure[cell as usize],
+                    // The quasi-static step's face load is its pressures unless filling
+                    // cells carry their front's (`Filling::FrontInCell`, in `p_mean`).
+                    cell if quasi_static && p.fluid.filling == Filling::Dry => {
+                        f.view.pressure[cell as usize]
+                    }
                     cell => c.p_mean[cell as usize],
                 },
                 None => p.face_pressure.unwrap_or(0.0),

@@ -98,12 +98,14 @@ impl Coupling {
             }
         }
         let nc = flow.n_cells();
+        let mut p_mean: Vec<f64> = (0..nc)
+            .map(|c| pressure_of(flow.excess[c], flow.volume[c], p))
+            .collect();
+        crate::flow::apply_filling_load(flow, p, &mut p_mean);
         Coupling {
             cell_joint,
             joint_cell,
-            p_mean: (0..nc)
-                .map(|c| pressure_of(flow.excess[c], flow.volume[c], p))
-                .collect(),
+            p_mean,
             a_r,
             a_start: vec![0.0; nc],
             a_end: vec![0.0; nc],
@@ -210,6 +212,7 @@ impl Coupling {
             flow.set_volume_keep_mass(c, flow.length[c] * self.a_end[c], p);
             self.p_mean[c] = self.p_sum[c] / n as f64;
         }
+        crate::flow::apply_filling_load(flow, p, &mut self.p_mean);
         Ok(CoupledStep {
             stats,
             substeps: n,
@@ -246,6 +249,7 @@ impl Coupling {
         }
         let stats = crate::flow::implicit::implicit_step(flow, p, specs, dt, t0, solver)?;
         self.p_mean.copy_from_slice(&flow.pressure);
+        crate::flow::apply_filling_load(flow, p, &mut self.p_mean);
         Ok(CoupledStep {
             stats,
             substeps: 1,

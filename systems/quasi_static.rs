@@ -1038,7 +1038,8 @@ fn evaluate(
             let ok = qs.rows.evaluate(f, v);
             if on.fluid {
                 let c = f.part.coupling.as_ref().expect("coupled flow");
-                fluid_pressure(v, &c.joint_cell, &f.part.view.pressure);
+                let load = qs.rows.face_pressure(&f.part.view);
+                fluid_pressure(v, &c.joint_cell, load);
             }
             ok
         }

@@ -64,6 +64,11 @@ pub struct FlowRows {
     /// Pseudo-pressure at the iterate and at the start of the step, Pa.
     pub y: Vec<f64>,
     y0: Vec<f64>,
+    /// With `Filling::FrontInCell` (else empty): each cell's face pressure while it fills, at
+    /// the start of the step (`flow::filling_face_pressure`; 0 for a cell full then), Pa, and
+    /// the face pressures at the iterate.
+    fill_load: Vec<f64>,
+    face_p: Vec<f64>,
     /// dt K / V^n, Pa s / m^2; V^n, m^2.
     w: Vec<f64>,
     v0: Vec<f64>,
@@ -139,6 +144,12 @@ impl FlowRows {
             self.y0[c] = k * fv.excess[c] / (s.fluid.rho_r * v0);
         }
         self.y.copy_from_slice(&self.y0);
+        self.fill_load.clear();
+        if s.fluid.filling != crate::scenario::Filling::Dry {
+            self.fill_load.extend(
+                (0..nc).map(|c| crate::flow::filling_face_pressure(fv, s.fluid, c).unwrap_or(0.0)),
+            );
+        }
         // Boundary transmissibilities at the start-of-step apertures, for the whole step (a
         // failed attempt may have left the view's at a trial's apertures).
         let fv = &mut s.part.view;
@@ -400,6 +411,24 @@ impl FlowRows {
         &self.a_rows
     }
 
+    /// The rock's face pressure per cell at the iterate (Pa): the cell's pressure (set by
+    /// [`FlowRows::evaluate`]), or while it fills (y < 0), with `Filling::FrontInCell`, its
+    /// filling load at the start of the step (constant over the step, so dP/dy stays 0).
+    pub fn face_pressure<'a>(&'a mut self, fv: &'a crate::flow::FlowView) -> &'a [f64] {
+        if self.fill_load.is_empty() {
+            return &fv.pressure;
+        }
+        self.face_p.clear();
+        self.face_p.extend((0..fv.n_cells()).map(|c| {
+            if self.y[c] < 0.0 {
+                self.fill_load[c]
+            } else {
+                fv.pressure[c]
+            }
+        }));
+        &self.face_p
+    }
+
     /// dP/dy of cell `c` at the iterate: 1 when full, 0 when filling.
     pub(crate) fn dp_dy(&self, c: usize) -> f64 {
         if self.y[c] >= 0.0 { 1.0 } else { 0.0 }
@@ -577,6 +606,12 @@ pub fn commit(rows: &FlowRows, f: &mut FlowPart, fp: &FlowParams, dt: f64) -> Fl
     v.update_kappa(fp);
     if let Some(c) = f.coupling.as_mut() {
         c.p_mean.copy_from_slice(&v.pressure);
+        // The face load the converged step carried (`FlowRows::face_pressure`).
+        for (c, (p, &l)) in c.p_mean.iter_mut().zip(&rows.fill_load).enumerate() {
+            if rows.y[c] < 0.0 {
+                *p = l;
+            }
+        }
     }
     st
 }

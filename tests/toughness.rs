@@ -160,35 +160,34 @@ fn toughness_kgd_grows_at_the_tip_to_the_similarity_length() {
     }
 }
 
-/// `criterion: Some(Strength(x))` is `strength: Some(x)`: the same run to the bit; both given
-/// is refused, naming the field.
 /// The viscosity-dominated KGD grown by the toughness criterion (`scenarios/kgd_m.ron`, K_Ic =
-/// 2.4 MPa sqrt(m)) at h = 2 m, t = 1.6 s (10 cells along the half-length), against the
-/// similarity solution, with each transmissibility (`docs/toughness.md`, "The fluid at a
-/// viscous tip"):
-/// - `LinearOpening` (the scenario's): fluid front, well opening and net well pressure within
-///   2, 4 and 7 % (measured +0.6, +2.7, +5.3 %);
-/// - the seed's `CellMean`: the tip cell throttles the flow into it, and the pressure error is
-///   more than twice as large (measured -7.8, +10.9, +18.6 %);
-/// - both: mass conserved; the edge the criterion opens ahead of the viscous fluid is dry, so
-///   the mesh tip runs 1-2 cells (2-4 m) ahead of the fluid front (measured 2 m). The lag
-///   bound fails if it grows; a sub-cell fluid front would bring it under one cell.
+/// 2.4 MPa sqrt(m)) at h = 2 m, t = 3.25 s (15 cells along the half-length), against the
+/// similarity solution (`docs/toughness.md`, "The fluid at a viscous tip"):
+/// - as shipped (`LinearOpening`, `filling: FrontInCell`): fluid front, well opening and net
+///   well pressure within the issue's 3 % at 15-20 cells (measured +0.6, +0.8, +2.5 %);
+/// - with `filling: Dry` (the seed's: the cell the fluid is filling carries zero on its whole
+///   face) the dry cell's closing load holds the tip back, and the pressure error is more than
+///   1.5 times as large (measured -1.5, +2.4, +5.1 %);
+///   (with the seed's `CellMean` transmissibility as well it is -8.7, +8.0, +14.6 %: `verify kgd`
+///   and `flow::tests::linear_opening_transmissibility_and_its_slopes`);
+/// - all: mass conserved; the mesh tip runs into the cell the fluid is filling, 1-2 cells
+///   (2-4 m) ahead of the last full cell (measured 2 m). The bound fails if the lag grows.
 #[test]
-fn viscous_kgd_with_toughness_and_the_linear_opening_transmissibility() {
-    let run = |t: &str| {
+fn viscous_kgd_with_toughness_the_front_in_the_tip_cell_and_the_linear_opening() {
+    let run = |sets: &[&str]| {
+        let mut extra = vec!["time.end=Time(3.25)".to_string()];
+        extra.extend(sets.iter().map(|s| s.to_string()));
         kgd_run_in(
             2.0,
             "QuasiStatic",
-            &[
-                "time.end=Time(1.6)".into(),
-                format!("fluid.transmissibility={t}"),
-            ],
+            &extra,
             Regime::ViscosityToughness(2.4e6),
         )
         .unwrap()
     };
-    let (lin, seed) = (run("LinearOpening"), run("CellMean"));
-    for r in [&lin, &seed] {
+    let shipped = run(&[]);
+    let dry = run(&["fluid.filling=Dry"]);
+    for r in [&shipped, &dry] {
         assert!(r.balance < 1e-9, "mass balance {:.2e}", r.balance);
         assert!(
             r.lag >= 2.0 - 1e-9 && r.lag <= 4.0 + 1e-9,
@@ -196,17 +195,19 @@ fn viscous_kgd_with_toughness_and_the_linear_opening_transmissibility() {
             r.lag
         );
     }
-    let e = lin.errors_front();
-    for (k, limit) in [0.02, 0.04, 0.07].into_iter().enumerate() {
-        assert!(e[k].abs() < limit, "LinearOpening errors {e:?}");
+    let e = shipped.errors_front();
+    for k in 0..3 {
+        assert!(e[k].abs() < 0.03, "kgd_m.ron errors {e:?}");
     }
-    let es = seed.errors_front();
+    let ed = dry.errors_front();
     assert!(
-        es[2].abs() > 2.0 * e[2].abs(),
-        "CellMean {es:?} against LinearOpening {e:?}"
+        ed[2].abs() > 1.5 * e[2].abs(),
+        "filling Dry {ed:?} against FrontInCell {e:?}"
     );
 }
 
+/// `criterion: Some(Strength(x))` is `strength: Some(x)`: the same run to the bit; both given
+/// is refused, naming the field.
 #[test]
 fn strength_criterion_by_name_is_the_old_field() {
     let src = std::fs::read_to_string("scenarios/kgd.ron").unwrap();

@@ -19,7 +19,7 @@ pub mod steady;
 
 use crate::components::*;
 use crate::model::Model;
-use crate::scenario::{FlowBcKind, FlowBoundary, Fluid, Transmissibility};
+use crate::scenario::{Filling, FlowBcKind, FlowBoundary, Fluid, Transmissibility};
 use hecs::Entity;
 
 /// Fluid constants used by the flow kernels.
@@ -33,6 +33,8 @@ pub struct FlowParams {
     pub rho_r: f64,
     /// How two cells' apertures give their transmissibility.
     pub transmissibility: Transmissibility,
+    /// The face load of a filling cell.
+    pub filling: Filling,
 }
 
 impl From<Fluid> for FlowParams {
@@ -42,6 +44,7 @@ impl From<Fluid> for FlowParams {
             k: f.bulk_modulus,
             rho_r: f.density,
             transmissibility: f.transmissibility,
+            filling: f.filling,
         }
     }
 }
@@ -82,6 +85,39 @@ pub fn pressure_of(excess: f64, volume: f64, p: &FlowParams) -> f64 {
         p.k * excess / (p.rho_r * volume)
     } else {
         0.0
+    }
+}
+
+/// The face pressure of cell `c` with [`Filling::FrontInCell`] while the fluid fills it (its
+/// excess mass below zero), Pa: the filled fraction f = 1 + e / (rho_r V) carries a pressure
+/// falling linearly from its highest neighbouring pressure P_u to zero at the front, the rest
+/// none, so the face's mean is f P_u / 2. `None` for a full cell (its face carries its
+/// pressure) and with [`Filling::Dry`].
+pub fn filling_face_pressure(v: &FlowView, p: &FlowParams, c: usize) -> Option<f64> {
+    if p.filling == Filling::Dry || v.excess[c] >= 0.0 {
+        return None;
+    }
+    let filled = (1.0 + v.excess[c] / (p.rho_r * v.volume[c])).clamp(0.0, 1.0);
+    let p_u = v.inc[v.inc_ptr[c] as usize..v.inc_ptr[c + 1] as usize]
+        .iter()
+        .map(|&e| {
+            let pr = v.pairs[(e >> 1) as usize];
+            v.pressure[pr[1 - (e & 1) as usize] as usize]
+        })
+        .fold(0.0, f64::max);
+    Some(0.5 * filled * p_u)
+}
+
+/// Overwrite the face pressures `out` (per cell, Pa) of the filling cells with
+/// [`filling_face_pressure`] (nothing with [`Filling::Dry`]).
+pub fn apply_filling_load(v: &FlowView, p: &FlowParams, out: &mut [f64]) {
+    if p.filling == Filling::Dry {
+        return;
+    }
+    for (c, o) in out.iter_mut().enumerate() {
+        if let Some(f) = filling_face_pressure(v, p, c) {
+            *o = f;
+        }
     }
 }
 
@@ -633,6 +669,34 @@ impl FlowView {
 #[cfg(test)]
 mod tests {
     use super::{pair_kappa, pair_kappa_linear, pair_kappa_linear_slopes, pair_kappa_slope};
+
+    /// `FrontInCell`: a cell filled to 40 % beside a full cell at 5 MPa carries 0.4 x 5 / 2 =
+    /// 1 MPa; a cell whose only neighbour is filling (pressure 0) carries nothing, and a full
+    /// cell its own pressure (`None`). With `Dry` no cell has a filling load.
+    #[test]
+    fn filling_face_pressure_of_a_front_in_the_cell() {
+        use super::{FlowParams, FlowView, apply_filling_load, filling_face_pressure};
+        use crate::scenario::{Filling, Fluid};
+        let mut p = FlowParams::from(Fluid::default());
+        p.filling = Filling::FrontInCell;
+        let mut v = FlowView {
+            volume: vec![1e-3; 3],
+            excess: vec![1e-3, -0.6 * p.rho_r * 1e-3, -p.rho_r * 1e-3],
+            pressure: vec![5e6, 0.0, 0.0],
+            pairs: vec![[0, 1], [1, 2]],
+            ..Default::default()
+        };
+        (v.inc_ptr, v.inc) = crate::view::incidence(3, &v.pairs, |k, side| (2 * k + side) as u32);
+        assert_eq!(filling_face_pressure(&v, &p, 0), None);
+        let f1 = filling_face_pressure(&v, &p, 1).unwrap();
+        assert!((f1 - 1e6).abs() < 1e-6, "{f1}");
+        assert_eq!(filling_face_pressure(&v, &p, 2), Some(0.0));
+        let mut out = v.pressure.clone();
+        apply_filling_load(&v, &p, &mut out);
+        assert_eq!(out, vec![5e6, f1, 0.0]);
+        p.filling = Filling::Dry;
+        assert!((0..3).all(|c| filling_face_pressure(&v, &p, c).is_none()));
+    }
 
     /// `LinearOpening`: equal apertures give the seed's value; a tip cell (half the aperture of
     /// its neighbour) conducts more than the harmonic mean of cell means lets it; the slopes

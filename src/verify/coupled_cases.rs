@@ -243,9 +243,8 @@ pub fn kgd(quick: bool) -> anyhow::Result<CaseResult> {
     };
     let mut res = CaseResult::default();
     let mut lengths = Vec::new();
-    let mut by_scheme: Vec<(&str, f64, [f64; 3])> = Vec::new();
-    // The similarity solution's half-length at the end time, m.
-    let mut end_length = f64::NAN;
+    // (scheme, h, errors, cells along the similarity half-length at the end time).
+    let mut by_scheme: Vec<(&str, f64, [f64; 3], f64)> = Vec::new();
     for scheme in [
         "Explicit",
         "Implicit",
@@ -275,9 +274,8 @@ pub fn kgd(quick: bool) -> anyhow::Result<CaseResult> {
             } else {
                 r.errors()
             };
-            end_length = r.exact[0];
-            // The similarity solution has no fluid lag; a dry tip cell carries the fluid's
-            // zero absolute pressure, -s0 net, and pinches the tip (docs/toughness.md, "Limits").
+            // The similarity solution has no fluid lag; the mesh tip runs ahead of the fluid
+            // into the cell it is filling (docs/toughness.md, "The fluid at a viscous tip").
             res.notes.push(format!(
                 "{suffix}, h = {h} m: l {:.2} m (fluid front {:.2}) / {:.2}, w0 {:.3} / {:.3} mm, p {:.4} / {:.4} MPa; errors {:+.2} % (front {:+.2} %), {:+.2} %, {:+.2} %; fluid lag {:.2} m ({:.1} cells)",
                 r.l, r.l_front, r.exact[0], 1e3 * r.w0, 1e3 * r.exact[1], 1e-6 * r.p0, 1e-6 * r.exact[2],
@@ -302,20 +300,15 @@ pub fn kgd(quick: bool) -> anyhow::Result<CaseResult> {
                 1e-9,
             );
             lengths.push((scheme, h, r.l));
-            by_scheme.push((scheme, h, e));
+            by_scheme.push((scheme, h, e, r.exact[0] / h));
             errs.push(e);
         }
         let (first, last) = (errs[0], errs[errs.len() - 1]);
         for (k, m) in ["length", "opening", "pressure"].iter().enumerate() {
-            if quick && k == 0 && scheme == "QuasiStaticToughness" {
-                // The toughness criterion's length is within 2.3 % already at h = 2 m and
-                // stays there at 1 m (it falls to 1.7 % at 0.25 m): the quick run checks the
-                // level, the full run the fall.
-                res.check_max(
-                    format!("{m} error at h = 1 m, {suffix}"),
-                    last[k].abs(),
-                    0.03,
-                );
+            if scheme == "QuasiStaticToughness" {
+                // `kgd_m.ron` is within the issue's targets from 15 cells on (checked per
+                // level and time below), so its errors need not fall from there: the fluid
+                // front is +0.6 % at 15 cells and +1.6 % at 123 (measured 2026-12-03).
                 continue;
             }
             res.check_max(
@@ -335,21 +328,20 @@ pub fn kgd(quick: bool) -> anyhow::Result<CaseResult> {
         }
     }
     // The toughness criterion's runs at a second time, t = 1.6 s (l = 19.2 m), and the issue's
-    // targets at both: 3 % at 15-20 cells along the half-length, 2 % from 30. Measured
-    // (2026-12-03): every error within 1.5 % from 38 cells on; 19 cells (h = 1 m, 1.6 s): front
-    // -0.9 %, opening +1.3 %, pressure +3.0 %; 31 cells (h = 1 m, 3.25 s): -1.5 %, +1.2 %,
-    // +2.9 %, so the pressure misses 2 % at 30 cells; 15 cells (h = 2 m, 3.25 s): pressure +5.8 %
-    // (README, "KGD with the toughness criterion"). The limits are those figures with a margin.
+    // targets at both: 3 % at 15-20 cells along the half-length, 2 % from 30 (5 % below 15).
+    // Measured (2026-12-03, `kgd_m.ron` with `filling: FrontInCell`): 15 cells (h = 2 m,
+    // 3.25 s): front +0.6 %, opening +0.8 %, pressure +2.5 %; 19 cells: +1.3, -0.5, +0.4 %;
+    // 31 cells: +1.1, -0.4, +0.5 %; from 38 cells every error within 1.9 % (README, "KGD with
+    // the toughness criterion").
     for (level, &h) in sizes.iter().enumerate() {
         for t in [1.6, 3.25] {
             // The end time's run is the main loop's.
             let (e, cells) = if t == 3.25 {
-                let e = by_scheme
+                by_scheme
                     .iter()
                     .find(|x| x.0 == "QuasiStaticToughness" && x.1 == h)
-                    .map(|x| x.2)
-                    .expect("the toughness run at the end time");
-                (e, end_length / h)
+                    .map(|x| (x.2, x.3))
+                    .expect("the toughness run at the end time")
             } else {
                 let r = kgd_run_in(
                     h,
@@ -381,14 +373,12 @@ pub fn kgd(quick: bool) -> anyhow::Result<CaseResult> {
                 );
                 (e, r.exact[0] / h)
             };
-            let limit = if cells >= 35.0 {
+            let limit = if cells >= 29.5 {
                 0.02
-            } else if cells >= 29.0 {
-                0.035
-            } else if cells >= 17.0 {
-                0.04
+            } else if cells >= 14.5 {
+                0.03
             } else {
-                0.07
+                0.05
             };
             for (k, m) in ["length (fluid front)", "opening", "pressure"]
                 .iter()

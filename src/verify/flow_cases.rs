@@ -17,6 +17,7 @@ pub const WATER: Fluid = Fluid {
     bulk_modulus: 2.2e9,
     density: 1000.0,
     transmissibility: crate::scenario::Transmissibility::CellMean,
+    filling: crate::scenario::Filling::Dry,
 };
 
 /// A flow-only scenario built in code.
