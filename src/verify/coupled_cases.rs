@@ -560,7 +560,7 @@ pub fn kgd_k(quick: bool) -> anyhow::Result<CaseResult> {
                 r.l, r.l_tracked, r.exact[0], 1e3 * r.w0, 1e3 * r.exact[1], 1e-6 * r.p0, 1e-6 * r.exact[2],
                 100.0 * e[0], 100.0 * tracked, 100.0 * e[1], 100.0 * e[2], r.lag
             ));
-            if let Some(b) = r.band {
+            if let Some(b) = r.band.filter(|b| b.steps > 0) {
                 res.notes.push(format!(
                     "  saw-tooth over {:.0}-{t} s ({} steps): pressure {:+.1} to {:+.1} %, opening {:+.1} to {:+.1} %; {} steps that opened an edge: |pressure| up to {:.1} %{}",
                     0.8 * t, b.steps, 100.0 * b.p[0], 100.0 * b.p[1], 100.0 * b.w[0], 100.0 * b.w[1], b.split_steps, 100.0 * b.split_p,
@@ -579,7 +579,7 @@ pub fn kgd_k(quick: bool) -> anyhow::Result<CaseResult> {
             let cells = r.exact[0] / h;
             // The saw-tooth between splits (measured: |pressure| up to 6.5 % and |opening| up
             // to 5.8 % over the last fifth of the run from 15 cells on; 15.7 % at 10 cells).
-            if let Some(b) = r.band.filter(|_| cells >= 14.0) {
+            if let Some(b) = r.band.filter(|b| cells >= 14.0 && b.steps > 0) {
                 let worst = [b.p[0], b.p[1], b.w[0], b.w[1]]
                     .iter()
                     .fold(0.0_f64, |m, e| m.max(e.abs()));
