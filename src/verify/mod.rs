@@ -24,7 +24,7 @@ pub mod slip_cases;
 pub mod solid_cases;
 pub mod upscale_cases;
 
-use crate::plot::{Series, loglog};
+use crate::plot::{Series, lines, loglog};
 use std::io::Write;
 use std::path::Path;
 
@@ -59,6 +59,19 @@ pub struct CaseResult {
     pub notes: Vec<String>,
     /// Further files the case writes into the verification folder: (name, contents).
     pub files: Vec<(String, String)>,
+    /// Further line plots (linear axes) the case writes into the verification folder.
+    pub plots: Vec<LinePlot>,
+}
+
+/// A linear-axes line plot a case writes (`crate::plot::lines`): PNG file name, title, axis
+/// labels and the series.
+#[derive(Clone, Debug)]
+pub struct LinePlot {
+    pub file: String,
+    pub title: String,
+    pub xlabel: String,
+    pub ylabel: String,
+    pub series: Vec<Series>,
 }
 
 impl CaseResult {
@@ -407,6 +420,15 @@ pub fn run_cases_until(
             crate::output::write_atomic(&out.join(name), text.as_bytes())?;
         }
         write_plot(out, case.name, &res)?;
+        for lp in &res.plots {
+            lines(
+                &out.join(&lp.file),
+                &lp.title,
+                &lp.xlabel,
+                &lp.ylabel,
+                &lp.series,
+            )?;
+        }
         ok &= res.passed();
         finished.push(case.name);
     }
