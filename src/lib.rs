@@ -2,47 +2,31 @@
 //! rock, after Fu, Johnson and Carrigan (LLNL). SI units throughout, tension positive,
 //! plane strain per unit thickness.
 //!
-//! Layout: `components/` holds the ECS components, `systems/` the step's systems and their
-//! order; `src/` the mesh, model, dense views, scenario files, outputs, verification and CLI.
+//! The workspace's crates are its layers, lowest first; each may use only those below it:
+//! - `hydrofrac-components` (`components/`): the ECS components;
+//! - `hydrofrac-core` (`core/`): scenario input, meshes, the model, views, numerics, output
+//!   writers, the reservoir models;
+//! - `hydrofrac-systems` (`systems/`): the step's systems and their order;
+//! - `hydrofrac-engine` (`engine/`): setup, the schedule, the step loop, checkpoints;
+//! - this crate (`src/`): the driver of `hydrofrac run` and its production stage, the
+//!   reservoir pipeline, verification, reference kernels and the CLI.
+//!
+//! This crate re-exports the modules of the crates below under one name, so a user (and the
+//! tests) write `hydrofrac::scenario::Scenario` whatever crate holds it.
 
-// Index loops over the 2 components of a vector or the 3 nodes of a triangle read like the
-// equations they implement.
 #![allow(clippy::needless_range_loop)]
 
-#[path = "../components/mod.rs"]
-pub mod components;
-#[path = "../systems/mod.rs"]
-pub mod systems;
+pub use hydrofrac_components as components;
+pub use hydrofrac_core::{
+    atomic, conforming, element, error, flow, fractures, gmsh, mesh, model, network, output,
+    params, plot, reservoir, resources, scenario, snap, sparse, split, stability, timing,
+    union_find, view,
+};
+pub use hydrofrac_engine::{checkpoint, schedule, setup, sim};
+pub use hydrofrac_systems as systems;
 
-pub mod atomic;
-pub mod checkpoint;
-pub mod conforming;
 pub mod driver;
-pub mod element;
-pub mod error;
-pub mod flow;
-pub mod fractures;
-pub mod gmsh;
-pub mod mesh;
-pub mod model;
-pub mod network;
-pub mod output;
-pub mod params;
 pub mod pipeline;
-pub mod plot;
 pub mod production;
 pub mod reference;
-pub mod reservoir;
-pub mod resources;
-pub mod scenario;
-pub mod schedule;
-pub mod setup;
-pub mod sim;
-pub mod snap;
-pub mod sparse;
-pub mod split;
-pub mod stability;
-pub mod timing;
-pub mod union_find;
 pub mod verify;
-pub mod view;

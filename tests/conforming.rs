@@ -13,7 +13,8 @@ use geometry::{cell_components, clean_random_network, geometric_components};
 use hydrofrac::driver::{RunOptions, run_scenario};
 use hydrofrac::scenario::Scenario;
 use hydrofrac::sim::Simulation;
-use hydrofrac::verify::conforming_cases::{CrackMesh, conforming_mesh, inclined_crack};
+use hydrofrac::verify::conforming_cases::{conforming_mesh, inclined_crack};
+use hydrofrac::verify::sif_cases::CrackMesh;
 
 /// Two fractures at odd angles (36 and -52 degrees) crossing at about (10.0, 8.87) m in a 20 m x 20 m block under
 /// in-situ stress, on the mesh `mesh` (RON), run for `end`.

@@ -6,7 +6,8 @@
 //! their estimates (then the largest peak so far is at most the latest estimate when every
 //! estimate bounds its own run).
 
-use hydrofrac::scenario::Scenario;
+use hydrofrac::scenario::{MeshSpec, Scenario};
+use hydrofrac::setup::build_mesh;
 use std::path::PathBuf;
 use std::process::Command;
 
@@ -83,4 +84,42 @@ fn the_estimate_bounds_the_peak_memory_of_real_runs() {
         }
         let _ = std::fs::remove_dir_all(&out);
     }
+}
+
+/// The regular mesh's counts are exact.
+#[test]
+fn regular_mesh_counts_are_exact() {
+    let spec = MeshSpec::Regular {
+        width: 10.0,
+        height: 5.0,
+        h: 1.0,
+        origin: [0.0, 0.0],
+    };
+    let c = spec.counts().unwrap();
+    let m = build_mesh(&spec).unwrap();
+    assert_eq!(c.nodes, m.nodes.len() as f64);
+    assert_eq!(c.triangles, m.triangles.len() as f64);
+    // Edges of a triangulated grid: horizontal, vertical and one diagonal per square.
+    assert_eq!(c.edges, 10.0 * 6.0 + 5.0 * 11.0 + 50.0);
+}
+
+/// The graded estimate bounds the built mesh.
+#[test]
+fn graded_mesh_counts_bound_the_mesh() {
+    let spec = MeshSpec::Graded {
+        width: 200.0,
+        height: 200.0,
+        origin: [-100.0, -100.0],
+        h: 0.5,
+        fine: [-6.0, -2.0, 6.0, 2.0],
+        ratio: 1.2,
+    };
+    let c = spec.counts().unwrap();
+    let m = build_mesh(&spec).unwrap();
+    let t = m.triangles.len() as f64;
+    assert!(
+        c.triangles >= t && c.triangles < 2.0 * t,
+        "{} vs {t}",
+        c.triangles
+    );
 }

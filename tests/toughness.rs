@@ -5,8 +5,8 @@
 
 use hydrofrac::scenario::Scenario;
 use hydrofrac::sim::Simulation;
-use hydrofrac::verify::conforming_cases::CrackMesh;
 use hydrofrac::verify::coupled_cases::{Regime, kgd_run_in};
+use hydrofrac::verify::sif_cases::CrackMesh;
 use hydrofrac::verify::sif_cases::{CrackLoad, crack_sif};
 use std::f64::consts::PI;
 

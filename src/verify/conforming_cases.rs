@@ -22,18 +22,10 @@ use crate::scenario::{
     Boundary, Damping, End, Material, MeshSpec, PreFracture, RockNetwork, SideBc, SolidScheme,
 };
 use crate::sim::{Finish, Simulation};
+use crate::verify::sif_cases::CrackMesh;
 use crate::verify::solid_cases::scenario;
 use std::f64::consts::PI;
 use std::time::Instant;
-
-/// The mesh of an inclined-crack run.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum CrackMesh {
-    /// `Conforming` with edges of h along the crack, at most 2a far away.
-    Conforming,
-    /// `Graded` (h in a box around the crack, growing by 15 % per cell): the crack snapped.
-    Snapped,
-}
 
 /// One pressurised crack solved to its static state.
 #[derive(Clone, Debug)]
@@ -69,17 +61,7 @@ pub fn inclined_crack(
         poisson: 0.2,
         density: 2700.0,
     };
-    let spec = match mesh {
-        CrackMesh::Conforming => super::sif_cases::conforming_square(r, h, a),
-        CrackMesh::Snapped => MeshSpec::Graded {
-            width: 2.0 * r,
-            height: 2.0 * r,
-            origin: [-r, -r],
-            h,
-            fine: super::sif_cases::fine_box(a, h, angle),
-            ratio: 1.15,
-        },
-    };
+    let spec = mesh.spec(r, h, a, angle);
     let mut sc = scenario(
         "sneddon_inclined",
         spec,

@@ -15,7 +15,6 @@
 //! rerun at 40a and 80a, K is extrapolated to r -> infinity with the 1/r^2 law of a fixed far
 //! boundary (as `sneddon` does for the area), and the corrected error is checked.
 
-use super::conforming_cases::CrackMesh;
 use super::{CaseResult, Row};
 use crate::scenario::{Boundary, Damping, End, Material, MeshSpec, SideBc, SolidScheme};
 use crate::sim::{Finish, Simulation};
@@ -81,17 +80,7 @@ pub fn crack_sif(
             },
         },
     };
-    let spec = match mesh {
-        CrackMesh::Snapped => MeshSpec::Graded {
-            width: 2.0 * r,
-            height: 2.0 * r,
-            origin: [-r, -r],
-            h,
-            fine: fine_box(a, h, angle),
-            ratio: 1.15,
-        },
-        CrackMesh::Conforming => conforming_square(r, h, a),
-    };
+    let spec = mesh.spec(r, h, a, angle);
     let mut sc = scenario(
         "sif",
         spec,
@@ -140,10 +129,37 @@ pub fn crack_sif(
     })
 }
 
+/// The mesh of an inclined-crack run.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum CrackMesh {
+    /// `Conforming` with edges of h along the crack, at most 2a far away.
+    Conforming,
+    /// `Graded` (h in a box around the crack, growing by 15 % per cell): the crack snapped.
+    Snapped,
+}
+
+impl CrackMesh {
+    /// The mesh of the square of half-width `r` (m) around the crack of half-length `a` (m)
+    /// through the origin at `angle` (rad), with edges of `h` (m) along it.
+    pub fn spec(self, r: f64, h: f64, a: f64, angle: f64) -> MeshSpec {
+        match self {
+            CrackMesh::Conforming => conforming_square(r, h, a),
+            CrackMesh::Snapped => MeshSpec::Graded {
+                width: 2.0 * r,
+                height: 2.0 * r,
+                origin: [-r, -r],
+                h,
+                fine: fine_box(a, h, angle),
+                ratio: 1.15,
+            },
+        }
+    }
+}
+
 /// A conforming mesh of the square of half-width `r` (m) around a crack of half-length `a`
 /// (m): edges of `h` (m) along the crack, graded to at most 2a away from it, angles of at least
 /// 25 degrees.
-pub(crate) fn conforming_square(r: f64, h: f64, a: f64) -> MeshSpec {
+fn conforming_square(r: f64, h: f64, a: f64) -> MeshSpec {
     MeshSpec::Conforming {
         width: 2.0 * r,
         height: 2.0 * r,

@@ -1,0 +1,430 @@
+//! Dense views: index arrays and struct-of-arrays state copied out of the ECS, ordered by stable
+//! id, for the cross-entity hot loops (`docs/architecture.md`, dense views). A view is rebuilt only when the
+//! model's topology generation moves; between rebuilds the view holds the hot node and element
+//! state, which [`SolidView::write_back`] copies into the components at sync points.
+
+use crate::element::{SolidParams, cst_stress};
+use crate::model::Model;
+use hecs::Entity;
+use hydrofrac_components::*;
+
+/// Marker for a dense index that does not exist.
+pub const NONE: u32 = u32::MAX;
+
+/// The solid mesh as flat arrays. Node vectors are `[x, y]` pairs; `elem_force` holds the six
+/// nodal force components of every element from the last internal-force pass.
+#[derive(Clone, Default, serde::Serialize, serde::Deserialize)]
+pub struct SolidView {
+    /// Topology generation this view was built from.
+    pub generation: u64,
+    pub node_entity: Vec<Entity>,
+    pub node_id: Vec<u64>,
+    /// Reference positions, m.
+    pub x0: Vec<[f64; 2]>,
+    /// Displacements, m.
+    pub u: Vec<[f64; 2]>,
+    /// Velocities at the last half step, m/s.
+    pub v: Vec<[f64; 2]>,
+    /// Unbalanced force (internal + external), N/m.
+    pub force: Vec<[f64; 2]>,
+    /// Damping force, N/m (stays zero when the damping system is off).
+    pub f_damp: Vec<[f64; 2]>,
+    /// Constant external load (tractions, body forces), N/m.
+    pub load: Vec<[f64; 2]>,
+    /// Lumped mass, kg/m, and its inverse.
+    pub mass: Vec<f64>,
+    pub inv_mass: Vec<f64>,
+    /// Bit d set: displacement component d is prescribed to `presc[i][d]`.
+    pub fixed: Vec<u8>,
+    pub presc: Vec<[f64; 2]>,
+    pub elem_entity: Vec<Entity>,
+    pub elem_id: Vec<u64>,
+    /// Dense node indices of each element.
+    pub conn: Vec<[u32; 3]>,
+    /// Element geometry packed as [area, dN0/dx, dN1/dx, dN2/dx, dN0/dy, dN1/dy, dN2/dy].
+    pub geom: Vec<[f64; 7]>,
+    /// Element stress [sxx, syy, sxy], Pa.
+    pub stress: Vec<[f64; 3]>,
+    /// Element nodal forces [f0x, f0y, f1x, f1y, f2x, f2y], N/m.
+    pub elem_force: Vec<[f64; 6]>,
+    /// Node -> (element * 6 + 2 * local node) incidence, CSR, ascending element order.
+    pub inc_ptr: Vec<u32>,
+    pub inc: Vec<u32>,
+    /// Internal edges (two elements), ordered by stable id: entity, the dense indices of the two
+    /// elements, the unit normal in the reference configuration, and the criterion state.
+    pub edge_entity: Vec<Entity>,
+    pub edge_elems: Vec<[u32; 2]>,
+    /// Dense indices of the edge's two nodes.
+    pub edge_nodes: Vec<[u32; 2]>,
+    pub edge_normal: Vec<[f64; 2]>,
+    /// Edge patches, CSR over edges: the elements touching either end of the edge whose
+    /// centroid projects onto the edge (those alongside it), with their area weights
+    /// normalised to 1 per edge. The fracture criterion's face stress is their weighted mean.
+    pub patch_ptr: Vec<u32>,
+    pub patch: Vec<(u32, f64)>,
+    /// Normal stress across the edge, Pa (tension positive), and the fracture-ready mark.
+    pub edge_sigma_n: Vec<f64>,
+    pub edge_ready: Vec<bool>,
+    /// Joints, ordered by stable id: nodes [p_a, p_b, q_a, q_b] (dense; the sister edges list
+    /// their ends in the same order), the sign that makes (t_y, -t_x) face p's outward normal,
+    /// and the contact state.
+    pub joint_entity: Vec<Entity>,
+    pub joint_nodes: Vec<[u32; 4]>,
+    pub joint_sign: Vec<f64>,
+    pub joint_state: Vec<JointState>,
+    /// Motion regions, set by the strength test's screen
+    /// (`systems::fracture::StrengthScreen`): runs of consecutive nodes in one region (first
+    /// node, end, region; covering every node in order), and per region the sum
+    /// over the `integrate` calls since the screen last read it of that call's largest change
+    /// of a node's displacement component, m; `motion_steps` counts those calls. Empty: not
+    /// tracked. Not in checkpoints (the screen installs them again on restore).
+    #[serde(skip)]
+    pub motion_runs: Vec<(u32, u32, u32)>,
+    #[serde(skip)]
+    pub motion_du: Vec<f64>,
+    #[serde(skip)]
+    pub motion_steps: u32,
+    #[serde(skip)]
+    pub motion_scratch: Vec<f64>,
+    #[serde(skip)]
+    pub motion_node: Vec<f64>,
+}
+
+/// CSR incidence of `n` targets from items that each name `K` targets: for target i,
+/// `inc[ptr[i]..ptr[i + 1]]` lists `code(item, slot)` in ascending item order. Gathers over it
+/// sum in a fixed order, so results do not depend on the number of threads.
+pub fn incidence<const K: usize>(
+    n: usize,
+    items: &[[u32; K]],
+    code: impl Fn(usize, usize) -> u32,
+) -> (Vec<u32>, Vec<u32>) {
+    let mut ptr = vec![0u32; n + 1];
+    for it in items {
+        for &a in it {
+            ptr[a as usize + 1] += 1;
+        }
+    }
+    for i in 0..n {
+        ptr[i + 1] += ptr[i];
+    }
+    let mut fill = ptr.clone();
+    let mut inc = vec![0u32; ptr[n] as usize];
+    for (e, it) in items.iter().enumerate() {
+        for (k, &a) in it.iter().enumerate() {
+            inc[fill[a as usize] as usize] = code(e, k);
+            fill[a as usize] += 1;
+        }
+    }
+    (ptr, inc)
+}
+
+impl SolidView {
+    /// Joints whose two faces share one end node, by node then joint: (that node, joint, the
+    /// daughter pair at the joint's other end [face p's, face q's]). A node listed once is a
+    /// fracture tip (intact rock ahead); a node listed by two joints joins two fracture pieces.
+    pub fn joint_ends(&self) -> Vec<(u32, usize, [u32; 2])> {
+        let mut ends: Vec<(u32, usize, [u32; 2])> = Vec::new();
+        for (k, nodes) in self.joint_nodes.iter().enumerate() {
+            let [pa, pb, qa, qb] = *nodes;
+            if pa == qa && pb != qb {
+                ends.push((pa, k, [pb, qb]));
+            } else if pb == qb && pa != qa {
+                ends.push((pb, k, [pa, qa]));
+            }
+        }
+        ends.sort_by_key(|s| (s.0, s.1));
+        ends
+    }
+
+    /// Elements at node i: (element, local index), from the incidence.
+    pub fn elements_at(&self, i: u32) -> impl Iterator<Item = (u32, u8)> + '_ {
+        let (s, e) = (
+            self.inc_ptr[i as usize] as usize,
+            self.inc_ptr[i as usize + 1] as usize,
+        );
+        self.inc[s..e].iter().map(|&c| (c / 6, ((c % 6) / 2) as u8))
+    }
+
+    /// Build the view from the model (nodes in the solid only), ordered by stable id.
+    pub fn build(model: &Model) -> Self {
+        let world = &model.world;
+        let mut nodes: Vec<(u64, Entity, [f64; 2], NodeState, f64, NodeBc)> = world
+            .query::<(
+                Entity,
+                &StableId,
+                &NodeRef,
+                &NodeState,
+                &NodeMass,
+                &NodeBc,
+                &NodeLink,
+            )>()
+            .iter()
+            .filter(|r| r.6.in_solid)
+            .map(|(e, id, x, s, m, bc, _)| (id.0, e, x.0, *s, m.0, *bc))
+            .collect();
+        nodes.sort_unstable_by_key(|r| r.0);
+        let max_index = world
+            .iter()
+            .map(|e| e.entity().id())
+            .max()
+            .map_or(0, |m| m as usize + 1);
+        let mut dense = vec![NONE; max_index];
+        let n = nodes.len();
+        let mut v = SolidView {
+            generation: model.topology_generation,
+            ..Default::default()
+        };
+        v.node_entity.reserve(n);
+        for (i, (id, e, x, s, m, bc)) in nodes.into_iter().enumerate() {
+            dense[e.id() as usize] = i as u32;
+            v.node_entity.push(e);
+            v.node_id.push(id);
+            v.x0.push(x);
+            v.u.push(s.u);
+            v.v.push(s.v);
+            v.mass.push(m);
+            v.inv_mass.push(if m > 0.0 { 1.0 / m } else { 0.0 });
+            v.load.push(bc.load);
+            let mut mask = 0u8;
+            let mut p = [0.0; 2];
+            for d in 0..2 {
+                if let Some(val) = bc.prescribed[d] {
+                    mask |= 1 << d;
+                    p[d] = val;
+                }
+            }
+            v.fixed.push(mask);
+            v.presc.push(p);
+        }
+        v.force = vec![[0.0; 2]; n];
+        v.f_damp = vec![[0.0; 2]; n];
+
+        let mut elems: Vec<(u64, Entity, ElemNodes, ElemGeom, [f64; 3])> = world
+            .query::<(Entity, &StableId, &ElemNodes, &ElemGeom, &ElemStress)>()
+            .iter()
+            .map(|(e, id, en, g, s)| (id.0, e, *en, *g, s.0))
+            .collect();
+        elems.sort_unstable_by_key(|r| r.0);
+        let ne = elems.len();
+        v.elem_entity.reserve(ne);
+        for (id, e, en, g, s) in elems {
+            v.elem_entity.push(e);
+            v.elem_id.push(id);
+            v.conn.push(en.0.map(|n| dense[n.id() as usize]));
+            v.geom.push([
+                g.area, g.dndx[0], g.dndx[1], g.dndx[2], g.dndy[0], g.dndy[1], g.dndy[2],
+            ]);
+            v.stress.push(s);
+        }
+        v.elem_force = vec![[0.0; 6]; ne];
+        // Node incidence (CSR) for the deterministic gather of element forces.
+        (v.inc_ptr, v.inc) = incidence(n, &v.conn, |e, k| (6 * e + 2 * k) as u32);
+        // Internal edges for the fracture criterion.
+        let mut elem_dense = vec![NONE; max_index];
+        for (k, e) in v.elem_entity.iter().enumerate() {
+            elem_dense[e.id() as usize] = k as u32;
+        }
+        // (stable id, entity, its two elements, unit normal, state)
+        type EdgeRow = (u64, Entity, [u32; 2], [u32; 2], [f64; 2], EdgeState);
+        let mut edges: Vec<EdgeRow> = world
+            .query::<(Entity, &StableId, &EdgeNodes, &EdgeElems, &EdgeState)>()
+            .iter()
+            .filter_map(|(e, id, en, ee, st)| {
+                // Opened (mother) edges left the solid: their sister daughters are joints.
+                let ([Some(a), Some(b)], false) = (ee.0, st.opened) else {
+                    return None;
+                };
+                let [p, q] = en.0.map(|n| world.get::<&NodeRef>(n).expect("node").0);
+                let (dx, dy) = (q[0] - p[0], q[1] - p[1]);
+                let len = dx.hypot(dy);
+                Some((
+                    id.0,
+                    e,
+                    [elem_dense[a.id() as usize], elem_dense[b.id() as usize]],
+                    en.0.map(|x| dense[x.id() as usize]),
+                    [dy / len, -dx / len],
+                    *st,
+                ))
+            })
+            .collect();
+        edges.sort_unstable_by_key(|r| r.0);
+        v.patch_ptr.push(0);
+        let mut cand: Vec<u32> = Vec::new();
+        for &(_, _, _, nodes, _, _) in &edges {
+            let [a, b] = nodes.map(|x| v.x0[x as usize]);
+            let t = [b[0] - a[0], b[1] - a[1]];
+            let l2 = t[0] * t[0] + t[1] * t[1];
+            cand.clear();
+            for x in nodes {
+                for &k in &v.inc[v.inc_ptr[x as usize] as usize..v.inc_ptr[x as usize + 1] as usize]
+                {
+                    cand.push(k / 6);
+                }
+            }
+            cand.sort_unstable();
+            cand.dedup();
+            let start = v.patch.len();
+            let mut w = 0.0;
+            for &e in &cand {
+                let c = v.conn[e as usize].map(|x| v.x0[x as usize]);
+                let cx = (c[0][0] + c[1][0] + c[2][0]) / 3.0;
+                let cy = (c[0][1] + c[1][1] + c[2][1]) / 3.0;
+                let s = ((cx - a[0]) * t[0] + (cy - a[1]) * t[1]) / l2;
+                if s > 1e-9 && s < 1.0 - 1e-9 {
+                    let area = v.geom[e as usize][0];
+                    v.patch.push((e, area));
+                    w += area;
+                }
+            }
+            for p in &mut v.patch[start..] {
+                p.1 /= w;
+            }
+            v.patch_ptr.push(v.patch.len() as u32);
+        }
+        for (_, e, el, nodes, n, st) in edges {
+            v.edge_entity.push(e);
+            v.edge_elems.push(el);
+            v.edge_nodes.push(nodes);
+            v.edge_normal.push(n);
+            v.edge_sigma_n.push(st.sigma_n);
+            v.edge_ready.push(st.fracture_ready);
+        }
+        // Joints.
+        let mut joints: Vec<(u64, Entity, Joint, JointState)> = world
+            .query::<(Entity, &StableId, &Joint, &JointState)>()
+            .iter()
+            .map(|(e, id, j, s)| (id.0, e, *j, *s))
+            .collect();
+        joints.sort_unstable_by_key(|r| r.0);
+        for (_, e, j, st) in joints {
+            let [p, q] = j.edges.map(|x| world.get::<&EdgeNodes>(x).expect("edge").0);
+            let nodes = [p[0], p[1], q[0], q[1]].map(|n| dense[n.id() as usize]);
+            if nodes.contains(&NONE) {
+                continue;
+            }
+            let [a, b] = p.map(|n| world.get::<&NodeRef>(n).expect("node").0);
+            let t = [b[0] - a[0], b[1] - a[1]];
+            let out = crate::fractures::outward_normal(model, j.edges[0]);
+            let sign = if t[1] * out[0] - t[0] * out[1] >= 0.0 {
+                1.0
+            } else {
+                -1.0
+            };
+            v.joint_entity.push(e);
+            v.joint_nodes.push(nodes);
+            v.joint_sign.push(sign);
+            v.joint_state.push(st);
+        }
+        v
+    }
+
+    pub fn n_nodes(&self) -> usize {
+        self.node_entity.len()
+    }
+    pub fn n_elems(&self) -> usize {
+        self.elem_entity.len()
+    }
+
+    /// Copy the hot state back into the components: displacement, velocity, the element
+    /// stresses at the current displacements (computed here; the view's own `stress` lags by
+    /// one step and is left alone), joint and edge state.
+    pub fn write_back(&self, model: &mut Model, p: &SolidParams) {
+        let mut view = model.world.view_mut::<&mut NodeState>();
+        for (i, &e) in self.node_entity.iter().enumerate() {
+            if let Some(s) = view.get_mut(e) {
+                s.u = self.u[i];
+                s.v = self.v[i];
+            }
+        }
+        let mut view = model.world.view_mut::<&mut ElemStress>();
+        for (k, &e) in self.elem_entity.iter().enumerate() {
+            if let Some(s) = view.get_mut(e) {
+                s.0 = self.current_stress(k, p);
+            }
+        }
+        let mut view = model.world.view_mut::<&mut JointState>();
+        for (k, &e) in self.joint_entity.iter().enumerate() {
+            if let Some(s) = view.get_mut(e) {
+                *s = self.joint_state[k];
+            }
+        }
+        let mut view = model.world.view_mut::<&mut EdgeState>();
+        for (k, &e) in self.edge_entity.iter().enumerate() {
+            if let Some(s) = view.get_mut(e) {
+                s.sigma_n = self.edge_sigma_n[k];
+                s.fracture_ready = self.edge_ready[k];
+            }
+        }
+    }
+
+    /// Whether any node carries an external load (tractions, body forces).
+    pub fn has_load(&self) -> bool {
+        self.load.iter().any(|l| l[0] != 0.0 || l[1] != 0.0)
+    }
+
+    /// Stress of element k at the current displacements, [sxx, syy, sxy], Pa.
+    pub fn current_stress(&self, k: usize, p: &SolidParams) -> [f64; 3] {
+        cst_stress(&self.geom[k], self.conn[k].map(|a| self.u[a as usize]), p)
+    }
+
+    /// Mean element stress [sxx, syy, sxy] at the current displacements, weighted by area, Pa,
+    /// with the element minimum and maximum (zeros without elements).
+    pub fn stress_summary(&self, p: &SolidParams) -> ([f64; 3], [f64; 3], [f64; 3]) {
+        let mut mean = [0.0; 3];
+        let mut min = [f64::INFINITY; 3];
+        let mut max = [f64::NEG_INFINITY; 3];
+        let mut area = 0.0;
+        for (e, g) in self.geom.iter().enumerate() {
+            let s = self.current_stress(e, p);
+            for k in 0..3 {
+                mean[k] += g[0] * s[k];
+                min[k] = min[k].min(s[k]);
+                max[k] = max[k].max(s[k]);
+            }
+            area += g[0];
+        }
+        if area == 0.0 {
+            return ([0.0; 3], [0.0; 3], [0.0; 3]);
+        }
+        (mean.map(|m| m / area), min, max)
+    }
+
+    /// Deformed position of node i, m.
+    pub fn position(&self, i: usize) -> [f64; 2] {
+        [self.x0[i][0] + self.u[i][0], self.x0[i][1] + self.u[i][1]]
+    }
+}
+
+/// Current geometry of joint `k`: face p's unit tangent t (from its first node to its second),
+/// its outward unit normal n (towards face q), its length (m), and the offsets of face q's centre
+/// from face p's along n (opening delta_n, m, positive when the faces separate) and along t
+/// (delta_t, m) (seed (8)).
+#[derive(Clone, Copy, Debug)]
+pub struct JointFrame {
+    pub n: [f64; 2],
+    pub t: [f64; 2],
+    pub len: f64,
+    pub dn: f64,
+    pub dt: f64,
+}
+
+#[inline]
+pub fn joint_frame(v: &SolidView, k: usize) -> JointFrame {
+    let nodes = v.joint_nodes[k];
+    let x = nodes.map(|i| v.position(i as usize));
+    let t = [x[1][0] - x[0][0], x[1][1] - x[0][1]];
+    let len = t[0].hypot(t[1]);
+    let t = [t[0] / len, t[1] / len];
+    let s = v.joint_sign[k];
+    let n = [s * t[1], -s * t[0]];
+    let cp = [0.5 * (x[0][0] + x[1][0]), 0.5 * (x[0][1] + x[1][1])];
+    let cq = [0.5 * (x[2][0] + x[3][0]), 0.5 * (x[2][1] + x[3][1])];
+    let d = [cq[0] - cp[0], cq[1] - cp[1]];
+    JointFrame {
+        n,
+        t,
+        len,
+        dn: d[0] * n[0] + d[1] * n[1],
+        dt: d[0] * t[0] + d[1] * t[1],
+    }
+}

@@ -1,0 +1,342 @@
+//! Restart checkpoints: the whole state of a run between two steps, written to a file from
+//! which `hydrofrac run SCENARIO --restart FILE` continues bit for bit as if never stopped.
+//!
+//! What is saved is what carries state across steps, exactly as it is in memory (no sync first,
+//! so writing a checkpoint never changes the run): every entity of the ECS world with all its
+//! components under its own `hecs::Entity` handle (respawned at the same handles in the same
+//! order, so the relations inside components stay valid and later spawns get the same
+//! handles), the model's counters, the dense solid and flow views, the clock, the time-step
+//! parameters the step changes (`dt`, the load factor, the adaptive aim), the flow part's
+//! accumulators (boundary volumes and their Kahan compensations live in the flow view), the
+//! coupling's mean pressures, the fracture state (criterion screen, tips, counters) and the
+//! solver counters. What is rebuilt from the scenario instead: parameters, schedule, the
+//! generated network's table, sparse factorisations (rebuilt for the same pattern, which gives
+//! the same numbers).
+//!
+//! File layout (all integers little-endian):
+//!
+//! | bytes | content |
+//! |---|---|
+//! | 8 | magic `HFCKPT\0\n` |
+//! | 4 | format version ([`FORMAT_VERSION`]) |
+//! | 8 | payload length n |
+//! | n | payload: postcard of ([`Header`], [`State`]) |
+//! | 8 | FNV-1a 64 hash of the payload |
+//!
+//! A file is refused with a one-line message when it is not a checkpoint, truncated or
+//! corrupt (length or hash), of another format version or hydrofrac version, or written for
+//! another scenario: the header carries a fingerprint of the scenario as parsed with its
+//! `--set` overrides and `--disable` list (everything but `name`, `description` and the
+//! `output` block, which do not change the physics).
+
+use hecs::Entity;
+use hydrofrac_components::*;
+use hydrofrac_core::flow::FlowView;
+use hydrofrac_core::flow::boundary::FlowStats;
+pub use hydrofrac_core::flow::implicit::ImplicitCounters;
+use hydrofrac_core::model::Model;
+use hydrofrac_core::scenario::Scenario;
+use hydrofrac_core::view::SolidView;
+use hydrofrac_systems::coupling::Coupling;
+use hydrofrac_systems::fracture::FractureState;
+use hydrofrac_systems::monitor::{Clock, Effort};
+use hydrofrac_systems::quasi_static::QsCounts;
+use hydrofrac_systems::solid::StepStats;
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+/// First bytes of every checkpoint file.
+pub const MAGIC: &[u8; 8] = b"HFCKPT\0\n";
+/// Version of the layout of [`State`]; bumped whenever a saved type changes.
+pub const FORMAT_VERSION: u32 = 3;
+/// The latest checkpoint in the output folder, and the one before it.
+pub const FILE: &str = "checkpoint.ckpt";
+pub const PREV_FILE: &str = "checkpoint.prev.ckpt";
+
+/// Why a checkpoint cannot be used.
+#[derive(Debug, thiserror::Error)]
+pub enum CheckpointError {
+    #[error("checkpoint {path}: {why}")]
+    Refused { path: String, why: String },
+    #[error("checkpoint {path}: {source}")]
+    Io {
+        path: String,
+        source: std::io::Error,
+    },
+}
+
+fn refused(path: &Path, why: impl Into<String>) -> CheckpointError {
+    CheckpointError::Refused {
+        path: path.display().to_string(),
+        why: why.into(),
+    }
+}
+
+/// Who wrote the checkpoint and where the run was.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct Header {
+    pub crate_version: String,
+    pub scenario_name: String,
+    pub fingerprint: u64,
+    pub step: u64,
+    pub time: f64,
+}
+
+/// Every entity of the world with its bundle, by handle.
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
+pub struct WorldRecords {
+    pub nodes: Vec<(Entity, NodeBundle)>,
+    pub elems: Vec<(Entity, ElemBundle)>,
+    pub edges: Vec<(Entity, EdgeBundle)>,
+    pub cells: Vec<(Entity, CellBundle)>,
+    pub joints: Vec<(Entity, JointBundle)>,
+    pub bcs: Vec<(Entity, FlowBcBundle)>,
+}
+
+/// The flow part's state.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct FlowState {
+    pub view: FlowView,
+    pub dt: f64,
+    pub substeps: u64,
+    pub dt_crit: f64,
+    pub substep_bound: f64,
+    pub stats: FlowStats,
+    pub initial_excess: f64,
+    pub residual: f64,
+    pub initial_volume: f64,
+    pub coupling: Option<Coupling>,
+    pub implicit: Option<ImplicitCounters>,
+}
+
+/// The state of a simulation between steps.
+#[derive(Clone, Serialize, Deserialize)]
+pub struct State {
+    pub world: WorldRecords,
+    pub topology_generation: u64,
+    /// next_node_id, next_elem_id, next_edge_id, next_cell_id, next_joint_id.
+    pub next_ids: [u64; 5],
+    pub clock: Clock,
+    /// `params.solid.dt`, `params.solid.load_factor`, `params.time.aim`.
+    pub dt: f64,
+    pub load_factor: f64,
+    pub aim: Option<f64>,
+    pub solid_view: SolidView,
+    pub solid_stats: StepStats,
+    pub dt_crit: f64,
+    pub qs_counts: Option<QsCounts>,
+    pub flow: Option<FlowState>,
+    pub fracture: FractureState,
+    pub effort: Effort,
+    pub cells_at_start: usize,
+    /// The next simulated time at which an `output.checkpoint_every: Time` checkpoint is due.
+    pub next_checkpoint_time: f64,
+}
+
+impl WorldRecords {
+    /// Every entity of `model`'s world; fails on an entity outside the known bundles.
+    pub fn capture(model: &Model) -> Result<Self, String> {
+        let w = &model.world;
+        let mut r = WorldRecords::default();
+        for (e, a, b, c, d, f, g) in w
+            .query::<(
+                Entity,
+                &StableId,
+                &NodeRef,
+                &NodeState,
+                &NodeMass,
+                &NodeBc,
+                &NodeLink,
+            )>()
+            .iter()
+        {
+            r.nodes.push((e, (*a, *b, *c, *d, *f, *g)));
+        }
+        for (e, a, b, c, d) in w
+            .query::<(Entity, &StableId, &ElemNodes, &ElemGeom, &ElemStress)>()
+            .iter()
+        {
+            r.elems.push((e, (*a, *b, *c, *d)));
+        }
+        for (e, a, b, c, d) in w
+            .query::<(Entity, &StableId, &EdgeNodes, &EdgeElems, &EdgeState)>()
+            .iter()
+        {
+            r.edges.push((e, (*a, *b, *c, *d)));
+        }
+        for (e, a, b, c, d) in w
+            .query::<(Entity, &StableId, &CellNodes, &CellFluid, &CellOrigin)>()
+            .iter()
+        {
+            r.cells.push((e, (*a, *b, *c, *d)));
+        }
+        for (e, a, b, c) in w.query::<(Entity, &StableId, &Joint, &JointState)>().iter() {
+            r.joints.push((e, (*a, *b, *c)));
+        }
+        for (e, a, b) in w.query::<(Entity, &StableId, &FlowBc)>().iter() {
+            r.bcs.push((e, (*a, *b)));
+        }
+        let n = r.nodes.len()
+            + r.elems.len()
+            + r.edges.len()
+            + r.cells.len()
+            + r.joints.len()
+            + r.bcs.len();
+        if n != w.len() as usize {
+            return Err(format!(
+                "the world has {} entities, {n} of them in the known bundles",
+                w.len()
+            ));
+        }
+        Ok(r)
+    }
+
+    /// A world with every entity respawned at its handle, in handle order (the order they were
+    /// spawned in: nothing is ever despawned), so archetype order and later handles match.
+    pub fn restore(self) -> Result<hecs::World, String> {
+        enum Rec {
+            N(NodeBundle),
+            E(ElemBundle),
+            D(EdgeBundle),
+            C(CellBundle),
+            J(JointBundle),
+            B(FlowBcBundle),
+        }
+        let mut all: Vec<(Entity, Rec)> = Vec::new();
+        all.extend(self.nodes.into_iter().map(|(e, b)| (e, Rec::N(b))));
+        all.extend(self.elems.into_iter().map(|(e, b)| (e, Rec::E(b))));
+        all.extend(self.edges.into_iter().map(|(e, b)| (e, Rec::D(b))));
+        all.extend(self.cells.into_iter().map(|(e, b)| (e, Rec::C(b))));
+        all.extend(self.joints.into_iter().map(|(e, b)| (e, Rec::J(b))));
+        all.extend(self.bcs.into_iter().map(|(e, b)| (e, Rec::B(b))));
+        all.sort_by_key(|(e, _)| e.id());
+        if all.windows(2).any(|w| w[0].0.id() == w[1].0.id()) {
+            return Err("two entities share a handle".into());
+        }
+        let mut world = hecs::World::new();
+        for (e, rec) in all {
+            match rec {
+                Rec::N(b) => world.spawn_at(e, b),
+                Rec::E(b) => world.spawn_at(e, b),
+                Rec::D(b) => world.spawn_at(e, b),
+                Rec::C(b) => world.spawn_at(e, b),
+                Rec::J(b) => world.spawn_at(e, b),
+                Rec::B(b) => world.spawn_at(e, b),
+            }
+        }
+        Ok(world)
+    }
+}
+
+/// FNV-1a, 64 bit.
+pub fn fnv1a(bytes: &[u8]) -> u64 {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for &b in bytes {
+        h ^= b as u64;
+        h = h.wrapping_mul(0x0100_0000_01b3);
+    }
+    h
+}
+
+/// Fingerprint of what determines the physics of a run: the scenario as parsed with its
+/// overrides, less `name`, `description` and `output`, and the systems switched off on the
+/// command line.
+pub fn fingerprint(scenario: &Scenario, extra_disable: &[String]) -> u64 {
+    let mut s = scenario.clone();
+    s.name.clear();
+    s.description.clear();
+    s.output = Default::default();
+    let text = serde_json::to_string(&(s, extra_disable)).expect("a scenario serialises");
+    // Fields added since checkpoints existed leave the fingerprint of a scenario that does not
+    // use them as it was, so its checkpoints stay readable.
+    let text = text
+        .replace(",\"selective_mass_scaling\":null", "")
+        .replace(",\"transmissibility\":\"CellMean\"", "")
+        .replace(",\"filling\":\"Dry\"", "");
+    fnv1a(text.as_bytes())
+}
+
+/// The file's bytes for `header` and `state`.
+pub fn encode(header: &Header, state: &State) -> Result<Vec<u8>, String> {
+    let payload = postcard::to_stdvec(&(header, state)).map_err(|e| e.to_string())?;
+    let mut out = Vec::with_capacity(payload.len() + 28);
+    out.extend_from_slice(MAGIC);
+    out.extend_from_slice(&FORMAT_VERSION.to_le_bytes());
+    out.extend_from_slice(&(payload.len() as u64).to_le_bytes());
+    out.extend_from_slice(&payload);
+    out.extend_from_slice(&fnv1a(&payload).to_le_bytes());
+    Ok(out)
+}
+
+/// Read and check a checkpoint file (layout, version, hash); the scenario is checked by
+/// [`check_scenario`].
+pub fn read(path: &Path) -> Result<(Header, State), CheckpointError> {
+    let bytes = std::fs::read(path).map_err(|source| CheckpointError::Io {
+        path: path.display().to_string(),
+        source,
+    })?;
+    decode(&bytes).map_err(|why| refused(path, why))
+}
+
+/// [`read`] on bytes.
+pub fn decode(bytes: &[u8]) -> Result<(Header, State), String> {
+    if bytes.len() < 8 || &bytes[..8] != MAGIC {
+        return Err("not a hydrofrac checkpoint (no checkpoint header)".into());
+    }
+    if bytes.len() < 20 {
+        return Err("truncated (the header is incomplete)".into());
+    }
+    let version = u32::from_le_bytes(bytes[8..12].try_into().expect("4 bytes"));
+    if version != FORMAT_VERSION {
+        return Err(format!(
+            "checkpoint format version {version}, this hydrofrac ({}) reads version \
+             {FORMAT_VERSION} only",
+            env!("CARGO_PKG_VERSION")
+        ));
+    }
+    let n = u64::from_le_bytes(bytes[12..20].try_into().expect("8 bytes"));
+    let have = bytes.len() as u64 - 20;
+    if have != n.saturating_add(8) {
+        return Err(format!(
+            "truncated or corrupt: {have} bytes after the header, {} expected",
+            n.saturating_add(8)
+        ));
+    }
+    let n = n as usize;
+    let payload = &bytes[20..20 + n];
+    let hash = u64::from_le_bytes(bytes[20 + n..].try_into().expect("8 bytes"));
+    if fnv1a(payload) != hash {
+        return Err("corrupt: the content does not match its hash".into());
+    }
+    let (header, state): (Header, State) =
+        postcard::from_bytes(payload).map_err(|e| format!("corrupt: cannot decode ({e})"))?;
+    if header.crate_version != env!("CARGO_PKG_VERSION") {
+        return Err(format!(
+            "written by hydrofrac {}, this is hydrofrac {}",
+            header.crate_version,
+            env!("CARGO_PKG_VERSION")
+        ));
+    }
+    Ok((header, state))
+}
+
+/// Refuse a checkpoint written for another scenario (or other overrides or disabled systems).
+pub fn check_scenario(
+    path: &Path,
+    header: &Header,
+    scenario: &Scenario,
+    extra_disable: &[String],
+) -> Result<(), CheckpointError> {
+    let fp = fingerprint(scenario, extra_disable);
+    if header.fingerprint != fp {
+        return Err(refused(
+            path,
+            format!(
+                "written for scenario '{}' (fingerprint {:016x}), not for this one '{}' \
+                 ({fp:016x}): the scenario, its --set overrides or its --disable list differ",
+                header.scenario_name, header.fingerprint, scenario.name
+            ),
+        ));
+    }
+    Ok(())
+}

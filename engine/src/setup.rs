@@ -1,0 +1,352 @@
+//! Setup: the rock model a scenario describes (mesh, material, pre-existing fractures,
+//! boundary conditions, pins, initial state, body forces, face pressure), its fluid network and
+//! the time step. Called by [`crate::sim::Simulation::new`].
+
+use hydrofrac_core::error::SetupError;
+use hydrofrac_core::flow::FlowView;
+use hydrofrac_core::mesh::TriMesh;
+use hydrofrac_core::model::Model;
+use hydrofrac_core::network::CellNetwork;
+use hydrofrac_core::params::RunParams;
+use hydrofrac_core::scenario::{
+    Boundary, End, FlowScheme, InitialFluid, InitialState, MeshSpec, Scenario, SolidScheme,
+    TimeControl,
+};
+use hydrofrac_systems::flow::FlowPart;
+
+/// Flow sub-steps per step in flow-only scenes: the schedule, spans and monitoring run once per
+/// step, so a step of several flow sub-steps keeps their cost small against the flow kernel.
+pub const FLOW_ONLY_SUBSTEPS: u64 = 32;
+
+/// Build the mesh a scenario describes (a conforming mesh around no fracture).
+pub fn build_mesh(spec: &MeshSpec) -> Result<TriMesh, SetupError> {
+    build_mesh_around(spec, &[]).map(|(m, _)| m)
+}
+
+/// How the rock's mesh came out, for `summary.json`: its kind, quality statistics, and for a
+/// conforming mesh what meshing did to the fractures.
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct MeshInfo {
+    pub kind: String,
+    pub quality: hydrofrac_core::conforming::MeshQuality,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub conforming: Option<hydrofrac_core::conforming::ConformingReport>,
+}
+
+/// Build the mesh a scenario describes; a conforming mesh follows the fracture segments
+/// `fractures` (m), the other kinds ignore them.
+pub fn build_mesh_around(
+    spec: &MeshSpec,
+    fractures: &[([f64; 2], [f64; 2])],
+) -> Result<
+    (
+        TriMesh,
+        Option<hydrofrac_core::conforming::ConformingReport>,
+    ),
+    SetupError,
+> {
+    if let MeshSpec::Conforming {
+        width,
+        height,
+        origin,
+        h,
+        h_far,
+        min_angle_deg,
+        merge,
+        grading,
+        ref follow,
+    } = *spec
+    {
+        // The node bound of `MeshSpec::counts` caps the refinement: memory was checked
+        // against it.
+        let max_vertices = spec
+            .counts()
+            .map_or(usize::MAX, |c| c.nodes.ceil() as usize);
+        let p = hydrofrac_core::conforming::ConformingParams {
+            width,
+            height,
+            origin,
+            h,
+            h_far: h_far.unwrap_or(4.0 * h).min(width.max(height)),
+            min_angle_deg,
+            merge,
+            grading,
+            max_vertices,
+        };
+        let mut all = fractures.to_vec();
+        all.extend(follow.iter().map(|f| (f.from, f.to)));
+        let (m, r) = hydrofrac_core::conforming::conforming_mesh(&p, &all)?;
+        return Ok((m, Some(r)));
+    }
+    let mesh = match *spec {
+        MeshSpec::Regular {
+            width,
+            height,
+            h,
+            origin,
+        } => TriMesh::regular(width, height, h, origin),
+        MeshSpec::Perturbed {
+            width,
+            height,
+            h,
+            origin,
+            fraction,
+            seed,
+        } => TriMesh::perturbed(width, height, h, origin, fraction, seed),
+        MeshSpec::Graded {
+            width,
+            height,
+            origin,
+            h,
+            fine,
+            ratio,
+        } => TriMesh::graded(width, height, origin, h, fine, ratio),
+        MeshSpec::Gmsh { ref file } => {
+            let g = hydrofrac_core::gmsh::read_msh(std::path::Path::new(file))
+                .map_err(|e| SetupError::invalid("mesh.file", e.to_string()))?;
+            Ok(TriMesh::from_triangles(g.nodes, g.triangles))
+        }
+        MeshSpec::Conforming { .. } => unreachable!("handled above"),
+    }?;
+    Ok((mesh, None))
+}
+
+/// The model of a validated scenario: the rock (when it has a mesh) with its fractures opened,
+/// and the pre-existing fractures as placed on the mesh.
+pub fn build_model(
+    sc: &Scenario,
+) -> Result<(Model, Vec<hydrofrac_core::fractures::Placed>, MeshInfo), SetupError> {
+    let (Some(spec), Some(mat)) = (&sc.mesh, &sc.material) else {
+        return Ok((Model::empty(), Vec::new(), MeshInfo::default()));
+    };
+    let segments: Vec<([f64; 2], [f64; 2])> = match (&sc.fracture, spec) {
+        (Some(f), MeshSpec::Conforming { .. }) => f
+            .all_preexisting()?
+            .iter()
+            .map(|(p, _)| (p.from, p.to))
+            .collect(),
+        _ => Vec::new(),
+    };
+    let (mesh, conforming) = build_mesh_around(spec, &segments)?;
+    let info = MeshInfo {
+        kind: spec.kind().to_string(),
+        quality: hydrofrac_core::conforming::MeshQuality::of(&mesh),
+        conforming,
+    };
+    let mut m = Model::from_mesh(&mesh, *mat)?;
+    let mut placed = Vec::new();
+    if let Some(f) = &sc.fracture {
+        placed = hydrofrac_core::fractures::open_preexisting(&mut m, &mesh, f)?;
+    }
+    m.apply_boundary(&sc.boundary);
+    m.apply_pins(&sc.pins)?;
+    if let (InitialState::InSitu, Boundary::InSitu { sxx, syy }) = (sc.initial_state, &sc.boundary)
+    {
+        m.set_insitu_displacement(*sxx, *syy);
+    }
+    if let Some(g) = sc.gravity {
+        let rho = mat.density;
+        m.add_body_force(|_| [rho * g[0], rho * g[1]]);
+    }
+    if let Some(p) = sc.fracture.as_ref().and_then(|f| f.pressure) {
+        hydrofrac_core::fractures::apply_face_pressure(&mut m, p);
+    }
+    Ok((m, placed, info))
+}
+
+/// The fictitious masses a run asks for, on a view just built from the model:
+/// `time.mass_scaling`'s (static relaxation, for the critical step `dt_crit`, s) or
+/// `time.selective_mass_scaling`'s.
+pub fn scale_masses(view: &mut hydrofrac_core::view::SolidView, p: &RunParams, dt_crit: f64) {
+    use hydrofrac_systems::solid;
+    if p.time.mass_scaling {
+        solid::scale_masses(view, &p.solid, p.joint.k_max(), dt_crit);
+    }
+    if let Some(s) = &p.time.selective {
+        let k = hydrofrac_core::stability::joint_spring(
+            p.joint.k_max(),
+            p.k_fluid(),
+            p.residual_aperture,
+        );
+        let rows = solid::gershgorin_rows(view, &p.solid, k);
+        solid::raise_masses(view, &rows, s.dt_crit);
+    }
+}
+
+/// The rock's view (masses scaled by [`scale_masses`]), and the coupling maps of a coupled
+/// flow part, which need it.
+pub fn solid_view(
+    model: &Model,
+    p: &RunParams,
+    dt_crit: f64,
+    flow: Option<&mut FlowPart>,
+) -> hydrofrac_core::view::SolidView {
+    let mut view = hydrofrac_core::view::SolidView::build(model);
+    scale_masses(&mut view, p, dt_crit);
+    if let Some(f) = flow
+        && f.coupling.is_some()
+    {
+        let a_r = p.residual_aperture;
+        let c = hydrofrac_systems::coupling::Coupling::build(model, &view, &f.view, &p.fluid, a_r);
+        f.coupling = Some(c);
+    }
+    view
+}
+
+/// The quasi-static solver when the schedule runs `solve`, its residual made of the force
+/// systems the user did not switch off.
+pub fn quasi_static(
+    schedule: &crate::schedule::Schedule,
+) -> Option<hydrofrac_systems::quasi_static::QuasiStatic> {
+    use crate::schedule::Status;
+    use hydrofrac_systems::SystemId;
+    use hydrofrac_systems::quasi_static::{QuasiStatic, Systems};
+    let user_on = |s| schedule.status(s) != Status::DisabledByUser;
+    schedule.is_enabled(SystemId::Solve).then(|| {
+        QuasiStatic::new(Systems {
+            load: user_on(SystemId::ExternalLoad),
+            contact: user_on(SystemId::Contact),
+            fluid: user_on(SystemId::FluidPressure),
+        })
+    })
+}
+
+/// The schedule of a scene: the literal order minus the systems in `disabled` and those whose
+/// data the scene lacks.
+pub fn schedule(
+    disabled: &[String],
+    view: &hydrofrac_core::view::SolidView,
+    p: &RunParams,
+    has_flow: bool,
+) -> Result<crate::schedule::Schedule, SetupError> {
+    let solid = view.n_nodes() > 0;
+    let data = crate::schedule::SceneData {
+        solid,
+        joints: !view.joint_nodes.is_empty(),
+        load: view.has_load(),
+        damping: p.solid.damping != hydrofrac_core::scenario::Damping::None,
+        flow: has_flow,
+        coupled: p.coupled,
+        criterion: p.criterion.is_some(),
+        quasi_static: solid && p.time.solid_scheme == SolidScheme::QuasiStatic,
+    };
+    crate::schedule::Schedule::new(disabled, |s| data.has(s))
+}
+
+/// The flow part: a rigid network of its own (`network`), or the rock's fractures when the
+/// scene has a mesh and flow boundaries (coupled; the cells are filled at the initial fluid
+/// pressure unless the start is empty); `None` without either.
+pub fn build_flow(
+    model: &mut Model,
+    sc: &Scenario,
+    p: &RunParams,
+) -> Result<Option<FlowPart>, SetupError> {
+    let net = match &sc.network {
+        Some(spec) => {
+            let net = spec.discretise();
+            model.add_network(&net, sc.initial_fluid, p.fluid.rho_r, p.fluid.k);
+            net
+        }
+        None if p.coupled => {
+            if let InitialFluid::Full(p0) = sc.initial_fluid {
+                hydrofrac_core::fractures::fill_cells(
+                    model,
+                    p.fluid.rho_r * (1.0 + p0 / p.fluid.k),
+                );
+            }
+            CellNetwork::default()
+        }
+        None => return Ok(None),
+    };
+    model.add_flow_boundaries(&p.flow_boundaries)?;
+    let view = FlowView::build(model, &p.fluid);
+    Ok(Some(FlowPart::new(view, p, net, p.coupled)))
+}
+
+/// The step, s, and for timed runs the number of steps to the end (the step is shortened so a
+/// whole number of steps reaches it). The solid sets the step when there is one (`safety`
+/// times its critical step `dt_crit`, unless `time.dt` forces one); flow sub-steps fill it.
+/// Flow-only scenes take [`FLOW_ONLY_SUBSTEPS`] explicit sub-steps per step, or one implicit
+/// step of `time.flow_dt`. An adaptive run (`resolved.adaptive`: quasi-static and coupled)
+/// starts at `time.dt` or a thousandth of the end time and has no step count. Sets the flow's
+/// sub-step count and length. A step that is zero, subnormal or not finite (a density so
+/// small that the P-wave speed overflows, say) is refused, naming what set it.
+pub fn time_step(
+    resolved: &hydrofrac_core::params::TimeParams,
+    t: &TimeControl,
+    has_solid: bool,
+    dt_crit: f64,
+    flow: Option<&mut FlowPart>,
+) -> Result<(f64, Option<u64>), SetupError> {
+    let flow_auto = flow.as_ref().map(|f| t.safety * f.dt_crit);
+    let per_flow_dt = match t.flow_scheme {
+        FlowScheme::Explicit => FLOW_ONLY_SUBSTEPS as f64,
+        FlowScheme::Implicit => 1.0,
+    };
+    let quasi_static = has_solid && t.solid_scheme == SolidScheme::QuasiStatic;
+    let adaptive = resolved.adaptive;
+    let mut dt = match (t.dt, has_solid, flow_auto, t.flow_dt) {
+        (Some(dt), _, _, _) => dt,
+        // Quasi-static: no stability limit; a static run is one step, a timed one 100.
+        // Adaptive (coupled) runs start at a thousandth of the end time.
+        (None, true, _, _) if quasi_static => match t.end {
+            End::Time(te) if adaptive => te / 1000.0,
+            End::Time(te) => te / 100.0,
+            End::Static { .. } | End::SteadyDirect => 1.0,
+        },
+        (None, true, _, _) => t.safety * dt_crit,
+        (None, false, _, Some(fdt)) => per_flow_dt * fdt,
+        (None, false, Some(fa), None) => FLOW_ONLY_SUBSTEPS as f64 * fa,
+        (None, false, None, None) => unreachable!("validated: a mesh or a network"),
+    };
+    let steps_to_end = match t.end {
+        End::Time(te) if adaptive => {
+            dt = dt.min(te);
+            None
+        }
+        End::Time(te) => {
+            let n = (te / dt - 1e-9).ceil().max(1.0);
+            dt = te / n;
+            Some(n as u64)
+        }
+        End::Static { .. } | End::SteadyDirect => None,
+    };
+    if !(dt.is_finite() && dt >= f64::MIN_POSITIVE) {
+        let (field, why) = if t.dt.is_some() {
+            ("time.dt", String::from("the step"))
+        } else if has_solid {
+            (
+                "material.density",
+                format!(
+                    "the critical step (smallest triangle altitude / P-wave speed \
+                     sqrt((lambda + 2G) / density)) is {dt_crit:e} s, so the step"
+                ),
+            )
+        } else if t.flow_dt.is_some() {
+            ("time.flow_dt", String::from("the step"))
+        } else {
+            (
+                "network",
+                String::from("the flow's critical step, and so the step,"),
+            )
+        };
+        return Err(SetupError::invalid(
+            field,
+            format!("{why} is {dt:e} s: zero, too small to represent or not finite"),
+        ));
+    }
+    if t.dt.is_some() && dt > dt_crit && !quasi_static {
+        tracing::warn!(
+            "time.dt = {dt:.3e} s is above the critical step {dt_crit:.3e} s; expect a blow-up"
+        );
+    }
+    if let Some(f) = flow {
+        let target = t.flow_dt.unwrap_or(t.safety * f.dt_crit);
+        f.substeps = match f.implicit {
+            Some(_) => 1,
+            None => ((dt / target) * (1.0 - 1e-12)).ceil().max(1.0) as u64,
+        };
+        f.dt = dt / f.substeps as f64;
+    }
+    Ok((dt, steps_to_end))
+}

@@ -1,0 +1,1118 @@
+//! `solve` (`time.solid_scheme: QuasiStatic`): the rock's equilibrium at the end of the step,
+//! instead of the explicit scheme's central-difference step. The same physics: the residual is
+//! the sum of the forces the explicit systems compute (`internal_force`, `external_load`,
+//! `contact`), evaluated by the same kernels, so both schemes have the same static answers.
+//!
+//! Newton on the free degrees of freedom: K_T du = f(u), u += du, with prescribed components
+//! held at `load_factor * value`. K_T is the CST stiffness (`element::element_stiffness`) plus,
+//! per joint, the penalty springs of its contact state: K_n n n^T on the faces' relative
+//! displacement when closed, K_t t t^T when sticking; sliding joints carry mu F_n s and add
+//! no tangential spring, but their Coulomb term mu K_n s a_t a_n^T (unsymmetric) is added to
+//! every solve by Sherman-Morrison-Woodbury over the symmetric factor (`SlipTerm`). The shear force's return map
+//! starts from the step-start state at every iteration, so iterates do not accumulate slip.
+//! Converged when the free-dof residual is below `tol` times the larger of the reactions-and-
+//! loads norm and the step's first residual, and the contact states did not change in the
+//! last iteration; stopped as diverged when it passes [`DIVERGED`] times that scale (the
+//! step then fails as one that does not converge); after `freeze_after` iterations the
+//! states are frozen in the tangent (the residual keeps the true return map). From
+//! [`SOLID_LINE_SEARCH_AFTER`] iterations on, a step without flow damps each update by a
+//! line search on |F|^2 (coupled steps search from the first iteration): on the interlocked
+//! zigzag of `verify slip_inclined` (snapped mesh, b/h = 10 and 80) a joint opened and closed
+//! at every iteration, and freezing the tangent's states did not stop the residual's, so
+//! Newton stalled at a relative residual of 1e-3 until the cap; with the line search it
+//! converges in 19-20 iterations.
+//!
+//! Linear algebra ([`Linear`], `time.linear_solver`): faer's sparse Cholesky (AMD ordering).
+//! The symbolic analysis is kept while the topology is unchanged (the pattern holds every
+//! joint's springs, open or not); the numeric factor is kept while the contact states are
+//! unchanged, so a step whose states do not change costs solves only. With many sliding
+//! joints or many coupled fracture cells (the Sherman-Morrison-Woodbury term and W = K_T^-1 G
+//! then cost a solve per sliding joint and per cell), the full unsymmetric Newton matrix with
+//! the exact joint tangent is factored by sparse LU instead, every iteration
+//! (`systems::quasi_static_lu`). SI units: forces N/m, displacements m.
+
+use crate::RunError;
+use crate::fracture::{contact, fluid_pressure, joint_frame};
+use crate::quasi_static_flow::{FlowRows, FlowStep};
+use crate::quasi_static_lu::{FullTangent, JointTangent};
+use crate::solid::{StepStats, external_load, internal_force, strain_energy};
+use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
+use faer::linalg::cholesky::llt::factor::LltRegularization;
+use faer::sparse::SparseColMatRef;
+use faer::sparse::linalg::cholesky::{
+    LltRef, SymbolicCholesky, SymmetricOrdering, factorize_symbolic_cholesky,
+};
+use faer::{Conj, MatMut, Par, Side};
+use hydrofrac_core::element::element_stiffness;
+use hydrofrac_core::params::RunParams;
+use hydrofrac_core::sparse::SparsePattern;
+use hydrofrac_core::view::SolidView;
+
+/// Default relative residual tolerance of the equilibrium iteration.
+pub const DEFAULT_TOL: f64 = hydrofrac_core::scenario::DEFAULT_NEWTON_TOL;
+/// Newton iterations before the run stops with an error.
+pub const MAX_ITER: usize = 60;
+/// Halvings the coupled line search tries after the full step and the first kink (the last
+/// is taken whatever its merit).
+pub const LINE_SEARCH_HALVINGS: i32 = 10;
+/// Newton iterations of a step without flow after which each update is damped by the line
+/// search (coupled steps search from the first): cycling between contact states (a joint
+/// opening and closing at every iteration on the interlocked zigzag of `verify slip_inclined`)
+/// is broken, while the steps that converge sooner keep their full Newton updates.
+pub const SOLID_LINE_SEARCH_AFTER: usize = 8;
+/// Relative residual (against the larger of the reactions and the step's first residual)
+/// past which the iteration has diverged and stops: on a conforming Example II mesh under a
+/// sudden 9 MPa, 1,690 joints switched to slip and the updates grew to 1e9 m within three
+/// iterations and to non-finite values after 33 (each a sparse LU).
+pub const DIVERGED: f64 = 1e4;
+/// Iterations after which the contact states are frozen.
+pub const FREEZE_AFTER: usize = 30;
+/// Low-rank updates of W in a row before it is solved again in full (bounds round-off drift).
+pub const MAX_W_UPDATES: usize = 16;
+/// Largest backward error |K_T W x - G x| / |G x| an updated W may have; above it, W is solved
+/// again in full. A full solve gives 1e-14; updates give 1e-15 to 4e-8 when K_T is well
+/// conditioned and 1e-7 to 4 where a soft mode (sliding or open joints around a block) makes
+/// the update cancel (measured on `kgd.ron` and `example1_cross.ron`). W only enters the
+/// Newton matrix, so 1e-7 costs no iterations.
+pub const W_UPDATE_TOL: f64 = 1e-7;
+/// Columns per block of a multi-column solve: fixed, so the bits do not depend on the number
+/// of threads that share the blocks.
+const SOLVE_BLOCK: usize = 8;
+
+const NONE: usize = usize::MAX;
+
+/// Contact state of a joint in the tangent: open, closed and sticking, closed and sliding.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum State {
+    Open,
+    Stick,
+    Slip,
+}
+
+/// What the solver did, summed over the run (reported in `summary.json`).
+#[derive(Clone, Copy, Debug, Default, serde::Serialize, serde::Deserialize)]
+pub struct QsCounts {
+    pub steps: u64,
+    pub newton_iterations: u64,
+    pub symbolic_factorisations: u64,
+    pub numeric_factorisations: u64,
+    pub solves: u64,
+    /// Newton iterations of the last step.
+    pub last_iterations: u64,
+    /// Coupled runs: columns of K^-1 G solved (one per fracture cell and full rebuild of W,
+    /// one per changed joint spring and low-rank update of W).
+    pub coupling_solves: u64,
+    /// Coupled runs: refactorisations after which W = K_T^-1 G was updated for the changed
+    /// joint springs instead of solved again column by column.
+    pub w_updates: u64,
+    /// Updates refused for their backward error (above [`W_UPDATE_TOL`]), W then solved in
+    /// full.
+    pub w_updates_refused: u64,
+    /// Newton iterations whose direction came from the full matrix's sparse LU
+    /// ([`Linear::Lu`]), and the symbolic analyses of its pattern.
+    pub lu_factorisations: u64,
+    pub lu_symbolic: u64,
+    /// Steps retried with half the step after Newton failed.
+    pub cutbacks: u64,
+    /// Re-solves at the same time after a split opened faces, their most in one step, and
+    /// the steps that reached the cap `time.max_resolves`.
+    pub resolves: u64,
+    pub max_resolves_in_step: u64,
+    pub resolve_cap_hits: u64,
+}
+
+/// Everything that depends on the topology (dof numbering, pattern, elastic values, symbolic
+/// factorisation), plus the numeric factor of the last contact states.
+struct Structure {
+    generation: u64,
+    /// Free dof index of node i's component d at `2 i + d` (`NONE`: prescribed).
+    dof: Vec<usize>,
+    n: usize,
+    pattern: SparsePattern,
+    /// Elastic values in pattern order.
+    k_el: Vec<f64>,
+    /// Per joint, the slot of each (a, b) entry of its 8 x 8 block (dofs of its 4 nodes).
+    joint_slots: Vec<[usize; 64]>,
+    /// Per joint, the unit normal and tangent its springs act along in K_T, its normal and its
+    /// length (m) in G: the geometry at the last refactorisation that was not followed by a
+    /// low-rank update of W (so along a chain of updates K_T changes only in the joints whose
+    /// states changed, and each update is exact).
+    joint_axes: Vec<[[f64; 2]; 2]>,
+    joint_normal: Vec<[f64; 2]>,
+    joint_len: Vec<f64>,
+    /// Per joint, the free dof of each of its 8 components (`NONE`: prescribed).
+    joint_dofs: Vec<[usize; 8]>,
+    symbolic: SymbolicCholesky<usize>,
+    mem: MemBuffer,
+}
+
+impl Structure {
+    /// Each joint's axes, normal and length from the current positions.
+    fn set_joint_geometry(&mut self, v: &SolidView) {
+        let frames = (0..v.joint_nodes.len()).map(|k| joint_frame(v, k));
+        (self.joint_axes, self.joint_normal, self.joint_len) = (
+            Vec::with_capacity(v.joint_nodes.len()),
+            Vec::with_capacity(v.joint_nodes.len()),
+            Vec::with_capacity(v.joint_nodes.len()),
+        );
+        for f in frames {
+            self.joint_axes.push([f.n, f.t]);
+            self.joint_normal.push(f.n);
+            self.joint_len.push(f.len);
+        }
+    }
+}
+
+/// The quasi-static solver of a run (see the module documentation).
+pub struct QuasiStatic {
+    /// The force systems in the residual.
+    pub on: Systems,
+    structure: Option<Structure>,
+    /// Contact states and Cholesky values of the current numeric factor.
+    factored: Option<Vec<State>>,
+    l_values: Vec<f64>,
+    values: Vec<f64>,
+    /// Low-rank updates of W since it was last solved in full, and how many are allowed in a
+    /// row (0: W solved in full after every refactorisation, for comparison).
+    w_updates: usize,
+    pub max_w_updates: usize,
+    pub tol: f64,
+    pub counts: QsCounts,
+    /// The network's rows of a coupled step.
+    pub rows: FlowRows,
+    /// Which linear solver makes the Newton direction (see [`Linear`]).
+    pub linear: Linear,
+    /// The full Newton matrix's pattern and LU factors ([`Linear::Lu`]).
+    full: Option<FullTangent>,
+    lu_rhs: Vec<f64>,
+}
+
+/// The linear algebra of the Newton direction (`time.linear_solver`).
+pub use hydrofrac_core::scenario::LinearSolver as Linear;
+
+/// [`Linear::Auto`] takes the LU when more joints than this slide.
+pub const LU_MIN_SLIDING: usize = 32;
+/// [`Linear::Auto`] takes the LU when more fracture cells than this load the rock.
+pub const LU_MIN_CELLS: usize = 200;
+
+impl QuasiStatic {
+    /// A solver whose residual includes the force systems `on`.
+    pub fn new(on: Systems) -> Self {
+        QuasiStatic {
+            on,
+            structure: None,
+            factored: None,
+            l_values: Vec::new(),
+            values: Vec::new(),
+            w_updates: 0,
+            max_w_updates: MAX_W_UPDATES,
+            tol: DEFAULT_TOL,
+            counts: QsCounts::default(),
+            rows: FlowRows::default(),
+            linear: Linear::Auto,
+            full: None,
+            lu_rhs: Vec::new(),
+        }
+    }
+}
+
+fn fail(step: u64, time: f64, why: String) -> RunError {
+    RunError::QuasiStatic { step, time, why }
+}
+
+impl QuasiStatic {
+    fn structure(&mut self, v: &SolidView, p: &RunParams) -> Result<(), String> {
+        if self
+            .structure
+            .as_ref()
+            .is_some_and(|s| s.generation == v.generation)
+        {
+            return Ok(());
+        }
+        let mut dof = vec![NONE; 2 * v.n_nodes()];
+        let mut n = 0;
+        for i in 0..v.n_nodes() {
+            for d in 0..2 {
+                if v.fixed[i] & (1 << d) == 0 {
+                    dof[2 * i + d] = n;
+                    n += 1;
+                }
+            }
+        }
+        let dofs_of = |nodes: &[u32]| -> Vec<usize> {
+            nodes
+                .iter()
+                .flat_map(|&i| [dof[2 * i as usize], dof[2 * i as usize + 1]])
+                .collect()
+        };
+        // Lower triangle (row >= col) of every element and joint block.
+        let mut entries = Vec::new();
+        let blocks = v
+            .conn
+            .iter()
+            .map(|c| dofs_of(c))
+            .chain(v.joint_nodes.iter().map(|j| dofs_of(j)));
+        for d in blocks.clone() {
+            for &a in &d {
+                for &b in &d {
+                    if a != NONE && b != NONE && a >= b {
+                        entries.push((a, b));
+                    }
+                }
+            }
+        }
+        let pattern = SparsePattern::from_entries(n, entries)?;
+        let slot = |a: usize, b: usize| -> usize {
+            if a == NONE || b == NONE || a < b {
+                NONE
+            } else {
+                pattern.slot(a, b).expect("in pattern")
+            }
+        };
+        let mut k_el = vec![0.0; pattern.nnz()];
+        for (c, g) in v.conn.iter().zip(&v.geom) {
+            let d = dofs_of(c);
+            let ke = element_stiffness(g, &p.solid);
+            for a in 0..6 {
+                for b in 0..6 {
+                    let s = slot(d[a], d[b]);
+                    if s != NONE {
+                        k_el[s] += ke[(a, b)];
+                    }
+                }
+            }
+        }
+        let joint_slots = v
+            .joint_nodes
+            .iter()
+            .map(|j| {
+                let d = dofs_of(j);
+                let mut s = [NONE; 64];
+                for a in 0..8 {
+                    for b in 0..8 {
+                        s[8 * a + b] = slot(d[a], d[b]);
+                    }
+                }
+                s
+            })
+            .collect();
+        let symbolic = factorize_symbolic_cholesky(
+            pattern.as_ref(),
+            Side::Lower,
+            SymmetricOrdering::Amd,
+            Default::default(),
+        )
+        .map_err(|e| format!("symbolic analysis: {e:?}"))?;
+        let req = StackReq::any_of(&[
+            symbolic.factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default()),
+            symbolic.solve_in_place_scratch::<f64>(1, Par::Seq),
+        ]);
+        let mem = MemBuffer::try_new(req).map_err(|_| "out of memory for the workspace")?;
+        let joint_dofs = v
+            .joint_nodes
+            .iter()
+            .map(|j| std::array::from_fn(|i| dof[2 * j[i / 2] as usize + i % 2]))
+            .collect();
+        self.counts.symbolic_factorisations += 1;
+        self.factored = None;
+        self.rows.forget_w();
+        self.structure = Some(Structure {
+            generation: v.generation,
+            dof,
+            n,
+            pattern,
+            k_el,
+            joint_slots,
+            joint_axes: Vec::new(),
+            joint_normal: Vec::new(),
+            joint_len: Vec::new(),
+            joint_dofs,
+            symbolic,
+            mem,
+        });
+        Ok(())
+    }
+
+    /// Numeric factor of K_T for the contact `states` (kept while they are unchanged), with
+    /// the joints' geometry taken afresh from the current positions when `refresh`.
+    /// Returns the states of the factor it replaced, if it made a new one.
+    fn factor(
+        &mut self,
+        v: &SolidView,
+        p: &RunParams,
+        states: &[State],
+        refresh: bool,
+    ) -> Result<Option<Vec<State>>, String> {
+        if self.factored.as_deref() == Some(states) {
+            return Ok(None);
+        }
+        let s = self.structure.as_mut().expect("structure");
+        if refresh {
+            s.set_joint_geometry(v);
+        }
+        self.values.clear();
+        self.values.extend_from_slice(&s.k_el);
+        for (k, st) in states.iter().enumerate() {
+            for (kk, a) in joint_springs(p, &s.joint_axes[k], *st) {
+                for i in 0..8 {
+                    for j in 0..8 {
+                        let slot = s.joint_slots[k][8 * i + j];
+                        if slot != NONE {
+                            self.values[slot] += kk * a[i] * a[j];
+                        }
+                    }
+                }
+            }
+        }
+        self.l_values.clear();
+        self.l_values.resize(s.symbolic.len_val(), 0.0);
+        let a = SparseColMatRef::new(s.pattern.as_ref(), &self.values);
+        s.symbolic
+            .factorize_numeric_llt::<f64>(
+                &mut self.l_values,
+                a,
+                Side::Lower,
+                LltRegularization::default(),
+                Par::Seq,
+                MemStack::new(&mut s.mem),
+                Default::default(),
+            )
+            .map_err(|e| {
+                let sliding = states.iter().filter(|s| **s == State::Slip).count();
+                if sliding > 0 {
+                    format!(
+                        "the stiffness is not positive definite ({e:?}) with {sliding} joints \
+                         in slip: the joints slide past the Coulomb limit and hold a block by \
+                         friction alone, which has no static equilibrium (use \
+                         time.solid_scheme: Explicit to follow the sliding)"
+                    )
+                } else {
+                    format!(
+                        "the stiffness is not positive definite ({e:?}): the rock can move as \
+                         a rigid body (too few supports) or a block is held by open joints only"
+                    )
+                }
+            })?;
+        self.counts.numeric_factorisations += 1;
+        Ok(self.factored.replace(states.to_vec()))
+    }
+
+    /// How well W solves K_T W = G: |K_T W x - G x| / |G x| for the fixed weights x of
+    /// [`FlowRows::w_combination`], given `gx` = G x. A full solve gives round-off (1e-14); a
+    /// low-rank update loses digits when K_T has a soft mode (a block held by sliding or open
+    /// joints), which this catches.
+    fn w_backward_error(&self, gx: &[f64], wx: &mut Vec<f64>) -> f64 {
+        let s = self.structure.as_ref().expect("structure");
+        self.rows.w_combination(s.n, wx);
+        let (ptr, idx) = (s.pattern.col_ptr(), s.pattern.row_idx());
+        let mut r: Vec<f64> = gx.iter().map(|g| -g).collect();
+        for j in 0..s.n {
+            for k in ptr[j]..ptr[j + 1] {
+                let (i, a) = (idx[k], self.values[k]);
+                r[i] += a * wx[j];
+                if i != j {
+                    r[j] += a * wx[i];
+                }
+            }
+        }
+        let norm = |v: &[f64]| v.iter().map(|x| x * x).sum::<f64>().sqrt();
+        norm(&r) / norm(gx).max(f64::MIN_POSITIVE)
+    }
+
+    /// After a refactorisation from the contact states `before` (factor number `before_id`)
+    /// to `now`, bring W = K_T^-1 G up to date without solving every column again:
+    /// K_new = K_old + sum_s dk_s a_s a_s^T over the joint springs that changed, so
+    /// K_new W_new = G = K_old W_old gives W_new = W_old - K_new^-1 (sum_s dk_s a_s a_s^T) W_old,
+    /// one solve per changed spring. Returns false (W left for a full solve) when W was not
+    /// that of the factor replaced, the change is not small against the columns, or
+    /// `max_w_updates` updates were made in a row.
+    fn update_w(
+        &mut self,
+        p: &RunParams,
+        before: &[State],
+        before_id: u64,
+        now: &[State],
+    ) -> Result<bool, String> {
+        if !self.rows.w_is_for(before_id) || self.w_updates >= self.max_w_updates {
+            return Ok(false);
+        }
+        let s = self.structure.as_ref().expect("structure");
+        let n = s.n;
+        let m = self.rows.w_columns(n);
+        let mut springs: Vec<(usize, f64, [f64; 8])> = Vec::new();
+        for (k, (b, a)) in before.iter().zip(now).enumerate() {
+            if b == a {
+                continue;
+            }
+            let old = joint_springs(p, &s.joint_axes[k], *b);
+            let new = joint_springs(p, &s.joint_axes[k], *a);
+            for (o, w) in old.iter().zip(&new) {
+                if o.0 != w.0 {
+                    springs.push((k, w.0 - o.0, w.1));
+                }
+            }
+        }
+        if 4 * springs.len() > m {
+            return Ok(false);
+        }
+        let ns = springs.len();
+        let mut z = vec![0.0; n * ns];
+        let mut at_dofs = Vec::with_capacity(ns);
+        for (j, (k, _, a)) in springs.iter().enumerate() {
+            let d = s.joint_dofs[*k];
+            for i in 0..8 {
+                if d[i] != NONE {
+                    z[j * n + d[i]] += a[i];
+                }
+            }
+            at_dofs.push(d);
+        }
+        solve_columns(s, &self.l_values, &mut z, ns)?;
+        let w = self.rows.w_buffer();
+        for c in 0..m {
+            let wc = &mut w[c * n..(c + 1) * n];
+            for (j, (_, dk, a)) in springs.iter().enumerate() {
+                let d = at_dofs[j];
+                let mut b = 0.0;
+                for i in 0..8 {
+                    if d[i] != NONE {
+                        b += a[i] * wc[d[i]];
+                    }
+                }
+                let coef = dk * b;
+                if coef != 0.0 {
+                    for (x, zj) in wc.iter_mut().zip(&z[j * n..(j + 1) * n]) {
+                        *x -= coef * zj;
+                    }
+                }
+            }
+        }
+        self.counts.coupling_solves += ns as u64;
+        self.w_updates += 1;
+        Ok(true)
+    }
+
+    /// Whether this iteration's direction comes from the full matrix's LU ([`Linear`]).
+    fn use_lu(&self, states: &[State], flow: Option<&FlowStep>) -> bool {
+        match self.linear {
+            Linear::Cholesky => false,
+            Linear::Lu => true,
+            Linear::Auto => {
+                let sliding = states.iter().filter(|s| **s == State::Slip).count();
+                let cells = flow.map_or(0, |f| {
+                    let c = f.part.coupling.as_ref().expect("coupled flow");
+                    let with_joint = c.cell_joint.iter().filter(|j| **j != u32::MAX).count();
+                    if f.faces { with_joint } else { 0 }
+                });
+                sliding > LU_MIN_SLIDING || cells > LU_MIN_CELLS
+            }
+        }
+    }
+
+    /// The Newton direction from the full matrix ([`FullTangent`]): du into `rhs` (which
+    /// holds F on entry), and dy into the flow rows.
+    fn lu_direction(
+        &mut self,
+        v: &SolidView,
+        p: &RunParams,
+        states: &[State],
+        flow: &mut Option<FlowStep>,
+        rhs: &mut [f64],
+    ) -> Result<(), String> {
+        let s = self.structure.as_ref().expect("structure");
+        let n = s.n;
+        if !self
+            .full
+            .as_ref()
+            .is_some_and(|t| t.matches(v, flow.as_mut()))
+        {
+            self.full = None;
+            self.full = Some(FullTangent::build(v, p, &s.dof, n, flow.as_mut())?);
+            self.counts.lu_symbolic += 1;
+        }
+        let tangent: Vec<JointTangent> = states
+            .iter()
+            .map(|st| match st {
+                State::Open => JointTangent::Open,
+                State::Stick => JointTangent::Stick,
+                State::Slip => JointTangent::Slip,
+            })
+            .collect();
+        let tangent = if self.on.contact {
+            tangent
+        } else {
+            vec![JointTangent::Open; states.len()]
+        };
+        self.lu_rhs.clear();
+        self.lu_rhs.extend_from_slice(rhs);
+        if let Some(f) = flow.as_mut() {
+            let dof = &self.structure.as_ref().expect("structure").dof;
+            self.rows.linearise(f, v, dof)?;
+            let nc = f.part.view.n_cells();
+            self.lu_rhs.extend_from_slice(&self.rows.b[..nc]);
+        }
+        let full = self.full.as_mut().expect("built above");
+        full.factor_and_solve(
+            v,
+            p,
+            &tangent,
+            flow.as_ref().map(|f| (f, &self.rows)),
+            &mut self.lu_rhs,
+        )?;
+        self.counts.lu_factorisations += 1;
+        rhs.copy_from_slice(&self.lu_rhs[..n]);
+        if flow.is_some() {
+            let dy = self.lu_rhs[n..].to_vec();
+            self.rows.set_dy(&dy);
+        }
+        Ok(())
+    }
+
+    /// Drop the numeric factor, so the next iteration refactorises with the joints' geometry
+    /// taken afresh (benchmarks; the production stage after restoring a failed solve's start).
+    pub fn forget_factor(&mut self) {
+        self.factored = None;
+    }
+
+    fn solve_in_place(&mut self, x: &mut [f64]) {
+        let s = self.structure.as_mut().expect("structure");
+        let llt = LltRef::<usize, f64>::new(&s.symbolic, &self.l_values);
+        let len = x.len();
+        llt.solve_in_place_with_conj(
+            Conj::No,
+            MatMut::from_column_major_slice_mut(x, len, 1),
+            Par::Seq,
+            MemStack::new(&mut s.mem),
+        );
+        self.counts.solves += 1;
+    }
+
+    /// Solve K_T X = B in place for the column-major `m` columns in the flow rows' W buffer.
+    fn solve_w(&mut self, m: usize) -> Result<(), String> {
+        let s = self.structure.as_ref().expect("structure");
+        solve_columns(s, &self.l_values, self.rows.w_buffer(), m)?;
+        self.counts.coupling_solves += m as u64;
+        self.w_updates = 0;
+        Ok(())
+    }
+}
+
+/// Solve K_T X = B in place for the `m` column-major columns of `buf` with the factor
+/// `l_values`, in blocks of [`SOLVE_BLOCK`] columns shared among the threads.
+fn solve_columns(s: &Structure, l_values: &[f64], buf: &mut [f64], m: usize) -> Result<(), String> {
+    use rayon::prelude::*;
+    let n = s.n;
+    if m == 0 || n == 0 {
+        return Ok(());
+    }
+    let req = s
+        .symbolic
+        .solve_in_place_scratch::<f64>(SOLVE_BLOCK, Par::Seq);
+    let llt = LltRef::<usize, f64>::new(&s.symbolic, l_values);
+    buf[..n * m]
+        .par_chunks_mut(n * SOLVE_BLOCK)
+        .try_for_each(|block| {
+            let mut mem = MemBuffer::try_new(req).map_err(|_| "out of memory for the workspace")?;
+            let cols = block.len() / n;
+            llt.solve_in_place_with_conj(
+                Conj::No,
+                MatMut::from_column_major_slice_mut(block, n, cols),
+                Par::Seq,
+                MemStack::new(&mut mem),
+            );
+            Ok::<(), String>(())
+        })
+}
+
+/// The sliding joints' Coulomb term of the tangent: a sliding joint carries F_t = mu F_n s
+/// (s the sign of its shear force), so dF_t/d(delta_n) = -mu K_n s and the tangent gains
+/// mu K_n s a_t a_n^T (a_n, a_t: the joint's normal and tangential coefficients on its 8 dofs,
+/// [`joint_springs`]). That term is unsymmetric, so the Cholesky factor holds the symmetric
+/// rest K_s, and solves with K_s + U V^T (U = [mu K_n s a_t], V = [a_n], one column per
+/// sliding joint) use Sherman-Morrison-Woodbury: x = y - Z (I + V^T Z)^-1 V^T y with
+/// y = K_s^-1 b and Z = K_s^-1 U. Without it the Newton direction turns wherever joints slide
+/// around a soft block (README, "Choosing the solid scheme").
+struct SlipTerm {
+    n: usize,
+    /// Z, column-major n x r.
+    z: Vec<f64>,
+    /// The 8 (dof, coefficient) entries of each column of V.
+    v: Vec<[(usize, f64); 8]>,
+    /// LU of the r x r capacitance I + V^T Z.
+    lu: nalgebra::LU<f64, nalgebra::Dyn, nalgebra::Dyn>,
+}
+
+impl SlipTerm {
+    /// The correction for the contact `states` at the current iterate; `None` when no joint
+    /// slides (or `mu` is zero).
+    fn new(
+        qs: &mut QuasiStatic,
+        sv: &SolidView,
+        p: &RunParams,
+        states: &[State],
+    ) -> Result<Option<Self>, String> {
+        let s = qs.structure.as_ref().expect("structure");
+        let n = s.n;
+        let mut cols = Vec::new();
+        for (k, st) in states.iter().enumerate() {
+            let sign = sv.joint_state[k].shear_force.signum();
+            if *st != State::Slip || p.joint.mu == 0.0 || sv.joint_state[k].shear_force == 0.0 {
+                continue;
+            }
+            let [(_, an), (_, at)] = joint_springs(p, &s.joint_axes[k], State::Stick);
+            let d = s.joint_dofs[k];
+            let mut u = [(NONE, 0.0); 8];
+            let mut vv = [(NONE, 0.0); 8];
+            for i in 0..8 {
+                if d[i] != NONE {
+                    u[i] = (d[i], p.joint.mu * p.joint.kn * sign * at[i]);
+                    vv[i] = (d[i], an[i]);
+                }
+            }
+            cols.push((u, vv));
+        }
+        if cols.is_empty() {
+            return Ok(None);
+        }
+        let r = cols.len();
+        let mut z = vec![0.0; n * r];
+        for (j, (u, _)) in cols.iter().enumerate() {
+            for &(d, a) in u {
+                if d != NONE {
+                    z[j * n + d] += a;
+                }
+            }
+        }
+        solve_columns(s, &qs.l_values, &mut z, r)?;
+        qs.counts.solves += r as u64;
+        let mut cap = nalgebra::DMatrix::<f64>::identity(r, r);
+        for (i, (_, vv)) in cols.iter().enumerate() {
+            for j in 0..r {
+                let zj = &z[j * n..(j + 1) * n];
+                cap[(i, j)] += vv
+                    .iter()
+                    .filter(|e| e.0 != NONE)
+                    .map(|&(d, a)| a * zj[d])
+                    .sum::<f64>();
+            }
+        }
+        Ok(Some(SlipTerm {
+            n,
+            z,
+            v: cols.into_iter().map(|c| c.1).collect(),
+            lu: cap.lu(),
+        }))
+    }
+
+    /// x <- (K_s + U V^T)^-1 b given x = K_s^-1 b.
+    fn apply(&self, x: &mut [f64]) {
+        let r = self.v.len();
+        let t = nalgebra::DVector::from_iterator(
+            r,
+            self.v.iter().map(|vv| {
+                vv.iter()
+                    .filter(|e| e.0 != NONE)
+                    .map(|&(d, a)| a * x[d])
+                    .sum::<f64>()
+            }),
+        );
+        let Some(y) = self.lu.solve(&t) else {
+            return;
+        };
+        for j in 0..r {
+            let zj = &self.z[j * self.n..(j + 1) * self.n];
+            for (xi, zi) in x.iter_mut().zip(zj) {
+                *xi -= y[j] * zi;
+            }
+        }
+    }
+}
+
+/// The penalty springs of a joint in contact state `st` along its `axes` (normal, tangent):
+/// (stiffness N/m^2, coefficients on its 8 dofs). The springs act on the faces' relative
+/// displacement delta = c_q - c_p, c the mean of a face's two nodes: coefficient -1/2, -1/2,
+/// 1/2, 1/2 per node times the axis. Open: none; closed: K_n along n, and K_t along t when
+/// sticking (a sliding joint's shear is bounded, not a spring).
+fn joint_springs(p: &RunParams, axes: &[[f64; 2]; 2], st: State) -> [(f64, [f64; 8]); 2] {
+    const C: [f64; 4] = [-0.5, -0.5, 0.5, 0.5];
+    let along = |e: [f64; 2]| std::array::from_fn(|i| C[i / 2] * e[i % 2]);
+    let (kn, kt) = match st {
+        State::Open => (0.0, 0.0),
+        State::Stick => (p.joint.kn, p.joint.kt),
+        State::Slip => (p.joint.kn, 0.0),
+    };
+    [(kn, along(axes[0])), (kt, along(axes[1]))]
+}
+
+/// The forces at the current iterate, with the joints' return map restarted from `joint0`.
+fn forces(
+    v: &mut SolidView,
+    p: &RunParams,
+    on: Systems,
+    joint0: &[hydrofrac_components::JointState],
+) {
+    v.joint_state.copy_from_slice(joint0);
+    internal_force(v, &p.solid);
+    if on.load {
+        external_load(v, &p.solid);
+    }
+    if on.contact {
+        contact(v, &p.joint);
+    }
+}
+
+/// Which force systems the residual includes (those the user did not switch off: without
+/// `contact` the joints carry nothing in the equilibrium either, without `fluid_pressure` the
+/// fluid does not load the faces).
+#[derive(Clone, Copy, Debug)]
+pub struct Systems {
+    pub load: bool,
+    pub contact: bool,
+    pub fluid: bool,
+}
+
+/// Fluid pressures held fixed on the fracture faces (a coupled run whose `flow_substeps` is
+/// switched off, as the explicit scheme's `fluid_pressure` holds them; the production stage's
+/// equilibria): joint k's faces carry `pressure[joint_cell[k]]` (Pa) as a load.
+#[derive(Clone, Copy, Debug)]
+pub struct Held<'a> {
+    pub joint_cell: &'a [u32],
+    pub pressure: &'a [f64],
+}
+
+/// `solve`: equilibrium at the end of the step (load factor already set); with `flow`, the
+/// network's backward-Euler step over the same step in the same Newton iteration
+/// ([`crate::quasi_static_flow`]), the converged state left for the flow system's
+/// commit; without it, `held` face pressures as a fixed load. `step` and `time` (the step's
+/// end) name the step in errors. Velocities are set to zero (no inertia).
+pub fn solve(
+    v: &mut SolidView,
+    qs: &mut QuasiStatic,
+    mut flow: Option<FlowStep>,
+    held: Option<Held>,
+    p: &RunParams,
+    step: u64,
+    time: f64,
+) -> Result<StepStats, RunError> {
+    qs.structure(v, p).map_err(|e| fail(step, time, e))?;
+    let on = qs.on;
+    let lf = p.solid.load_factor;
+    for i in 0..v.n_nodes() {
+        for d in 0..2 {
+            if v.fixed[i] & (1 << d) != 0 {
+                v.u[i][d] = lf * v.presc[i][d];
+            }
+        }
+        v.v[i] = [0.0; 2];
+    }
+    let joint0 = v.joint_state.clone();
+    let n = qs.structure.as_ref().expect("structure").n;
+    let mut rhs = vec![0.0; n];
+    let mut states: Vec<State> = vec![State::Open; v.joint_nodes.len()];
+    let mut prev: Option<Vec<State>> = None;
+    let mut iterations = 0;
+    if let Some(f) = flow.as_mut() {
+        qs.rows.begin(f, v);
+    }
+    // The residual's scale: the reactions and loads, or the step's first unbalanced force when
+    // that is larger (a prescribed displacement into a stress-free state, e.g. a lifted block
+    // on an opening joint, ends with no reaction at all).
+    let mut first2 = None;
+    // The most joints in slip at any iterate of this step (for the failure's hint).
+    let mut max_slip = 0;
+    let (mut u_base, mut rhs_try) = (Vec::new(), Vec::new());
+    let (mut gx, mut wx, mut w_keep) = (Vec::new(), Vec::new(), Vec::new());
+    // The coupled line search leaves the residual of the point it accepted.
+    let mut evaluated = None;
+    let (res2, ref2) = loop {
+        let (res2, ref2, flow_ok) = match evaluated.take() {
+            Some(e) => e,
+            None => evaluate(v, qs, &mut flow, held, p, &joint0, &mut rhs),
+        };
+        if on.contact {
+            for (st, js) in states.iter_mut().zip(&v.joint_state) {
+                if iterations <= FREEZE_AFTER {
+                    // Touching faces (delta_n = 0, e.g. a closed fracture at the start) carry
+                    // the normal spring in the tangent, so a block resting on a joint is held.
+                    *st = match (js.opening <= 0.0, js.sliding) {
+                        (false, _) => State::Open,
+                        (true, false) => State::Stick,
+                        (true, true) => State::Slip,
+                    };
+                }
+            }
+        }
+        max_slip = max_slip.max(states.iter().filter(|s| **s == State::Slip).count());
+        let ref2 = ref2.max(*first2.get_or_insert(res2));
+        let settled = prev.as_deref() == Some(&states[..]);
+        if !res2.is_finite() {
+            return Err(fail(step, time, "the residual is not finite".into()));
+        }
+        if res2 > DIVERGED * DIVERGED * ref2 {
+            return Err(fail(
+                step,
+                time,
+                format!(
+                    "the Newton iteration diverged: relative residual {:.1e} after {iterations} \
+                     iterations{}",
+                    (res2 / ref2).sqrt(),
+                    slip_hint(v, max_slip)
+                ),
+            ));
+        }
+        let tol2 = qs.tol * qs.tol * ref2.max(f64::MIN_POSITIVE);
+        if res2 <= tol2 && flow_ok && (settled || !on.contact) {
+            break (res2, ref2);
+        }
+        if iterations >= MAX_ITER {
+            return Err(fail(
+                step,
+                time,
+                not_converged(v, qs, &flow, res2, ref2, max_slip),
+            ));
+        }
+        if qs.use_lu(&states, flow.as_ref()) {
+            qs.lu_direction(v, p, &states, &mut flow, &mut rhs)
+                .map_err(|e| fail(step, time, e))?;
+        } else {
+            let before_id = qs.counts.numeric_factorisations;
+            // The joints' geometry stays that of the factor W was solved with while W may be
+            // updated (an exact low-rank change); otherwise it is taken afresh.
+            let may_update = flow.is_some()
+                && qs.factored.is_some()
+                && qs.rows.w_is_for(before_id)
+                && qs.w_updates < qs.max_w_updates;
+            let before = qs
+                .factor(v, p, &states, !may_update)
+                .map_err(|e| fail(step, time, e))?;
+            if let Some(f) = flow.as_ref() {
+                let id = qs.counts.numeric_factorisations;
+                let updated = match before {
+                    Some(b) if id != before_id => {
+                        let ok = qs
+                            .update_w(p, &b, before_id, &states)
+                            .map_err(|e| fail(step, time, e))?;
+                        let s = qs.structure.as_ref().expect("structure");
+                        let accurate = ok && {
+                            qs.rows.g_combination(
+                                f,
+                                v,
+                                &s.dof,
+                                s.n,
+                                &s.joint_normal,
+                                &s.joint_len,
+                                &mut gx,
+                            );
+                            qs.w_backward_error(&gx, &mut wx) <= W_UPDATE_TOL
+                        };
+                        if ok && !accurate {
+                            qs.counts.w_updates_refused += 1;
+                        }
+                        if accurate {
+                            qs.counts.w_updates += 1;
+                            qs.rows.set_w_factor(id);
+                        }
+                        accurate
+                    }
+                    _ => false,
+                };
+                if !updated && qs.rows.needs_w(id) {
+                    let s = qs.structure.as_ref().expect("structure");
+                    let m = qs
+                        .rows
+                        .load_g(f, v, &s.dof, s.n, &s.joint_normal, &s.joint_len)
+                        .map_err(|e| fail(step, time, e))?;
+                    qs.solve_w(m).map_err(|e| fail(step, time, e))?;
+                    qs.rows.set_w_factor(id);
+                }
+            }
+            qs.solve_in_place(&mut rhs);
+            // The sliding joints' Coulomb term (unsymmetric, left out of the Cholesky tangent)
+            // as a low-rank correction of the solves.
+            let slip = if on.contact {
+                SlipTerm::new(qs, v, p, &states).map_err(|e| fail(step, time, e))?
+            } else {
+                None
+            };
+            if let Some(c) = &slip {
+                c.apply(&mut rhs);
+            }
+            if let Some(f) = flow.as_mut() {
+                let s = qs.structure.as_ref().expect("structure");
+                // W of the full tangent for this iteration only: the kept W is the Cholesky
+                // tangent's.
+                if let Some(c) = &slip {
+                    w_keep.clear();
+                    w_keep.extend_from_slice(qs.rows.w_buffer());
+                    for col in qs.rows.w_buffer().chunks_exact_mut(s.n.max(1)) {
+                        c.apply(col);
+                    }
+                }
+                let reduced = qs.rows.reduce_and_solve(f, v, &s.dof, s.n, &mut rhs);
+                if slip.is_some() {
+                    qs.rows.w_buffer().copy_from_slice(&w_keep);
+                }
+                reduced.map_err(|e| fail(step, time, e))?;
+            }
+        }
+        let dof = &qs.structure.as_ref().expect("structure").dof;
+        if flow.is_none() && iterations < SOLID_LINE_SEARCH_AFTER {
+            add_update(v, dof, &rhs, 1.0);
+        } else {
+            // A line search on the merit phi = |F|^2 / (tol^2 ref) (+ sum (r_c / allowed_c)^2
+            // when coupled) (Armijo, c = 1e-4): the full step, else (coupled) the first kink
+            // of the pressure law on the way, else halving. The kinks (a cell filling or
+            // draining, a joint opening or closing, sliding or sticking) would otherwise make
+            // Newton cycle.
+            let coupled = flow.is_some();
+            let phi_of = |rows: &FlowRows| if coupled { rows.phi } else { 0.0 };
+            let phi0 = res2 / tol2 + phi_of(&qs.rows);
+            if coupled {
+                qs.rows.save_base();
+            }
+            u_base.clear();
+            u_base.extend_from_slice(&v.u);
+            let kink = if coupled { qs.rows.first_kink() } else { None };
+            let candidates = std::iter::once((1.0, None))
+                .chain(kink.map(|(a, c)| (a, Some(c))))
+                .chain((1..=LINE_SEARCH_HALVINGS).map(|k| (0.5f64.powi(k), None)));
+            rhs_try.resize(n, 0.0);
+            for (alpha, at) in candidates {
+                v.u.copy_from_slice(&u_base);
+                let dof = &qs.structure.as_ref().expect("structure").dof;
+                add_update(v, dof, &rhs, alpha);
+                if coupled {
+                    qs.rows.set_trial(alpha, at);
+                }
+                let e = evaluate(v, qs, &mut flow, held, p, &joint0, &mut rhs_try);
+                evaluated = Some(e);
+                if e.0 / tol2 + phi_of(&qs.rows) <= (1.0 - 1e-4 * alpha) * phi0 {
+                    break;
+                }
+            }
+            // The iterate is the last trial: its residual is the next iteration's.
+            std::mem::swap(&mut rhs, &mut rhs_try);
+        }
+        prev = Some(states.clone());
+        iterations += 1;
+    };
+    qs.counts.steps += 1;
+    qs.counts.newton_iterations += iterations as u64;
+    qs.counts.last_iterations = iterations as u64;
+    let non_finite =
+        v.u.iter()
+            .position(|u| !(u[0].is_finite() && u[1].is_finite()));
+    Ok(StepStats {
+        strain: strain_energy(v, &p.solid),
+        res2,
+        ref2,
+        non_finite,
+        ..StepStats::default()
+    })
+}
+
+/// u += alpha du on the free dofs.
+fn add_update(v: &mut SolidView, dof: &[usize], du: &[f64], alpha: f64) {
+    for i in 0..v.n_nodes() {
+        for d in 0..2 {
+            let k = dof[2 * i + d];
+            if k != NONE {
+                v.u[i][d] += alpha * du[k];
+            }
+        }
+    }
+}
+
+/// The residual at the current iterate: the forces (rock, and the face pressures of the
+/// flow rows' pressures), the flow rows, the free dofs' forces into `rhs`; returns the sum of
+/// squared free-dof forces, of squared reactions and loads, and whether the flow rows are
+/// converged.
+fn evaluate(
+    v: &mut SolidView,
+    qs: &mut QuasiStatic,
+    flow: &mut Option<FlowStep>,
+    held: Option<Held>,
+    p: &RunParams,
+    joint0: &[hydrofrac_components::JointState],
+    rhs: &mut [f64],
+) -> (f64, f64, bool) {
+    let on = qs.on;
+    forces(v, p, on, joint0);
+    let flow_ok = match flow.as_mut() {
+        Some(f) => {
+            let ok = qs.rows.evaluate(f, v);
+            if on.fluid {
+                let c = f.part.coupling.as_ref().expect("coupled flow");
+                let load = qs.rows.face_pressure(&f.part.view);
+                fluid_pressure(v, &c.joint_cell, load);
+            }
+            ok
+        }
+        None => {
+            if let (true, Some(h)) = (on.fluid, held) {
+                fluid_pressure(v, h.joint_cell, h.pressure);
+            }
+            true
+        }
+    };
+    let lf = p.solid.load_factor;
+    let dof = &qs.structure.as_ref().expect("structure").dof;
+    let (mut res2, mut ref2) = (0.0, 0.0);
+    for i in 0..v.n_nodes() {
+        for d in 0..2 {
+            let f = v.force[i][d];
+            let l = lf * v.load[i][d];
+            ref2 += l * l;
+            match dof[2 * i + d] {
+                NONE => ref2 += f * f,
+                k => {
+                    rhs[k] = f;
+                    res2 += f * f;
+                }
+            }
+        }
+    }
+    (res2, ref2, flow_ok)
+}
+
+/// A hint for a failed iteration when joints slide (empty when none does): the larger of the
+/// joints sliding at the iterate and `seen`, the most that slid at an iterate of the step.
+fn slip_hint(v: &SolidView, seen: usize) -> String {
+    let slip = v.joint_state.iter().filter(|s| s.sliding).count().max(seen);
+    if slip > 0 {
+        format!(
+            "; {slip} of {} joints slide: past the friction limit there may be no static \
+             equilibrium (the explicit scheme follows the sliding)",
+            v.joint_nodes.len()
+        )
+    } else {
+        String::new()
+    }
+}
+
+/// The message of a step that did not converge: the rock's residual, the worst cell's, and a
+/// hint when joints slide.
+fn not_converged(
+    v: &SolidView,
+    qs: &QuasiStatic,
+    flow: &Option<FlowStep>,
+    res2: f64,
+    ref2: f64,
+    seen: usize,
+) -> String {
+    let hint = slip_hint(v, seen);
+    let cell = match flow {
+        Some(f) if qs.rows.worst > 1.0 => format!(
+            "; {} has mass residual {:.3e} times its tolerance",
+            f.part.view.cell_label(qs.rows.worst_cell),
+            qs.rows.worst
+        ),
+        _ => String::new(),
+    };
+    format!(
+        "no equilibrium after {MAX_ITER} Newton iterations: relative residual {:.3e} \
+         (tolerance {:.1e}){cell}{hint}",
+        (res2 / ref2.max(f64::MIN_POSITIVE)).sqrt(),
+        qs.tol
+    )
+}

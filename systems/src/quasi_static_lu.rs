@@ -1,0 +1,390 @@
+//! The quasi-static Newton matrix in full, factored by faer's sparse LU (`systems::quasi_static`
+//! takes this path when many joints slide or many fracture cells are coupled, see
+//! [`crate::quasi_static::Linear`]).
+//!
+//! Unknowns: the rock's free dofs, then (coupled steps) each flow cell's pseudo-pressure y. The
+//! matrix is the exact derivative of the residual the Cholesky path solves with (`solve`):
+//!
+//! ```text
+//! [ K_T    -G H ] [du]   [ F ]
+//! [ A       J   ] [dy] = [-r ]
+//! ```
+//!
+//! K_T the CST stiffness plus each closed joint's exact contact tangent (below), G the face
+//! pressures' map, H = diag(dP/dy), A = dr/du and J = dr/dy of the flow rows
+//! ([`crate::quasi_static_flow`]). The Cholesky path reduces the same system to the
+//! cells through W = K_T^-1 G (one solve per cell, a dense cells x cells LU) and adds the
+//! sliding joints' Coulomb term by Sherman-Morrison-Woodbury (one solve per sliding joint);
+//! here each Newton iteration costs one sparse LU of the whole system instead, whatever the
+//! number of cells and sliding joints.
+//!
+//! **The exact joint tangent.** A joint's frame is that of its face p in the current
+//! geometry (`view::joint_frame`): t = e / L along the face (e = x_1 - x_0), n normal to it,
+//! delta = c_q - c_p the offset of the faces' centres, delta_n = n . delta, delta_t = t . delta.
+//! With a_n, a_t the coefficients of n . d(delta) and t . d(delta) on the joint's 8 dofs (-1/2,
+//! -1/2, 1/2, 1/2 per node times the axis) and b the face's rotation, omega = n . de / L
+//! (b = (-n, n, 0, 0) / L), the frame turns as dt = n omega, dn = -t omega, so
+//!
+//! ```text
+//! d(delta_n) = (a_n - delta_t b) . du,   d(delta_t) = (a_t + delta_n b) . du,
+//! ```
+//!
+//! and the contact force a_n F_n + a_t F_t (F_n = -K_n delta_n, F_t = F_t^0 - K_t (delta_t -
+//! delta_t^0) when sticking, mu F_n s when sliding) has the tangent
+//!
+//! ```text
+//! K_n a_n (a_n - delta_t b)^T + [stick] K_t a_t (a_t + delta_n b)^T
+//!   + [slip] mu s K_n a_t (a_n - delta_t b)^T - (F_t a_n - F_n a_t) b^T.
+//! ```
+//!
+//! The Cholesky path keeps only K_n a_n a_n^T, K_t a_t a_t^T and the Coulomb term: the
+//! frame's rotation times the slip, K_n delta_t b, is of relative size 2 delta_t / L against
+//! K_n a_n, which a penalty of 100 E makes matter (0.14 on `verify slip_inclined` at b/h = 80,
+//! where the Cholesky path converges linearly), and the force's turning (F / L against the
+//! rock's E / h) is small.
+
+use crate::fracture::joint_frame;
+use crate::quasi_static_flow::{FACE, FlowRows, FlowStep};
+use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
+use faer::sparse::SparseColMatRef;
+use faer::sparse::linalg::lu::{NumericLu, SymbolicLu, factorize_symbolic_lu};
+use faer::{Conj, MatMut, Par};
+use hydrofrac_core::element::element_stiffness;
+use hydrofrac_core::params::RunParams;
+use hydrofrac_core::sparse::SparsePattern;
+use hydrofrac_core::view::SolidView;
+
+const NONE: usize = usize::MAX;
+
+/// A joint's contact state in the tangent (the solver's own states, which may be frozen).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum JointTangent {
+    Open,
+    Stick,
+    Slip,
+}
+
+/// The pattern, the constant elastic values, the value slots and the LU factors of the full
+/// Newton matrix for one topology and network.
+pub(crate) struct FullTangent {
+    /// (topology generation, cells, nonzeros of the flow pattern, faces loaded).
+    key: (u64, usize, usize, bool),
+    n: usize,
+    nc: usize,
+    pattern: SparsePattern,
+    k_el: Vec<f64>,
+    joint_slots: Vec<[usize; 64]>,
+    /// Per cell: the slots of G's column (its joint's 8 dofs in the cell's column).
+    g_slots: Vec<[usize; 8]>,
+    /// Per slot of the flow pattern, its slot in the full pattern.
+    j_slots: Vec<usize>,
+    symbolic: SymbolicLu<usize>,
+    numeric: NumericLu<usize, f64>,
+    values: Vec<f64>,
+    mem: MemBuffer,
+}
+
+/// The dofs of a list of nodes (`NONE`: prescribed).
+fn dofs_of(dof: &[usize], nodes: &[u32]) -> Vec<usize> {
+    nodes
+        .iter()
+        .flat_map(|&i| [dof[2 * i as usize], dof[2 * i as usize + 1]])
+        .collect()
+}
+
+fn joint_dofs(dof: &[usize], nodes: &[u32; 4]) -> [usize; 8] {
+    std::array::from_fn(|i| dof[2 * nodes[i / 2] as usize + i % 2])
+}
+
+impl FullTangent {
+    /// Whether the pattern was built for this topology and network.
+    pub(crate) fn matches(&self, v: &SolidView, flow: Option<&mut FlowStep>) -> bool {
+        self.key == key(v, flow)
+    }
+
+    /// The pattern of the rock's free dofs `dof` (`n` of them) and, with `flow`, its cells:
+    /// element and joint blocks, G's columns, the rows of A (a cell's own joint and those of
+    /// its pairs' cells), J; its symbolic LU (COLAMD ordering) and the elastic values.
+    pub(crate) fn build(
+        v: &SolidView,
+        p: &RunParams,
+        dof: &[usize],
+        n: usize,
+        mut flow: Option<&mut FlowStep>,
+    ) -> Result<Self, String> {
+        let key = key(v, flow.as_deref_mut());
+        let nc = key.1;
+        let mut entries = Vec::new();
+        for d in v
+            .conn
+            .iter()
+            .map(|c| dofs_of(dof, c))
+            .chain(v.joint_nodes.iter().map(|j| dofs_of(dof, j)))
+        {
+            for &a in &d {
+                for &b in &d {
+                    if a != NONE && b != NONE {
+                        entries.push((a, b));
+                    }
+                }
+            }
+        }
+        let mut flow_pattern: Option<(Vec<usize>, Vec<usize>)> = None;
+        if let Some(f) = flow.as_deref_mut() {
+            let c_map = f.part.coupling.as_ref().expect("coupled flow");
+            let cell_dofs = |c: usize| -> Option<[usize; 8]> {
+                let kj = c_map.cell_joint[c];
+                (kj != u32::MAX).then(|| joint_dofs(dof, &v.joint_nodes[kj as usize]))
+            };
+            for c in 0..nc {
+                if let Some(d) = cell_dofs(c) {
+                    for q in d.into_iter().filter(|&q| q != NONE) {
+                        // G's column and the volume term of A's row.
+                        entries.push((q, n + c));
+                        entries.push((n + c, q));
+                    }
+                }
+            }
+            for pr in &f.part.view.pairs {
+                let (i, j) = (pr[0] as usize, pr[1] as usize);
+                for (row, side) in [(i, j), (j, i)] {
+                    if let Some(d) = cell_dofs(side) {
+                        for q in d.into_iter().filter(|&q| q != NONE) {
+                            entries.push((n + row, q));
+                        }
+                    }
+                }
+            }
+            let fv = &f.part.view;
+            let solver = f.part.implicit.as_mut().expect("backward-Euler flow");
+            let pat = solver.pattern(fv).map_err(|e| e.to_string())?;
+            let (cp, ri) = (pat.sparse.col_ptr(), pat.sparse.row_idx());
+            let mut rows = Vec::with_capacity(ri.len());
+            let mut cols = Vec::with_capacity(ri.len());
+            for col in 0..nc {
+                for &row in &ri[cp[col]..cp[col + 1]] {
+                    entries.push((n + row, n + col));
+                    rows.push(row);
+                    cols.push(col);
+                }
+            }
+            flow_pattern = Some((rows, cols));
+        }
+        let pattern = SparsePattern::from_entries(n + nc, entries)?;
+        let slot = |a: usize, b: usize| -> usize {
+            if a == NONE || b == NONE {
+                NONE
+            } else {
+                pattern.slot(a, b).expect("in pattern")
+            }
+        };
+        let mut k_el = vec![0.0; pattern.nnz()];
+        for (c, g) in v.conn.iter().zip(&v.geom) {
+            let d = dofs_of(dof, c);
+            let ke = element_stiffness(g, &p.solid);
+            for a in 0..6 {
+                for b in 0..6 {
+                    let s = slot(d[a], d[b]);
+                    if s != NONE {
+                        k_el[s] += ke[(a, b)];
+                    }
+                }
+            }
+        }
+        let joint_slots = v
+            .joint_nodes
+            .iter()
+            .map(|j| {
+                let d = joint_dofs(dof, j);
+                std::array::from_fn(|i| slot(d[i / 8], d[i % 8]))
+            })
+            .collect();
+        let mut g_slots = Vec::new();
+        let mut j_slots = Vec::new();
+        if let (Some(f), Some((rows, cols))) = (flow.as_deref(), flow_pattern) {
+            let c_map = f.part.coupling.as_ref().expect("coupled flow");
+            g_slots = (0..nc)
+                .map(|c| match c_map.cell_joint[c] {
+                    u32::MAX => [NONE; 8],
+                    kj => joint_dofs(dof, &v.joint_nodes[kj as usize]).map(|q| slot(q, n + c)),
+                })
+                .collect();
+            j_slots = rows
+                .iter()
+                .zip(&cols)
+                .map(|(&r, &c)| slot(n + r, n + c))
+                .collect();
+        }
+        let symbolic = factorize_symbolic_lu(pattern.as_ref(), Default::default())
+            .map_err(|e| format!("symbolic LU: {e:?}"))?;
+        let req = StackReq::any_of(&[
+            symbolic.factorize_numeric_lu_scratch::<f64>(Par::Seq, Default::default()),
+            symbolic.solve_in_place_scratch::<f64>(1, Par::Seq),
+        ]);
+        let mem = MemBuffer::try_new(req).map_err(|_| "out of memory for the LU workspace")?;
+        Ok(FullTangent {
+            key,
+            n,
+            nc,
+            pattern,
+            k_el,
+            joint_slots,
+            g_slots,
+            j_slots,
+            symbolic,
+            numeric: NumericLu::new(),
+            values: Vec::new(),
+            mem,
+        })
+    }
+
+    /// Assemble the full Newton matrix at the current iterate for the joints' tangent
+    /// `states` (and, with `flow`, the flow rows linearised by [`FlowRows::linearise`]) and
+    /// factor it; then solve it for `rhs` = [F; -r] in place (length n + cells).
+    pub(crate) fn factor_and_solve(
+        &mut self,
+        v: &SolidView,
+        p: &RunParams,
+        states: &[JointTangent],
+        flow: Option<(&FlowStep, &FlowRows)>,
+        rhs: &mut [f64],
+    ) -> Result<(), String> {
+        self.values.clear();
+        self.values.extend_from_slice(&self.k_el);
+        for (k, st) in states.iter().enumerate() {
+            let kt = joint_tangent(v, p, k, *st);
+            let slots = &self.joint_slots[k];
+            for i in 0..64 {
+                if slots[i] != NONE {
+                    self.values[slots[i]] += kt[i];
+                }
+            }
+        }
+        if let Some((f, rows)) = flow {
+            let c_map = f.part.coupling.as_ref().expect("coupled flow");
+            let n = self.n;
+            let a_rows = rows.a_rows();
+            for (slot, val) in self.j_slots.iter().zip(rows.jacobian_values()) {
+                self.values[*slot] += val;
+            }
+            for c in 0..self.nc {
+                for &(q, a) in &a_rows[c] {
+                    let s = self.pattern.slot(n + c, q).expect("A in pattern");
+                    self.values[s] += a;
+                }
+                let kj = c_map.cell_joint[c];
+                if kj == u32::MAX || !FlowRows::has_faces(f, c) || rows.dp_dy(c) == 0.0 {
+                    continue;
+                }
+                // -G H: the face pressure's force per unit pressure, len d(delta_n)/du.
+                let fr = joint_frame(v, kj as usize);
+                for (i, s) in self.g_slots[c].iter().enumerate() {
+                    if *s != NONE {
+                        self.values[*s] -= fr.len * FACE[i / 2] * fr.n[i % 2];
+                    }
+                }
+            }
+        }
+        let a = SparseColMatRef::new(self.pattern.as_ref(), &self.values);
+        let lu = self
+            .symbolic
+            .factorize_numeric_lu::<f64>(
+                &mut self.numeric,
+                a,
+                Par::Seq,
+                MemStack::new(&mut self.mem),
+                Default::default(),
+            )
+            .map_err(|e| singular(&format!("{e:?}"), states))?;
+        let len = rhs.len();
+        lu.solve_in_place_with_conj(
+            Conj::No,
+            MatMut::from_column_major_slice_mut(rhs, len, 1),
+            Par::Seq,
+            MemStack::new(&mut self.mem),
+        );
+        if let Some(i) = rhs.iter().position(|x| !x.is_finite()) {
+            return Err(singular(
+                &format!("the update of unknown {i} of {len} is not finite"),
+                states,
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// The error of a singular Newton matrix, with a hint when joints slide.
+fn singular(why: &str, states: &[JointTangent]) -> String {
+    let sliding = states.iter().filter(|s| **s == JointTangent::Slip).count();
+    if sliding > 0 {
+        format!(
+            "the Newton matrix is singular ({why}) with {sliding} joints in slip: the joints \
+             slide past the Coulomb limit and hold a block by friction alone, which has no \
+             static equilibrium (use time.solid_scheme: Explicit to follow the sliding)"
+        )
+    } else {
+        format!(
+            "the Newton matrix is singular ({why}): the rock can move as a rigid body (too few \
+             supports) or a block is held by open joints only"
+        )
+    }
+}
+
+fn key(v: &SolidView, flow: Option<&mut FlowStep>) -> (u64, usize, usize, bool) {
+    match flow {
+        Some(f) => {
+            let nc = f.part.view.n_cells();
+            let fv = &f.part.view;
+            let nnz = f
+                .part
+                .implicit
+                .as_mut()
+                .and_then(|s| s.pattern(fv).ok().map(|p| p.sparse.nnz()))
+                .unwrap_or(0);
+            (v.generation, nc, nnz, f.faces)
+        }
+        None => (v.generation, 0, 0, false),
+    }
+}
+
+/// The exact contact tangent of joint `k` in state `st` at the current iterate (module
+/// documentation), row-major 8 x 8 over its dofs (node-major, x then y).
+pub(crate) fn joint_tangent(v: &SolidView, p: &RunParams, k: usize, st: JointTangent) -> [f64; 64] {
+    let mut out = [0.0; 64];
+    if st == JointTangent::Open {
+        return out;
+    }
+    let fr = joint_frame(v, k);
+    let js = &v.joint_state[k];
+    let along = |e: [f64; 2]| -> [f64; 8] { std::array::from_fn(|i| FACE[i / 2] * e[i % 2]) };
+    let (an, at) = (along(fr.n), along(fr.t));
+    let mut b = [0.0; 8];
+    for d in 0..2 {
+        b[d] = -fr.n[d] / fr.len;
+        b[2 + d] = fr.n[d] / fr.len;
+    }
+    let kn = p.joint.kn;
+    // d(delta_n) and d(delta_t) along the turning frame.
+    let ddn: [f64; 8] = std::array::from_fn(|i| an[i] - fr.dt * b[i]);
+    let ddt: [f64; 8] = std::array::from_fn(|i| at[i] + fr.dn * b[i]);
+    // Rows: -dF_n/du, -dF_t/du.
+    let dfn = ddn.map(|x| kn * x);
+    let dft: [f64; 8] = match st {
+        JointTangent::Stick => ddt.map(|x| p.joint.kt * x),
+        _ => {
+            let s = if js.shear_force == 0.0 {
+                0.0
+            } else {
+                js.shear_force.signum()
+            };
+            dfn.map(|x| p.joint.mu * s * x)
+        }
+    };
+    let (f_n, f_t) = (js.normal_force, js.shear_force);
+    for i in 0..8 {
+        for j in 0..8 {
+            out[8 * i + j] = an[i] * dfn[j] + at[i] * dft[j] - (f_t * an[i] - f_n * at[i]) * b[j];
+        }
+    }
+    out
+}
