@@ -32,7 +32,7 @@ fn quasi_static(c: &mut Criterion) {
     sc.time.solid_scheme = SolidScheme::QuasiStatic;
     let sim = Simulation::new(sc, &[]).unwrap();
     let mut v = sim.solid().clone();
-    let mut p = sim.params().clone();
+    let p = sim.params().clone();
     assert_eq!(v.n_elems(), 20_000);
     let mut qs = QuasiStatic::new(Systems {
         load: true,
@@ -47,11 +47,11 @@ fn quasi_static(c: &mut Criterion) {
     let mut k = 0u64;
     let mut step = |qs: &mut QuasiStatic, refactor: bool| {
         k += 1;
-        p.solid.load_factor = if k.is_multiple_of(2) { 1.0 } else { 0.5 };
+        let lf = if k.is_multiple_of(2) { 1.0 } else { 0.5 };
         if refactor {
             qs.forget_factor();
         }
-        solve(&mut v, qs, None, None, &p, k, 0.0).unwrap()
+        solve(&mut v, qs, None, None, &p, lf, k, 0.0).unwrap()
     };
     step(&mut qs, true);
     group.bench_function("factorise_and_solve", |b| b.iter(|| step(&mut qs, true)));
@@ -64,8 +64,7 @@ fn frictional(c: &mut Criterion) {
     use hydrofrac::verify::slip_cases::{R, STIFFNESS_FACTOR, SlipMesh, slip_scenario};
     let sc = slip_scenario(SlipMesh::Conforming, 1.0 / 80.0, R, STIFFNESS_FACTOR);
     let sim = Simulation::new(sc, &[]).unwrap();
-    let (v0, mut p) = (sim.solid().clone(), sim.params().clone());
-    p.solid.load_factor = 1.0;
+    let (v0, p) = (sim.solid().clone(), sim.params().clone());
     let mut group = c.benchmark_group("quasi_static_slip_160_joints");
     group
         .sample_size(10)
@@ -84,7 +83,7 @@ fn frictional(c: &mut Criterion) {
         group.bench_function(name, |b| {
             b.iter(|| {
                 let mut v = v0.clone();
-                solve(&mut v, &mut qs, None, None, &p, 1, 1.0).unwrap()
+                solve(&mut v, &mut qs, None, None, &p, 1.0, 1, 1.0).unwrap()
             })
         });
         eprintln!("{name}: {:?}", qs.counts);

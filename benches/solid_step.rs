@@ -48,7 +48,7 @@ fn solid_step(c: &mut Criterion) {
             })
             .collect();
         let w = n + 1;
-        let mut flat = FlatSolid::new(&mesh, &ROCK, sim.params().solid, 0.8, |x| {
+        let mut flat = FlatSolid::new(&mesh, &ROCK, sim.params().solid, sim.dt(), 0.8, |x| {
             let (i, j) = ((x[0] / h).round() as usize, (x[1] / h).round() as usize);
             bcs[j * w + i]
         });

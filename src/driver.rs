@@ -3,6 +3,7 @@
 use crate::error::SetupError;
 use crate::output::folder::{FolderError, Plan};
 use crate::output::{Outputs, write_atomic};
+use crate::params::Criterion;
 use crate::scenario::Scenario;
 use crate::schedule::Status;
 use crate::sim::{Finish, Simulation};
@@ -728,7 +729,7 @@ fn summary_json(
         "edges": sim.model().edge_count(),
         "steps": sim.step(),
         "time": sim.time(),
-        "dt": sim.params().solid.dt,
+        "dt": sim.dt(),
         "dt_critical": finite(sim.dt_crit()),
         "mass_scaling": sim.params().time.selective.map(|j| {
             let (nodes, added) = sim.raised_masses();
@@ -818,11 +819,14 @@ fn criterion_summary(sim: &Simulation) -> serde_json::Value {
     };
     let fr = sim.fracture();
     let mut v = json!({
-        "kind": if c.toughness.is_some() { "toughness" } else { "strength" },
+        "kind": match c.kind {
+            Criterion::Strength { .. } => "strength",
+            Criterion::Toughness { .. } => "toughness",
+        },
         "faces_evaluated": fr.strength_counts.evaluated,
         "faces_screened": fr.strength_counts.screened,
     });
-    if let Some(k_ic) = c.toughness {
+    if let Some(k_ic) = c.kind.k_ic() {
         v["k_ic"] = json!(k_ic);
         v["tips"] = json!(fr.tips.geometry.len());
         v["tip_evaluations"] = json!(fr.tips.evaluations);

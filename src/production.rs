@@ -164,8 +164,8 @@ pub fn production_sim(
         qs.tol = stage.static_tol;
         // No time passes for the rock here (the fluid's pressure is a load), so halving a
         // step that found no equilibrium would retry the same problem: a failure is final
-        // (and the state goes to relaxation, `run_production`).
-        sim.params_mut().time.adaptive = false;
+        // (and the state goes to relaxation, `run_production`): the step is held
+        // (`set_relaxation_step`).
     }
     Ok(sim)
 }
@@ -183,10 +183,7 @@ fn set_relaxation_step(sim: &mut Simulation) {
     if p.time.solid_scheme == SolidScheme::Explicit {
         dt = fictitious_masses(sim, dt);
     }
-    let p = sim.params_mut();
-    p.solid.dt = dt;
-    p.time.forced_dt = true;
-    p.time.aim = None;
+    sim.hold_step(dt);
 }
 
 /// Dynamic relaxation's masses are fictitious (its answer is the static equilibrium, which

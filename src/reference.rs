@@ -28,16 +28,20 @@ pub struct FlatSolid {
     pub inc_ptr: Vec<u32>,
     pub inc: Vec<u32>,
     pub params: SolidParams,
+    /// Time step, s.
+    pub dt: f64,
     /// Local damping coefficient.
     pub alpha: f64,
 }
 
 impl FlatSolid {
-    /// Build from a mesh with lumped masses; `presc(x)` gives prescribed displacements per dof.
+    /// Build from a mesh with lumped masses, stepping by `dt` (s); `presc(x)` gives prescribed
+    /// displacements per dof.
     pub fn new(
         mesh: &TriMesh,
         mat: &Material,
         params: SolidParams,
+        dt: f64,
         alpha: f64,
         presc: impl Fn([f64; 2]) -> [Option<f64>; 2],
     ) -> Self {
@@ -83,6 +87,7 @@ impl FlatSolid {
             inc_ptr: ptr,
             inc,
             params,
+            dt,
             alpha,
         }
     }
@@ -99,7 +104,7 @@ impl FlatSolid {
                 self.f[2 * c[k] as usize + 1] += fe[2 * k + 1];
             }
         }
-        let (dt, alpha) = (self.params.dt, self.alpha);
+        let (dt, alpha) = (self.dt, self.alpha);
         for j in 0..self.u.len() {
             update_dof(
                 j,
@@ -137,7 +142,7 @@ impl FlatSolid {
             &self.fixed,
             &self.presc,
         );
-        let (dt, alpha) = (self.params.dt, self.alpha);
+        let (dt, alpha) = (self.dt, self.alpha);
         self.u
             .par_chunks_mut(2 * NODE_CHUNK)
             .zip(self.v.par_chunks_mut(2 * NODE_CHUNK))

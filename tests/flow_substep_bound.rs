@@ -28,7 +28,7 @@ fn run_checked(sets: &[&str]) -> (Result<(), RunError>, usize, u64) {
             f.dt,
             f.substep_bound
         );
-        let dt = s.params().solid.dt;
+        let dt = s.dt();
         assert!(
             (f.dt * f.substeps as f64 - dt).abs() <= 1e-12 * dt,
             "{sets:?}: {} sub-steps of {:e} against a step of {dt:e}",

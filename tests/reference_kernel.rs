@@ -46,8 +46,8 @@ fn reference_kernel_matches_the_engine_bit_for_bit() {
         "view order must follow stable ids"
     );
     let lookup = |x: [f64; 2]| bcs[mesh.nodes.iter().position(|&y| y == x).unwrap()];
-    let mut serial = FlatSolid::new(&mesh, &mat, sim.params().solid, 0.8, lookup);
-    let mut parallel = FlatSolid::new(&mesh, &mat, sim.params().solid, 0.8, lookup);
+    let mut serial = FlatSolid::new(&mesh, &mat, sim.params().solid, sim.dt(), 0.8, lookup);
+    let mut parallel = FlatSolid::new(&mesh, &mat, sim.params().solid, sim.dt(), 0.8, lookup);
     for _ in 0..200 {
         sim.step_once().unwrap();
         serial.step_serial();

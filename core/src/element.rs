@@ -9,7 +9,8 @@
 use crate::scenario::Damping;
 use nalgebra::{SMatrix, SVector};
 
-/// Material and step constants used by the solid kernels.
+/// Material constants and damping of the solid kernels (the step length and the load factor
+/// are state: `hydrofrac_systems::monitor::Clock`).
 #[derive(Clone, Copy, Debug)]
 pub struct SolidParams {
     /// lambda + 2G, Pa.
@@ -18,12 +19,7 @@ pub struct SolidParams {
     pub lam: f64,
     /// Shear modulus G, Pa.
     pub g: f64,
-    /// Time step, s.
-    pub dt: f64,
     pub damping: Damping,
-    /// Multiplier of all boundary loads and prescribed displacements this step (the scenario's
-    /// `boundary_schedule`; 1 without one).
-    pub load_factor: f64,
 }
 
 /// Strain of one element from its nodal displacements: [exx, eyy, gamma_xy] (engineering shear).
@@ -117,9 +113,7 @@ mod tests {
             lam2g: lam + 2.0 * g,
             lam,
             g,
-            dt: 1e-4,
             damping: Damping::None,
-            load_factor: 1.0,
         }
     }
 

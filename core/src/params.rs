@@ -25,22 +25,46 @@ impl JointParams {
     }
 }
 
-/// The fracture criterion (seed (7), `docs/seed-method.md`; toughness:
-/// `systems::toughness`).
+/// Which fracture criterion grows the fractures.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Criterion {
+    /// The seed's strength test (seed (7), `docs/seed-method.md`) on every face: a face opens
+    /// when its normal stress reaches `threshold` = lambda*T0, Pa (tension positive).
+    /// `tip_handover`: a ready far side of a tip triangle is handed to the tip
+    /// (`fracture.tip_handover`; `systems::fracture::hand_over`).
+    Strength { threshold: f64, tip_handover: bool },
+    /// Linear elastic fracture mechanics at the tips (`systems::toughness`): a tip grows when
+    /// K_eq reaches `k_ic`, Pa sqrt(m); faces away from the tips open by the strength test at
+    /// `initiation`, Pa (`None`: no new fractures away from tips).
+    Toughness { k_ic: f64, initiation: Option<f64> },
+}
+
+impl Criterion {
+    /// The strength test's threshold, Pa: on every face (`Strength`) or away from the tips
+    /// (`Toughness`' initiation).
+    pub fn strength(&self) -> Option<f64> {
+        match *self {
+            Criterion::Strength { threshold, .. } => Some(threshold),
+            Criterion::Toughness { initiation, .. } => initiation,
+        }
+    }
+
+    /// K_Ic, Pa sqrt(m), under `Toughness`.
+    pub fn k_ic(&self) -> Option<f64> {
+        match *self {
+            Criterion::Toughness { k_ic, .. } => Some(k_ic),
+            Criterion::Strength { .. } => None,
+        }
+    }
+}
+
+/// The fracture criterion and the face stress it reads.
 #[derive(Clone, Copy, Debug)]
 pub struct CriterionParams {
-    /// The strength test's threshold lambda*T0, Pa (tension positive): every face under
-    /// `Strength`, the faces away from the tips under `Toughness` (`None`: no initiation).
-    pub strength: Option<f64>,
-    /// K_Ic, Pa sqrt(m): the tips grow by linear elastic fracture mechanics (`None`: the
-    /// strength test everywhere, the seed's criterion).
-    pub toughness: Option<f64>,
+    pub kind: Criterion,
     /// Face stress from the two elements beside the edge (`FaceStress::Elements`) instead of
     /// the edge's patch.
     pub by_elements: bool,
-    /// The strength test hands a ready far side of a tip triangle to the tip
-    /// (`fracture.tip_handover`; `systems::fracture::hand_over`).
-    pub tip_handover: bool,
 }
 
 /// Selective mass scaling (`time.selective_mass_scaling`): the critical step its raised masses
@@ -68,12 +92,10 @@ pub struct TimeParams {
     /// `time.selective_mass_scaling`, resolved at setup (`Simulation::new`).
     pub selective: Option<SelectiveScaling>,
     /// Quasi-static coupled runs: the step adapts (see `time.solid_scheme`) within
-    /// [dt_min, dt_max] (s); `aim` is the time (s) the current step is meant to land on
-    /// exactly (the end or a figure time), if any.
+    /// [dt_min, dt_max] (s); the step itself and the time it aims at are the clock's.
     pub adaptive: bool,
     pub dt_min: f64,
     pub dt_max: f64,
-    pub aim: Option<f64>,
     /// Re-solves at the same time after splits, at most per step.
     pub max_resolves: u64,
     /// Newton iterations at or below which the adaptive step grows (`time.newton_easy`).
@@ -99,12 +121,13 @@ pub struct OutputParams {
 pub struct RunParams {
     /// The scenario's name (figure titles).
     pub name: String,
-    /// Solid kernel constants; `dt` is set by setup and shortened by `split`, `load_factor`
-    /// follows the boundary schedule each step.
+    /// Solid kernel constants (the step and the load factor are the clock's).
     pub solid: SolidParams,
     pub material: Material,
     /// P-wave speed sqrt((lambda + 2G)/rho), m/s (0 without a solid).
     pub c_p: f64,
+    /// Plane-strain modulus E' = E / (1 - nu^2), Pa (the tips' stress intensity).
+    pub e_prime: f64,
     pub joint: JointParams,
     /// Residual hydraulic aperture a_r, m (seed (12)).
     pub residual_aperture: f64,
@@ -142,11 +165,10 @@ impl RunParams {
                 lam2g: material.lambda() + 2.0 * material.shear(),
                 lam: material.lambda(),
                 g: material.shear(),
-                dt: 0.0,
                 damping: sc.damping,
-                load_factor: 1.0,
             },
             material,
+            e_prime: material.young / (1.0 - material.poisson * material.poisson),
             c_p: if has_solid {
                 material.p_wave_speed()
             } else {
@@ -162,21 +184,24 @@ impl RunParams {
             residual_aperture: f.map_or(DEFAULT_RESIDUAL_APERTURE, |f| f.residual_aperture),
             criterion: f
                 .and_then(|f| {
-                    let (strength, toughness) = match (f.criterion, f.strength) {
+                    let kind = match (f.criterion, f.strength) {
                         (Some(CriterionSpec::Toughness { k_ic, initiation }), _) => {
-                            (initiation, Some(k_ic))
+                            Criterion::Toughness { k_ic, initiation }
                         }
-                        (Some(CriterionSpec::Strength(s)), _) | (None, Some(s)) => (Some(s), None),
+                        (Some(CriterionSpec::Strength(threshold)), _) | (None, Some(threshold)) => {
+                            Criterion::Strength {
+                                threshold,
+                                tip_handover: f.tip_handover.unwrap_or(matches!(
+                                    sc.mesh,
+                                    Some(MeshSpec::Conforming { .. } | MeshSpec::Gmsh { .. })
+                                )),
+                            }
+                        }
                         (None, None) => return None,
                     };
                     Some(CriterionParams {
-                        strength,
-                        toughness,
+                        kind,
                         by_elements: f.face_stress == FaceStress::Elements,
-                        tip_handover: f.tip_handover.unwrap_or(matches!(
-                            sc.mesh,
-                            Some(MeshSpec::Conforming { .. } | MeshSpec::Gmsh { .. })
-                        )),
                     })
                 })
                 .filter(|_| has_solid),
@@ -212,7 +237,6 @@ impl RunParams {
                 adaptive,
                 dt_min: t.dt_min.unwrap_or(end_time * 1e-9),
                 dt_max: t.dt_max.unwrap_or(end_time / 100.0),
-                aim: None,
                 max_resolves: t.max_resolves,
                 newton_easy: t.newton_easy,
             },

@@ -31,13 +31,12 @@
 
 use hecs::Entity;
 use hydrofrac_components::*;
-use hydrofrac_core::flow::FlowView;
-use hydrofrac_core::flow::boundary::FlowStats;
+
 pub use hydrofrac_core::flow::implicit::ImplicitCounters;
 use hydrofrac_core::model::Model;
 use hydrofrac_core::scenario::Scenario;
 use hydrofrac_core::view::SolidView;
-use hydrofrac_systems::coupling::Coupling;
+use hydrofrac_systems::flow::FlowPart;
 use hydrofrac_systems::fracture::FractureState;
 use hydrofrac_systems::monitor::{Clock, Effort};
 use hydrofrac_systems::quasi_static::QsCounts;
@@ -48,7 +47,7 @@ use std::path::Path;
 /// First bytes of every checkpoint file.
 pub const MAGIC: &[u8; 8] = b"HFCKPT\0\n";
 /// Version of the layout of [`State`]; bumped whenever a saved type changes.
-pub const FORMAT_VERSION: u32 = 3;
+pub const FORMAT_VERSION: u32 = 4;
 /// The latest checkpoint in the output folder, and the one before it.
 pub const FILE: &str = "checkpoint.ckpt";
 pub const PREV_FILE: &str = "checkpoint.prev.ckpt";
@@ -93,22 +92,6 @@ pub struct WorldRecords {
     pub bcs: Vec<(Entity, FlowBcBundle)>,
 }
 
-/// The flow part's state.
-#[derive(Clone, Debug, Serialize, Deserialize)]
-pub struct FlowState {
-    pub view: FlowView,
-    pub dt: f64,
-    pub substeps: u64,
-    pub dt_crit: f64,
-    pub substep_bound: f64,
-    pub stats: FlowStats,
-    pub initial_excess: f64,
-    pub residual: f64,
-    pub initial_volume: f64,
-    pub coupling: Option<Coupling>,
-    pub implicit: Option<ImplicitCounters>,
-}
-
 /// The state of a simulation between steps.
 #[derive(Clone, Serialize, Deserialize)]
 pub struct State {
@@ -117,15 +100,13 @@ pub struct State {
     /// next_node_id, next_elem_id, next_edge_id, next_cell_id, next_joint_id.
     pub next_ids: [u64; 5],
     pub clock: Clock,
-    /// `params.solid.dt`, `params.solid.load_factor`, `params.time.aim`.
-    pub dt: f64,
-    pub load_factor: f64,
-    pub aim: Option<f64>,
     pub solid_view: SolidView,
     pub solid_stats: StepStats,
     pub dt_crit: f64,
     pub qs_counts: Option<QsCounts>,
-    pub flow: Option<FlowState>,
+    /// The flow part as it is (its network table and the implicit solver's caches are rebuilt,
+    /// `FlowPart`, `ImplicitSolver`).
+    pub flow: Option<FlowPart>,
     pub fracture: FractureState,
     pub effort: Effort,
     pub cells_at_start: usize,

@@ -6,14 +6,14 @@
 //! and writes. The views live here: rebuilt from the components when the model's topology
 //! generation moves (after `split`, or an [`Simulation::edit_model`]).
 
-use crate::checkpoint::{FlowState, Header, State, WorldRecords};
+use crate::checkpoint::{Header, State, WorldRecords};
 use crate::schedule::{Schedule, Status};
 use hydrofrac_core::error::SetupError;
 use hydrofrac_core::fractures::Placed;
 use hydrofrac_core::model::Model;
 use hydrofrac_core::output::Outputs;
 use hydrofrac_core::params::RunParams;
-use hydrofrac_core::scenario::{End, Filling, Scenario};
+use hydrofrac_core::scenario::{End, Scenario, schedule_factor};
 use hydrofrac_core::view::SolidView;
 use hydrofrac_systems::flow::FlowPart;
 use hydrofrac_systems::fracture::FractureState;
@@ -21,9 +21,9 @@ use hydrofrac_systems::output::Scene;
 use hydrofrac_systems::solid::StepStats;
 use hydrofrac_systems::state::SolidPart;
 use hydrofrac_systems::{
-    RunError, SystemId, coupling, flow, fracture, monitor, output, solid, split,
+    RunError, SystemId, coupling, criterion, flow, fracture, monitor, output, quasi_static,
+    quasi_static_step, solid, split,
 };
-use hydrofrac_systems::{quasi_static, quasi_static_flow};
 
 pub use hydrofrac_systems::monitor::{Clock, Finish, SPEED_LIMIT_FRACTION};
 
@@ -76,11 +76,14 @@ pub struct CheckpointStats {
     pub seconds: f64,
 }
 
-/// The flow system's commit of a coupled quasi-static step of length `dt` (s).
-fn commit_step(qs: &quasi_static::QuasiStatic, f: &mut FlowPart, p: &RunParams, dt: f64) {
-    f.stats = quasi_static_flow::commit(&qs.rows, f, &p.fluid, dt);
-    f.dt = dt;
-    flow::steady_residual(f);
+/// Which pass of the schedule's systems a call is part of.
+#[derive(Clone, Copy, Debug)]
+enum Pass {
+    /// The step that starts at `t0`.
+    Step { t0: f64 },
+    /// A quasi-static re-solve at `t1` after a split (zero-length: `solve`, the flow's
+    /// commit, the criterion and `split`; the other systems do nothing).
+    Resolve { t1: f64 },
 }
 
 impl Simulation {
@@ -112,7 +115,6 @@ impl Simulation {
         let mut flow = crate::setup::build_flow(&mut model, &scenario, &p)?;
         let (dt, steps_to_end) =
             crate::setup::time_step(&p.time, &scenario.time, has_solid, dt_crit, flow.as_mut())?;
-        p.solid.dt = dt;
         let view = crate::setup::solid_view(&model, &p, dt_crit, flow.as_mut());
         let mut disabled = scenario.systems.disable.clone();
         disabled.extend(extra_disable.iter().cloned());
@@ -138,13 +140,7 @@ impl Simulation {
             },
             flow,
             fracture: FractureState::default(),
-            clock: Clock {
-                step: 0,
-                time: 0.0,
-                steps_to_end,
-                residual: f64::INFINITY,
-                finish: None,
-            },
+            clock: Clock::start(dt, steps_to_end),
             schedule,
             output: None,
             placed,
@@ -271,7 +267,6 @@ impl Simulation {
     /// memory: nothing is synced, so taking it does not change the run.
     pub fn checkpoint_state(&self) -> Result<(Header, State), String> {
         let m = &self.model;
-        let p = &self.params;
         let header = Header {
             crate_version: env!("CARGO_PKG_VERSION").to_string(),
             scenario_name: self.scenario.name.clone(),
@@ -279,19 +274,7 @@ impl Simulation {
             step: self.clock.step,
             time: self.clock.time,
         };
-        let flow = self.flow.as_ref().map(|f| FlowState {
-            view: f.view.clone(),
-            dt: f.dt,
-            substeps: f.substeps,
-            dt_crit: f.dt_crit,
-            substep_bound: f.substep_bound,
-            stats: f.stats,
-            initial_excess: f.initial_excess,
-            residual: f.residual,
-            initial_volume: f.initial_volume,
-            coupling: f.coupling.clone(),
-            implicit: f.implicit.as_ref().map(|s| s.counters()),
-        });
+        let flow = self.flow.clone();
         let state = State {
             world: WorldRecords::capture(m)?,
             topology_generation: m.topology_generation,
@@ -303,9 +286,6 @@ impl Simulation {
                 m.next_joint_id,
             ],
             clock: self.clock.clone(),
-            dt: p.solid.dt,
-            load_factor: p.solid.load_factor,
-            aim: p.time.aim,
             solid_view: self.solid.view.clone(),
             solid_stats: self.solid.stats,
             dt_crit: self.solid.dt_crit,
@@ -353,33 +333,22 @@ impl Simulation {
             m.next_joint_id,
         ] = state.next_ids;
         self.clock = state.clock;
-        let p = &mut self.params;
-        p.solid.dt = state.dt;
-        p.solid.load_factor = state.load_factor;
-        p.time.aim = state.aim;
         self.solid.view = state.solid_view;
         self.solid.stats = state.solid_stats;
         self.solid.dt_crit = state.dt_crit;
         if let (Some(q), Some(c)) = (self.solid.quasi_static.as_mut(), state.qs_counts) {
             q.counts = c;
         }
-        if let (Some(f), Some(s)) = (self.flow.as_mut(), state.flow) {
-            f.view = s.view;
-            f.dt = s.dt;
-            f.substeps = s.substeps;
-            f.dt_crit = s.dt_crit;
-            f.substep_bound = s.substep_bound;
-            f.stats = s.stats;
-            f.initial_excess = s.initial_excess;
-            f.residual = s.residual;
-            f.initial_volume = s.initial_volume;
+        if let (Some(f), Some(mut s)) = (self.flow.as_mut(), state.flow) {
             if f.coupling.is_some() != s.coupling.is_some() {
                 return Err("its coupling differs from this scenario's".into());
             }
-            f.coupling = s.coupling;
-            if let (Some(solver), Some(c)) = (f.implicit.as_mut(), s.implicit) {
-                solver.set_counters(c);
+            if f.implicit.is_some() != s.implicit.is_some() {
+                return Err("its flow scheme differs from this scenario's".into());
             }
+            // The network table is setup's, not saved.
+            s.network = std::mem::take(&mut f.network);
+            *f = s;
         }
         self.fracture = state.fracture;
         self.fracture.tips.invalidate();
@@ -426,13 +395,12 @@ impl Simulation {
         self.checkpoints
     }
 
-    /// One step: every enabled system in order, each in its span.
+    /// One step: every enabled system of the schedule in order, each in its span.
     pub fn step_once(&mut self) -> Result<(), RunError> {
         self.rebuild_views_if_needed();
         let t0 = self.clock.time;
-        let p = &mut self.params;
-        p.solid.load_factor =
-            hydrofrac_core::scenario::schedule_factor(&p.boundary_schedule, t0 + p.solid.dt);
+        self.clock.load_factor =
+            schedule_factor(&self.params.boundary_schedule, t0 + self.clock.dt);
         // By index, not through an iterator over the schedule: a collected list would allocate
         // every step.
         for k in 0..self.schedule.entries.len() {
@@ -440,260 +408,125 @@ impl Simulation {
             if status != Status::Enabled {
                 continue;
             }
+            let split_at = {
+                let _span = sys.span().entered();
+                self.run_system(sys, Pass::Step { t0 })?
+            };
             // Quasi-static propagation runs after the `split` span closes: its re-solves run
             // under their own systems' spans, so no time is counted twice.
-            let mut propagate_at = None;
-            let span = sys.span().entered();
-            let (p, v) = (&mut self.params, &mut self.solid.view);
-            match sys {
-                SystemId::InternalForce => solid::internal_force(v, &p.solid),
-                SystemId::ExternalLoad => solid::external_load(v, &p.solid),
-                SystemId::Contact => fracture::contact(v, &p.joint),
-                SystemId::FluidPressure => {
-                    if let Some(c) = self.flow.as_ref().and_then(|f| f.coupling.as_ref()) {
-                        fracture::fluid_pressure(v, &c.joint_cell, &c.p_mean);
-                    }
-                }
-                SystemId::Damping => solid::damping(v, &p.solid),
-                SystemId::Integrate => self.solid.stats = solid::integrate(v, &p.solid),
-                SystemId::Solve => self.solve_step(t0)?,
-                SystemId::FlowSubsteps => self.flow_step(t0)?,
-                SystemId::FractureCriterion => self.criterion(),
-                SystemId::Split => {
-                    let t1 = monitor::step_end(t0, &self.params);
-                    if self.split_now(t1) {
-                        if self.solid.quasi_static.is_some() {
-                            propagate_at = Some(t1);
-                        } else {
-                            let (m, s, c) = (&self.model, &mut self.solid, &mut self.clock);
-                            split::shorten_step(m, s, c, &mut self.params, t1);
-                        }
-                    }
-                }
-                SystemId::Monitor => {
-                    let f = self.flow.as_ref();
-                    monitor::monitor(&mut self.clock, t0, &self.solid, f, p)?;
-                    if p.time.adaptive && self.clock.finish.is_none() {
-                        let cells = self.flow.as_ref().map_or(0, |f| f.view.n_cells());
-                        self.effort.new_cells = cells.saturating_sub(self.cells_at_start);
-                        monitor::next_step(&self.clock, &mut self.params, self.effort);
-                    }
-                }
-                SystemId::Output => {
-                    if let Some(out) = self.output.as_mut() {
-                        let scene = Scene {
-                            solid: &self.solid,
-                            clock: &self.clock,
-                            fracture: &self.fracture,
-                            params: &self.params,
-                        };
-                        let flow = self.flow.as_mut();
-                        if output::output(&mut self.model, flow, &scene, out, t0)? {
-                            self.solid
-                                .view
-                                .joint_state
-                                .iter_mut()
-                                .for_each(|s| s.slid = false);
-                        }
-                    }
-                }
-            }
-            drop(span);
-            if let Some(t1) = propagate_at {
+            if let Some(t1) = split_at {
                 self.propagate(t1)?;
             }
         }
         Ok(())
     }
 
-    /// `solve` (quasi-static) over the step from `t0`: an adaptive step whose Newton iteration
-    /// fails is halved and retried from the step's start (down to `time.dt_min`).
-    fn solve_step(&mut self, t0: f64) -> Result<(), RunError> {
-        let adaptive = self.params.time.adaptive;
-        let v = &self.solid.view;
-        let saved = adaptive.then(|| (v.u.clone(), v.joint_state.clone()));
-        self.cells_at_start = self.flow.as_ref().map_or(0, |f| f.view.n_cells());
-        loop {
-            let dt = self.params.solid.dt;
-            let Err(e) = self.solve_at(t0, dt) else {
-                let qs = self
-                    .solid
-                    .quasi_static
-                    .as_ref()
-                    .expect("quasi-static scheme");
-                self.effort.iterations = qs.counts.last_iterations;
-                self.effort.pressure_change = qs.rows.pressure_change();
-                return Ok(());
-            };
-            let Some((u, js)) = saved.as_ref() else {
-                return Err(e);
-            };
-            let p = &mut self.params;
-            if 0.5 * dt < p.time.dt_min {
-                return Err(match e {
-                    RunError::QuasiStatic { step, time, why } => RunError::QuasiStatic {
-                        step,
-                        time,
-                        why: format!(
-                            "{why} (the step was halved down to time.dt_min = {dt:.3e} s)"
-                        ),
-                    },
-                    e => e,
-                });
-            }
-            tracing::debug!("quasi-static step from t = {t0:.6e} s failed at dt = {dt:.3e} s: {e}");
-            let v = &mut self.solid.view;
-            v.u.copy_from_slice(u);
-            v.joint_state.copy_from_slice(js);
-            p.solid.dt = 0.5 * dt;
-            p.time.aim = None;
-            let qs = self
-                .solid
-                .quasi_static
-                .as_mut()
-                .expect("quasi-static scheme");
-            qs.counts.cutbacks += 1;
-        }
-    }
-
-    /// One quasi-static solve over [t0, t0 + dt] (dt = 0: again at t0, after a split), with
-    /// the network's rows when the run is coupled and `flow_substeps` is on.
-    fn solve_at(&mut self, t0: f64, dt: f64) -> Result<(), RunError> {
-        let p = &mut self.params;
-        p.solid.load_factor =
-            hydrofrac_core::scenario::schedule_factor(&p.boundary_schedule, t0 + dt);
-        let p = &self.params;
-        let qs = self
-            .solid
-            .quasi_static
-            .as_mut()
-            .expect("quasi-static scheme");
-        let faces = qs.on.fluid;
+    /// Run system `sys` in `pass`. Returns the time of a quasi-static step's split that opened
+    /// faces in a [`Pass::Step`] (the step then propagates, [`Simulation::propagate`]); in a
+    /// [`Pass::Resolve`], `Some` when the split opened faces.
+    fn run_system(&mut self, sys: SystemId, pass: Pass) -> Result<Option<f64>, RunError> {
+        let (p, v, clock) = (&self.params, &mut self.solid.view, &mut self.clock);
+        let quasi_static = self.solid.quasi_static.is_some();
         let flow_on = self.schedule.is_enabled(SystemId::FlowSubsteps);
-        // With `flow_substeps` off the network's pressures stay where they are and load the
-        // faces, as the explicit scheme's `fluid_pressure` holds them.
-        let (flow, held) = match self.flow.as_mut() {
-            Some(part) if part.coupling.is_some() && flow_on => (
-                Some(quasi_static_flow::FlowStep {
-                    part,
-                    specs: &p.flow_boundaries,
-                    fluid: &p.fluid,
-                    faces,
-                    t0,
-                    dt,
-                }),
-                None,
-            ),
-            Some(part) => (
-                None,
-                part.coupling.as_ref().map(|c| quasi_static::Held {
-                    joint_cell: &c.joint_cell,
-                    pressure: &part.view.pressure,
-                }),
-            ),
-            None => (None, None),
-        };
-        let (step, t1) = (self.clock.step + 1, t0 + dt);
-        self.solid.stats = quasi_static::solve(&mut self.solid.view, qs, flow, held, p, step, t1)?;
-        Ok(())
-    }
-
-    /// `flow_substeps` over the step from `t0` (of length `p.solid.dt`): the quasi-static
-    /// scheme commits its coupled solve, the explicit one steps the network.
-    fn flow_step(&mut self, t0: f64) -> Result<(), RunError> {
-        let Some(f) = self.flow.as_mut() else {
-            return Ok(());
-        };
-        let p = &self.params;
-        match self.solid.quasi_static.as_ref() {
-            Some(qs) if f.coupling.is_some() => {
-                commit_step(qs, f, p, p.solid.dt);
-                Ok(())
+        match (sys, pass) {
+            (SystemId::InternalForce, Pass::Step { .. }) => solid::internal_force(v, &p.solid),
+            (SystemId::ExternalLoad, Pass::Step { .. }) => {
+                solid::external_load(v, clock.load_factor)
             }
-            _ => flow::flow_substeps(f, &self.solid.view, p, t0, self.clock.step + 1),
-        }
-    }
-
-    /// `fracture_criterion`: mark the faces ready to split.
-    fn criterion(&mut self) {
-        let Some(c) = self.params.criterion else {
-            return;
-        };
-        if let Some(k_ic) = c.toughness {
-            self.measure_tips_screened(Some(k_ic));
-            self.fracture.tips.mark(&mut self.solid.view, k_ic);
-        }
-        let (v, fr) = (&mut self.solid.view, &mut self.fracture);
-        // The explicit scheme's element stresses come from the displacements before this
-        // step's `integrate`; the quasi-static solve leaves them at its solution.
-        let stress_lags = self.solid.quasi_static.is_none();
-        let skip = c.toughness.map(|_| &fr.tips.near_tip[..]);
-        if let Some(strength) = c.strength {
-            let mut new = std::mem::take(&mut fr.new_marks);
-            fracture::fracture_criterion(
-                v,
-                strength,
-                c.by_elements,
-                Some((&mut fr.screen, &self.params.solid, stress_lags)),
-                skip,
-                &mut fr.strength_counts,
-                &mut new,
-            );
-            if c.tip_handover && c.toughness.is_none() {
-                let n = fracture::hand_over(v, &mut fr.handover, &mut new);
-                fr.strength_counts.ready += n;
-                fr.handed_over += n;
-            }
-            // Initiation away from tips: one new fracture per neighbourhood and pass.
-            if c.toughness.is_some() {
-                for k in hydrofrac_systems::toughness::one_per_neighbourhood(v, &mut new) {
-                    fr.screen.recheck(k);
+            (SystemId::Contact, Pass::Step { .. }) => fracture::contact(v, &p.joint),
+            (SystemId::FluidPressure, Pass::Step { .. }) => {
+                if let Some(c) = self.flow.as_ref().and_then(|f| f.coupling.as_ref()) {
+                    fracture::fluid_pressure(v, &c.joint_cell, &c.p_mean);
                 }
             }
-            fr.new_marks = new;
+            (SystemId::Damping, Pass::Step { .. }) => solid::damping(v, &p.solid, clock.dt),
+            (SystemId::Integrate, Pass::Step { .. }) => {
+                self.solid.stats = solid::integrate(v, clock.dt, clock.load_factor)
+            }
+            (SystemId::Solve, Pass::Step { t0 }) => {
+                self.cells_at_start = self.flow.as_ref().map_or(0, |f| f.view.n_cells());
+                let (s, f, e) = (&mut self.solid, self.flow.as_mut(), &mut self.effort);
+                quasi_static_step::solve_step(s, f, flow_on, clock, p, e, t0)?;
+            }
+            (SystemId::Solve, Pass::Resolve { t1 }) => {
+                let (s, f) = (&mut self.solid, self.flow.as_mut());
+                quasi_static_step::solve_at(s, f, flow_on, clock, p, t1, 0.0)?;
+            }
+            (SystemId::FlowSubsteps, pass) => {
+                let Some(f) = self.flow.as_mut() else {
+                    return Ok(None);
+                };
+                match (self.solid.quasi_static.as_ref(), pass) {
+                    (Some(qs), Pass::Step { .. }) if f.coupling.is_some() => {
+                        quasi_static_step::commit(qs, f, p, clock.dt)
+                    }
+                    (Some(qs), Pass::Resolve { .. }) if f.coupling.is_some() => {
+                        quasi_static_step::commit(qs, f, p, 0.0)
+                    }
+                    (_, Pass::Step { t0 }) => {
+                        let (dt, step) = (clock.dt, clock.step + 1);
+                        flow::flow_substeps(f, &self.solid.view, p, t0, dt, step)?
+                    }
+                    (_, Pass::Resolve { .. }) => {}
+                }
+            }
+            (SystemId::FractureCriterion, _) => {
+                if let Some(c) = p.criterion {
+                    let (fr, f) = (&mut self.fracture, self.flow.as_ref());
+                    criterion::criterion(v, fr, f, p, c, quasi_static);
+                }
+            }
+            (SystemId::Split, pass) => {
+                let t1 = match pass {
+                    Pass::Step { t0 } => monitor::step_end(t0, clock),
+                    Pass::Resolve { t1 } => t1,
+                };
+                if !self.split_now(t1) {
+                    return Ok(None);
+                }
+                if quasi_static || matches!(pass, Pass::Resolve { .. }) {
+                    return Ok(Some(t1));
+                }
+                let (m, s, c) = (&self.model, &mut self.solid, &mut self.clock);
+                split::shorten_step(m, s, c, &self.params, t1);
+            }
+            (SystemId::Monitor, Pass::Step { t0 }) => {
+                let f = self.flow.as_ref();
+                monitor::monitor(clock, t0, &self.solid, f, p)?;
+                if clock.adaptive(p) && clock.finish.is_none() {
+                    let cells = self.flow.as_ref().map_or(0, |f| f.view.n_cells());
+                    self.effort.new_cells = cells.saturating_sub(self.cells_at_start);
+                    monitor::next_step(clock, p, self.effort);
+                }
+            }
+            (SystemId::Output, Pass::Step { t0 }) => {
+                if let Some(out) = self.output.as_mut() {
+                    let scene = Scene {
+                        solid: &self.solid,
+                        clock: &self.clock,
+                        fracture: &self.fracture,
+                        params: &self.params,
+                    };
+                    let flow = self.flow.as_mut();
+                    if output::output(&mut self.model, flow, &scene, out, t0)? {
+                        let js = &mut self.solid.view.joint_state;
+                        js.iter_mut().for_each(|s| s.slid = false);
+                    }
+                }
+            }
+            (_, Pass::Resolve { .. }) => {}
         }
-        fr.ready_edges = match (c.toughness, c.strength) {
-            (None, Some(_)) => fr.strength_counts.ready,
-            _ => v.edge_ready.iter().filter(|r| **r).count(),
-        };
+        Ok(None)
     }
 
     /// K_I, K_II and the growth direction at every fracture tip of the current state
-    /// (`systems::toughness`), whatever the criterion; the faces carry their cell's pressure in
-    /// coupled runs (the quasi-static solve's, or the explicit step's mean), else
-    /// `fracture.pressure`.
+    /// (`systems::criterion::measure_tips`), whatever the criterion; the faces carry their
+    /// cell's pressure in coupled runs (the quasi-static solve's, or the explicit step's mean),
+    /// else `fracture.pressure`.
     pub fn measure_tips(&mut self) -> &[hydrofrac_systems::toughness::TipState] {
-        self.measure_tips_screened(None)
-    }
-
-    /// [`Simulation::measure_tips`], passing over tips whose displacement-correlation estimate
-    /// is below `DC_SCREEN` times `k_ic` (the criterion's screen).
-    fn measure_tips_screened(
-        &mut self,
-        k_ic: Option<f64>,
-    ) -> &[hydrofrac_systems::toughness::TipState] {
-        let p = &self.params;
-        let m = p.material;
-        let e_prime = m.young / (1.0 - m.poisson * m.poisson);
+        let (v, fr, f) = (&self.solid.view, &mut self.fracture, self.flow.as_ref());
         let quasi_static = self.solid.quasi_static.is_some();
-        let flow = self.flow.as_ref();
-        let joint_pressure = |k: usize| -> f64 {
-            match flow.and_then(|f| f.coupling.as_ref().map(|c| (f, c))) {
-                Some((f, c)) => match c.joint_cell[k] {
-                    u32::MAX => 0.0,
-                    // The quasi-static step's face load is its pressures unless filling
-                    // cells carry their front's (`Filling::FrontInCell`, in `p_mean`).
-                    cell if quasi_static && p.fluid.filling == Filling::Dry => {
-                        f.view.pressure[cell as usize]
-                    }
-                    cell => c.p_mean[cell as usize],
-                },
-                None => p.face_pressure.unwrap_or(0.0),
-            }
-        };
-        let tips = &mut self.fracture.tips;
-        tips.measure(&self.solid.view, &p.solid, e_prime, joint_pressure, k_ic);
-        &tips.state
+        criterion::measure_tips(v, fr, f, &self.params, quasi_static, None)
     }
 
     /// `split` at time `t1`; returns whether faces opened (the views are then rebuilt).
@@ -707,11 +540,18 @@ impl Simulation {
         opened
     }
 
-    /// Quasi-static propagation: after a split at `t1`, the step is solved again at the same
-    /// time (no flow time passes: each cell keeps its mass, the new cells arrive empty), the
-    /// criterion checked and split again, until nothing more opens or `time.max_resolves`
-    /// re-solves were made (counted as a cap hit). Each pass runs under its systems' spans.
+    /// Quasi-static propagation: after a split at `t1`, the schedule's systems from `solve` to
+    /// `split` run again at the same time ([`Pass::Resolve`]: no flow time passes, each cell
+    /// keeps its mass, the new cells arrive empty) until nothing more opens or
+    /// `time.max_resolves` re-solves were made (counted as a cap hit). Each system runs under
+    /// its own span.
     fn propagate(&mut self, t1: f64) -> Result<(), RunError> {
+        let order = SystemId::ORDER;
+        let (from, to) = (SystemId::Solve, SystemId::Split);
+        let systems: Vec<SystemId> = order
+            .into_iter()
+            .filter(|s| (from..=to).contains(s) && self.schedule.is_enabled(*s))
+            .collect();
         let cap = self.params.time.max_resolves;
         let mut rounds = 0;
         loop {
@@ -720,43 +560,28 @@ impl Simulation {
                     "t = {t1:.6e} s: faces still open after time.max_resolves = {cap} \
                      re-solves; the step ends here"
                 );
-                let qs = self
-                    .solid
-                    .quasi_static
-                    .as_mut()
-                    .expect("quasi-static scheme");
-                qs.counts.resolve_cap_hits += 1;
+                self.qs_counts_mut().resolve_cap_hits += 1;
                 break;
             }
             rounds += 1;
-            {
-                let _span = SystemId::Solve.span().entered();
-                self.solve_at(t1, 0.0)?;
+            let mut opened = false;
+            for &sys in &systems {
+                let _span = sys.span().entered();
+                opened = self.run_system(sys, Pass::Resolve { t1 })?.is_some();
             }
-            if self.schedule.is_enabled(SystemId::FlowSubsteps)
-                && let (Some(f), Some(qs)) = (self.flow.as_mut(), self.solid.quasi_static.as_ref())
-                && f.coupling.is_some()
-            {
-                let _span = SystemId::FlowSubsteps.span().entered();
-                commit_step(qs, f, &self.params, 0.0);
-            }
-            if self.schedule.is_enabled(SystemId::FractureCriterion) {
-                let _span = SystemId::FractureCriterion.span().entered();
-                self.criterion();
-            }
-            let _span = SystemId::Split.span().entered();
-            if !self.split_now(t1) {
+            if !opened {
                 break;
             }
         }
-        let qs = self
-            .solid
-            .quasi_static
-            .as_mut()
-            .expect("quasi-static scheme");
-        qs.counts.resolves += rounds;
-        qs.counts.max_resolves_in_step = qs.counts.max_resolves_in_step.max(rounds);
+        let counts = self.qs_counts_mut();
+        counts.resolves += rounds;
+        counts.max_resolves_in_step = counts.max_resolves_in_step.max(rounds);
         Ok(())
+    }
+
+    fn qs_counts_mut(&mut self) -> &mut quasi_static::QsCounts {
+        let qs = self.solid.quasi_static.as_mut();
+        &mut qs.expect("quasi-static scheme").counts
     }
 
     /// A frame and a series row now (the first one, and the steady solution).
@@ -838,9 +663,28 @@ impl Simulation {
     pub fn params(&self) -> &RunParams {
         &self.params
     }
-    /// For studies that change a parameter between steps (e.g. the damping).
-    pub fn params_mut(&mut self) -> &mut RunParams {
-        &mut self.params
+    /// The run continued from its state under another damping (`damping` in the scenario): a
+    /// new simulation of the scenario with `damping`, which adopts this one's state (a study's
+    /// second phase, e.g. relaxed, then free; the run parameters of a simulation do not change
+    /// after setup). No output folder is attached.
+    pub fn with_damping(
+        &self,
+        damping: hydrofrac_core::scenario::Damping,
+    ) -> Result<Simulation, RunError> {
+        let mut sc = self.scenario.clone();
+        sc.damping = damping;
+        let mut sim = Simulation::new(sc, &self.extra_disable)?;
+        let adopted = self
+            .checkpoint_state()
+            .and_then(|(_, state)| sim.adopt(state));
+        adopted.map_err(|why| SetupError::invalid("damping", why))?;
+        Ok(sim)
+    }
+
+    /// Hold the step at `dt` (s) from now on: not adapted, not shortened after splits (the
+    /// production stage's relaxations, `Clock::hold`).
+    pub fn hold_step(&mut self, dt: f64) {
+        self.clock.hold(dt);
     }
     /// The rock's dense view (state between syncs).
     pub fn solid(&self) -> &SolidView {
@@ -915,7 +759,7 @@ impl Simulation {
     }
     /// Time step, s.
     pub fn dt(&self) -> f64 {
-        self.params.solid.dt
+        self.clock.dt
     }
     /// Steps taken.
     pub fn step(&self) -> u64 {

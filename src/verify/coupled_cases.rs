@@ -242,7 +242,7 @@ pub fn kgd_run_in(
         "kgd h = {h}: ended with {finish:?}"
     );
     let wall = t0.elapsed().as_secs_f64();
-    let l_tracked = match sim.params().criterion.and_then(|c| c.toughness) {
+    let l_tracked = match sim.params().criterion.and_then(|c| c.kind.k_ic()) {
         Some(k_ic) => {
             sim.measure_tips();
             let fr = sim.fracture();

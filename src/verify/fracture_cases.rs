@@ -136,7 +136,7 @@ pub fn pressurised_crack(
             c.len() - 1
         };
         let n = across(0).max(across(1)) as f64;
-        sim.params_mut().solid.damping = Damping::Viscous(k / (n * sim.dt()));
+        sim = sim.with_damping(Damping::Viscous(k / (n * sim.dt())))?;
     }
     let finish = sim.run(|_| {})?;
     anyhow::ensure!(
@@ -496,7 +496,7 @@ pub fn inclined_block(psi_deg: f64, phi_deg: f64, h: f64) -> anyhow::Result<Incl
     let sliding = |sim: &Simulation| sim.solid().joint_state.iter().filter(|s| s.sliding).count();
     let base = sim.solid().load.clone();
     let gt = G * psi.sin();
-    sim.params_mut().solid.damping = Damping::None;
+    let mut sim = sim.with_damping(Damping::None)?;
     let (x_start, t_start) = (com(&sim).0, sim.time());
     let mut sliding_ever = 0;
     // Ramp, then hold: the tangential body force m_i g sin psi (the body force is lumped like

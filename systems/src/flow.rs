@@ -18,7 +18,9 @@ use hydrofrac_core::params::RunParams;
 use hydrofrac_core::scenario::FlowScheme;
 use hydrofrac_core::view::SolidView;
 
-/// The fracture-network flow part of the state.
+/// The fracture-network flow part of the state. A checkpoint saves it as it is (serde), less
+/// the network table, which setup rebuilds from the scenario.
+#[derive(Clone, serde::Serialize, serde::Deserialize)]
 pub struct FlowPart {
     pub view: FlowView,
     /// Flow sub-step, s, and sub-steps per step.
@@ -39,7 +41,9 @@ pub struct FlowPart {
     pub residual: f64,
     /// Network volume sum a L at the start, m^2 (volumes change in coupled runs).
     pub initial_volume: f64,
-    /// The fractures the network was cut from (written to the output; empty in coupled runs).
+    /// The fractures the network was cut from (written to the output; empty in coupled runs;
+    /// not saved: rebuilt by setup).
+    #[serde(skip)]
     pub network: CellNetwork,
     /// Coupled runs (the network is the rock's fractures): maps and exchange state.
     pub coupling: Option<Coupling>,
@@ -111,9 +115,10 @@ pub fn flow_substeps(
     solid: &SolidView,
     p: &RunParams,
     t0: f64,
+    dt: f64,
     step: u64,
 ) -> Result<(), RunError> {
-    let (specs, fp, dt) = (&p.flow_boundaries, &p.fluid, p.solid.dt);
+    let (specs, fp) = (&p.flow_boundaries, &p.fluid);
     let implicit_error = |e| RunError::ImplicitFlow {
         step,
         time: t0 + dt,

@@ -23,6 +23,7 @@
 #![allow(clippy::needless_range_loop)]
 
 pub mod coupling;
+pub mod criterion;
 pub mod flow;
 pub mod fracture;
 pub mod monitor;
@@ -30,6 +31,7 @@ pub mod output;
 pub mod quasi_static;
 pub mod quasi_static_flow;
 pub mod quasi_static_lu;
+pub mod quasi_static_step;
 pub mod solid;
 pub mod split;
 pub mod state;

@@ -25,13 +25,26 @@ pub enum Finish {
     Interrupted,
 }
 
-/// Where the run is in time.
+/// Where the run is in time, and the step it takes next: the state of time stepping (the
+/// run's parameters, `RunParams`, do not change after setup).
 #[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct Clock {
     /// Steps taken.
     pub step: u64,
     /// Simulated time, s.
     pub time: f64,
+    /// The next step's length, s: set at setup, shortened after splits (`split::shorten_step`),
+    /// adapted by quasi-static coupled runs ([`next_step`]).
+    pub dt: f64,
+    /// Multiplier of all boundary loads and prescribed displacements in the step being taken
+    /// (the scenario's `boundary_schedule` at its end; 1 without one).
+    pub load_factor: f64,
+    /// The time (s) the current adaptive step is meant to land on exactly (the end or a figure
+    /// time), if any.
+    pub aim: Option<f64>,
+    /// A stage holds the step as it is set (the production stage's relaxations): neither
+    /// adapted nor shortened after splits.
+    pub held: bool,
     /// Steps to run for an `End::Time` scenario.
     pub steps_to_end: Option<u64>,
     /// Static residual after the last step (solid and flow, the larger).
@@ -39,12 +52,47 @@ pub struct Clock {
     pub finish: Option<Finish>,
 }
 
+impl Clock {
+    /// A clock at t = 0 before the first step of length `dt` (s).
+    pub fn start(dt: f64, steps_to_end: Option<u64>) -> Self {
+        Clock {
+            step: 0,
+            time: 0.0,
+            dt,
+            load_factor: 1.0,
+            aim: None,
+            held: false,
+            steps_to_end,
+            residual: f64::INFINITY,
+            finish: None,
+        }
+    }
+
+    /// Whether the step adapts to the quasi-static solver's effort (`time.adaptive`, unless a
+    /// stage holds it).
+    pub fn adaptive(&self, p: &RunParams) -> bool {
+        p.time.adaptive && !self.held
+    }
+
+    /// Whether the step keeps its length after splits (the user's `time.dt`, or held).
+    pub fn forced(&self, p: &RunParams) -> bool {
+        p.time.forced_dt || self.held
+    }
+
+    /// Hold the step at `dt` (s) from now on: [`Clock::adaptive`] and shortening are off.
+    pub fn hold(&mut self, dt: f64) {
+        self.dt = dt;
+        self.held = true;
+        self.aim = None;
+    }
+}
+
 /// The end of the step that started at `t0`, s: t0 + dt, or exactly the time an adaptive step
 /// was aimed at (the end or a figure time) when it lands there.
-pub fn step_end(t0: f64, p: &RunParams) -> f64 {
-    let t1 = t0 + p.solid.dt;
-    match p.time.aim {
-        Some(aim) if (t1 - aim).abs() <= 1e-9 * p.solid.dt => aim,
+pub fn step_end(t0: f64, clock: &Clock) -> f64 {
+    let t1 = t0 + clock.dt;
+    match clock.aim {
+        Some(aim) if (t1 - aim).abs() <= 1e-9 * clock.dt => aim,
         _ => t1,
     }
 }
@@ -58,7 +106,7 @@ pub fn monitor(
     p: &RunParams,
 ) -> Result<(), RunError> {
     clock.step += 1;
-    clock.time = step_end(t0, p);
+    clock.time = step_end(t0, clock);
     let (st, v) = (&solid.stats, &solid.view);
     let blow = |entity: String, quantity: &'static str, value: f64, why: String, dt: f64| {
         RunError::BlowUp {
@@ -83,7 +131,7 @@ pub fn monitor(
             "velocity",
             value,
             "a non-finite value".into(),
-            p.solid.dt,
+            clock.dt,
         ));
     }
     let limit = SPEED_LIMIT_FRACTION * p.c_p;
@@ -97,7 +145,7 @@ pub fn monitor(
                  exceeds the stability limit {:.3e} s or the loading is not physical)",
                 solid.dt_crit
             ),
-            p.solid.dt,
+            clock.dt,
         ));
     }
     let mut residual = if v.n_nodes() > 0 { st.residual() } else { 0.0 };
@@ -139,7 +187,7 @@ pub fn monitor(
         clock.finish = Some(Finish::EndTime);
     }
     if let End::Time(te) = p.time.end
-        && p.time.adaptive
+        && clock.adaptive(p)
         && clock.time >= te
     {
         clock.finish = Some(Finish::EndTime);
@@ -178,8 +226,8 @@ pub const NEW_CELLS: usize = 1;
 /// changes by about [`PRESSURE_CHANGE`] and at most [`NEW_CELLS`] cells open per step (never
 /// below half the last step), kept in [`dt_min`, `dt_max`], and landing exactly on the next
 /// figure time or the end (a step within twice its length of it is split in two equal ones).
-pub fn next_step(clock: &Clock, p: &mut RunParams, e: Effort) {
-    let dt = p.solid.dt;
+pub fn next_step(clock: &mut Clock, p: &RunParams, e: Effort) {
+    let dt = clock.dt;
     let easy = p.time.newton_easy;
     let mut f = if e.iterations <= easy {
         GROWTH
@@ -207,13 +255,13 @@ pub fn next_step(clock: &Clock, p: &mut RunParams, e: Effort) {
         .copied()
         .filter(|&tf| tf > t)
         .fold(end, f64::min);
-    p.time.aim = None;
+    clock.aim = None;
     let rem = target - t;
     if rem <= next * (1.0 + 1e-9) {
         next = rem;
-        p.time.aim = Some(target);
+        clock.aim = Some(target);
     } else if rem < 2.0 * next {
         next = 0.5 * rem;
     }
-    p.solid.dt = next;
+    clock.dt = next;
 }

@@ -748,13 +748,14 @@ fn joint_springs(p: &RunParams, axes: &[[f64; 2]; 2], st: State) -> [(f64, [f64;
 fn forces(
     v: &mut SolidView,
     p: &RunParams,
+    lf: f64,
     on: Systems,
     joint0: &[hydrofrac_components::JointState],
 ) {
     v.joint_state.copy_from_slice(joint0);
     internal_force(v, &p.solid);
     if on.load {
-        external_load(v, &p.solid);
+        external_load(v, lf);
     }
     if on.contact {
         contact(v, &p.joint);
@@ -780,7 +781,7 @@ pub struct Held<'a> {
     pub pressure: &'a [f64],
 }
 
-/// `solve`: equilibrium at the end of the step (load factor already set); with `flow`, the
+/// `solve`: equilibrium at the end of the step under the load factor `lf`; with `flow`, the
 /// network's backward-Euler step over the same step in the same Newton iteration
 /// ([`crate::quasi_static_flow`]), the converged state left for the flow system's
 /// commit; without it, `held` face pressures as a fixed load. `step` and `time` (the step's
@@ -791,12 +792,12 @@ pub fn solve(
     mut flow: Option<FlowStep>,
     held: Option<Held>,
     p: &RunParams,
+    lf: f64,
     step: u64,
     time: f64,
 ) -> Result<StepStats, RunError> {
     qs.structure(v, p).map_err(|e| fail(step, time, e))?;
     let on = qs.on;
-    let lf = p.solid.load_factor;
     for i in 0..v.n_nodes() {
         for d in 0..2 {
             if v.fixed[i] & (1 << d) != 0 {
@@ -827,7 +828,7 @@ pub fn solve(
     let (res2, ref2) = loop {
         let (res2, ref2, flow_ok) = match evaluated.take() {
             Some(e) => e,
-            None => evaluate(v, qs, &mut flow, held, p, &joint0, &mut rhs),
+            None => evaluate(v, qs, &mut flow, held, p, lf, &joint0, &mut rhs),
         };
         if on.contact {
             for (st, js) in states.iter_mut().zip(&v.joint_state) {
@@ -984,7 +985,7 @@ pub fn solve(
                 if coupled {
                     qs.rows.set_trial(alpha, at);
                 }
-                let e = evaluate(v, qs, &mut flow, held, p, &joint0, &mut rhs_try);
+                let e = evaluate(v, qs, &mut flow, held, p, lf, &joint0, &mut rhs_try);
                 evaluated = Some(e);
                 if e.0 / tol2 + phi_of(&qs.rows) <= (1.0 - 1e-4 * alpha) * phi0 {
                     break;
@@ -1033,11 +1034,12 @@ fn evaluate(
     flow: &mut Option<FlowStep>,
     held: Option<Held>,
     p: &RunParams,
+    lf: f64,
     joint0: &[hydrofrac_components::JointState],
     rhs: &mut [f64],
 ) -> (f64, f64, bool) {
     let on = qs.on;
-    forces(v, p, on, joint0);
+    forces(v, p, lf, on, joint0);
     let flow_ok = match flow.as_mut() {
         Some(f) => {
             let ok = qs.rows.evaluate(f, v);
@@ -1055,7 +1057,6 @@ fn evaluate(
             true
         }
     };
-    let lf = p.solid.load_factor;
     let dof = &qs.structure.as_ref().expect("structure").dof;
     let (mut res2, mut ref2) = (0.0, 0.0);
     for i in 0..v.n_nodes() {

@@ -56,8 +56,7 @@ pub fn update_stress(v: &mut SolidView, p: &SolidParams) {
 }
 
 /// `external_load`: add the external loads (tractions, body forces) times the load factor.
-pub fn external_load(v: &mut SolidView, p: &SolidParams) {
-    let lf = p.load_factor;
+pub fn external_load(v: &mut SolidView, lf: f64) {
     v.force
         .par_iter_mut()
         .zip(v.load.par_iter())
@@ -90,8 +89,8 @@ pub fn local_damping(alpha: f64, f: f64, s: f64) -> f64 {
 /// `damping`: damping force from the unbalanced force and the velocity.
 /// Local (Cundall): -alpha |F| sign(v_new) per component, with v_new the undamped predictor;
 /// viscous: -c m v.
-pub fn damping(v: &mut SolidView, p: &SolidParams) {
-    let (force, vel, mass, inv_m, dt) = (&v.force, &v.v, &v.mass, &v.inv_mass, p.dt);
+pub fn damping(v: &mut SolidView, p: &SolidParams, dt: f64) {
+    let (force, vel, mass, inv_m) = (&v.force, &v.v, &v.mass, &v.inv_mass);
     match p.damping {
         Damping::None => v.f_damp.iter_mut().for_each(|f| *f = [0.0; 2]),
         Damping::Local(alpha) => v
@@ -305,10 +304,10 @@ impl NodeStep<'_> {
 
 /// `integrate`: central difference, v += dt (F + F_damp)/m, u += dt v; prescribed components
 /// are held at their value with zero velocity. Returns the step statistics.
-pub fn integrate(v: &mut SolidView, p: &SolidParams) -> StepStats {
+pub fn integrate(v: &mut SolidView, dt: f64, lf: f64) -> StepStats {
     let step = NodeStep {
-        dt: p.dt,
-        lf: p.load_factor,
+        dt,
+        lf,
         force: &v.force,
         fdamp: &v.f_damp,
         inv_m: &v.inv_mass,

@@ -49,7 +49,7 @@ pub fn shorten_step(
     model: &Model,
     solid: &mut SolidPart,
     clock: &mut Clock,
-    p: &mut RunParams,
+    p: &RunParams,
     t: f64,
 ) {
     // With `time.selective_mass_scaling` the view rebuilt for the new topology raises the new
@@ -66,8 +66,8 @@ pub fn shorten_step(
     };
     solid.dt_crit = bound;
     let safe = p.time.safety * bound;
-    if !p.time.forced_dt && safe < p.solid.dt {
-        p.solid.dt = safe;
+    if !clock.forced(p) && safe < clock.dt {
+        clock.dt = safe;
         if let End::Time(te) = p.time.end {
             let left = ((te - t) / safe - 1e-9).ceil().max(0.0) as u64;
             clock.steps_to_end = Some(clock.step + 1 + left);

@@ -228,6 +228,10 @@ impl Pattern {
 
 /// Reusable backward-Euler solver: the symbolic LU of the Jacobian's pattern, the numeric
 /// factors and the work arrays (no allocation per step while the topology is unchanged).
+/// Saved (serde) and cloned as its [`ImplicitCounters`]: the caches are rebuilt at the next
+/// step for the same pattern and Jacobian, which gives the same numbers.
+#[derive(serde::Serialize, serde::Deserialize)]
+#[serde(into = "ImplicitCounters", from = "ImplicitCounters")]
 pub struct ImplicitSolver {
     /// Convergence tolerance on the relative mass residual |R_i| / (rho_r V_i) (see the module
     /// documentation for the round-off allowance), default [`DEFAULT_TOL`].
@@ -339,6 +343,7 @@ impl ImplicitSolver {
         ImplicitCounters {
             tol: self.tol,
             max_iter: self.max_iter,
+            chord: self.chord,
             last_iterations: self.last_iterations,
             total_iterations: self.total_iterations,
             steps: self.steps,
@@ -357,6 +362,7 @@ impl ImplicitSolver {
     pub fn set_counters(&mut self, c: ImplicitCounters) {
         self.tol = c.tol;
         self.max_iter = c.max_iter;
+        self.chord = c.chord;
         self.last_iterations = c.last_iterations;
         self.total_iterations = c.total_iterations;
         self.steps = c.steps;
@@ -368,12 +374,33 @@ impl ImplicitSolver {
     }
 }
 
+impl Clone for ImplicitSolver {
+    fn clone(&self) -> Self {
+        self.counters().into()
+    }
+}
+
+impl From<ImplicitCounters> for ImplicitSolver {
+    fn from(c: ImplicitCounters) -> Self {
+        let mut s = ImplicitSolver::default();
+        s.set_counters(c);
+        s
+    }
+}
+
+impl From<ImplicitSolver> for ImplicitCounters {
+    fn from(s: ImplicitSolver) -> Self {
+        s.counters()
+    }
+}
+
 /// [`ImplicitSolver`]'s settings and counters, and the Jacobian values of its kept factor
 /// (empty: none).
 #[derive(Clone, Debug, Default, serde::Serialize, serde::Deserialize)]
 pub struct ImplicitCounters {
     pub tol: f64,
     pub max_iter: usize,
+    pub chord: bool,
     pub last_iterations: usize,
     pub total_iterations: u64,
     pub steps: u64,

@@ -1,0 +1,113 @@
+//! `solve` and the coupled `flow_substeps` as the quasi-static step runs them: one solve over
+//! [t0, t0 + dt] with the network's rows in the same Newton iteration
+//! ([`crate::quasi_static::solve`], [`crate::quasi_static_flow`]), the adaptive step's retry
+//! with half the step when Newton fails, and the flow system's commit of the converged rows.
+//! A zero-length solve (dt = 0) is the re-solve at the same time after a split.
+
+use crate::RunError;
+use crate::flow::{self, FlowPart};
+use crate::monitor::{Clock, Effort};
+use crate::quasi_static::{self, Held, QuasiStatic};
+use crate::quasi_static_flow::{self, FlowStep};
+use crate::state::SolidPart;
+use hydrofrac_core::params::RunParams;
+use hydrofrac_core::scenario::schedule_factor;
+
+/// The flow system's commit of a coupled quasi-static step of length `dt` (s): the network's
+/// state of the converged solve, its statistics and steady residual.
+pub fn commit(qs: &QuasiStatic, f: &mut FlowPart, p: &RunParams, dt: f64) {
+    f.stats = quasi_static_flow::commit(&qs.rows, f, &p.fluid, dt);
+    f.dt = dt;
+    flow::steady_residual(f);
+}
+
+/// One quasi-static solve over [t0, t0 + dt] (dt = 0: again at t0, after a split) under the
+/// boundary schedule's load factor at t0 + dt (set on the clock). With `flow_on` (the
+/// `flow_substeps` system enabled) a coupled network's rows are solved with the rock; without
+/// it, the network's pressures stay where they are and load the faces, as the explicit
+/// scheme's `fluid_pressure` holds them.
+pub fn solve_at(
+    solid: &mut SolidPart,
+    flow: Option<&mut FlowPart>,
+    flow_on: bool,
+    clock: &mut Clock,
+    p: &RunParams,
+    t0: f64,
+    dt: f64,
+) -> Result<(), RunError> {
+    clock.load_factor = schedule_factor(&p.boundary_schedule, t0 + dt);
+    let qs = solid.quasi_static.as_mut().expect("quasi-static scheme");
+    let faces = qs.on.fluid;
+    let (rows, held) = match flow {
+        Some(part) if part.coupling.is_some() && flow_on => (
+            Some(FlowStep {
+                part,
+                specs: &p.flow_boundaries,
+                fluid: &p.fluid,
+                faces,
+                t0,
+                dt,
+            }),
+            None,
+        ),
+        Some(part) => (
+            None,
+            part.coupling.as_ref().map(|c| Held {
+                joint_cell: &c.joint_cell,
+                pressure: &part.view.pressure,
+            }),
+        ),
+        None => (None, None),
+    };
+    let (step, t1, lf) = (clock.step + 1, t0 + dt, clock.load_factor);
+    solid.stats = quasi_static::solve(&mut solid.view, qs, rows, held, p, lf, step, t1)?;
+    Ok(())
+}
+
+/// `solve` over the step from `t0` of the clock's length: an adaptive step whose Newton
+/// iteration fails is halved and retried from the step's start (down to `time.dt_min`).
+/// Records how hard the solve was in `effort` (the adaptive step's input).
+pub fn solve_step(
+    solid: &mut SolidPart,
+    mut flow: Option<&mut FlowPart>,
+    flow_on: bool,
+    clock: &mut Clock,
+    p: &RunParams,
+    effort: &mut Effort,
+    t0: f64,
+) -> Result<(), RunError> {
+    let v = &solid.view;
+    let saved = clock
+        .adaptive(p)
+        .then(|| (v.u.clone(), v.joint_state.clone()));
+    loop {
+        let dt = clock.dt;
+        let Err(e) = solve_at(solid, flow.as_deref_mut(), flow_on, clock, p, t0, dt) else {
+            let qs = solid.quasi_static.as_ref().expect("quasi-static scheme");
+            effort.iterations = qs.counts.last_iterations;
+            effort.pressure_change = qs.rows.pressure_change();
+            return Ok(());
+        };
+        let Some((u, js)) = saved.as_ref() else {
+            return Err(e);
+        };
+        if 0.5 * dt < p.time.dt_min {
+            return Err(match e {
+                RunError::QuasiStatic { step, time, why } => RunError::QuasiStatic {
+                    step,
+                    time,
+                    why: format!("{why} (the step was halved down to time.dt_min = {dt:.3e} s)"),
+                },
+                e => e,
+            });
+        }
+        tracing::debug!("quasi-static step from t = {t0:.6e} s failed at dt = {dt:.3e} s: {e}");
+        let v = &mut solid.view;
+        v.u.copy_from_slice(u);
+        v.joint_state.copy_from_slice(js);
+        clock.dt = 0.5 * dt;
+        clock.aim = None;
+        let qs = solid.quasi_static.as_mut().expect("quasi-static scheme");
+        qs.counts.cutbacks += 1;
+    }
+}
