@@ -16,7 +16,7 @@
 use criterion::{Criterion, criterion_group, criterion_main};
 use hydrofrac::scenario::{Damping, End, LinearSolver, SolidScheme};
 use hydrofrac::sim::Simulation;
-use hydrofrac::systems::quasi_static::{QuasiStatic, Systems, solve};
+use hydrofrac::systems::quasi_static::{QuasiStatic, StepEnd, Systems, solve};
 use hydrofrac::verify::solid_cases::seed_block;
 use std::time::Duration;
 
@@ -51,7 +51,19 @@ fn quasi_static(c: &mut Criterion) {
         if refactor {
             qs.forget_factor();
         }
-        solve(&mut v, qs, None, None, &p, lf, k, 0.0).unwrap()
+        solve(
+            &mut v,
+            qs,
+            None,
+            None,
+            &p,
+            StepEnd {
+                step: k,
+                time: 0.0,
+                lf,
+            },
+        )
+        .unwrap()
     };
     step(&mut qs, true);
     group.bench_function("factorise_and_solve", |b| b.iter(|| step(&mut qs, true)));
@@ -83,7 +95,19 @@ fn frictional(c: &mut Criterion) {
         group.bench_function(name, |b| {
             b.iter(|| {
                 let mut v = v0.clone();
-                solve(&mut v, &mut qs, None, None, &p, 1.0, 1, 1.0).unwrap()
+                solve(
+                    &mut v,
+                    &mut qs,
+                    None,
+                    None,
+                    &p,
+                    StepEnd {
+                        step: 1,
+                        time: 1.0,
+                        lf: 1.0,
+                    },
+                )
+                .unwrap()
             })
         });
         eprintln!("{name}: {:?}", qs.counts);

@@ -574,6 +574,97 @@ impl QuasiStatic {
         self.factored = None;
     }
 
+    /// The Newton direction by the Cholesky factor of the symmetric tangent: the coupled
+    /// rows' W kept up to date (a low-rank update of the factor's W when accurate, else
+    /// solved again), and the sliding joints' Coulomb term (unsymmetric) as a low-rank
+    /// correction. `rhs` holds the residual on entry and the direction on return.
+    fn cholesky_direction(
+        &mut self,
+        v: &SolidView,
+        p: &RunParams,
+        states: &[State],
+        flow: &mut Option<FlowStep>,
+        rhs: &mut [f64],
+        work: &mut Work,
+    ) -> Result<(), String> {
+        let on = self.on;
+        let before_id = self.counts.numeric_factorisations;
+        // The joints' geometry stays that of the factor W was solved with while W may be
+        // updated (an exact low-rank change); otherwise it is taken afresh.
+        let may_update = flow.is_some()
+            && self.factored.is_some()
+            && self.rows.w_is_for(before_id)
+            && self.w_updates < self.max_w_updates;
+        let before = self.factor(v, p, states, !may_update)?;
+        if let Some(f) = flow.as_ref() {
+            let id = self.counts.numeric_factorisations;
+            let updated = match before {
+                Some(b) if id != before_id => {
+                    let ok = self.update_w(p, &b, before_id, states)?;
+                    let s = self.structure.as_ref().expect("structure");
+                    let accurate = ok && {
+                        self.rows.g_combination(
+                            f,
+                            v,
+                            &s.dof,
+                            s.n,
+                            &s.joint_normal,
+                            &s.joint_len,
+                            &mut work.gx,
+                        );
+                        self.w_backward_error(&work.gx, &mut work.wx) <= W_UPDATE_TOL
+                    };
+                    if ok && !accurate {
+                        self.counts.w_updates_refused += 1;
+                    }
+                    if accurate {
+                        self.counts.w_updates += 1;
+                        self.rows.set_w_factor(id);
+                    }
+                    accurate
+                }
+                _ => false,
+            };
+            if !updated && self.rows.needs_w(id) {
+                let s = self.structure.as_ref().expect("structure");
+                let m = self
+                    .rows
+                    .load_g(f, v, &s.dof, s.n, &s.joint_normal, &s.joint_len)?;
+                self.solve_w(m)?;
+                self.rows.set_w_factor(id);
+            }
+        }
+        self.solve_in_place(rhs);
+        // The sliding joints' Coulomb term (unsymmetric, left out of the Cholesky tangent)
+        // as a low-rank correction of the solves.
+        let slip = if on.contact {
+            SlipTerm::new(self, v, p, states)?
+        } else {
+            None
+        };
+        if let Some(c) = &slip {
+            c.apply(rhs);
+        }
+        if let Some(f) = flow.as_mut() {
+            let s = self.structure.as_ref().expect("structure");
+            // W of the full tangent for this iteration only: the kept W is the Cholesky
+            // tangent's.
+            if let Some(c) = &slip {
+                work.w_keep.clear();
+                work.w_keep.extend_from_slice(self.rows.w_buffer());
+                for col in self.rows.w_buffer().chunks_exact_mut(s.n.max(1)) {
+                    c.apply(col);
+                }
+            }
+            let reduced = self.rows.reduce_and_solve(f, v, &s.dof, s.n, rhs);
+            if slip.is_some() {
+                self.rows.w_buffer().copy_from_slice(&work.w_keep);
+            }
+            reduced?;
+        }
+        Ok(())
+    }
+
     fn solve_in_place(&mut self, x: &mut [f64]) {
         let s = self.structure.as_mut().expect("structure");
         let llt = LltRef::<usize, f64>::new(&s.symbolic, &self.l_values);
@@ -781,21 +872,29 @@ pub struct Held<'a> {
     pub pressure: &'a [f64],
 }
 
-/// `solve`: equilibrium at the end of the step under the load factor `lf`; with `flow`, the
+/// The end of the step a solve is for: the step's number and time (s), which name it in
+/// errors, and the boundary schedule's load factor there.
+#[derive(Clone, Copy, Debug)]
+pub struct StepEnd {
+    pub step: u64,
+    pub time: f64,
+    pub lf: f64,
+}
+
+/// `solve`: equilibrium at the end of the step `at` under its load factor; with `flow`, the
 /// network's backward-Euler step over the same step in the same Newton iteration
 /// ([`crate::quasi_static_flow`]), the converged state left for the flow system's
-/// commit; without it, `held` face pressures as a fixed load. `step` and `time` (the step's
-/// end) name the step in errors. Velocities are set to zero (no inertia).
+/// commit; without it, `held` face pressures as a fixed load. Velocities are set to zero (no
+/// inertia).
 pub fn solve(
     v: &mut SolidView,
     qs: &mut QuasiStatic,
     mut flow: Option<FlowStep>,
     held: Option<Held>,
     p: &RunParams,
-    lf: f64,
-    step: u64,
-    time: f64,
+    at: StepEnd,
 ) -> Result<StepStats, RunError> {
+    let StepEnd { step, time, lf } = at;
     qs.structure(v, p).map_err(|e| fail(step, time, e))?;
     let on = qs.on;
     for i in 0..v.n_nodes() {
@@ -821,8 +920,7 @@ pub fn solve(
     let mut first2 = None;
     // The most joints in slip at any iterate of this step (for the failure's hint).
     let mut max_slip = 0;
-    let (mut u_base, mut rhs_try) = (Vec::new(), Vec::new());
-    let (mut gx, mut wx, mut w_keep) = (Vec::new(), Vec::new(), Vec::new());
+    let mut work = Work::default();
     // The coupled line search leaves the residual of the point it accepted.
     let mut evaluated = None;
     let (res2, ref2) = loop {
@@ -876,123 +974,17 @@ pub fn solve(
             qs.lu_direction(v, p, &states, &mut flow, &mut rhs)
                 .map_err(|e| fail(step, time, e))?;
         } else {
-            let before_id = qs.counts.numeric_factorisations;
-            // The joints' geometry stays that of the factor W was solved with while W may be
-            // updated (an exact low-rank change); otherwise it is taken afresh.
-            let may_update = flow.is_some()
-                && qs.factored.is_some()
-                && qs.rows.w_is_for(before_id)
-                && qs.w_updates < qs.max_w_updates;
-            let before = qs
-                .factor(v, p, &states, !may_update)
+            qs.cholesky_direction(v, p, &states, &mut flow, &mut rhs, &mut work)
                 .map_err(|e| fail(step, time, e))?;
-            if let Some(f) = flow.as_ref() {
-                let id = qs.counts.numeric_factorisations;
-                let updated = match before {
-                    Some(b) if id != before_id => {
-                        let ok = qs
-                            .update_w(p, &b, before_id, &states)
-                            .map_err(|e| fail(step, time, e))?;
-                        let s = qs.structure.as_ref().expect("structure");
-                        let accurate = ok && {
-                            qs.rows.g_combination(
-                                f,
-                                v,
-                                &s.dof,
-                                s.n,
-                                &s.joint_normal,
-                                &s.joint_len,
-                                &mut gx,
-                            );
-                            qs.w_backward_error(&gx, &mut wx) <= W_UPDATE_TOL
-                        };
-                        if ok && !accurate {
-                            qs.counts.w_updates_refused += 1;
-                        }
-                        if accurate {
-                            qs.counts.w_updates += 1;
-                            qs.rows.set_w_factor(id);
-                        }
-                        accurate
-                    }
-                    _ => false,
-                };
-                if !updated && qs.rows.needs_w(id) {
-                    let s = qs.structure.as_ref().expect("structure");
-                    let m = qs
-                        .rows
-                        .load_g(f, v, &s.dof, s.n, &s.joint_normal, &s.joint_len)
-                        .map_err(|e| fail(step, time, e))?;
-                    qs.solve_w(m).map_err(|e| fail(step, time, e))?;
-                    qs.rows.set_w_factor(id);
-                }
-            }
-            qs.solve_in_place(&mut rhs);
-            // The sliding joints' Coulomb term (unsymmetric, left out of the Cholesky tangent)
-            // as a low-rank correction of the solves.
-            let slip = if on.contact {
-                SlipTerm::new(qs, v, p, &states).map_err(|e| fail(step, time, e))?
-            } else {
-                None
-            };
-            if let Some(c) = &slip {
-                c.apply(&mut rhs);
-            }
-            if let Some(f) = flow.as_mut() {
-                let s = qs.structure.as_ref().expect("structure");
-                // W of the full tangent for this iteration only: the kept W is the Cholesky
-                // tangent's.
-                if let Some(c) = &slip {
-                    w_keep.clear();
-                    w_keep.extend_from_slice(qs.rows.w_buffer());
-                    for col in qs.rows.w_buffer().chunks_exact_mut(s.n.max(1)) {
-                        c.apply(col);
-                    }
-                }
-                let reduced = qs.rows.reduce_and_solve(f, v, &s.dof, s.n, &mut rhs);
-                if slip.is_some() {
-                    qs.rows.w_buffer().copy_from_slice(&w_keep);
-                }
-                reduced.map_err(|e| fail(step, time, e))?;
-            }
         }
         let dof = &qs.structure.as_ref().expect("structure").dof;
         if flow.is_none() && iterations < SOLID_LINE_SEARCH_AFTER {
             add_update(v, dof, &rhs, 1.0);
         } else {
-            // A line search on the merit phi = |F|^2 / (tol^2 ref) (+ sum (r_c / allowed_c)^2
-            // when coupled) (Armijo, c = 1e-4): the full step, else (coupled) the first kink
-            // of the pressure law on the way, else halving. The kinks (a cell filling or
-            // draining, a joint opening or closing, sliding or sticking) would otherwise make
-            // Newton cycle.
-            let coupled = flow.is_some();
-            let phi_of = |rows: &FlowRows| if coupled { rows.phi } else { 0.0 };
-            let phi0 = res2 / tol2 + phi_of(&qs.rows);
-            if coupled {
-                qs.rows.save_base();
-            }
-            u_base.clear();
-            u_base.extend_from_slice(&v.u);
-            let kink = if coupled { qs.rows.first_kink() } else { None };
-            let candidates = std::iter::once((1.0, None))
-                .chain(kink.map(|(a, c)| (a, Some(c))))
-                .chain((1..=LINE_SEARCH_HALVINGS).map(|k| (0.5f64.powi(k), None)));
-            rhs_try.resize(n, 0.0);
-            for (alpha, at) in candidates {
-                v.u.copy_from_slice(&u_base);
-                let dof = &qs.structure.as_ref().expect("structure").dof;
-                add_update(v, dof, &rhs, alpha);
-                if coupled {
-                    qs.rows.set_trial(alpha, at);
-                }
-                let e = evaluate(v, qs, &mut flow, held, p, lf, &joint0, &mut rhs_try);
-                evaluated = Some(e);
-                if e.0 / tol2 + phi_of(&qs.rows) <= (1.0 - 1e-4 * alpha) * phi0 {
-                    break;
-                }
-            }
-            // The iterate is the last trial: its residual is the next iteration's.
-            std::mem::swap(&mut rhs, &mut rhs_try);
+            let e = line_search(
+                v, qs, &mut flow, held, p, lf, &joint0, &mut rhs, &mut work, res2, tol2,
+            );
+            evaluated = Some(e);
         }
         prev = Some(states.clone());
         iterations += 1;
@@ -1012,6 +1004,70 @@ pub fn solve(
     })
 }
 
+/// Scratch arrays of a quasi-static solve, kept across its Newton iterations.
+#[derive(Default)]
+struct Work {
+    /// The line search's base displacements and trial residual.
+    u_base: Vec<[f64; 2]>,
+    rhs_try: Vec<f64>,
+    /// The W update's check (G x, W x) and the kept W while the slip term corrects it.
+    gx: Vec<f64>,
+    wx: Vec<f64>,
+    w_keep: Vec<f64>,
+}
+
+/// A line search on the merit phi = |F|^2 / (tol^2 ref) (+ sum (r_c / allowed_c)^2
+/// when coupled) (Armijo, c = 1e-4): the full step, else (coupled) the first kink
+/// of the pressure law on the way, else halving. The kinks (a cell filling or
+/// draining, a joint opening or closing, sliding or sticking) would otherwise make
+/// Newton cycle.
+/// Returns the residual of the accepted trial (the iterate), whose forces are left in `rhs`.
+#[allow(clippy::too_many_arguments)]
+fn line_search(
+    v: &mut SolidView,
+    qs: &mut QuasiStatic,
+    flow: &mut Option<FlowStep>,
+    held: Option<Held>,
+    p: &RunParams,
+    lf: f64,
+    joint0: &[hydrofrac_components::JointState],
+    rhs: &mut Vec<f64>,
+    work: &mut Work,
+    res2: f64,
+    tol2: f64,
+) -> (f64, f64, bool) {
+    let mut evaluated = None;
+    let coupled = flow.is_some();
+    let phi_of = |rows: &FlowRows| if coupled { rows.phi } else { 0.0 };
+    let phi0 = res2 / tol2 + phi_of(&qs.rows);
+    if coupled {
+        qs.rows.save_base();
+    }
+    work.u_base.clear();
+    work.u_base.extend_from_slice(&v.u);
+    let kink = if coupled { qs.rows.first_kink() } else { None };
+    let candidates = std::iter::once((1.0, None))
+        .chain(kink.map(|(a, c)| (a, Some(c))))
+        .chain((1..=LINE_SEARCH_HALVINGS).map(|k| (0.5f64.powi(k), None)));
+    work.rhs_try.resize(rhs.len(), 0.0);
+    for (alpha, at) in candidates {
+        v.u.copy_from_slice(&work.u_base);
+        let dof = &qs.structure.as_ref().expect("structure").dof;
+        add_update(v, dof, rhs, alpha);
+        if coupled {
+            qs.rows.set_trial(alpha, at);
+        }
+        let e = evaluate(v, qs, flow, held, p, lf, joint0, &mut work.rhs_try);
+        evaluated = Some(e);
+        if e.0 / tol2 + phi_of(&qs.rows) <= (1.0 - 1e-4 * alpha) * phi0 {
+            break;
+        }
+    }
+    // The iterate is the last trial: its residual is the next iteration's.
+    std::mem::swap(rhs, &mut work.rhs_try);
+    evaluated.expect("the full step is always tried")
+}
+
 /// u += alpha du on the free dofs.
 fn add_update(v: &mut SolidView, dof: &[usize], du: &[f64], alpha: f64) {
     for i in 0..v.n_nodes() {
@@ -1028,6 +1084,7 @@ fn add_update(v: &mut SolidView, dof: &[usize], du: &[f64], alpha: f64) {
 /// flow rows' pressures), the flow rows, the free dofs' forces into `rhs`; returns the sum of
 /// squared free-dof forces, of squared reactions and loads, and whether the flow rows are
 /// converged.
+#[allow(clippy::too_many_arguments)]
 fn evaluate(
     v: &mut SolidView,
     qs: &mut QuasiStatic,

@@ -59,8 +59,12 @@ pub fn solve_at(
         ),
         None => (None, None),
     };
-    let (step, t1, lf) = (clock.step + 1, t0 + dt, clock.load_factor);
-    solid.stats = quasi_static::solve(&mut solid.view, qs, rows, held, p, lf, step, t1)?;
+    let at = quasi_static::StepEnd {
+        step: clock.step + 1,
+        time: t0 + dt,
+        lf: clock.load_factor,
+    };
+    solid.stats = quasi_static::solve(&mut solid.view, qs, rows, held, p, at)?;
     Ok(())
 }
 

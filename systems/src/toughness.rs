@@ -222,6 +222,318 @@ pub fn max_hoop_stress(k1: f64, k2: f64) -> (f64, f64) {
     (theta, c * (k1 * c * c - 1.5 * k2 * theta.sin()))
 }
 
+/// Element sides inside the rock, as sorted node pairs: the joints' faces, and every inner
+/// side (the internal edges and the joints' faces; the others lie on the outer boundary).
+/// Empty without tips (`any` false).
+struct Sides {
+    faces: std::collections::HashSet<(u32, u32)>,
+    inner: std::collections::HashSet<(u32, u32)>,
+}
+
+impl Sides {
+    fn of(v: &SolidView, any: bool) -> Self {
+        let faces = v
+            .joint_nodes
+            .iter()
+            .filter(|_| any)
+            .flat_map(|j| {
+                [
+                    (j[0].min(j[1]), j[0].max(j[1])),
+                    (j[2].min(j[3]), j[2].max(j[3])),
+                ]
+            })
+            .collect();
+        let inner = if !any {
+            Default::default()
+        } else {
+            let pair = |a: u32, b: u32| (a.min(b), a.max(b));
+            v.edge_nodes
+                .iter()
+                .map(|e| pair(e[0], e[1]))
+                .chain(
+                    v.joint_nodes
+                        .iter()
+                        .flat_map(|j| [pair(j[0], j[1]), pair(j[2], j[3])]),
+                )
+                .collect()
+        };
+        Sides { faces, inner }
+    }
+}
+
+/// The intact edges at the nodes of `shared` (tip candidates): (node, edge), sorted.
+fn edges_at(v: &SolidView, shared: &[(u32, usize, [u32; 2])]) -> Vec<(u32, u32)> {
+    let mut edges_at: Vec<(u32, u32)> = Vec::new();
+    for (k, e) in v.edge_nodes.iter().enumerate() {
+        for &i in e {
+            if shared.binary_search_by_key(&i, |s| s.0).is_ok() {
+                edges_at.push((i, k as u32));
+            }
+        }
+    }
+    edges_at.sort_unstable();
+    edges_at
+}
+
+/// The tip's local axes: its reference position `x`, the fracture's direction `dir` and its
+/// left normal.
+struct TipFrame {
+    x: [f64; 2],
+    dir: [f64; 2],
+    left: [f64; 2],
+}
+
+impl TipFrame {
+    /// A vector in the tip's axes.
+    fn rot(&self, w: [f64; 2]) -> [f64; 2] {
+        let (dir, left) = (self.dir, self.left);
+        [
+            w[0] * dir[0] + w[1] * dir[1],
+            w[0] * left[0] + w[1] * left[1],
+        ]
+    }
+
+    /// A point in the tip's axes, m.
+    fn local(&self, y: [f64; 2]) -> [f64; 2] {
+        let x = self.x;
+        self.rot([y[0] - x[0], y[1] - x[1]])
+    }
+}
+
+/// The weight q of the integrals' disc of `radius` (m) around `x` at point `y`: 1 at the tip,
+/// falling linearly to 0 at the radius.
+fn disc_weight(x: [f64; 2], y: [f64; 2], radius: f64) -> f64 {
+    (1.0 - (y[0] - x[0]).hypot(y[1] - x[1]) / radius).max(0.0)
+}
+
+/// The integrals' disc at a tip: its radius (m), the elements and nodes reached through nodes
+/// inside it (sorted), and the distance to the nearest other fracture (m).
+struct Disc {
+    radius: f64,
+    elements: Vec<u32>,
+    nodes: Vec<u32>,
+    nearest_fracture: f64,
+}
+
+impl Disc {
+    /// Grow the disc of R = [`RADIUS_EDGES`] times `shortest` (m) around tip `node` at `x`
+    /// with the fracture behind along -`dir` (`b`: the joint behind, m). The disc must not
+    /// reach the outer boundary (its tractions are not in J) nor another fracture (the
+    /// near-tip field is then not the single crack's, and its faces are not along x1): it
+    /// shrinks to just inside the nearest such node.
+    fn grow(v: &SolidView, sides: &Sides, node: u32, f: &TipFrame, b: f64, shortest: f64) -> Self {
+        let (x, dir) = (f.x, f.dir);
+        let mut radius = RADIUS_EDGES * shortest;
+        let behind_line = |i: u32| {
+            let y = v.x0[i as usize];
+            let d = [y[0] - x[0], y[1] - x[1]];
+            (dir[0] * d[1] - dir[1] * d[0]).abs() <= 1e-6 * b
+                && d[0] * dir[0] + d[1] * dir[1] <= 1e-9 * b
+        };
+        let mut seen_e: Vec<u32>;
+        let mut seen_n: Vec<u32>;
+        let mut nearest_fracture = f64::INFINITY;
+        loop {
+            (seen_e, seen_n) = (Vec::new(), vec![node]);
+            let mut frontier = vec![node];
+            let mut nearest = f64::INFINITY;
+            while let Some(i) = frontier.pop() {
+                for (e, _) in v.elements_at(i) {
+                    if seen_e.contains(&e) {
+                        continue;
+                    }
+                    seen_e.push(e);
+                    let c = v.conn[e as usize];
+                    for (m, &j) in c.iter().enumerate() {
+                        let k = c[(m + 1) % 3];
+                        let side = (j.min(k), j.max(k));
+                        // An outer boundary side, or a face of another fracture (or of
+                        // this one off the straight line behind the tip).
+                        let fracture =
+                            sides.faces.contains(&side) && ![j, k].iter().all(|&i| behind_line(i));
+                        if fracture || !sides.inner.contains(&side) {
+                            for y in [j, k].map(|i| v.x0[i as usize]) {
+                                let d = (y[0] - x[0]).hypot(y[1] - x[1]);
+                                nearest = nearest.min(d);
+                                if fracture {
+                                    nearest_fracture = nearest_fracture.min(d);
+                                }
+                            }
+                        }
+                        if disc_weight(x, v.x0[j as usize], radius) > 0.0 && !seen_n.contains(&j) {
+                            seen_n.push(j);
+                            frontier.push(j);
+                        }
+                    }
+                }
+            }
+            if nearest >= radius {
+                break;
+            }
+            radius = 0.999 * nearest;
+            if radius <= 0.5 * shortest {
+                break;
+            }
+        }
+        seen_e.sort_unstable();
+        seen_n.sort_unstable();
+        Disc {
+            radius,
+            elements: seen_e,
+            nodes: seen_n,
+            nearest_fracture,
+        }
+    }
+}
+
+/// One tip's geometry: tip `node` at the end of `joint`, whose daughter nodes at its other end
+/// are `pair`.
+fn tip_geometry(
+    v: &SolidView,
+    p: &SolidParams,
+    sides: &Sides,
+    edges_at: &[(u32, u32)],
+    node: u32,
+    joint: usize,
+    pair: [u32; 2],
+) -> TipGeometry {
+    let x = v.x0[node as usize];
+    // The pair behind: both daughters sit at the same reference point.
+    let xb = v.x0[pair[0] as usize];
+    let (dir, b) = unit([x[0] - xb[0], x[1] - xb[1]]);
+    let left = [-dir[1], dir[0]];
+    let jn = hydrofrac_core::view::joint_frame(v, joint).n;
+    // Face p's outward normal points to face q: q is upper when it points left.
+    let q_upper = jn[0] * left[0] + jn[1] * left[1] >= 0.0;
+    let behind = if q_upper {
+        [pair[1], pair[0]]
+    } else {
+        [pair[0], pair[1]]
+    };
+    let lo = edges_at.partition_point(|e| e.0 < node);
+    let hi = edges_at.partition_point(|e| e.0 <= node);
+    let ahead: Vec<(u32, [f64; 2])> = edges_at[lo..hi]
+        .iter()
+        .map(|&(_, k)| {
+            let [e0, e1] = v.edge_nodes[k as usize];
+            let o = v.x0[if e0 == node { e1 } else { e0 } as usize];
+            (k, unit([o[0] - x[0], o[1] - x[1]]).0)
+        })
+        .collect();
+    // The disc: R = 3 edge lengths at the tip (the shortest of the joint behind and
+    // the edges ahead), elements reached through nodes inside it.
+    let shortest = ahead
+        .iter()
+        .map(|&(k, _)| {
+            let [e0, e1] = v.edge_nodes[k as usize].map(|i| v.x0[i as usize]);
+            (e1[0] - e0[0]).hypot(e1[1] - e0[1])
+        })
+        .fold(b, f64::min);
+    let frame = TipFrame { x, dir, left };
+    let disc = Disc::grow(v, sides, node, &frame, b, shortest);
+    let radius = disc.radius;
+    let q = |i: u32| disc_weight(x, v.x0[i as usize], radius);
+    let elements: Vec<(u32, [f64; 2])> = disc
+        .elements
+        .iter()
+        .map(|&e| {
+            let (g, c) = (&v.geom[e as usize], v.conn[e as usize]);
+            let qs = c.map(q);
+            let gx = g[1] * qs[0] + g[2] * qs[1] + g[3] * qs[2];
+            let gy = g[4] * qs[0] + g[5] * qs[1] + g[6] * qs[2];
+            (e, [gx, gy])
+        })
+        .filter(|(_, gq)| gq[0] != 0.0 || gq[1] != 0.0)
+        .collect();
+    let faces: Vec<(usize, [f64; 2])> = v
+        .joint_nodes
+        .iter()
+        .enumerate()
+        .filter(|(_, jn)| jn.iter().any(|i| disc.nodes.binary_search(i).is_ok()))
+        .map(|(k, jn)| (k, [q(jn[0]), q(jn[1])]))
+        .collect();
+    TipGeometry {
+        node,
+        joint,
+        behind,
+        dir,
+        left,
+        b,
+        radius,
+        trusted: disc.nearest_fracture >= 0.999 * TRUSTED_RADIUS_EDGES * shortest,
+        ahead,
+        aux: element_aux(v, p, &elements, &frame),
+        elements,
+        face_aux: face_aux(v, &faces, &frame),
+        faces,
+    }
+}
+
+/// Per element of the disc (with its grad q, global axes), the auxiliary fields integrated
+/// over it ([`TipGeometry`]'s `aux`).
+fn element_aux(
+    v: &SolidView,
+    p: &SolidParams,
+    elements: &[(u32, [f64; 2])],
+    f: &TipFrame,
+) -> Vec<[[f64; 7]; 2]> {
+    elements
+        .iter()
+        .map(|&(e, gq)| {
+            let (g, c) = (&v.geom[e as usize], v.conn[e as usize]);
+            let xs = c.map(|i| f.local(v.x0[i as usize]));
+            let side = if xs.iter().map(|y| y[1]).sum::<f64>() >= 0.0 {
+                1.0
+            } else {
+                -1.0
+            };
+            let ql = f.rot(gq);
+            let w = g[0] / 3.0;
+            let mut out = [[0.0; 7]; 2];
+            for bary in QUADRATURE {
+                let y =
+                    [0, 1].map(|d| bary[0] * xs[0][d] + bary[1] * xs[1][d] + bary[2] * xs[2][d]);
+                for (m, mode) in [Mode::I, Mode::II].into_iter().enumerate() {
+                    let (sa, ha) = auxiliary(mode, y, side, p);
+                    let o = &mut out[m];
+                    for j in 0..2 {
+                        o[j] += w * ha[j][0];
+                        o[2 + j] += w * (sa[0][j] * ql[0] + sa[1][j] * ql[1]);
+                    }
+                    o[4] += w * ql[0] * ha[0][0];
+                    o[5] += w * ql[0] * ha[1][1];
+                    o[6] += w * ql[0] * 0.5 * (ha[0][1] + ha[1][0]);
+                }
+            }
+            out
+        })
+        .collect()
+}
+
+/// Per joint face in the disc (with q at its two ends), the integral of q / (2 sqrt r) dr
+/// along it and +1 when its face q is the upper one ([`TipGeometry`]'s `face_aux`).
+fn face_aux(v: &SolidView, faces: &[(usize, [f64; 2])], f: &TipFrame) -> Vec<(f64, f64)> {
+    faces
+        .iter()
+        .map(|&(k, qab)| {
+            let jn = v.joint_nodes[k];
+            let (ya, yb) = (f.local(v.x0[jn[0] as usize]), f.local(v.x0[jn[1] as usize]));
+            let (ra, rb) = (ya[0].hypot(ya[1]), yb[0].hypot(yb[1]));
+            let (r0, r1, q0, q1) = if ra <= rb {
+                (ra, rb, qab[0], qab[1])
+            } else {
+                (rb, ra, qab[1], qab[0])
+            };
+            let beta = if r1 > r0 { (q1 - q0) / (r1 - r0) } else { 0.0 };
+            let alpha = q0 - beta * r0;
+            let iq = alpha * (r1.sqrt() - r0.sqrt()) + beta * (r1.powf(1.5) - r0.powf(1.5)) / 3.0;
+            // Face q is upper when p's outward normal (towards q) points up.
+            let n = hydrofrac_core::view::joint_frame(v, k).n;
+            (iq, if f.rot(n)[1] >= 0.0 { 1.0 } else { -1.0 })
+        })
+        .collect()
+}
+
 fn unit(d: [f64; 2]) -> ([f64; 2], f64) {
     let l = d[0].hypot(d[1]);
     ([d[0] / l, d[1] / l], l)
@@ -345,233 +657,14 @@ impl Tips {
         let n = v.n_nodes();
         // Joints whose faces share a node there, per node.
         let shared = v.joint_ends();
-        // Element sides inside the rock: the internal edges and the joints' faces (the others
-        // lie on the outer boundary).
-        let faces: std::collections::HashSet<(u32, u32)> = v
-            .joint_nodes
-            .iter()
-            .filter(|_| !shared.is_empty())
-            .flat_map(|j| {
-                [
-                    (j[0].min(j[1]), j[0].max(j[1])),
-                    (j[2].min(j[3]), j[2].max(j[3])),
-                ]
-            })
-            .collect();
-        let inner: std::collections::HashSet<(u32, u32)> = if shared.is_empty() {
-            Default::default()
-        } else {
-            let pair = |a: u32, b: u32| (a.min(b), a.max(b));
-            v.edge_nodes
-                .iter()
-                .map(|e| pair(e[0], e[1]))
-                .chain(
-                    v.joint_nodes
-                        .iter()
-                        .flat_map(|j| [pair(j[0], j[1]), pair(j[2], j[3])]),
-                )
-                .collect()
-        };
-        // Intact edges per node, only for the nodes that matter.
-        let mut edges_at: Vec<(u32, u32)> = Vec::new();
-        for (k, e) in v.edge_nodes.iter().enumerate() {
-            for &i in e {
-                if shared.binary_search_by_key(&i, |s| s.0).is_ok() {
-                    edges_at.push((i, k as u32));
-                }
-            }
-        }
-        edges_at.sort_unstable();
+        let sides = Sides::of(v, !shared.is_empty());
+        let edges_at = edges_at(v, &shared);
         let mut geometry = Vec::new();
         for group in shared.chunk_by(|a, b| a.0 == b.0) {
             let [(node, joint, pair)] = group[..] else {
                 continue;
             };
-            let x = v.x0[node as usize];
-            // The pair behind: both daughters sit at the same reference point.
-            let xb = v.x0[pair[0] as usize];
-            let (dir, b) = unit([x[0] - xb[0], x[1] - xb[1]]);
-            let left = [-dir[1], dir[0]];
-            let jn = hydrofrac_core::view::joint_frame(v, joint).n;
-            // Face p's outward normal points to face q: q is upper when it points left.
-            let q_upper = jn[0] * left[0] + jn[1] * left[1] >= 0.0;
-            let behind = if q_upper {
-                [pair[1], pair[0]]
-            } else {
-                [pair[0], pair[1]]
-            };
-            let lo = edges_at.partition_point(|e| e.0 < node);
-            let hi = edges_at.partition_point(|e| e.0 <= node);
-            let ahead: Vec<(u32, [f64; 2])> = edges_at[lo..hi]
-                .iter()
-                .map(|&(_, k)| {
-                    let [e0, e1] = v.edge_nodes[k as usize];
-                    let o = v.x0[if e0 == node { e1 } else { e0 } as usize];
-                    (k, unit([o[0] - x[0], o[1] - x[1]]).0)
-                })
-                .collect();
-            // The disc: R = 3 edge lengths at the tip (the shortest of the joint behind and
-            // the edges ahead), elements reached through nodes inside it.
-            let shortest = ahead
-                .iter()
-                .map(|&(k, _)| {
-                    let [e0, e1] = v.edge_nodes[k as usize].map(|i| v.x0[i as usize]);
-                    (e1[0] - e0[0]).hypot(e1[1] - e0[1])
-                })
-                .fold(b, f64::min);
-            let mut radius = RADIUS_EDGES * shortest;
-            let q = |i: u32, radius: f64| {
-                let y = v.x0[i as usize];
-                (1.0 - (y[0] - x[0]).hypot(y[1] - x[1]) / radius).max(0.0)
-            };
-            // The disc must not reach the outer boundary (its tractions are not in J) nor
-            // another fracture (the near-tip field is then not the single crack's, and its
-            // faces are not along x1): it shrinks to just inside the nearest such node.
-            let behind_line = |i: u32| {
-                let y = v.x0[i as usize];
-                let d = [y[0] - x[0], y[1] - x[1]];
-                (dir[0] * d[1] - dir[1] * d[0]).abs() <= 1e-6 * b
-                    && d[0] * dir[0] + d[1] * dir[1] <= 1e-9 * b
-            };
-            let mut seen_e: Vec<u32>;
-            let mut seen_n: Vec<u32>;
-            let mut nearest_fracture = f64::INFINITY;
-            loop {
-                (seen_e, seen_n) = (Vec::new(), vec![node]);
-                let mut frontier = vec![node];
-                let mut nearest = f64::INFINITY;
-                while let Some(i) = frontier.pop() {
-                    for (e, _) in v.elements_at(i) {
-                        if seen_e.contains(&e) {
-                            continue;
-                        }
-                        seen_e.push(e);
-                        let c = v.conn[e as usize];
-                        for (m, &j) in c.iter().enumerate() {
-                            let k = c[(m + 1) % 3];
-                            let side = (j.min(k), j.max(k));
-                            // An outer boundary side, or a face of another fracture (or of
-                            // this one off the straight line behind the tip).
-                            let fracture =
-                                faces.contains(&side) && ![j, k].iter().all(|&i| behind_line(i));
-                            if fracture || !inner.contains(&side) {
-                                for y in [j, k].map(|i| v.x0[i as usize]) {
-                                    let d = (y[0] - x[0]).hypot(y[1] - x[1]);
-                                    nearest = nearest.min(d);
-                                    if fracture {
-                                        nearest_fracture = nearest_fracture.min(d);
-                                    }
-                                }
-                            }
-                            if q(j, radius) > 0.0 && !seen_n.contains(&j) {
-                                seen_n.push(j);
-                                frontier.push(j);
-                            }
-                        }
-                    }
-                }
-                if nearest >= radius {
-                    break;
-                }
-                radius = 0.999 * nearest;
-                if radius <= 0.5 * shortest {
-                    break;
-                }
-            }
-            let q = |i: u32| q(i, radius);
-            seen_e.sort_unstable();
-            seen_n.sort_unstable();
-            let elements: Vec<(u32, [f64; 2])> = seen_e
-                .iter()
-                .map(|&e| {
-                    let (g, c) = (&v.geom[e as usize], v.conn[e as usize]);
-                    let qs = c.map(q);
-                    let gx = g[1] * qs[0] + g[2] * qs[1] + g[3] * qs[2];
-                    let gy = g[4] * qs[0] + g[5] * qs[1] + g[6] * qs[2];
-                    (e, [gx, gy])
-                })
-                .filter(|(_, gq)| gq[0] != 0.0 || gq[1] != 0.0)
-                .collect();
-            let faces: Vec<(usize, [f64; 2])> = v
-                .joint_nodes
-                .iter()
-                .enumerate()
-                .filter(|(_, jn)| jn.iter().any(|i| seen_n.binary_search(i).is_ok()))
-                .map(|(k, jn)| (k, [q(jn[0]), q(jn[1])]))
-                .collect();
-            let rot = |w: [f64; 2]| {
-                [
-                    w[0] * dir[0] + w[1] * dir[1],
-                    w[0] * left[0] + w[1] * left[1],
-                ]
-            };
-            let local = |y: [f64; 2]| rot([y[0] - x[0], y[1] - x[1]]);
-            let aux = elements
-                .iter()
-                .map(|&(e, gq)| {
-                    let (g, c) = (&v.geom[e as usize], v.conn[e as usize]);
-                    let xs = c.map(|i| local(v.x0[i as usize]));
-                    let side = if xs.iter().map(|y| y[1]).sum::<f64>() >= 0.0 {
-                        1.0
-                    } else {
-                        -1.0
-                    };
-                    let ql = rot(gq);
-                    let w = g[0] / 3.0;
-                    let mut out = [[0.0; 7]; 2];
-                    for bary in QUADRATURE {
-                        let y = [0, 1]
-                            .map(|d| bary[0] * xs[0][d] + bary[1] * xs[1][d] + bary[2] * xs[2][d]);
-                        for (m, mode) in [Mode::I, Mode::II].into_iter().enumerate() {
-                            let (sa, ha) = auxiliary(mode, y, side, p);
-                            let o = &mut out[m];
-                            for j in 0..2 {
-                                o[j] += w * ha[j][0];
-                                o[2 + j] += w * (sa[0][j] * ql[0] + sa[1][j] * ql[1]);
-                            }
-                            o[4] += w * ql[0] * ha[0][0];
-                            o[5] += w * ql[0] * ha[1][1];
-                            o[6] += w * ql[0] * 0.5 * (ha[0][1] + ha[1][0]);
-                        }
-                    }
-                    out
-                })
-                .collect();
-            let face_aux = faces
-                .iter()
-                .map(|&(k, qab)| {
-                    let jn = v.joint_nodes[k];
-                    let (ya, yb) = (local(v.x0[jn[0] as usize]), local(v.x0[jn[1] as usize]));
-                    let (ra, rb) = (ya[0].hypot(ya[1]), yb[0].hypot(yb[1]));
-                    let (r0, r1, q0, q1) = if ra <= rb {
-                        (ra, rb, qab[0], qab[1])
-                    } else {
-                        (rb, ra, qab[1], qab[0])
-                    };
-                    let beta = if r1 > r0 { (q1 - q0) / (r1 - r0) } else { 0.0 };
-                    let alpha = q0 - beta * r0;
-                    let iq = alpha * (r1.sqrt() - r0.sqrt())
-                        + beta * (r1.powf(1.5) - r0.powf(1.5)) / 3.0;
-                    // Face q is upper when p's outward normal (towards q) points up.
-                    let n = hydrofrac_core::view::joint_frame(v, k).n;
-                    (iq, if rot(n)[1] >= 0.0 { 1.0 } else { -1.0 })
-                })
-                .collect();
-            geometry.push(TipGeometry {
-                node,
-                joint,
-                behind,
-                dir,
-                left,
-                b,
-                radius,
-                trusted: nearest_fracture >= 0.999 * TRUSTED_RADIUS_EDGES * shortest,
-                ahead,
-                elements,
-                aux,
-                faces,
-                face_aux,
-            });
+            geometry.push(tip_geometry(v, p, &sides, &edges_at, node, joint, pair));
         }
         self.near_tip = vec![false; n];
         self.near_marked.clear();
