@@ -239,12 +239,7 @@ impl QuasiStatic {
                 }
             }
         }
-        let dofs_of = |nodes: &[u32]| -> Vec<usize> {
-            nodes
-                .iter()
-                .flat_map(|&i| [dof[2 * i as usize], dof[2 * i as usize + 1]])
-                .collect()
-        };
+        let dofs_of = |nodes: &[u32]| dofs_of(&dof, nodes);
         // Lower triangle (row >= col) of every element and joint block.
         let mut entries = Vec::new();
         let blocks = v
@@ -269,33 +264,7 @@ impl QuasiStatic {
                 pattern.slot(a, b).expect("in pattern")
             }
         };
-        let mut k_el = vec![0.0; pattern.nnz()];
-        for (c, g) in v.conn.iter().zip(&v.geom) {
-            let d = dofs_of(c);
-            let ke = element_stiffness(g, &p.solid);
-            for a in 0..6 {
-                for b in 0..6 {
-                    let s = slot(d[a], d[b]);
-                    if s != NONE {
-                        k_el[s] += ke[(a, b)];
-                    }
-                }
-            }
-        }
-        let joint_slots = v
-            .joint_nodes
-            .iter()
-            .map(|j| {
-                let d = dofs_of(j);
-                let mut s = [NONE; 64];
-                for a in 0..8 {
-                    for b in 0..8 {
-                        s[8 * a + b] = slot(d[a], d[b]);
-                    }
-                }
-                s
-            })
-            .collect();
+        let (k_el, joint_slots) = rock_stiffness(v, p, &dof, pattern.nnz(), slot);
         let symbolic = factorize_symbolic_cholesky(
             pattern.as_ref(),
             Side::Lower,
@@ -1066,6 +1035,50 @@ fn line_search(
     // The iterate is the last trial: its residual is the next iteration's.
     std::mem::swap(rhs, &mut work.rhs_try);
     evaluated.expect("the full step is always tried")
+}
+
+/// The dofs of a list of nodes (`NONE`: prescribed), from the node-and-direction dof map.
+pub(crate) fn dofs_of(dof: &[usize], nodes: &[u32]) -> Vec<usize> {
+    nodes
+        .iter()
+        .flat_map(|&i| [dof[2 * i as usize], dof[2 * i as usize + 1]])
+        .collect()
+}
+
+/// The rock's part of a tangent on a sparse pattern of `nnz` entries, where `slot(a, b)` is
+/// the entry of dofs (a, b) (`NONE`: not stored): every element's CST stiffness summed into
+/// its slots (N/m per m), and per joint the slots of its 8 x 8 block (row-major), where the
+/// joints' springs go at each iterate. One home for the Cholesky tangent and the full LU
+/// tangent.
+pub(crate) fn rock_stiffness(
+    v: &SolidView,
+    p: &RunParams,
+    dof: &[usize],
+    nnz: usize,
+    slot: impl Fn(usize, usize) -> usize,
+) -> (Vec<f64>, Vec<[usize; 64]>) {
+    let mut k_el = vec![0.0; nnz];
+    for (c, g) in v.conn.iter().zip(&v.geom) {
+        let d = dofs_of(dof, c);
+        let ke = element_stiffness(g, &p.solid);
+        for a in 0..6 {
+            for b in 0..6 {
+                let s = slot(d[a], d[b]);
+                if s != NONE {
+                    k_el[s] += ke[(a, b)];
+                }
+            }
+        }
+    }
+    let joint_slots = v
+        .joint_nodes
+        .iter()
+        .map(|j| {
+            let d = dofs_of(dof, j);
+            std::array::from_fn(|i| slot(d[i / 8], d[i % 8]))
+        })
+        .collect();
+    (k_el, joint_slots)
 }
 
 /// u += alpha du on the free dofs.

@@ -44,12 +44,12 @@
 //! rock's E / h) is small.
 
 use crate::fracture::joint_frame;
+use crate::quasi_static::{dofs_of, rock_stiffness};
 use crate::quasi_static_flow::{FACE, FlowRows, FlowStep};
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
 use faer::sparse::SparseColMatRef;
 use faer::sparse::linalg::lu::{NumericLu, SymbolicLu, factorize_symbolic_lu};
 use faer::{Conj, MatMut, Par};
-use hydrofrac_core::element::element_stiffness;
 use hydrofrac_core::params::RunParams;
 use hydrofrac_core::sparse::SparsePattern;
 use hydrofrac_core::view::SolidView;
@@ -82,14 +82,6 @@ pub(crate) struct FullTangent {
     numeric: NumericLu<usize, f64>,
     values: Vec<f64>,
     mem: MemBuffer,
-}
-
-/// The dofs of a list of nodes (`NONE`: prescribed).
-fn dofs_of(dof: &[usize], nodes: &[u32]) -> Vec<usize> {
-    nodes
-        .iter()
-        .flat_map(|&i| [dof[2 * i as usize], dof[2 * i as usize + 1]])
-        .collect()
 }
 
 fn joint_dofs(dof: &[usize], nodes: &[u32; 4]) -> [usize; 8] {
@@ -178,27 +170,7 @@ impl FullTangent {
                 pattern.slot(a, b).expect("in pattern")
             }
         };
-        let mut k_el = vec![0.0; pattern.nnz()];
-        for (c, g) in v.conn.iter().zip(&v.geom) {
-            let d = dofs_of(dof, c);
-            let ke = element_stiffness(g, &p.solid);
-            for a in 0..6 {
-                for b in 0..6 {
-                    let s = slot(d[a], d[b]);
-                    if s != NONE {
-                        k_el[s] += ke[(a, b)];
-                    }
-                }
-            }
-        }
-        let joint_slots = v
-            .joint_nodes
-            .iter()
-            .map(|j| {
-                let d = joint_dofs(dof, j);
-                std::array::from_fn(|i| slot(d[i / 8], d[i % 8]))
-            })
-            .collect();
+        let (k_el, joint_slots) = rock_stiffness(v, p, dof, pattern.nnz(), slot);
         let mut g_slots = Vec::new();
         let mut j_slots = Vec::new();
         if let (Some(f), Some((rows, cols))) = (flow.as_deref(), flow_pattern) {
