@@ -1,12 +1,14 @@
 //! A simulation: the model, its dense views, the schedule, and the step loop.
 //!
 //! Setup turns the scenario into the model ([`crate::setup`]) and typed run parameters
-//! ([`RunParams`]); from then on only the parameters are read. The step is the literal list of
-//! [`SystemId::ORDER`]: each system is a function in `systems/` called here with what it reads
-//! and writes. The views live here: rebuilt from the components when the model's topology
-//! generation moves (after `split`, or an [`Simulation::edit_model`]).
+//! ([`RunParams`]), which do not change after it; what changes is state (the clock, the views,
+//! the parts of `systems/`). The step is the literal list of [`SystemId::ORDER`]: each system
+//! is a function in `systems/` called here with what it reads and writes; the loop owns only
+//! the order ([`Simulation::run_system`]). The views live here: rebuilt from the components
+//! when the model's topology generation moves (after `split`, or an
+//! [`Simulation::edit_model`]). Checkpoints of the state are `crate::checkpoint`'s.
 
-use crate::checkpoint::{Header, State, WorldRecords};
+use crate::checkpoint::CheckpointStats;
 use crate::schedule::{Schedule, Status};
 use hydrofrac_core::error::SetupError;
 use hydrofrac_core::fractures::Placed;
@@ -36,44 +38,33 @@ pub type StopFlag = std::sync::Arc<std::sync::atomic::AtomicUsize>;
 
 pub struct Simulation {
     /// The scenario as given (read by reports only; the step reads `params`).
-    scenario: Scenario,
-    model: Model,
-    params: RunParams,
-    solid: SolidPart,
-    flow: Option<FlowPart>,
-    fracture: FractureState,
-    clock: Clock,
-    schedule: Schedule,
-    output: Option<Outputs>,
+    pub(crate) scenario: Scenario,
+    pub(crate) model: Model,
+    pub(crate) params: RunParams,
+    pub(crate) solid: SolidPart,
+    pub(crate) flow: Option<FlowPart>,
+    pub(crate) fracture: FractureState,
+    pub(crate) clock: Clock,
+    pub(crate) schedule: Schedule,
+    pub(crate) output: Option<Outputs>,
     /// Pre-existing fractures as placed on the mesh.
-    placed: Vec<Placed>,
+    pub(crate) placed: Vec<Placed>,
     /// The rock mesh's kind and quality (default without a rock).
-    mesh_info: crate::setup::MeshInfo,
+    pub(crate) mesh_info: crate::setup::MeshInfo,
     /// How hard the current quasi-static step was (the adaptive step's input), and the cells
     /// at its start.
-    effort: monitor::Effort,
-    cells_at_start: usize,
+    pub(crate) effort: monitor::Effort,
+    pub(crate) cells_at_start: usize,
     /// Checked before every step ([`Simulation::set_stop`]).
-    stop: Option<StopFlag>,
+    pub(crate) stop: Option<StopFlag>,
     /// The signal number that stopped the run, if one did.
-    interrupted_by: Option<usize>,
+    pub(crate) interrupted_by: Option<usize>,
     /// Systems switched off on the command line (part of a checkpoint's fingerprint).
-    extra_disable: Vec<String>,
+    pub(crate) extra_disable: Vec<String>,
     /// `output.checkpoint_every: Time`: the simulated time the next checkpoint is due at, s.
-    next_checkpoint_time: f64,
+    pub(crate) next_checkpoint_time: f64,
     /// Checkpoints written by this process.
-    checkpoints: CheckpointStats,
-}
-
-/// What writing checkpoints cost this process.
-#[derive(Clone, Copy, Debug, Default, serde::Serialize)]
-pub struct CheckpointStats {
-    /// Checkpoints written, the step of the last one, its size (bytes) and the wall time of
-    /// all of them (state capture, encoding and the atomic write), s.
-    pub written: u64,
-    pub last_step: Option<u64>,
-    pub last_bytes: u64,
-    pub seconds: f64,
+    pub(crate) checkpoints: CheckpointStats,
 }
 
 /// Which pass of the schedule's systems a call is part of.
@@ -244,155 +235,6 @@ impl Simulation {
             params: &self.params,
         };
         output::write(&mut self.model, self.flow.as_mut(), &scene, out, frame, row)
-    }
-
-    /// Whether `output.checkpoint_every` asks for a checkpoint after the step just taken (and
-    /// moves the next due time on).
-    fn checkpoint_due(&mut self) -> bool {
-        use hydrofrac_core::scenario::CheckpointEvery;
-        match self.params.output.checkpoint_every {
-            None => false,
-            Some(CheckpointEvery::Steps(n)) => self.clock.step.is_multiple_of(n),
-            Some(CheckpointEvery::Time(t)) => {
-                if self.clock.time < self.next_checkpoint_time {
-                    return false;
-                }
-                self.next_checkpoint_time = ((self.clock.time / t).floor() + 1.0) * t;
-                true
-            }
-        }
-    }
-
-    /// The state between steps as a checkpoint ([`crate::checkpoint`]), read as it is in
-    /// memory: nothing is synced, so taking it does not change the run.
-    pub fn checkpoint_state(&self) -> Result<(Header, State), String> {
-        let m = &self.model;
-        let header = Header {
-            crate_version: env!("CARGO_PKG_VERSION").to_string(),
-            scenario_name: self.scenario.name.clone(),
-            fingerprint: crate::checkpoint::fingerprint(&self.scenario, &self.extra_disable),
-            step: self.clock.step,
-            time: self.clock.time,
-        };
-        let flow = self.flow.clone();
-        let state = State {
-            world: WorldRecords::capture(m)?,
-            topology_generation: m.topology_generation,
-            next_ids: [
-                m.next_node_id,
-                m.next_elem_id,
-                m.next_edge_id,
-                m.next_cell_id,
-                m.next_joint_id,
-            ],
-            clock: self.clock.clone(),
-            solid_view: self.solid.view.clone(),
-            solid_stats: self.solid.stats,
-            dt_crit: self.solid.dt_crit,
-            qs_counts: self.solid.quasi_static.as_ref().map(|q| q.counts),
-            flow,
-            fracture: self.fracture.clone(),
-            effort: self.effort,
-            cells_at_start: self.cells_at_start,
-            next_checkpoint_time: self.next_checkpoint_time,
-        };
-        Ok((header, state))
-    }
-
-    /// Continue from a checkpoint's state: this simulation must be freshly set up from the
-    /// scenario the checkpoint was written for ([`crate::checkpoint::check_scenario`]).
-    pub fn restore(&mut self, state: State) -> Result<(), String> {
-        let qs = (state.qs_counts.is_some(), self.solid.quasi_static.is_some());
-        if qs.0 != qs.1 {
-            return Err("its flow network or solid scheme differs from this scenario's".into());
-        }
-        self.take_state(state)
-    }
-
-    /// Take over the model and the state of another run of the same model (the production
-    /// stage starts from the end of a stimulation, `crate::production`): as
-    /// [`Simulation::restore`], but the other run's solid scheme may differ from this one's;
-    /// its step length and adaptive-step state are taken too and are for the caller to set.
-    pub fn adopt(&mut self, state: State) -> Result<(), String> {
-        self.take_state(state)
-    }
-
-    fn take_state(&mut self, state: State) -> Result<(), String> {
-        let parts = (state.flow.is_some(), self.flow.is_some());
-        if parts.0 != parts.1 {
-            return Err("its flow network or solid scheme differs from this scenario's".into());
-        }
-        let m = &mut self.model;
-        m.world = state.world.restore()?;
-        m.topology_generation = state.topology_generation;
-        [
-            m.next_node_id,
-            m.next_elem_id,
-            m.next_edge_id,
-            m.next_cell_id,
-            m.next_joint_id,
-        ] = state.next_ids;
-        self.clock = state.clock;
-        self.solid.view = state.solid_view;
-        self.solid.stats = state.solid_stats;
-        self.solid.dt_crit = state.dt_crit;
-        if let (Some(q), Some(c)) = (self.solid.quasi_static.as_mut(), state.qs_counts) {
-            q.counts = c;
-        }
-        if let (Some(f), Some(mut s)) = (self.flow.as_mut(), state.flow) {
-            if f.coupling.is_some() != s.coupling.is_some() {
-                return Err("its coupling differs from this scenario's".into());
-            }
-            if f.implicit.is_some() != s.implicit.is_some() {
-                return Err("its flow scheme differs from this scenario's".into());
-            }
-            // The network table is setup's, not saved.
-            s.network = std::mem::take(&mut f.network);
-            *f = s;
-        }
-        self.fracture = state.fracture;
-        self.fracture.tips.invalidate();
-        if self.solid.quasi_static.is_none() {
-            self.fracture.screen.track_motion(&mut self.solid.view);
-        }
-        self.effort = state.effort;
-        self.cells_at_start = state.cells_at_start;
-        self.next_checkpoint_time = state.next_checkpoint_time;
-        let has_load = self.solid.view.has_load();
-        self.schedule.set_data(SystemId::ExternalLoad, has_load);
-        Ok(())
-    }
-
-    /// Write a checkpoint of the state now into the output folder (`checkpoint.ckpt`, the one
-    /// before renamed to `checkpoint.prev.ckpt`; both listed in the folder's manifest; each
-    /// written atomically). Without an output folder nothing is written. Returns the file.
-    pub fn write_checkpoint(&mut self) -> Result<Option<std::path::PathBuf>, RunError> {
-        let Some(out) = self.output.as_ref() else {
-            return Ok(None);
-        };
-        let t = std::time::Instant::now();
-        let (header, state) = self
-            .checkpoint_state()
-            .map_err(|e| RunError::Io(std::io::Error::other(format!("checkpoint: {e}"))))?;
-        let bytes = crate::checkpoint::encode(&header, &state)
-            .map_err(|e| RunError::Io(std::io::Error::other(format!("checkpoint: {e}"))))?;
-        let path = out.claim(crate::checkpoint::FILE)?;
-        let prev = out.claim(crate::checkpoint::PREV_FILE)?;
-        if path.exists() {
-            std::fs::rename(&path, &prev)?;
-        }
-        hydrofrac_core::output::write_atomic(&path, &bytes)?;
-        let c = &mut self.checkpoints;
-        c.written += 1;
-        c.last_step = Some(self.clock.step);
-        c.last_bytes = bytes.len() as u64;
-        c.seconds += t.elapsed().as_secs_f64();
-        Ok(Some(path))
-    }
-
-    /// What writing checkpoints cost so far.
-    pub fn checkpoint_stats(&self) -> CheckpointStats {
-        self.checkpoints
     }
 
     /// One step: every enabled system of the schedule in order, each in its span.
