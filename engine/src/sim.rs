@@ -85,8 +85,11 @@ fn commit_step(qs: &quasi_static::QuasiStatic, f: &mut FlowPart, p: &RunParams, 
 
 impl Simulation {
     /// Set up a validated scenario; `extra_disable` adds system names to switch off.
-    pub fn new(scenario: Scenario, extra_disable: &[String]) -> Result<Self, SetupError> {
-        scenario.validate()?;
+    pub fn new(
+        scenario: hydrofrac_core::scenario::ValidScenario,
+        extra_disable: &[String],
+    ) -> Result<Self, SetupError> {
+        let scenario = scenario.into_inner();
         let (mut model, placed, mesh_info) = crate::setup::build_model(&scenario)?;
         let mut p = RunParams::resolve(&scenario, model.material);
         let has_solid = scenario.mesh.is_some();
