@@ -42,7 +42,7 @@ fn lattice(n: usize) -> Simulation {
         End::Time(1.0),
         WATER,
     );
-    Simulation::new(sc, &[]).unwrap()
+    Simulation::new(sc.validate().unwrap(), &[]).unwrap()
 }
 
 fn sizes() -> Vec<usize> {

@@ -87,7 +87,7 @@ fn bench(c: &mut Criterion) {
                 shear_stiffness: None,
             });
         }
-        Simulation::new(sc, &[]).unwrap()
+        Simulation::new(sc.validate().unwrap(), &[]).unwrap()
     };
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(1)

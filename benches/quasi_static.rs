@@ -30,7 +30,7 @@ fn quasi_static(c: &mut Criterion) {
         Damping::Local(0.8),
     );
     sc.time.solid_scheme = SolidScheme::QuasiStatic;
-    let sim = Simulation::new(sc, &[]).unwrap();
+    let sim = Simulation::new(sc.validate().unwrap(), &[]).unwrap();
     let mut v = sim.solid().clone();
     let p = sim.params().clone();
     assert_eq!(v.n_elems(), 20_000);
@@ -75,7 +75,7 @@ fn quasi_static(c: &mut Criterion) {
 fn frictional(c: &mut Criterion) {
     use hydrofrac::verify::slip_cases::{R, STIFFNESS_FACTOR, SlipMesh, slip_scenario};
     let sc = slip_scenario(SlipMesh::Conforming, 1.0 / 80.0, R, STIFFNESS_FACTOR);
-    let sim = Simulation::new(sc, &[]).unwrap();
+    let sim = Simulation::new(sc.validate().unwrap(), &[]).unwrap();
     let (v0, p) = (sim.solid().clone(), sim.params().clone());
     let mut group = c.benchmark_group("quasi_static_slip_160_joints");
     group

@@ -38,7 +38,7 @@ fn solid_step(c: &mut Criterion) {
         let elems = 2 * n * n;
         group.throughput(Throughput::Elements(elems as u64));
         let sc = seed_block(h, End::Time(1e9), Damping::Local(0.8));
-        let mut sim = Simulation::new(sc, &[]).unwrap();
+        let mut sim = Simulation::new(sc.validate().unwrap(), &[]).unwrap();
         let mesh = TriMesh::regular(100.0, 100.0, h, [0.0, 0.0]).unwrap();
         let bcs: Vec<[Option<f64>; 2]> = (0..sim.solid().n_nodes())
             .map(|i| {

@@ -4,7 +4,7 @@ use crate::error::SetupError;
 use crate::output::folder::{FolderError, Plan};
 use crate::output::{Outputs, write_atomic};
 use crate::params::Criterion;
-use crate::scenario::Scenario;
+use crate::scenario::{Scenario, ValidScenario};
 use crate::schedule::Status;
 use crate::sim::{Finish, Simulation};
 use crate::systems::RunError;
@@ -98,8 +98,8 @@ pub fn run_file(path: &Path, opts: &RunOptions) -> Result<RunReport, DriverError
     run_scenario(scenario, opts)
 }
 
-/// Run a parsed scenario.
-pub fn run_scenario(scenario: Scenario, opts: &RunOptions) -> Result<RunReport, DriverError> {
+/// Run a validated scenario.
+pub fn run_scenario(scenario: ValidScenario, opts: &RunOptions) -> Result<RunReport, DriverError> {
     let out = opts
         .out
         .clone()
@@ -108,7 +108,6 @@ pub fn run_scenario(scenario: Scenario, opts: &RunOptions) -> Result<RunReport, 
         Some(b) => (b, "set by --max-memory"),
         None => crate::resources::default_limit(),
     };
-    scenario.validate()?;
     crate::resources::check(&scenario, limit, source)?;
     let mut sim = Simulation::new(scenario, &opts.disable)?;
     let start_network = network_now(&sim);

@@ -151,7 +151,9 @@ pub fn production_sim(
     start: Option<SimState>,
     stop: Option<&StopFlag>,
 ) -> Result<Simulation, ProductionError> {
-    let mut sim = Simulation::new(production_scenario(sc), &["flow_substeps".to_string()])?;
+    // The run's scenario, edited for the production stage: validated again.
+    let edited = production_scenario(sc).validate()?;
+    let mut sim = Simulation::new(edited, &["flow_substeps".to_string()])?;
     if let Some(stop) = stop {
         sim.set_stop(stop.clone());
     }

@@ -6,8 +6,10 @@ use hydrofrac::scenario::Scenario;
 use hydrofrac::sim::Simulation;
 
 fn solve(text: &str) -> Simulation {
-    let sc = Scenario::parse(text, "test.ron").unwrap();
-    sc.validate().unwrap();
+    let sc = Scenario::parse(text, "test.ron")
+        .unwrap()
+        .validate()
+        .unwrap();
     let mut sim = Simulation::new(sc, &[]).unwrap();
     let finish = sim.run(|_| {}).unwrap();
     assert_eq!(
@@ -108,6 +110,9 @@ fn pin_far_from_any_node_is_rejected() {
         "pin.ron",
     )
     .unwrap();
-    let e = Simulation::new(sc, &[]).err().unwrap().to_string();
+    let e = Simulation::new(sc.validate().unwrap(), &[])
+        .err()
+        .unwrap()
+        .to_string();
     assert!(e.contains("pins[0].at"), "{e}");
 }

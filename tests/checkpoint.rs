@@ -88,11 +88,11 @@ fn assert_same(a: &[(&str, Vec<u64>)], b: &[(&str, Vec<u64>)], what: &str) {
 /// simulation and run that to the end: every state bit must match. Returns (checkpoint step,
 /// splits at it, splits at the end, checkpoint bytes).
 fn restart_matches(sc: &Scenario, after_splits: usize, extra: u64) -> (u64, usize, usize, usize) {
-    let mut whole = Simulation::new(sc.clone(), &[]).unwrap();
+    let mut whole = Simulation::new(sc.clone().validate().unwrap(), &[]).unwrap();
     assert_eq!(whole.run(|_| {}).unwrap(), Finish::EndTime);
     let end = state_bits(&whole);
 
-    let mut first = Simulation::new(sc.clone(), &[]).unwrap();
+    let mut first = Simulation::new(sc.clone().validate().unwrap(), &[]).unwrap();
     while first.fracture().splits < after_splits {
         first.step_once().unwrap();
         assert!(first.finish().is_none(), "no split before the end");
@@ -110,7 +110,7 @@ fn restart_matches(sc: &Scenario, after_splits: usize, extra: u64) -> (u64, usiz
     assert_eq!(first.run(|_| {}).unwrap(), Finish::EndTime);
     assert_same(&end, &state_bits(&first), "the checkpointed run");
 
-    let mut restarted = Simulation::new(sc.clone(), &[]).unwrap();
+    let mut restarted = Simulation::new(sc.clone().validate().unwrap(), &[]).unwrap();
     restarted.restore(state).unwrap();
     assert_eq!(restarted.step(), header.step);
     // Every saved field is restored: the restored simulation saves the same bytes (a state
@@ -434,12 +434,12 @@ fn interrupted_run_writes_a_checkpoint_to_resume_from() {
     let sc = pumped(0.12, ", flow_scheme: Implicit")
         .with_overrides(&["output.checkpoint_every=Steps(1000000)".into()])
         .unwrap();
-    let mut whole = Simulation::new(sc.clone(), &[]).unwrap();
+    let mut whole = Simulation::new(sc.clone().validate().unwrap(), &[]).unwrap();
     whole.run(|_| {}).unwrap();
     let end = state_bits(&whole);
 
     let dir = tmp("interrupt");
-    let mut first = Simulation::new(sc.clone(), &[]).unwrap();
+    let mut first = Simulation::new(sc.clone().validate().unwrap(), &[]).unwrap();
     let out = hydrofrac::output::Outputs::create(
         &dir,
         &first.params().output.fields,
@@ -461,7 +461,7 @@ fn interrupted_run_writes_a_checkpoint_to_resume_from() {
     assert_eq!(h.step, k);
     checkpoint::check_scenario(&dir, &h, &sc, &[]).unwrap();
 
-    let mut restarted = Simulation::new(sc, &[]).unwrap();
+    let mut restarted = Simulation::new(sc.validate().unwrap(), &[]).unwrap();
     restarted.restore(state).unwrap();
     assert_eq!(restarted.run(|_| {}).unwrap(), Finish::EndTime);
     assert_same(
@@ -485,9 +485,9 @@ fn quasi_static_restart_agrees_to_solver_tolerance() {
         "qs.ron",
     )
     .unwrap();
-    let mut whole = Simulation::new(sc.clone(), &[]).unwrap();
+    let mut whole = Simulation::new(sc.clone().validate().unwrap(), &[]).unwrap();
     whole.run(|_| {}).unwrap();
-    let mut first = Simulation::new(sc.clone(), &[]).unwrap();
+    let mut first = Simulation::new(sc.clone().validate().unwrap(), &[]).unwrap();
     while first.fracture().splits == 0 {
         first.step_once().unwrap();
     }
@@ -495,7 +495,7 @@ fn quasi_static_restart_agrees_to_solver_tolerance() {
     let (h, state) = first.checkpoint_state().unwrap();
     let bytes = checkpoint::encode(&h, &state).unwrap();
     let (_, state) = checkpoint::decode(&bytes).unwrap();
-    let mut restarted = Simulation::new(sc, &[]).unwrap();
+    let mut restarted = Simulation::new(sc.validate().unwrap(), &[]).unwrap();
     restarted.restore(state).unwrap();
     restarted.run(|_| {}).unwrap();
     assert_eq!(restarted.step(), whole.step());
@@ -522,7 +522,7 @@ fn quasi_static_restart_agrees_to_solver_tolerance() {
 fn checkpoint_every_is_validated() {
     let base = pumped(0.01, "");
     assert_eq!(base.output.checkpoint_every, None);
-    base.validate().unwrap();
+    base.clone().validate().unwrap();
     for (set, why) in [
         ("output.checkpoint_every=Steps(0)", "at least 1"),
         ("output.checkpoint_every=Time(0.0)", "> 0 s"),

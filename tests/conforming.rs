@@ -92,7 +92,7 @@ fn an_inclined_crack_opens_along_its_segment_as_sneddon_says() {
 #[test]
 fn crossing_fractures_share_a_node_and_their_cells_connect() {
     let sc = Scenario::parse(&crossing_scene(CONFORMING, "Time(1e-3)"), "crossing.ron").unwrap();
-    let sim = Simulation::new(sc, &[]).unwrap();
+    let sim = Simulation::new(sc.validate().unwrap(), &[]).unwrap();
     assert_eq!(sim.placed().len(), 2);
     for f in sim.placed() {
         assert!(f.snap_error < 1e-12 && f.zigzag_deg < 1e-6, "{f:?}");
@@ -113,7 +113,14 @@ fn crossing_fractures_share_a_node_and_their_cells_connect() {
 fn the_same_scenario_gives_the_same_mesh_bits() {
     let text = crossing_scene(CONFORMING, "Time(1e-3)");
     let mesh = || {
-        let sim = Simulation::new(Scenario::parse(&text, "crossing.ron").unwrap(), &[]).unwrap();
+        let sim = Simulation::new(
+            Scenario::parse(&text, "crossing.ron")
+                .unwrap()
+                .validate()
+                .unwrap(),
+            &[],
+        )
+        .unwrap();
         let v = sim.solid();
         let x: Vec<[u64; 2]> = v.x0.iter().map(|p| p.map(f64::to_bits)).collect();
         (x, v.conn.clone())
@@ -141,7 +148,7 @@ fn summary_reports_the_mesh_and_warns_only_about_zigzags() {
             quiet: true,
             ..Default::default()
         };
-        run_scenario(sc, &opts).unwrap().summary
+        run_scenario(sc.validate().unwrap(), &opts).unwrap().summary
     };
     let s = run(CONFORMING, "conforming");
     let m = &s["mesh"];
@@ -199,7 +206,7 @@ fn a_random_network_goes_onto_a_conforming_mesh_with_one_field() {
     let conforming = "Conforming(width: 40.0, height: 40.0, h: 1.0)";
     let (sc, generated) = clean_random_network(|seed| scene(conforming, seed), 14, 2.0);
     let seed = sc.fracture.as_ref().unwrap().random.as_ref().unwrap().seed;
-    let sim = Simulation::new(sc, &[]).unwrap();
+    let sim = Simulation::new(sc.validate().unwrap(), &[]).unwrap();
     assert_eq!(sim.placed().len(), 14);
     let exact = sim.placed().iter().filter(|p| p.snap_error < 1e-9).count();
     for p in sim.placed() {
@@ -216,7 +223,7 @@ fn a_random_network_goes_onto_a_conforming_mesh_with_one_field() {
         "rock_network.ron",
     )
     .unwrap();
-    let sim = Simulation::new(regular, &[]).unwrap();
+    let sim = Simulation::new(regular.validate().unwrap(), &[]).unwrap();
     let zigzags = sim.placed().iter().filter(|p| p.zigzag_deg > 1.0).count();
     assert!(zigzags >= 7, "{zigzags} of 14 zigzag on the regular mesh");
 }

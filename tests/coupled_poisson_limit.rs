@@ -6,7 +6,7 @@
 //! `material.poisson`. (Measured peaks at nu 0.49: 19.4 MPa explicit, above the 19.0 MPa this
 //! test allows; at 0.499: 34.9 MPa.)
 
-use hydrofrac::scenario::{MAX_COUPLED_POISSON, Scenario};
+use hydrofrac::scenario::{MAX_COUPLED_POISSON, Scenario, ValidScenario};
 use hydrofrac::sim::{Finish, Simulation};
 
 /// `src/verify/extreme_cases.rs` `COUPLED`: a pump (p_max = 18 MPa) into a 5 m pre-existing
@@ -34,7 +34,7 @@ const COUPLED: &str = r#"(
 
 const P_MAX: f64 = 18e6;
 
-fn scene(nu: f64, sets: &[&str]) -> Result<Scenario, String> {
+fn scene(nu: f64, sets: &[&str]) -> Result<ValidScenario, String> {
     let mut all = vec![
         format!("material.poisson={nu}"),
         "time.end=Time(0.06)".to_string(),
@@ -44,12 +44,11 @@ fn scene(nu: f64, sets: &[&str]) -> Result<Scenario, String> {
     let sc = Scenario::parse(COUPLED, "coupled.ron")
         .and_then(|s| s.with_overrides(&all))
         .map_err(|e| e.to_string())?;
-    sc.validate().map_err(|e| e.to_string())?;
-    Ok(sc)
+    sc.validate().map_err(|e| e.to_string())
 }
 
 /// The largest fracture pressure after any step and the largest one at the end, Pa.
-fn run(sc: Scenario) -> (f64, f64) {
+fn run(sc: ValidScenario) -> (f64, f64) {
     let mut sim = Simulation::new(sc, &[]).unwrap();
     let max_p = |s: &Simulation| {
         s.flow()

@@ -27,7 +27,7 @@ fn scene(end: f64, extra: &str) -> Scenario {
 /// leak, e.g. a volume change without rebasing the excess mass or a new cell created full.
 #[test]
 fn coupled_run_conserves_mass_and_grows_the_fracture() {
-    let mut sim = Simulation::new(scene(0.11, ""), &[]).unwrap();
+    let mut sim = Simulation::new(scene(0.11, "").validate().unwrap(), &[]).unwrap();
     assert!(sim.schedule().is_enabled(SystemId::FluidPressure));
     let cells0 = sim.flow().unwrap().view.n_cells();
     assert_eq!(cells0, 10);
@@ -78,10 +78,18 @@ fn coupled_run_conserves_mass_and_grows_the_fracture() {
 /// completes; the schedule reports what was off; without the criterion nothing splits.
 #[test]
 fn ablation_runs_complete() {
-    let mut sim = Simulation::new(scene(0.02, ""), &["contact".to_string()]).unwrap();
+    let mut sim = Simulation::new(
+        scene(0.02, "").validate().unwrap(),
+        &["contact".to_string()],
+    )
+    .unwrap();
     assert!(!sim.schedule().is_enabled(SystemId::Contact));
     assert_eq!(sim.run(|_| {}).unwrap(), Finish::EndTime);
-    let mut sim = Simulation::new(scene(0.11, ""), &["fracture_criterion".to_string()]).unwrap();
+    let mut sim = Simulation::new(
+        scene(0.11, "").validate().unwrap(),
+        &["fracture_criterion".to_string()],
+    )
+    .unwrap();
     assert!(!sim.schedule().is_enabled(SystemId::FractureCriterion));
     assert_eq!(sim.run(|_| {}).unwrap(), Finish::EndTime);
     assert_eq!(sim.fracture().splits, 0);
@@ -91,7 +99,8 @@ fn ablation_runs_complete() {
 /// stops with the step, the critical cell and the quantity, never with NaN.
 #[test]
 fn substep_cap_stops_with_a_clear_message() {
-    let mut sim = Simulation::new(scene(0.05, ", max_substeps: 200"), &[]).unwrap();
+    let mut sim =
+        Simulation::new(scene(0.05, ", max_substeps: 200").validate().unwrap(), &[]).unwrap();
     match sim.run(|_| {}) {
         Err(RunError::BlowUp {
             quantity,
@@ -126,7 +135,7 @@ fn substep_cap_stops_with_a_clear_message() {
 #[test]
 fn explicit_and_implicit_schemes_agree() {
     let run = |extra: &str| {
-        let mut sim = Simulation::new(scene(0.13, extra), &[]).unwrap();
+        let mut sim = Simulation::new(scene(0.13, extra).validate().unwrap(), &[]).unwrap();
         assert_eq!(sim.run(|_| {}).unwrap(), Finish::EndTime);
         let (inj, _, _, err) = sim.flow_balance().unwrap();
         assert!(err < 1e-9, "{extra}: mass balance error {err:e}");
@@ -160,7 +169,7 @@ fn explicit_and_implicit_schemes_agree() {
 /// with 1 and 2 threads: displacements, fluid masses, the opened cells and the pump's volume.
 #[test]
 fn coupled_run_is_deterministic_across_thread_counts() {
-    let make = || Simulation::new(scene(0.1, ""), &[]).unwrap();
+    let make = || Simulation::new(scene(0.1, "").validate().unwrap(), &[]).unwrap();
     let (a, b) = (bits::run_bits(1, make), bits::run_bits(2, make));
     assert!(
         a.2 >= 1,

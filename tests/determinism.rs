@@ -22,7 +22,7 @@ fn run(threads: usize) -> (Vec<[f64; 2]>, Vec<[f64; 3]>, f64) {
         .build()
         .unwrap();
     pool.install(|| {
-        let mut sim = Simulation::new(sc, &[]).unwrap();
+        let mut sim = Simulation::new(sc.validate().unwrap(), &[]).unwrap();
         sim.run(|_| {}).unwrap();
         (
             sim.solid().u.clone(),
@@ -81,7 +81,7 @@ fn flow_one_and_two_threads_give_identical_bits() {
             .build()
             .unwrap();
         pool.install(|| {
-            let mut sim = Simulation::new(sc, &[]).unwrap();
+            let mut sim = Simulation::new(sc.validate().unwrap(), &[]).unwrap();
             sim.run(|_| {}).unwrap();
             let f = sim.flow().unwrap();
             (
@@ -110,7 +110,14 @@ fn flow_one_and_two_threads_give_identical_bits() {
 fn splitting_unequal_elements_gives_the_same_bits_every_run() {
     let text = scenes::INCLINED_CRACK;
     let run = || {
-        let mut sim = Simulation::new(Scenario::parse(text, "inclined.ron").unwrap(), &[]).unwrap();
+        let mut sim = Simulation::new(
+            Scenario::parse(text, "inclined.ron")
+                .unwrap()
+                .validate()
+                .unwrap(),
+            &[],
+        )
+        .unwrap();
         let mass: Vec<u64> = sim.solid().mass.iter().map(|m| m.to_bits()).collect();
         sim.run(|_| {}).unwrap();
         let u: Vec<u64> = sim

@@ -57,7 +57,9 @@ fn single_fracture(n: usize, initial: InitialFluid, end: End) -> Scenario {
 #[test]
 fn one_long_step_reaches_the_direct_steady_solution() {
     let mut direct = Simulation::new(
-        single_fracture(40, InitialFluid::Full(0.0), End::SteadyDirect),
+        single_fracture(40, InitialFluid::Full(0.0), End::SteadyDirect)
+            .validate()
+            .unwrap(),
         &[],
     )
     .unwrap();
@@ -68,7 +70,7 @@ fn one_long_step_reaches_the_direct_steady_solution() {
         single_fracture(40, InitialFluid::Full(0.0), End::Time(8.0 * dt)),
         dt,
     );
-    let mut sim = Simulation::new(sc, &[]).unwrap();
+    let mut sim = Simulation::new(sc.validate().unwrap(), &[]).unwrap();
     sim.run(|_| {}).unwrap();
     assert_eq!(sim.step(), 8);
     let f = sim.flow().unwrap();
@@ -156,7 +158,9 @@ fn symbolic_factorisation_reused_until_the_pattern_changes() {
     let mut solver = ImplicitSolver::new();
     for n in [20, 40] {
         let mut sim = Simulation::new(
-            single_fracture(n, InitialFluid::Full(0.0), End::Time(1.0)),
+            single_fracture(n, InitialFluid::Full(0.0), End::Time(1.0))
+                .validate()
+                .unwrap(),
             &[],
         )
         .unwrap();
@@ -181,7 +185,7 @@ fn newton_failure_names_step_cell_and_residual() {
     let (sim, ..) = fc::mass_balance_run(2.0, Some(Some(0.1))).unwrap();
     let mut sc = sim.scenario().clone();
     sc.time.dt = Some(0.1);
-    let mut sim = Simulation::new(sc, &[]).unwrap();
+    let mut sim = Simulation::new(sc.validate().unwrap(), &[]).unwrap();
     sim.flow_mut().unwrap().implicit.as_mut().unwrap().max_iter = 1;
     let err = loop {
         match sim.step_once() {
@@ -235,7 +239,10 @@ fn scenario_switch() {
     let sc = Scenario::load(path, &["time.flow_scheme=\"Implicit\"".into()]).unwrap();
     assert_eq!(sc.time.flow_scheme, FlowScheme::Implicit);
     assert!(Scenario::load(path, &["time.flow_scheme=\"Crank\"".into()]).is_err());
-    let mut sc = Scenario::load(std::path::Path::new("scenarios/insitu_stress.ron"), &[]).unwrap();
+    // Edited after loading: taken apart, and validated again (refused).
+    let mut sc = Scenario::load(std::path::Path::new("scenarios/insitu_stress.ron"), &[])
+        .unwrap()
+        .into_inner();
     sc.time.flow_scheme = FlowScheme::Implicit;
     sc.time.flow_dt = Some(1e-6);
     let e = sc.validate().unwrap_err().to_string();
@@ -295,7 +302,9 @@ fn cli_single_fracture_implicit() {
 #[test]
 fn chord_iterations_reach_newtons_answer_with_fewer_factorisations() {
     let sim = Simulation::new(
-        single_fracture(40, InitialFluid::Empty, End::Time(1.0)),
+        single_fracture(40, InitialFluid::Empty, End::Time(1.0))
+            .validate()
+            .unwrap(),
         &[],
     )
     .unwrap();
@@ -387,7 +396,7 @@ fn jacobian_matches_finite_differences() {
         End::Time(1.0),
         fc::WATER,
     );
-    let mut sim = Simulation::new(sc, &[]).unwrap();
+    let mut sim = Simulation::new(sc.validate().unwrap(), &[]).unwrap();
     let specs = sim.scenario().flow_boundaries.clone();
     let fp = sim.params().fluid;
     let f = sim.flow_mut().unwrap();

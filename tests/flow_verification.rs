@@ -69,7 +69,7 @@ fn over_limit_kernel_violates_the_maximum_principle() {
         End::Time(1.0),
         flow_cases::WATER,
     );
-    let mut sim = Simulation::new(sc, &[]).unwrap();
+    let mut sim = Simulation::new(sc.validate().unwrap(), &[]).unwrap();
     let p: FlowParams = sim.params().fluid;
     let specs = sim.scenario().flow_boundaries.clone();
     let f = sim.flow_mut().unwrap();

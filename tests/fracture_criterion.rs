@@ -20,7 +20,7 @@ const PLATE: &str = r#"(
 fn relaxed() -> Simulation {
     let sc = Scenario::parse(PLATE, "plate.ron").unwrap();
     // Relax without the criterion: the transient overshoots the static stress.
-    let mut sim = Simulation::new(sc, &["fracture_criterion".into()]).unwrap();
+    let mut sim = Simulation::new(sc.validate().unwrap(), &["fracture_criterion".into()]).unwrap();
     assert_eq!(sim.run(|_| {}).unwrap(), Finish::Converged);
     sim
 }
@@ -67,7 +67,7 @@ fn marks_exactly_the_edges_at_or_above_the_strength() {
 fn criterion_runs_every_step_and_marks_persist_in_the_components() {
     let sc = Scenario::parse(PLATE, "plate.ron").unwrap();
     // Marks only: with `split` on, a 1 MPa rock under 5 MPa tension shatters (tests/fracturing.rs).
-    let mut sim = Simulation::new(sc, &["split".into()]).unwrap();
+    let mut sim = Simulation::new(sc.validate().unwrap(), &["split".into()]).unwrap();
     sim.run(|_| {}).unwrap();
     assert!(
         sim.schedule()
@@ -88,7 +88,7 @@ fn criterion_runs_every_step_and_marks_persist_in_the_components() {
         "plate.ron",
     )
     .unwrap();
-    let sim = Simulation::new(sc, &[]).unwrap();
+    let sim = Simulation::new(sc.validate().unwrap(), &[]).unwrap();
     assert!(
         !sim.schedule()
             .is_enabled(hydrofrac::systems::SystemId::FractureCriterion)
@@ -127,7 +127,7 @@ fn screen_run(name: &str, end: f64, every: u64, max_fraction: f64) {
         .with_overrides(&[format!("time.end=Time({end})")])
         .unwrap();
     let strength = 1e6;
-    let mut sim = Simulation::new(sc, &[]).unwrap();
+    let mut sim = Simulation::new(sc.validate().unwrap(), &[]).unwrap();
     let (mut checked, mut splits) = (0, 0);
     while sim.clock().finish.is_none() {
         let generation = sim.solid().generation;

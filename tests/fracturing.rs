@@ -16,7 +16,7 @@ use hydrofrac::sim::Simulation;
 fn plate(strength: f64) -> Simulation {
     let text = scenes::notched_plate(&strength.to_string());
     let sc = Scenario::parse(&text, "notch.ron").unwrap();
-    let mut sim = Simulation::new(sc, &[]).unwrap();
+    let mut sim = Simulation::new(sc.validate().unwrap(), &[]).unwrap();
     sim.run(|_| {}).unwrap();
     sim
 }
@@ -121,7 +121,14 @@ fn splits_when_the_applied_stress_reaches_the_strength() {
             time: (end: Time(0.5)),
         )"#
         );
-        let mut sim = Simulation::new(Scenario::parse(&text, "ramp.ron").unwrap(), &[]).unwrap();
+        let mut sim = Simulation::new(
+            Scenario::parse(&text, "ramp.ron")
+                .unwrap()
+                .validate()
+                .unwrap(),
+            &[],
+        )
+        .unwrap();
         while sim.finish().is_none() {
             sim.step_once().unwrap();
             if sim.fracture().splits > 0 {
@@ -166,7 +173,7 @@ fn fracture_outputs_are_written() {
         quiet: true,
         ..Default::default()
     };
-    let report = hydrofrac::driver::run_scenario(sc, &opts).unwrap();
+    let report = hydrofrac::driver::run_scenario(sc.validate().unwrap(), &opts).unwrap();
     let s = &report.summary;
     assert_eq!(
         s["fractures"]["cells"].as_u64().unwrap(),

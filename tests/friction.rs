@@ -13,7 +13,7 @@ mod scenes;
 
 fn block(tau: f64, end: &str) -> Simulation {
     let sc = Scenario::parse(&scenes::friction_block(tau, end), "friction.ron").unwrap();
-    Simulation::new(sc, &[]).unwrap()
+    Simulation::new(sc.validate().unwrap(), &[]).unwrap()
 }
 
 const SIGMA: f64 = 10e6;
@@ -94,7 +94,14 @@ fn gravity_loads_the_rock_with_its_weight() {
         gravity: Some((0.0, -9.81)),
         time: (end: Static(tol: 1e-10)),
     )"#;
-    let mut sim = Simulation::new(Scenario::parse(text, "column.ron").unwrap(), &[]).unwrap();
+    let mut sim = Simulation::new(
+        Scenario::parse(text, "column.ron")
+            .unwrap()
+            .validate()
+            .unwrap(),
+        &[],
+    )
+    .unwrap();
     assert_eq!(sim.run(|_| {}).unwrap(), Finish::Converged);
     let weight = 2700.0 * 9.81 * 4.0 * 10.0;
     let base: f64 = (0..sim.solid().n_nodes())

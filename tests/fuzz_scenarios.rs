@@ -110,10 +110,13 @@ fn check_input(input: &Input) -> Result<Outcome, String> {
                 }
             }
         };
-        if let Err(e) = sc.validate() {
-            one_line("validate", e.to_string())?;
-            return Ok(Outcome::Invalid);
-        }
+        let sc = match sc.validate() {
+            Ok(sc) => sc,
+            Err(e) => {
+                one_line("validate", e.to_string())?;
+                return Ok(Outcome::Invalid);
+            }
+        };
         let (limit, source) = hydrofrac::resources::default_limit();
         if let Err(e) = hydrofrac::resources::check(&sc, limit, source) {
             one_line("memory", e.to_string())?;
@@ -122,6 +125,7 @@ fn check_input(input: &Input) -> Result<Outcome, String> {
         if hydrofrac::resources::check(&sc, RUN_LIMIT, "fuzz").is_err() {
             return Ok(Outcome::Valid);
         }
+        // Edited for a short run: a new scenario, validated again.
         let sc = match sc.with_overrides(&["time.max_steps=3".to_string()]) {
             Ok(sc) => sc,
             Err(e) => {
@@ -130,10 +134,13 @@ fn check_input(input: &Input) -> Result<Outcome, String> {
             }
         };
         // A valid scene with max_steps 3 may now break `min_steps <= max_steps`: refused.
-        if let Err(e) = sc.validate() {
-            one_line("validate (max_steps 3)", e.to_string())?;
-            return Ok(Outcome::Valid);
-        }
+        let sc = match sc.validate() {
+            Ok(sc) => sc,
+            Err(e) => {
+                one_line("validate (max_steps 3)", e.to_string())?;
+                return Ok(Outcome::Valid);
+            }
+        };
         let mut sim = match Simulation::new(sc, &[]) {
             Ok(s) => s,
             Err(e) => {

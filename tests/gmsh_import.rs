@@ -50,6 +50,9 @@ fn missing_mesh_file_is_a_clear_error() {
         time: (end: Static(tol: 1e-13)),
     )"#;
     let sc = Scenario::parse(text, "x.ron").unwrap();
-    let e = Simulation::new(sc, &[]).err().unwrap().to_string();
+    let e = Simulation::new(sc.validate().unwrap(), &[])
+        .err()
+        .unwrap()
+        .to_string();
     assert!(e.contains("mesh.file") && e.contains("no_such.msh"), "{e}");
 }

@@ -24,7 +24,7 @@ fn run(text: &str, frames: bool, tag: &str) -> Fingerprint {
         sc.output.series_every = 1;
         sc.output.figure_times = vec![0.004];
     }
-    let mut sim = Simulation::new(sc, &[]).unwrap();
+    let mut sim = Simulation::new(sc.validate().unwrap(), &[]).unwrap();
     if frames {
         let out = Outputs::create(
             &dir,

@@ -306,7 +306,7 @@ fn production_equilibria_are_reached_by_load_increments_where_one_newton_solve_d
 #[test]
 fn production_stage_is_the_same_for_any_thread_count() {
     let sc = scene(1.0, &WELLS.replace("[15e6]", "[9e6, 15e6]"));
-    let end = hydrofrac::sim::Simulation::new(sc.clone(), &[])
+    let end = hydrofrac::sim::Simulation::new(sc.clone().validate().unwrap(), &[])
         .unwrap()
         .checkpoint_state()
         .unwrap()

@@ -16,14 +16,17 @@ mod scenes;
 
 fn load(path: &str, sets: &[&str]) -> Scenario {
     let sets: Vec<String> = sets.iter().map(|s| s.to_string()).collect();
-    Scenario::load(std::path::Path::new(path), &sets).unwrap()
+    // Edited by the tests (the solid scheme, ...), so taken apart; validated again to run.
+    Scenario::load(std::path::Path::new(path), &sets)
+        .unwrap()
+        .into_inner()
 }
 
 fn qs(sc: Scenario) -> Simulation {
     let sc = sc
         .with_overrides(&["time.solid_scheme=QuasiStatic".into()])
         .unwrap();
-    Simulation::new(sc, &[]).unwrap()
+    Simulation::new(sc.validate().unwrap(), &[]).unwrap()
 }
 
 #[test]
@@ -44,7 +47,7 @@ fn insitu_stress_is_uniform_after_one_solve() {
 #[test]
 fn sneddon_matches_the_explicit_static_answer() {
     let sc = load("scenarios/sneddon.ron", &[]);
-    let mut ex = Simulation::new(sc.clone(), &[]).unwrap();
+    let mut ex = Simulation::new(sc.clone().validate().unwrap(), &[]).unwrap();
     assert_eq!(ex.run(|_| {}).unwrap(), Finish::Converged);
     let mut q = qs(sc);
     assert_eq!(q.run(|_| {}).unwrap(), Finish::Converged);

@@ -24,7 +24,7 @@ fn scene(end: f64, extra: &str) -> Scenario {
 /// same time after each split.
 #[test]
 fn coupled_quasi_static_conserves_mass_across_splits() {
-    let mut sim = Simulation::new(scene(0.13, ""), &[]).unwrap();
+    let mut sim = Simulation::new(scene(0.13, "").validate().unwrap(), &[]).unwrap();
     let mut worst: f64 = 0.0;
     while sim.finish().is_none() {
         sim.step_once().unwrap();
@@ -73,7 +73,7 @@ fn coupled_quasi_static_conserves_mass_across_splits() {
 #[test]
 fn quasi_static_opens_the_cells_the_explicit_scheme_opens() {
     let run = |sc: Scenario| {
-        let mut sim = Simulation::new(sc, &[]).unwrap();
+        let mut sim = Simulation::new(sc.validate().unwrap(), &[]).unwrap();
         assert_eq!(sim.run(|_| {}).unwrap(), Finish::EndTime);
         let f = sim.flow().unwrap();
         let mut cells: Vec<([i64; 2], f64)> = (0..f.view.n_cells())
@@ -112,7 +112,7 @@ fn quasi_static_opens_the_cells_the_explicit_scheme_opens() {
 fn injected_volume_converges_at_first_order_in_the_step() {
     let injected = |dt: f64| {
         let extra = format!(", dt: {dt}, dt_max: {dt}, dt_min: {dt}");
-        let mut sim = Simulation::new(scene(0.06, &extra), &[]).unwrap();
+        let mut sim = Simulation::new(scene(0.06, &extra).validate().unwrap(), &[]).unwrap();
         sim.run(|_| {}).unwrap();
         assert_eq!(sim.clock().step, (0.06 / dt).round() as u64, "fixed steps");
         assert_eq!(
@@ -134,7 +134,7 @@ fn injected_volume_converges_at_first_order_in_the_step() {
 /// with 1 and 2 threads.
 #[test]
 fn coupled_quasi_static_is_deterministic_across_thread_counts() {
-    let make = || Simulation::new(scene(0.1, ""), &[]).unwrap();
+    let make = || Simulation::new(scene(0.1, "").validate().unwrap(), &[]).unwrap();
     let (a, b) = (bits::run_bits(1, make), bits::run_bits(2, make));
     assert!(
         a.2 >= 1,
@@ -149,7 +149,7 @@ fn coupled_quasi_static_is_deterministic_across_thread_counts() {
 fn adaptive_step_lands_on_figure_times() {
     let mut sc = scene(0.05, "");
     sc.output.figure_times = vec![0.0123, 0.03];
-    let mut sim = Simulation::new(sc, &[]).unwrap();
+    let mut sim = Simulation::new(sc.validate().unwrap(), &[]).unwrap();
     let mut hit = Vec::new();
     while sim.finish().is_none() {
         sim.step_once().unwrap();
@@ -178,7 +178,7 @@ fn updated_coupling_matrix_matches_the_full_solve() {
     let run = |max_updates: usize| {
         // A fixed step, so both runs take the same steps whatever their iteration counts.
         let fixed = ", dt: 1e-3, dt_min: 1e-3, dt_max: 1e-3";
-        let mut sim = Simulation::new(scene(0.13, fixed), &[]).unwrap();
+        let mut sim = Simulation::new(scene(0.13, fixed).validate().unwrap(), &[]).unwrap();
         sim.quasi_static_mut().unwrap().max_w_updates = max_updates;
         assert_eq!(sim.run(|_| {}).unwrap(), Finish::EndTime);
         let (inj, _, _, _) = sim.flow_balance().unwrap();

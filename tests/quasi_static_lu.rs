@@ -19,7 +19,7 @@ fn slip_inclined(
 ) -> (Vec<[f64; 2]>, hydrofrac::systems::quasi_static::QsCounts) {
     let mut sc = slip_scenario(SlipMesh::Conforming, 0.1, R, STIFFNESS_FACTOR);
     sc.time.linear_solver = linear;
-    let mut sim = Simulation::new(sc, &[]).unwrap();
+    let mut sim = Simulation::new(sc.validate().unwrap(), &[]).unwrap();
     assert_eq!(sim.run(|_| {}).unwrap(), Finish::Converged);
     let v = sim.solid();
     let rel = v
@@ -83,7 +83,7 @@ fn lu_and_cholesky_agree_on_a_coupled_sliding_run() {
         )"#
         );
         let sc = Scenario::parse(&text, "coupled_lu.ron").unwrap();
-        let mut sim = Simulation::new(sc, &[]).unwrap();
+        let mut sim = Simulation::new(sc.validate().unwrap(), &[]).unwrap();
         let mut slid = false;
         while sim.finish().is_none() {
             sim.step_once().unwrap();

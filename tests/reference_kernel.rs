@@ -32,7 +32,7 @@ fn reference_kernel_matches_the_engine_bit_for_bit() {
         End::Time(1.0),
         Damping::Local(0.8),
     );
-    let mut sim = Simulation::new(sc, &[]).unwrap();
+    let mut sim = Simulation::new(sc.validate().unwrap(), &[]).unwrap();
     let mesh = TriMesh::perturbed(100.0, 100.0, 1.0, [0.0, 0.0], 0.2, 9).unwrap();
     let bcs: Vec<[Option<f64>; 2]> = (0..sim.solid().n_nodes())
         .map(|i| {

@@ -37,7 +37,7 @@ fn a_random_network_is_placed_and_connected_where_it_crosses() {
         )
     };
     let (sc, generated) = clean_random_network(|seed| scene(&spec(seed)), 14, 2.0);
-    let sim = Simulation::new(sc, &[]).unwrap();
+    let sim = Simulation::new(sc.validate().unwrap(), &[]).unwrap();
     // Every generated fracture is placed, within one edge of its segment.
     assert_eq!(sim.placed().len(), 14);
     for p in sim.placed() {

@@ -47,14 +47,14 @@ fn mass_scaling_keeps_the_static_answer() {
 /// Mass scaling is only for static relaxation: a timed run with it is refused.
 #[test]
 fn mass_scaling_needs_a_static_end() {
+    // Edited after loading: taken apart, and validated again (refused).
     let mut sc =
         hydrofrac::scenario::Scenario::load(std::path::Path::new("scenarios/sneddon.ron"), &[])
-            .unwrap();
+            .unwrap()
+            .into_inner();
     sc.time.mass_scaling = true;
     sc.time.end = hydrofrac::scenario::End::Time(1e-3);
-    let err = hydrofrac::sim::Simulation::new(sc, &[])
-        .err()
-        .expect("refused");
+    let err = sc.validate().expect_err("refused");
     assert!(err.to_string().contains("time.mass_scaling"), "{err}");
 }
 

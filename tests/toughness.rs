@@ -148,7 +148,10 @@ fn toughness_kgd_grows_at_the_tip_to_the_similarity_length() {
     let src = std::fs::read_to_string("scenarios/kgd_toughness.ron").unwrap();
     let sc = Scenario::parse(&src, "kgd_toughness.ron").unwrap();
     let mut sim = Simulation::new(
-        sc.with_overrides(&["time.end=Time(40.0)".into()]).unwrap(),
+        sc.with_overrides(&["time.end=Time(40.0)".into()])
+            .unwrap()
+            .validate()
+            .unwrap(),
         &[],
     )
     .unwrap();
@@ -234,7 +237,7 @@ fn strength_criterion_by_name_is_the_old_field() {
                 "time.end=Time(1.0)".into(),
             ])
             .unwrap();
-        let mut sim = Simulation::new(sc, &[]).unwrap();
+        let mut sim = Simulation::new(sc.validate().unwrap(), &[]).unwrap();
         sim.run(|_| {}).unwrap();
         (sim.solid().u.clone(), sim.solid().joint_nodes.len())
     };
@@ -250,9 +253,10 @@ fn strength_criterion_by_name_is_the_old_field() {
         "strength: Some(0.1e6),",
         "strength: Some(0.1e6), criterion: Some(Strength(0.1e6)),",
     );
-    let err = Simulation::new(Scenario::parse(&both, "kgd.ron").unwrap(), &[])
-        .err()
-        .expect("refused");
+    let err = Scenario::parse(&both, "kgd.ron")
+        .unwrap()
+        .validate()
+        .expect_err("refused");
     assert!(err.to_string().contains("fracture.criterion"), "{err}");
 }
 
@@ -267,7 +271,7 @@ fn the_tip_screen_changes_nothing() {
             .unwrap()
             .with_overrides(&["time.end=Time(60.0)".into()])
             .unwrap();
-        let mut sim = Simulation::new(sc, &[]).unwrap();
+        let mut sim = Simulation::new(sc.validate().unwrap(), &[]).unwrap();
         sim.fracture_mut().tips.no_screen = !screen;
         sim.run(|_| {}).unwrap();
         let t = &sim.fracture().tips;
@@ -386,7 +390,7 @@ fn example1_toughness_scheme(name: &str, end: f64, scheme: &str) -> hydrofrac::f
             format!("time.end=Time({end})"),
         ])
         .unwrap();
-    let mut sim = Simulation::new(sc, &[]).unwrap();
+    let mut sim = Simulation::new(sc.validate().unwrap(), &[]).unwrap();
     sim.run(|_| {}).unwrap();
     sim.flow().unwrap().view.clone()
 }

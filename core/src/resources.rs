@@ -16,7 +16,7 @@
 use crate::error::SetupError;
 pub use crate::network::MAX_FRACTURES;
 pub use crate::scenario::MeshCounts;
-use crate::scenario::{MeshSpec, Scenario, SolidScheme};
+use crate::scenario::{MeshSpec, Scenario, SolidScheme, ValidScenario};
 
 /// The limit when the machine's memory cannot be read, bytes (16 GiB).
 pub const FALLBACK_LIMIT: u64 = 16 << 30;
@@ -126,8 +126,9 @@ pub fn estimate(sc: &Scenario) -> (f64, f64) {
 }
 
 /// Refuse a scenario whose mesh or network would need more than `limit` bytes (`source`: where
-/// the limit comes from and how to change it, for the message). Nothing is allocated.
-pub fn check(sc: &Scenario, limit: u64, source: &str) -> Result<(), SetupError> {
+/// the limit comes from and how to change it, for the message). Nothing is allocated. Validated
+/// first: the estimate reads the mesh's sizes, which are then finite and positive.
+pub fn check(sc: &ValidScenario, limit: u64, source: &str) -> Result<(), SetupError> {
     let refuse = |field: &str, what: String, bytes: f64| {
         SetupError::invalid(
             field,

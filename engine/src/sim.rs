@@ -79,8 +79,11 @@ enum Pass {
 
 impl Simulation {
     /// Set up a validated scenario; `extra_disable` adds system names to switch off.
-    pub fn new(scenario: Scenario, extra_disable: &[String]) -> Result<Self, SetupError> {
-        scenario.validate()?;
+    pub fn new(
+        scenario: hydrofrac_core::scenario::ValidScenario,
+        extra_disable: &[String],
+    ) -> Result<Self, SetupError> {
+        let scenario = scenario.into_inner();
         let (mut model, placed, mesh_info) = crate::setup::build_model(&scenario)?;
         let mut p = RunParams::resolve(&scenario, model.material);
         let has_solid = scenario.mesh.is_some();
@@ -513,9 +516,10 @@ impl Simulation {
         &self,
         damping: hydrofrac_core::scenario::Damping,
     ) -> Result<Simulation, RunError> {
+        // The edited scenario is validated again.
         let mut sc = self.scenario.clone();
         sc.damping = damping;
-        let mut sim = Simulation::new(sc, &self.extra_disable)?;
+        let mut sim = Simulation::new(sc.validate()?, &self.extra_disable)?;
         let adopted = self
             .checkpoint_state()
             .and_then(|(_, state)| sim.adopt(state));

@@ -82,7 +82,7 @@ pub fn inclined_crack(
     let (c, s) = (a * angle.cos(), a * angle.sin());
     sc.fracture = Some(super::fracture_cases::crack_spec([-c, -s], [c, s], Some(p)));
     let t0 = Instant::now();
-    let mut sim = Simulation::new(sc, &[])?;
+    let mut sim = Simulation::new(sc.validate()?, &[])?;
     let finish = sim.run(|_| {})?;
     anyhow::ensure!(
         finish == Finish::Converged,

@@ -208,7 +208,7 @@ pub fn kgd_run_in(
         _ => anyhow::bail!("kgd.ron: expected an end time"),
     };
     let t0 = Instant::now();
-    let mut sim = Simulation::new(sc, &[])?;
+    let mut sim = Simulation::new(sc.validate()?, &[])?;
     let e_prime = mat.young / (1.0 - mat.poisson * mat.poisson);
     let q0 = 2.0 * q_half;
     let mut band = None;

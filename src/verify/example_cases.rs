@@ -95,7 +95,7 @@ pub fn example_run(ron: &str, file: &str, end: f64, sets: &[String]) -> anyhow::
     all.extend_from_slice(sets);
     let sc = Scenario::parse(ron, file)?.with_overrides(&all)?;
     let t0 = Instant::now();
-    let mut sim = Simulation::new(sc, &[])?;
+    let mut sim = Simulation::new(sc.validate()?, &[])?;
     let finish = sim.run(|_| {})?;
     anyhow::ensure!(finish == Finish::EndTime, "{file}: ended with {finish:?}");
     let wall = t0.elapsed().as_secs_f64();

@@ -596,7 +596,7 @@ fn execute(r: &Run) -> Outcome {
         };
         let sets: Vec<String> = r.sets.iter().map(|s| s.to_string()).collect();
         let sc = match base.with_overrides(&sets).and_then(|sc| {
-            sc.validate()?;
+            let sc = sc.validate()?;
             let (limit, source) = crate::resources::default_limit();
             crate::resources::check(&sc, limit, source)?;
             Ok(sc)

@@ -138,7 +138,7 @@ pub fn long_step(a: f64, len: f64) -> f64 {
 /// Run to the end; returns the simulation and its wall time.
 pub fn run(sc: Scenario) -> anyhow::Result<(Simulation, f64)> {
     let t0 = Instant::now();
-    let mut sim = Simulation::new(sc, &[])?;
+    let mut sim = Simulation::new(sc.validate()?, &[])?;
     let finish = sim.run(|_| {})?;
     anyhow::ensure!(
         finish != Finish::MaxSteps,
@@ -594,7 +594,7 @@ pub fn mass_balance_run(
         sc.time.dt = dt;
     }
     let t0 = Instant::now();
-    let mut sim = Simulation::new(sc, &[])?;
+    let mut sim = Simulation::new(sc.validate()?, &[])?;
     let mut worst = 0.0f64;
     let mut filling = 0usize;
     let mut injected_off = None;
@@ -951,7 +951,7 @@ pub fn flow_stability(_quick: bool) -> anyhow::Result<CaseResult> {
             );
             sc.time.max_steps = 20_000;
             let t0 = Instant::now();
-            let mut sim = Simulation::new(sc, &[])?;
+            let mut sim = Simulation::new(sc.validate()?, &[])?;
             let mut over = 0.0f64;
             while sim.finish().is_none() {
                 sim.step_once()?;
@@ -995,11 +995,12 @@ pub fn flow_stability(_quick: bool) -> anyhow::Result<CaseResult> {
         End::Time(1.0),
         WATER,
     );
-    let probe = Simulation::new(sc.clone(), &[])?;
+    let probe = Simulation::new(sc.clone().validate()?, &[])?;
     let crit = probe.flow().expect("flow").dt_crit;
+    // The scenario edited after the probe: validated again.
     sc.time.flow_dt = Some(3.0 * crit);
     sc.time.dt = Some(3.0 * crit);
-    let mut sim = Simulation::new(sc, &[])?;
+    let mut sim = Simulation::new(sc.validate()?, &[])?;
     let caught = loop {
         match sim.step_once() {
             Err(RunError::BlowUp {

@@ -127,7 +127,7 @@ pub fn pressurised_crack(
     sc.time.max_steps = 20_000_000;
     sc.fracture = Some(crack_spec([-a, 0.0], [a, 0.0], Some(p)));
     let t0 = Instant::now();
-    let mut sim = Simulation::new(sc, &[])?;
+    let mut sim = Simulation::new(sc.validate()?, &[])?;
     if let Relax::Scaled(k) = relax {
         let across = |d: usize| {
             let mut c: Vec<f64> = sim.solid().x0.iter().map(|x| x[d]).collect();
@@ -417,7 +417,7 @@ pub fn inclined_block_quasi_static(
     let mut sc = block_scenario(phi_deg, h, [G * psi.sin(), -G * psi.cos()]);
     sc.time.solid_scheme = crate::scenario::SolidScheme::QuasiStatic;
     let t0 = Instant::now();
-    let mut sim = Simulation::new(sc, &[])?;
+    let mut sim = Simulation::new(sc.validate()?, &[])?;
     sim.run(|_| {})?;
     let wall = t0.elapsed().as_secs_f64();
     let v = sim.solid();
@@ -464,7 +464,7 @@ pub fn inclined_block(psi_deg: f64, phi_deg: f64, h: f64) -> anyhow::Result<Incl
     let (ramp, delay, window) = (0.05, 0.05, 0.1);
     let sc = block_scenario(phi_deg, h, [0.0, -G * psi.cos()]);
     let t0 = Instant::now();
-    let mut sim = Simulation::new(sc, &[])?;
+    let mut sim = Simulation::new(sc.validate()?, &[])?;
     let finish = sim.run(|_| {})?;
     anyhow::ensure!(
         finish == Finish::Converged,

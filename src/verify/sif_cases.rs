@@ -102,7 +102,7 @@ pub fn crack_sif(
         },
     ));
     let t0 = Instant::now();
-    let mut sim = Simulation::new(sc, &[])?;
+    let mut sim = Simulation::new(sc.validate()?, &[])?;
     let finish = sim.run(|_| {})?;
     anyhow::ensure!(
         finish == Finish::Converged,

@@ -254,7 +254,7 @@ pub fn slip_run_with(
 ) -> anyhow::Result<SlipRun> {
     let sc = slip_scenario(mesh, B / b_over_h, r, k_factor);
     let t0 = Instant::now();
-    let mut sim = Simulation::new(sc, &[])?;
+    let mut sim = Simulation::new(sc.validate()?, &[])?;
     let finish = sim.run(|_| {})?;
     anyhow::ensure!(
         finish == Finish::Converged,

@@ -116,7 +116,7 @@ pub const SCHEMES: [(SolidScheme, &str); 2] = [
 /// and the wall time of set-up plus solve.
 pub fn relax(sc: Scenario, prep: impl FnOnce(&mut Model)) -> anyhow::Result<(Simulation, f64)> {
     let t0 = Instant::now();
-    let mut sim = Simulation::new(sc, &[])?;
+    let mut sim = Simulation::new(sc.validate()?, &[])?;
     sim.edit_model(prep);
     let finish = sim.run(|_| {})?;
     ensure!(
@@ -490,7 +490,7 @@ pub fn max_eigenvalue(view: &SolidView, p: &solid::SolidParams, iters: usize) ->
 /// wall time; nodes.
 pub fn energy_growth(sc: Scenario, steps: u64) -> anyhow::Result<(f64, f64, usize)> {
     let t0 = Instant::now();
-    let mut sim = Simulation::new(sc, &[])?;
+    let mut sim = Simulation::new(sc.validate()?, &[])?;
     let every = (steps / 1000).max(1);
     let mut energy = Vec::new();
     while sim.step() < steps {
@@ -581,7 +581,7 @@ pub fn stability(quick: bool) -> anyhow::Result<CaseResult> {
                 End::Time(1.0),
                 Damping::None,
             );
-            let sim = Simulation::new(sc, &[])?;
+            let sim = Simulation::new(sc.validate()?, &[])?;
             let lmax = max_eigenvalue(sim.solid(), &sim.params().solid, 400);
             let dt_true = 2.0 / lmax.sqrt();
             res.check_max(
@@ -600,9 +600,10 @@ pub fn stability(quick: bool) -> anyhow::Result<CaseResult> {
         End::Time(1.0),
         Damping::None,
     );
-    let probe = Simulation::new(sc.clone(), &[])?;
+    let probe = Simulation::new(sc.clone().validate()?, &[])?;
+    // The scenario edited after the probe: validated again.
     sc.time.dt = Some(1.5 * probe.dt_crit());
-    let mut sim = Simulation::new(sc, &[])?;
+    let mut sim = Simulation::new(sc.validate()?, &[])?;
     let caught = loop {
         match sim.step_once() {
             Err(RunError::BlowUp { step, .. }) => break Some(step),

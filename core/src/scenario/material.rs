@@ -1,0 +1,285 @@
+//! The rock and how it is held (`material:`, `boundary:`, `initial_state:`, `pins:`,
+//! `damping:`, `gravity:`) and those sections' checks.
+
+use super::finite;
+use super::positive;
+use crate::error::SetupError;
+use serde::{Deserialize, Serialize};
+
+/// Linear elastic rock.
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Material {
+    /// Young's modulus E, Pa.
+    pub young: f64,
+    /// Poisson's ratio nu, 0 <= nu < 0.5.
+    pub poisson: f64,
+    /// Density rho, kg/m^3.
+    pub density: f64,
+}
+
+impl Material {
+    /// Lame's first parameter lambda, Pa.
+    pub fn lambda(&self) -> f64 {
+        self.young * self.poisson / ((1.0 + self.poisson) * (1.0 - 2.0 * self.poisson))
+    }
+    /// Shear modulus G, Pa.
+    pub fn shear(&self) -> f64 {
+        self.young / (2.0 * (1.0 + self.poisson))
+    }
+    /// P-wave speed c_p = sqrt((lambda + 2G)/rho), m/s.
+    pub fn p_wave_speed(&self) -> f64 {
+        ((self.lambda() + 2.0 * self.shear()) / self.density).sqrt()
+    }
+    /// Plane-strain strains (exx, eyy) that give the stresses (sxx, syy) with sxy = 0:
+    /// exx = ((1-nu^2) sxx - nu(1+nu) syy)/E, and symmetrically.
+    pub fn plane_strain_strain(&self, sxx: f64, syy: f64) -> (f64, f64) {
+        let (e, nu) = (self.young, self.poisson);
+        (
+            ((1.0 - nu * nu) * sxx - nu * (1.0 + nu) * syy) / e,
+            ((1.0 - nu * nu) * syy - nu * (1.0 + nu) * sxx) / e,
+        )
+    }
+}
+
+/// Boundary conditions on the four sides of the rectangular domain.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub enum Boundary {
+    /// Normal displacements on all four sides computed by plane-strain Hooke's law so that the
+    /// unfractured body carries the uniform stress (sxx, syy), Pa, tension positive. The domain
+    /// centre stays put; tangential motion along the sides is free.
+    InSitu { sxx: f64, syy: f64 },
+    /// One condition per side.
+    Sides {
+        #[serde(default)]
+        left: SideBc,
+        #[serde(default)]
+        right: SideBc,
+        #[serde(default)]
+        bottom: SideBc,
+        #[serde(default)]
+        top: SideBc,
+    },
+}
+
+impl Default for Boundary {
+    fn default() -> Self {
+        Boundary::Sides {
+            left: SideBc::Free,
+            right: SideBc::Free,
+            bottom: SideBc::Free,
+            top: SideBc::Free,
+        }
+    }
+}
+
+/// The solid's state at t = 0.
+#[derive(Clone, Copy, Debug, Default, Serialize, Deserialize, PartialEq, Eq)]
+pub enum InitialState {
+    /// Undeformed, at rest.
+    #[default]
+    Rest,
+    /// The homogeneous plane-strain displacement of the in-situ stress, u = (exx (x - xc),
+    /// eyy (y - yc)) about the domain centre, at rest.
+    InSitu,
+}
+
+/// Condition on one side.
+#[derive(Clone, Copy, Debug, Default, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub enum SideBc {
+    /// Traction-free.
+    #[default]
+    Free,
+    /// Prescribed displacement along the outward normal, m (negative = pushed inwards);
+    /// tangential motion free.
+    Normal(f64),
+    /// Both displacement components zero.
+    Fixed,
+    /// Traction, Pa: `normal` along the outward normal (tension positive, so a confining
+    /// pressure p is `normal: -p`), `shear` along the side's counter-clockwise tangent.
+    Traction { normal: f64, shear: f64 },
+}
+
+/// Largest Young's modulus accepted, Pa, and largest density, kg/m^3 (see `validate`).
+pub const MAX_YOUNG: f64 = 1e14;
+pub const MAX_DENSITY: f64 = 1e9;
+
+/// A prescribed displacement on the node nearest to `at` (within half a cell diagonal).
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Pin {
+    /// Position, m.
+    pub at: [f64; 2],
+    /// Prescribed x displacement, m (`None`: free).
+    #[serde(default)]
+    pub ux: Option<f64>,
+    /// Prescribed y displacement, m (`None`: free).
+    #[serde(default)]
+    pub uy: Option<f64>,
+}
+
+/// Damping for pseudo-static response.
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub enum Damping {
+    /// Undamped central difference (energy-conserving dynamics).
+    None,
+    /// Local non-viscous damping (Cundall): each force component is reduced by
+    /// `alpha * |F| * sign(v)`, 0 <= alpha < 1. Does not change the static solution and needs
+    /// no frequency; the usual choice for dynamic relaxation. Default 0.8.
+    Local(f64),
+    /// Mass-proportional viscous damping with coefficient c, 1/s (force -c m v).
+    Viscous(f64),
+}
+
+impl Default for Damping {
+    fn default() -> Self {
+        Damping::Local(0.8)
+    }
+}
+
+impl Material {
+    /// Young's modulus, density and Poisson's ratio in their ranges; errors name
+    /// `material.<field>`. (A coupled run's smaller limit on Poisson's ratio is
+    /// `Scenario::check_coupled_poisson`'s.)
+    pub(super) fn validate(&self) -> Result<(), SetupError> {
+        positive("material.young", self.young, "Young's modulus")?;
+        positive("material.density", self.density, "the density")?;
+        // Upper bounds far above any rock (diamond: E 1.2e12 Pa; osmium: 22,600 kg/m^3),
+        // so the energies and stresses (E u, rho v^2 A) stay finite: a density of 1e308
+        // made the kinetic energy inf * 0 = NaN (the fuzzer's finding, kept in
+        // tests/fuzz_regressions/).
+        if self.young > MAX_YOUNG {
+            return Err(SetupError::invalid(
+                "material.young",
+                format!(
+                    "{:e} Pa is above {MAX_YOUNG:e} Pa (diamond is 1.2e12 Pa): energies \
+                     and stresses would overflow",
+                    self.young
+                ),
+            ));
+        }
+        if self.density > MAX_DENSITY {
+            return Err(SetupError::invalid(
+                "material.density",
+                format!(
+                    "{:e} kg/m^3 is above {MAX_DENSITY:e} kg/m^3 (rock is 2,000-3,500; \
+                     room is left for mass scaling): the kinetic energy would overflow",
+                    self.density
+                ),
+            ));
+        }
+        finite("material.poisson", self.poisson)?;
+        if !(0.0..0.5).contains(&self.poisson) {
+            return Err(SetupError::invalid(
+                "material.poisson",
+                format!(
+                    "Poisson's ratio must be in [0, 0.5) (0.5 is incompressible and not \
+                     representable by plane-strain CST), got {}",
+                    self.poisson
+                ),
+            ));
+        }
+        Ok(())
+    }
+}
+
+impl Boundary {
+    /// Every load and displacement finite; errors name `boundary.<field>`.
+    pub(super) fn validate(&self) -> Result<(), SetupError> {
+        match self {
+            Boundary::InSitu { sxx, syy } => {
+                finite("boundary.sxx", *sxx)?;
+                finite("boundary.syy", *syy)?;
+            }
+            Boundary::Sides {
+                left,
+                right,
+                bottom,
+                top,
+            } => {
+                for (name, bc) in [
+                    ("left", left),
+                    ("right", right),
+                    ("bottom", bottom),
+                    ("top", top),
+                ] {
+                    bc.validate(name)?;
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+impl SideBc {
+    /// The side `name`'s values finite.
+    fn validate(&self, name: &str) -> Result<(), SetupError> {
+        match self {
+            SideBc::Normal(d) => finite(&format!("boundary.{name}"), *d),
+            SideBc::Traction { normal, shear } => {
+                finite(&format!("boundary.{name}.normal"), *normal)?;
+                finite(&format!("boundary.{name}.shear"), *shear)
+            }
+            SideBc::Free | SideBc::Fixed => Ok(()),
+        }
+    }
+}
+
+impl Pin {
+    /// Finite position and displacements, at least one of them prescribed; errors name
+    /// `field` (`pins[i]`).
+    pub(super) fn validate(&self, field: &str) -> Result<(), SetupError> {
+        for v in [
+            self.at[0],
+            self.at[1],
+            self.ux.unwrap_or(0.0),
+            self.uy.unwrap_or(0.0),
+        ] {
+            finite(field, v)?;
+        }
+        if self.ux.is_none() && self.uy.is_none() {
+            return Err(SetupError::invalid(field, "prescribes neither ux nor uy"));
+        }
+        Ok(())
+    }
+}
+
+impl Damping {
+    /// Local damping in [0, 1), viscous damping >= 0; errors name `damping`.
+    pub(super) fn validate(&self) -> Result<(), SetupError> {
+        match *self {
+            Damping::Local(a) => {
+                finite("damping", a)?;
+                if !(0.0..1.0).contains(&a) {
+                    return Err(SetupError::invalid(
+                        "damping",
+                        format!("local damping must be in [0, 1), got {a}"),
+                    ));
+                }
+            }
+            Damping::Viscous(c) => {
+                finite("damping", c)?;
+                if c < 0.0 {
+                    return Err(SetupError::invalid(
+                        "damping",
+                        format!("viscous damping must be >= 0, got {c}"),
+                    ));
+                }
+            }
+            Damping::None => {}
+        }
+        Ok(())
+    }
+}
+
+/// Gravity (m/s^2) finite; errors name `gravity`.
+pub(super) fn validate_gravity(gravity: Option<[f64; 2]>) -> Result<(), SetupError> {
+    if let Some(g) = gravity {
+        finite("gravity", g[0])?;
+        finite("gravity", g[1])?;
+    }
+    Ok(())
+}

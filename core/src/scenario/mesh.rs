@@ -1,0 +1,388 @@
+//! The solid mesh (`mesh:`): its kinds, the counts a mesh will have before it is built, and
+//! the mesh section's checks.
+
+use super::{PreFracture, finite, positive};
+use crate::error::SetupError;
+use serde::{Deserialize, Serialize};
+
+/// The solid mesh.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub enum MeshSpec {
+    /// Square cells of size `h` (m), each split into two triangles with alternating diagonals.
+    Regular {
+        width: f64,
+        height: f64,
+        h: f64,
+        #[serde(default)]
+        origin: [f64; 2],
+    },
+    /// The regular mesh with every node moved randomly by up to `fraction * h` (ChaCha8, `seed`).
+    Perturbed {
+        width: f64,
+        height: f64,
+        h: f64,
+        #[serde(default)]
+        origin: [f64; 2],
+        fraction: f64,
+        seed: u64,
+    },
+    /// Square cells of size `h` inside the box `fine` = (x0, y0, x1, y1), m, growing by `ratio`
+    /// (> 1) per cell towards the domain edges: fine where the action is, coarse far away.
+    Graded {
+        width: f64,
+        height: f64,
+        #[serde(default)]
+        origin: [f64; 2],
+        h: f64,
+        fine: [f64; 4],
+        ratio: f64,
+    },
+    /// A 2D triangle mesh from a Gmsh `.msh` file (ASCII 2.2 or 4.1, first-order triangles),
+    /// path relative to the scenario file. The domain sides are the bounding box's edges.
+    Gmsh { file: String },
+    /// A mesh that follows the fractures: a constrained Delaunay triangulation of the
+    /// `width` x `height` rectangle (m) whose edges contain every pre-existing fracture
+    /// (`fracture.preexisting`, `fracture.file`, `fracture.random`), with edges of `h` (m) along
+    /// them, growing as h + `grading` d with the distance d from them to at most `h_far` (m,
+    /// default 4 h), refined to a smallest
+    /// angle of `min_angle_deg` (default 25). Points closer than `merge * h` (default 0.25) are
+    /// merged: crossings and near misses that close leave no tiny segment. Seeded by nothing:
+    /// the same input gives the same mesh (`src/conforming.rs`, `docs/conforming.md`).
+    Conforming {
+        width: f64,
+        height: f64,
+        #[serde(default)]
+        origin: [f64; 2],
+        h: f64,
+        #[serde(default)]
+        h_far: Option<f64>,
+        #[serde(default = "default_min_angle")]
+        min_angle_deg: f64,
+        #[serde(default = "default_merge")]
+        merge: f64,
+        /// Edge length growth away from the fractures: up to h + grading * d at a distance d
+        /// (m/m, default 0.1: Sneddon's crack within 0.3 % of the one on an exact
+        /// regular mesh, `verify sneddon_inclined`), capped at h_far.
+        #[serde(default = "default_grading")]
+        grading: f64,
+        /// Extra segments the mesh follows without opening them (m): planned paths, layer
+        /// contacts, or lines to sample along.
+        #[serde(default)]
+        follow: Vec<PreFracture>,
+    },
+}
+
+fn default_grading() -> f64 {
+    0.1
+}
+
+fn default_min_angle() -> f64 {
+    25.0
+}
+fn default_merge() -> f64 {
+    0.25
+}
+
+impl MeshSpec {
+    /// Nodes, triangles and edges a mesh will have: exact for regular and perturbed meshes, an
+    /// upper bound for graded ones, from the file size for Gmsh files (`None` when the file
+    /// cannot be read: reading it reports that). Reads the scenario's (finite, positive) sizes;
+    /// non-finite ones give infinite counts.
+    pub fn counts(&self) -> Option<MeshCounts> {
+        match *self {
+            MeshSpec::Regular {
+                width, height, h, ..
+            }
+            | MeshSpec::Perturbed {
+                width, height, h, ..
+            } => Some(MeshCounts::from_grid(
+                (width / h).round(),
+                (height / h).round(),
+            )),
+            MeshSpec::Graded {
+                width,
+                height,
+                h,
+                fine,
+                ratio,
+                ..
+            } => {
+                // Cells that grow by `ratio` from h across a length l: at most
+                // ln(1 + l (ratio - 1) / h) / ln(ratio) (l / h for ratio 1).
+                let grow = |l: f64| {
+                    if ratio > 1.0 {
+                        (1.0 + l * (ratio - 1.0) / h).ln() / ratio.ln()
+                    } else {
+                        l / h
+                    }
+                };
+                let nx = ((fine[2] - fine[0]) / h + 2.0 * grow(width)).ceil();
+                let ny = ((fine[3] - fine[1]) / h + 2.0 * grow(height)).ceil();
+                Some(MeshCounts::from_grid(nx, ny))
+            }
+            MeshSpec::Gmsh { ref file } => {
+                let len = std::fs::metadata(file).ok()?.len() as f64;
+                Some(MeshCounts::from_triangles(len / GMSH_BYTES_PER_TRIANGLE))
+            }
+            MeshSpec::Conforming {
+                width, height, h, ..
+            } => {
+                // A bound: the whole domain at h / sqrt(2) in equilateral triangles (area
+                // sqrt(3)/8 h^2; edges shorter than h appear only near crossings and merged
+                // points, and the mesh coarsens away from the fractures), and the refinement
+                // is capped at this many nodes.
+                Some(MeshCounts::from_triangles(
+                    (width * height / (3f64.sqrt() / 8.0 * h * h)).ceil() + 4.0,
+                ))
+            }
+        }
+    }
+
+    /// The mesh kind's name as the scenario writes it (`Regular`, ..., `Conforming`).
+    pub fn kind(&self) -> &'static str {
+        match self {
+            MeshSpec::Regular { .. } => "Regular",
+            MeshSpec::Perturbed { .. } => "Perturbed",
+            MeshSpec::Graded { .. } => "Graded",
+            MeshSpec::Gmsh { .. } => "Gmsh",
+            MeshSpec::Conforming { .. } => "Conforming",
+        }
+    }
+
+    /// Nominal cell size, m (`None` for an imported mesh).
+    pub fn h(&self) -> Option<f64> {
+        match self {
+            MeshSpec::Regular { h, .. }
+            | MeshSpec::Perturbed { h, .. }
+            | MeshSpec::Graded { h, .. }
+            | MeshSpec::Conforming { h, .. } => Some(*h),
+            MeshSpec::Gmsh { .. } => None,
+        }
+    }
+    /// Domain size, m (`None` for an imported mesh).
+    pub fn size(&self) -> Option<(f64, f64)> {
+        match self {
+            MeshSpec::Regular { width, height, .. }
+            | MeshSpec::Perturbed { width, height, .. }
+            | MeshSpec::Graded { width, height, .. }
+            | MeshSpec::Conforming { width, height, .. } => Some((*width, *height)),
+            MeshSpec::Gmsh { .. } => None,
+        }
+    }
+}
+
+/// Counts of a mesh before it is built (estimates for graded and imported meshes).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MeshCounts {
+    pub nodes: f64,
+    pub triangles: f64,
+    pub edges: f64,
+}
+
+impl MeshCounts {
+    fn from_grid(nx: f64, ny: f64) -> Self {
+        MeshCounts {
+            nodes: (nx + 1.0) * (ny + 1.0),
+            triangles: 2.0 * nx * ny,
+            edges: nx * (ny + 1.0) + ny * (nx + 1.0) + nx * ny,
+        }
+    }
+    fn from_triangles(t: f64) -> Self {
+        MeshCounts {
+            nodes: 0.5 * t + 1.0,
+            triangles: t,
+            edges: 1.5 * t + 1.0,
+        }
+    }
+}
+
+/// Bytes of an imported Gmsh file per triangle, at least: a triangle takes 20 or more bytes of
+/// text (with its share of the nodes), so a file has at most `size / 20` triangles.
+pub const GMSH_BYTES_PER_TRIANGLE: f64 = 20.0;
+
+/// Most triangles a mesh may have.
+const MAX_TRIANGLES: f64 = 5.0e7;
+
+impl MeshSpec {
+    /// The sizes, the origin, the kind's own parameters and the size limit; errors name
+    /// `mesh.<field>`. An imported (Gmsh) mesh has none of these to check.
+    pub(super) fn validate(&self) -> Result<(), SetupError> {
+        let (Some((w, hgt)), Some(h)) = (self.size(), self.h()) else {
+            return Ok(());
+        };
+        let origin = self.validate_box(w, hgt, h)?;
+        if let MeshSpec::Graded { fine, ratio, .. } = *self {
+            validate_graded(fine, ratio, origin, (w, hgt))?;
+        }
+        let cells = self.counts().map_or(0.0, |c| c.triangles);
+        if cells > MAX_TRIANGLES {
+            return Err(SetupError::invalid(
+                "mesh.h",
+                format!("{cells:.3e} triangles is more than this engine's 5e7 limit"),
+            ));
+        }
+        if let MeshSpec::Conforming { .. } = self {
+            self.validate_conforming(w.max(hgt))?;
+        }
+        if let MeshSpec::Perturbed { fraction, .. } = *self {
+            finite("mesh.fraction", fraction)?;
+            if !(0.0..=0.3).contains(&fraction) {
+                return Err(SetupError::invalid(
+                    "mesh.fraction",
+                    format!("the perturbation must be in [0, 0.3] of h, got {fraction}"),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// The domain `w` x `hgt` (m) and the cell size `h` (m): positive, the cells smaller than
+    /// the domain, the origin finite and near enough to 0 to resolve the cells. Returns the
+    /// origin.
+    fn validate_box(&self, w: f64, hgt: f64, h: f64) -> Result<[f64; 2], SetupError> {
+        positive("mesh.width", w, "the domain width")?;
+        positive("mesh.height", hgt, "the domain height")?;
+        positive("mesh.h", h, "the cell size")?;
+        if h >= w.min(hgt) {
+            return Err(SetupError::invalid(
+                "mesh.h",
+                format!("the cell size {h} m must be smaller than the domain ({w} m x {hgt} m)"),
+            ));
+        }
+        let origin = match *self {
+            MeshSpec::Regular { origin, .. }
+            | MeshSpec::Perturbed { origin, .. }
+            | MeshSpec::Graded { origin, .. }
+            | MeshSpec::Conforming { origin, .. } => origin,
+            MeshSpec::Gmsh { .. } => [0.0; 2],
+        };
+        finite("mesh.origin", origin[0])?;
+        finite("mesh.origin", origin[1])?;
+        finite("mesh.origin", origin[0] + w)?;
+        finite("mesh.origin", origin[1] + hgt)?;
+        // Node coordinates must resolve the cells: far from 0 (1e308, or 1e12 with h = 1 mm)
+        // neighbouring nodes round to the same position.
+        let far = [origin[0], origin[1], origin[0] + w, origin[1] + hgt]
+            .iter()
+            .fold(0.0f64, |m, x| m.max(x.abs()));
+        if far * 1e-10 > h {
+            return Err(SetupError::invalid(
+                "mesh.origin",
+                format!(
+                    "coordinates up to {far:e} m cannot resolve cells of h = {h} m in double \
+                     precision; move the origin nearer 0"
+                ),
+            ));
+        }
+        Ok(origin)
+    }
+
+    /// A conforming mesh's followed segments, grading, far size (at most `larger`, the
+    /// domain's larger side, m), smallest angle and merge distance.
+    fn validate_conforming(&self, larger: f64) -> Result<(), SetupError> {
+        let MeshSpec::Conforming {
+            h,
+            h_far,
+            min_angle_deg,
+            merge,
+            grading,
+            ref follow,
+            ..
+        } = *self
+        else {
+            return Ok(());
+        };
+        for (i, f) in follow.iter().enumerate() {
+            for v in [f.from[0], f.from[1], f.to[0], f.to[1]] {
+                finite(&format!("mesh.follow[{i}]"), v)?;
+            }
+        }
+        finite("mesh.grading", grading)?;
+        if !(0.01..=2.0).contains(&grading) {
+            return Err(SetupError::invalid(
+                "mesh.grading",
+                format!(
+                    "the growth of the cell size with the distance from the fractures \
+                     must be in [0.01, 2] (m per m), got {grading}"
+                ),
+            ));
+        }
+        if let Some(hf) = h_far {
+            finite("mesh.h_far", hf)?;
+            if hf < h || hf > larger {
+                return Err(SetupError::invalid(
+                    "mesh.h_far",
+                    format!(
+                        "the far cell size must be between h = {h} m and the domain's \
+                         larger side ({larger} m), got {hf} m"
+                    ),
+                ));
+            }
+        }
+        finite("mesh.min_angle_deg", min_angle_deg)?;
+        if !(min_angle_deg > 0.0 && min_angle_deg <= 33.0) {
+            return Err(SetupError::invalid(
+                "mesh.min_angle_deg",
+                format!(
+                    "the smallest angle asked of the refinement must be in (0, 33] \
+                     degrees (above about 30 Delaunay refinement need not end), got \
+                     {min_angle_deg}"
+                ),
+            ));
+        }
+        finite("mesh.merge", merge)?;
+        if !(0.0..=0.5).contains(&merge) {
+            return Err(SetupError::invalid(
+                "mesh.merge",
+                format!(
+                    "the merge distance must be in [0, 0.5] of h (points closer than \
+                     merge * h become one), got {merge}"
+                ),
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// A graded mesh's growth ratio and fine box (x0, y0, x1, y1), m, inside the domain of size
+/// `(w, hgt)` at `origin`, m.
+fn validate_graded(
+    fine: [f64; 4],
+    ratio: f64,
+    origin: [f64; 2],
+    (w, hgt): (f64, f64),
+) -> Result<(), SetupError> {
+    finite("mesh.ratio", ratio)?;
+    if !(1.0..=10.0).contains(&ratio) {
+        return Err(SetupError::invalid(
+            "mesh.ratio",
+            format!("the growth ratio of the cells must be in [1, 10] (1: uniform), got {ratio}"),
+        ));
+    }
+    for v in fine {
+        finite("mesh.fine", v)?;
+    }
+    let (x1, y1) = (origin[0] + w, origin[1] + hgt);
+    let tol = 1e-9 * w.max(hgt);
+    if !(fine[0] < fine[2] && fine[1] < fine[3]) {
+        return Err(SetupError::invalid(
+            "mesh.fine",
+            format!("the fine box (x0, y0, x1, y1) = {fine:?} m needs x0 < x1 and y0 < y1"),
+        ));
+    }
+    if fine[0] < origin[0] - tol
+        || fine[1] < origin[1] - tol
+        || fine[2] > x1 + tol
+        || fine[3] > y1 + tol
+    {
+        return Err(SetupError::invalid(
+            "mesh.fine",
+            format!(
+                "the fine box {fine:?} m is not inside the domain [{}, {}, {x1}, {y1}] m",
+                origin[0], origin[1]
+            ),
+        ));
+    }
+    Ok(())
+}

@@ -1,0 +1,357 @@
+//! Scenario files (RON): what a user writes to describe a run, its parsing with precise error
+//! positions, `--set PATH=VALUE` overrides, and the validation pass for physical sense.
+//!
+//! All quantities are SI: lengths m, moduli and stresses Pa (tension positive), density kg/m^3,
+//! time s. The model is plane strain per unit thickness.
+//!
+//! One file per concern, each with its section's types and checks: `mesh`, `material` (the
+//! rock, its boundary conditions, pins, damping, gravity), `fracture`, `flow` (the fluid and
+//! its boundaries), `time`, `output` (the run name, outputs, systems), `production`, and
+//! `parse` (reading RON and `--set`). This file holds the [`Scenario`], the checks that couple
+//! sections, and [`Scenario::validate`], the one way to a [`ValidScenario`].
+
+use crate::error::SetupError;
+pub use crate::network::{Fracture, NetworkSpec, RandomNetwork};
+use serde::{Deserialize, Serialize};
+
+mod flow;
+mod fracture;
+mod material;
+mod mesh;
+mod output;
+mod parse;
+mod production;
+#[cfg(test)]
+mod tests;
+mod time;
+
+pub use flow::{
+    Filling, FlowBcKind, FlowBoundary, FlowTarget, Fluid, InitialFluid, Transmissibility,
+    schedule_factor,
+};
+pub use fracture::{
+    CriterionSpec, DEFAULT_RESIDUAL_APERTURE, FaceStress, FractureSpec, MAX_ROCK_FRACTURES,
+    PreFracture, RockNetwork, read_fracture_csv,
+};
+pub use material::{
+    Boundary, Damping, InitialState, MAX_DENSITY, MAX_YOUNG, Material, Pin, SideBc,
+};
+pub use mesh::{GMSH_BYTES_PER_TRIANGLE, MeshCounts, MeshSpec};
+pub use output::{CheckpointEvery, Field, MAX_NAME_LEN, OutputSpec, SystemsSpec, check_run_name};
+pub use parse::parse_ron;
+pub use production::{ProductionSpec, ProductionStage};
+pub use time::{
+    DEFAULT_NEWTON_EASY, DEFAULT_NEWTON_TOL, End, FlowScheme, LinearSolver, SolidScheme,
+    TimeControl,
+};
+
+/// A whole scenario. See `scenarios/*.ron` and the README's scenario reference.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Scenario {
+    /// Name used for the default output folder and in `summary.json`.
+    pub name: String,
+    /// Free text shown nowhere but kept with the scenario.
+    #[serde(default)]
+    pub description: String,
+    /// The solid mesh (absent in flow-only scenes).
+    #[serde(default)]
+    pub mesh: Option<MeshSpec>,
+    /// The rock (required with a mesh).
+    #[serde(default)]
+    pub material: Option<Material>,
+    #[serde(default)]
+    pub boundary: Boundary,
+    /// The solid's state at t = 0: at rest and undeformed (default), or `InSitu`: every node at
+    /// the homogeneous displacement of the `boundary: InSitu` stress, so the unfractured rock
+    /// starts in equilibrium instead of relaxing into it.
+    #[serde(default)]
+    pub initial_state: InitialState,
+    /// Fracturing of the rock (the criterion, pre-existing fractures and node splitting).
+    #[serde(default)]
+    pub fracture: Option<FractureSpec>,
+    /// A rigid fracture network (flow-only scenes).
+    #[serde(default)]
+    pub network: Option<NetworkSpec>,
+    /// The fluid in the fractures (default: water at 25 C).
+    #[serde(default)]
+    pub fluid: Fluid,
+    /// Initial state of the fluid in the cells.
+    #[serde(default)]
+    pub initial_fluid: InitialFluid,
+    /// Flow boundary conditions (pump, rate, pressure) at network nodes or cells.
+    #[serde(default)]
+    pub flow_boundaries: Vec<FlowBoundary>,
+    /// Gravity, m/s^2 (e.g. (0.0, -9.81)): a body force rho g on the rock.
+    #[serde(default)]
+    pub gravity: Option<[f64; 2]>,
+    /// Piecewise-linear multiplier of every boundary load and prescribed displacement against
+    /// time, [(t s, factor)], constant beyond the ends (a slow ramp from 0 gives quasi-static
+    /// loading). Empty: 1.
+    #[serde(default)]
+    pub boundary_schedule: Vec<(f64, f64)>,
+    /// Single nodes with prescribed displacement components (e.g. to remove rigid-body motion
+    /// under pure traction loading).
+    #[serde(default)]
+    pub pins: Vec<Pin>,
+    pub time: TimeControl,
+    #[serde(default)]
+    pub damping: Damping,
+    #[serde(default)]
+    pub systems: SystemsSpec,
+    #[serde(default)]
+    pub output: OutputSpec,
+    /// Production before and after the run (`hydrofrac run` solves it after the run ends): the
+    /// coupled hydro-mechanical steady state between two pressure wells on the network at setup
+    /// and at the end (`src/production.rs`, `docs/production.md`). Needs a rock with
+    /// fractures and flow boundaries (a coupled run).
+    #[serde(default)]
+    pub production: Option<ProductionStage>,
+}
+
+/// A scenario that passed [`Scenario::validate`], the only way to make one: what takes a
+/// `ValidScenario` (`Simulation::new`, `driver::run_scenario`, [`crate::resources::check`])
+/// does not check again. It reads as a [`Scenario`] (`Deref`); to change it, take it apart
+/// with [`ValidScenario::into_inner`], edit, and validate again.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ValidScenario(Scenario);
+
+impl ValidScenario {
+    /// The scenario, to edit (and validate again before it runs).
+    pub fn into_inner(self) -> Scenario {
+        self.0
+    }
+}
+
+impl std::ops::Deref for ValidScenario {
+    type Target = Scenario;
+    fn deref(&self) -> &Scenario {
+        &self.0
+    }
+}
+
+/// Largest Poisson's ratio of a coupled run (a mesh with flow boundaries acting on its
+/// fractures). The seed's fluid volume of a cell, L max(delta_n, a_r) (m^2 per m, seed (12)),
+/// does not follow a closed joint's opening (delta_n < a_r), so the faces of a filled closed
+/// joint move under the pressure with no change of fluid volume; in rock held at its sides that
+/// free opening Delta A (m^2) compresses the rock, whose mean stress, and the fluid pressure
+/// with it, rises by about M Delta A / A, M = E / (2 (1 + nu) (1 - 2 nu)) the plane-strain area
+/// modulus (Pa): 8.5 E at nu = 0.48, 16.8 E at 0.49, 167 E at 0.499. Measured on the
+/// `verify extreme` coupled block (20 m, pump p_max = 18 MPa, to 0.06 s): the largest fracture
+/// pressure over the run stays within p_max + 5 % + 0.1 MPa (19.0 MPa) up to nu = 0.48 with
+/// both solid schemes (17.7 MPa explicit, 17.9 MPa quasi-static; also at E = 30 GPa and a
+/// joint normal stiffness of 5 GPa/m: 17.8 and 18.4 MPa) and leaves it from 0.485 (19.4 MPa at
+/// E = 30 GPa, 20.2 MPa at 5 GPa/m), 0.49 (19.4 MPa) to 0.499 (34.9 MPa explicit, 29.1 MPa
+/// quasi-static at the end). README "Reliability".
+pub const MAX_COUPLED_POISSON: f64 = 0.48;
+
+impl Scenario {
+    /// Check physical sense, section by section, with the checks that couple sections where
+    /// their fields are first complete; the first problem is reported with the field and the
+    /// reason (the order decides which, and is kept: tests/bad_inputs.rs).
+    pub fn validate(self) -> Result<ValidScenario, SetupError> {
+        check_run_name(&self.name)?;
+        if let Some(mesh) = &self.mesh {
+            mesh.validate()?;
+        }
+        self.check_parts()?;
+        if let Some(m) = &self.material {
+            m.validate()?;
+            self.check_coupled_poisson(m)?;
+        }
+        self.boundary.validate()?;
+        for (i, pin) in self.pins.iter().enumerate() {
+            pin.validate(&format!("pins[{i}]"))?;
+        }
+        self.time
+            .validate(self.mesh.is_some(), self.network.is_some())?;
+        self.check_steady_direct()?;
+        self.damping.validate()?;
+        material::validate_gravity(self.gravity)?;
+        flow::validate_schedule("boundary_schedule", &self.boundary_schedule)?;
+        if let Some(f) = &self.fracture {
+            f.validate()?;
+            self.check_fracture_has_mesh()?;
+        }
+        if let Some(n) = &self.network {
+            n.validate()?;
+        }
+        self.fluid.validate()?;
+        self.initial_fluid.validate()?;
+        self.check_flow_has_fractures()?;
+        if let Some(prod) = &self.production {
+            prod.validate()?;
+            self.check_production_is_coupled()?;
+        }
+        self.check_network_without_mesh()?;
+        self.check_initial_state()?;
+        self.time.validate_max_substeps()?;
+        flow::validate_flow_boundaries(&self.flow_boundaries)?;
+        self.output.validate()?;
+        Ok(ValidScenario(self))
+    }
+
+    /// A mesh comes with a material, and a scene has a mesh or a network.
+    fn check_parts(&self) -> Result<(), SetupError> {
+        if self.mesh.is_some() && self.material.is_none() {
+            return Err(SetupError::invalid(
+                "material",
+                "a scene with a mesh needs a material",
+            ));
+        }
+        if self.mesh.is_none() && self.network.is_none() {
+            return Err(SetupError::invalid(
+                "mesh",
+                "a scene needs a mesh, a network, or both",
+            ));
+        }
+        Ok(())
+    }
+
+    /// A coupled run (a mesh with flow boundaries) takes Poisson's ratio up to
+    /// [`MAX_COUPLED_POISSON`] only.
+    fn check_coupled_poisson(&self, m: &Material) -> Result<(), SetupError> {
+        if self.mesh.is_some()
+            && !self.flow_boundaries.is_empty()
+            && m.poisson > MAX_COUPLED_POISSON
+        {
+            let nu = m.poisson;
+            let area_modulus = m.young / (2.0 * (1.0 + nu) * (1.0 - 2.0 * nu));
+            return Err(SetupError::invalid(
+                "material.poisson",
+                format!(
+                    "{nu} is above {MAX_COUPLED_POISSON} for a coupled run (flow boundaries \
+                     on the rock's fractures): the seed's fluid volume L max(delta_n, a_r) \
+                     does not follow a closed joint's opening, and in nearly incompressible \
+                     rock (area modulus E / (2 (1 + nu)(1 - 2 nu)) = {area_modulus:.2e} Pa, \
+                     {:.0} E) that free opening compresses the rock and drives the fracture \
+                     pressure past the pump's p_max (measured: 1.08 x p_max at nu 0.49, 1.9 x \
+                     at 0.499; docs/reliability.md); use material.poisson <= \
+                     {MAX_COUPLED_POISSON} (runs without flow take up to 0.5)",
+                    area_modulus / m.young
+                ),
+            ));
+        }
+        Ok(())
+    }
+
+    /// `end: SteadyDirect` solves a rigid network (no mesh) with pressure and rate boundaries.
+    fn check_steady_direct(&self) -> Result<(), SetupError> {
+        if !matches!(self.time.end, End::SteadyDirect) {
+            return Ok(());
+        }
+        if self.mesh.is_some() || self.network.is_none() {
+            return Err(SetupError::invalid(
+                "time.end",
+                "SteadyDirect solves a rigid network: it needs a network and no mesh",
+            ));
+        }
+        if let Some(i) = self
+            .flow_boundaries
+            .iter()
+            .position(|b| matches!(b.kind, FlowBcKind::Pump { .. }))
+        {
+            return Err(SetupError::invalid(
+                &format!("flow_boundaries[{i}].kind"),
+                "SteadyDirect takes pressure and rate boundaries, not a pump",
+            ));
+        }
+        Ok(())
+    }
+
+    /// Fracturing needs a solid mesh.
+    fn check_fracture_has_mesh(&self) -> Result<(), SetupError> {
+        if self.mesh.is_none() {
+            return Err(SetupError::invalid(
+                "fracture",
+                "the fracture criterion needs a solid mesh",
+            ));
+        }
+        Ok(())
+    }
+
+    /// Whether the rock has pre-existing fractures (listed, from a file or random) for the
+    /// fluid: a coupled run.
+    fn has_rock_fractures(&self) -> bool {
+        self.mesh.is_some()
+            && self.fracture.as_ref().is_some_and(|f| {
+                !f.preexisting.is_empty() || f.random.is_some() || f.file.is_some()
+            })
+    }
+
+    /// Flow boundaries act on a network or on the rock's pre-existing fractures.
+    fn check_flow_has_fractures(&self) -> Result<(), SetupError> {
+        if !self.flow_boundaries.is_empty() && self.network.is_none() && !self.has_rock_fractures()
+        {
+            return Err(SetupError::invalid(
+                "flow_boundaries",
+                "there is no fracture network to act on (give a `network`, or a mesh with \
+                 `fracture.preexisting` fractures for a coupled run)",
+            ));
+        }
+        Ok(())
+    }
+
+    /// The production stage needs a coupled run: rock fractures and flow boundaries.
+    fn check_production_is_coupled(&self) -> Result<(), SetupError> {
+        if !self.has_rock_fractures() || self.flow_boundaries.is_empty() {
+            return Err(SetupError::invalid(
+                "production",
+                "production needs a coupled run: a mesh with pre-existing fractures \
+                 (`fracture.preexisting`, `fracture.random` or `fracture.file`) and flow \
+                 boundaries",
+            ));
+        }
+        Ok(())
+    }
+
+    /// A rigid network is for flow-only scenes: with a mesh the network is the rock's own.
+    fn check_network_without_mesh(&self) -> Result<(), SetupError> {
+        if self.mesh.is_some() && self.network.is_some() {
+            return Err(SetupError::invalid(
+                "network",
+                "a rigid network cannot be combined with a mesh: in a coupled run the network is \
+                 the rock's fractures (`fracture.preexisting` and those the run opens)",
+            ));
+        }
+        Ok(())
+    }
+
+    /// `initial_state: InSitu` needs `boundary: InSitu`.
+    fn check_initial_state(&self) -> Result<(), SetupError> {
+        if self.initial_state == InitialState::InSitu
+            && !matches!(self.boundary, Boundary::InSitu { .. })
+        {
+            return Err(SetupError::invalid(
+                "initial_state",
+                "InSitu starts from the homogeneous in-situ field: it needs `boundary: InSitu(..)`",
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// `v` is a finite number (errors name `field`).
+fn finite(field: &str, v: f64) -> Result<(), SetupError> {
+    if v.is_finite() {
+        Ok(())
+    } else {
+        Err(SetupError::invalid(
+            field,
+            format!("{v} is not a finite number"),
+        ))
+    }
+}
+
+/// `v` is a finite number > 0 (`what`: its name in the message).
+fn positive(field: &str, v: f64, what: &str) -> Result<(), SetupError> {
+    finite(field, v)?;
+    if v > 0.0 {
+        Ok(())
+    } else {
+        Err(SetupError::invalid(
+            field,
+            format!("{what} must be > 0, got {v}"),
+        ))
+    }
+}
