@@ -86,7 +86,7 @@ pub enum DriverError {
     /// Boxed: a production error carries a run error, and every `Result` of the driver would
     /// grow with it.
     #[error(transparent)]
-    Production(Box<crate::production::ProductionError>),
+    Production(Box<crate::production_stage::ProductionError>),
     #[error("--trace {}: {why}", .path.display())]
     Trace { path: PathBuf, why: String },
 }
@@ -329,7 +329,7 @@ pub fn run_scenario(scenario: Scenario, opts: &RunOptions) -> Result<RunReport, 
         // The before and the after states run side by side: the spinner shows the latest
         // message of each.
         let lines = std::sync::Mutex::new([String::new(), String::new()]);
-        let solved = crate::production::run_production(
+        let solved = crate::production_stage::run_production(
             sim.scenario(),
             end,
             opts.stop.as_ref(),
@@ -347,7 +347,7 @@ pub fn run_scenario(scenario: Scenario, opts: &RunOptions) -> Result<RunReport, 
         bar.finish_and_clear();
         let stage_result = match solved {
             Ok(x) => x,
-            Err(crate::production::ProductionError::Interrupted(sig)) => {
+            Err(crate::production_stage::ProductionError::Interrupted(sig)) => {
                 // Stopped between two steps of an equilibrium: the run's outputs are complete,
                 // the production table is not written.
                 summary["status"] = json!("interrupted");
@@ -366,13 +366,13 @@ pub fn run_scenario(scenario: Scenario, opts: &RunOptions) -> Result<RunReport, 
                 Default::default()
             }
         };
-        let crate::production::StageResult {
+        let crate::production_stage::StageResult {
             rows,
             figures,
             failed,
         } = stage_result;
         if production_error.is_none() && production_interrupted.is_none() {
-            summary["production"] = crate::production::production_json(&stage, &rows, &failed);
+            summary["production"] = crate::production_stage::production_json(&stage, &rows, &failed);
             summary["production"]["wall_s"] = json!(t.elapsed().as_secs_f64());
             for r in &rows {
                 if !r.converged {
@@ -405,7 +405,7 @@ pub fn run_scenario(scenario: Scenario, opts: &RunOptions) -> Result<RunReport, 
             }
         }
         if let (Some(o), None, None) = (sim.output(), &production_error, production_interrupted) {
-            let csv = crate::production::production_csv(&rows);
+            let csv = crate::production_stage::production_csv(&rows);
             write_atomic(
                 &o.claim("production.csv").map_err(DriverError::Output)?,
                 csv.as_bytes(),
@@ -424,7 +424,7 @@ pub fn run_scenario(scenario: Scenario, opts: &RunOptions) -> Result<RunReport, 
                 );
                 let path = o.claim(&name).map_err(DriverError::Output)?;
                 if let Err(e) =
-                    crate::reservoir::production::flow_map(&path, &title, &s.flow, &markers)
+                    crate::reservoir::doublet::flow_map(&path, &title, &s.flow, &markers)
                 {
                     warnings.push(format!("{name} not written: {e}"));
                 }
@@ -442,7 +442,7 @@ pub fn run_scenario(scenario: Scenario, opts: &RunOptions) -> Result<RunReport, 
                     sim.params().name
                 );
                 let path = o.claim(&name).map_err(DriverError::Output)?;
-                if let Err(e) = crate::production::network_figure(&path, &title, view, &markers) {
+                if let Err(e) = crate::production_stage::network_figure(&path, &title, view, &markers) {
                     warnings.push(format!("{name} not written: {e}"));
                 }
             }

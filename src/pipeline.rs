@@ -22,7 +22,7 @@ use crate::reservoir::continuum::{
     ContinuumRun, ContinuumSpec, Well, WellControl, WellIndex, run_continuum,
 };
 use crate::reservoir::discrete::{DiscreteRun, DiscreteSpec, RockGrid, TimeStep, run_discrete};
-use crate::reservoir::production::{PressureWell, steady_production};
+use crate::reservoir::doublet::{PressureWell, doublet_flow};
 use crate::reservoir::upscale::{BlockPermeability, upscale};
 use crate::reservoir::{Grid2, NetworkFlow, ReservoirError, ThermalProps};
 use serde::{Deserialize, Serialize};
@@ -322,7 +322,7 @@ impl State {
     }
 }
 
-pub use crate::reservoir::production::{network_of_view, reaches};
+pub use crate::reservoir::doublet::{network_of_view, reaches};
 
 /// One row of `network_production.csv`.
 #[derive(Clone, Debug, PartialEq)]
@@ -426,7 +426,7 @@ pub fn run_pipeline(path: &Path, opts: &PipelineOptions) -> Result<PipelineRepor
                 if state == State::Before && !reaches(&net, &wells, p.reach) {
                     return Ok(0.0);
                 }
-                let prod = steady_production(&net, &wells, spec.upscaling.viscosity, p.reach)
+                let prod = doublet_flow(&net, &wells, spec.upscaling.viscosity, p.reach)
                     .map_err(|error| PipelineError::Reservoir {
                         stage: "production",
                         error,
@@ -456,7 +456,7 @@ pub fn run_pipeline(path: &Path, opts: &PipelineOptions) -> Result<PipelineRepor
                 pressure: p.production_pressure,
             },
         ];
-        let flow = steady_production(&net, &wells, spec.upscaling.viscosity, p.reach)
+        let flow = doublet_flow(&net, &wells, spec.upscaling.viscosity, p.reach)
             .map(|prod| prod.flow)
             .unwrap_or(net);
         flow_png(
@@ -766,7 +766,7 @@ fn flow_png(
     markers: &[([f64; 2], &str)],
 ) -> Result<(), PipelineError> {
     let path = folder.claim(name).map_err(PipelineError::Output)?;
-    crate::reservoir::production::flow_map(&path, title, net, markers)
+    crate::reservoir::doublet::flow_map(&path, title, net, markers)
         .map_err(|e| PipelineError::Output(std::io::Error::other(e.to_string())))
 }
 
@@ -944,7 +944,7 @@ fn heat_stage(
             let mut discrete = HeatSeries::default();
             let prod = if connected {
                 Some(
-                    steady_production(&net, &wells, mu, p.reach)
+                    doublet_flow(&net, &wells, mu, p.reach)
                         .map_err(reservoir_error("heat (discrete)"))?,
                 )
             } else {

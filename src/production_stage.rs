@@ -13,7 +13,7 @@
 //!    mean pressures held at p; the hydraulic apertures a_c = max(delta_n, a_r) of that
 //!    equilibrium (seed (12));
 //! 2. the network's steady flow through those apertures between the wells
-//!    ([`steady_production`]): new cell pressures G(p).
+//!    ([`doublet_flow`]): new cell pressures G(p).
 //!
 //! p_0 = 0 (the pump off, the fractures drained): its apertures give the frozen rate. Then
 //! p_{k+1} = p_k + w (G(p_k) - p_k) until max_c |G(p_k) - p_k| / dp and the rate's change are
@@ -22,7 +22,7 @@
 use crate::checkpoint::State as SimState;
 use crate::error::SetupError;
 use crate::reservoir::NetworkFlow;
-use crate::reservoir::production::{PressureWell, network_of_view, reaches, steady_production};
+use crate::reservoir::doublet::{PressureWell, network_of_view, reaches, doublet_flow};
 use crate::scenario::{Damping, End, ProductionStage, Scenario, SolidScheme};
 use crate::sim::{Simulation, StopFlag};
 use crate::systems::RunError;
@@ -374,7 +374,7 @@ fn steady(
     if !reaches(net, wells, reach) {
         return Ok((0.0, vec![0.0; net.cells.len()], net.clone()));
     }
-    let prod = steady_production(net, wells, viscosity, reach).map_err(|e| e.to_string())?;
+    let prod = doublet_flow(net, wells, viscosity, reach).map_err(|e| e.to_string())?;
     // 0 - q, not -q: no negative zero in the table.
     Ok((0.0 - prod.wells[1].1, prod.pressure, prod.flow))
 }
