@@ -700,6 +700,38 @@ pub fn production_csv(rows: &[ProductionRow]) -> String {
     s
 }
 
+/// The stage's `summary.json` warnings: a state that did not converge, a rock without fluid
+/// pressure that did not settle, a state that failed.
+pub fn stage_warnings(rows: &[ProductionRow], failed: &[FailedState]) -> Vec<String> {
+    let mut warnings = Vec::new();
+    for r in rows {
+        let (state, dp) = (r.state.name(), r.dp / 1e6);
+        if !r.converged {
+            warnings.push(format!(
+                "production {state} dp = {dp:.1} MPa did not converge in {} iterations \
+                 (last change {:.1e})",
+                r.iterations, r.change
+            ));
+        }
+        if !r.frozen_settled {
+            warnings.push(format!(
+                "production {state} dp = {dp:.1} MPa: the rock without fluid pressure did \
+                 not settle (a fracture grew in each relaxation), so rate_frozen is \
+                 not an equilibrium's"
+            ));
+        }
+    }
+    for f in failed {
+        warnings.push(format!(
+            "production {} dp = {:.1} MPa failed, no row: {}",
+            f.state.name(),
+            f.dp / 1e6,
+            f.error
+        ));
+    }
+    warnings
+}
+
 /// `summary.json`'s `production`: the wells and one entry per row (ratios after / before).
 pub fn production_json(
     stage: &ProductionStage,
