@@ -21,6 +21,21 @@ pub struct PressureWell {
     pub pressure: f64,
 }
 
+/// The doublet of `spec` at pressure drop `dp` (Pa): the injection well at
+/// `production_pressure + dp`, the production well at `production_pressure`.
+pub fn doublet_wells(spec: &crate::scenario::ProductionSpec, dp: f64) -> [PressureWell; 2] {
+    [
+        PressureWell {
+            position: spec.injection,
+            pressure: spec.production_pressure + dp,
+        },
+        PressureWell {
+            position: spec.production,
+            pressure: spec.production_pressure,
+        },
+    ]
+}
+
 /// The steady flow of a network between pressure wells (a doublet).
 #[derive(Clone, Debug, PartialEq)]
 pub struct DoubletFlow {
