@@ -22,7 +22,7 @@ use crate::reservoir::continuum::{
     ContinuumRun, ContinuumSpec, Well, WellControl, WellIndex, run_continuum,
 };
 use crate::reservoir::discrete::{DiscreteRun, DiscreteSpec, RockGrid, TimeStep, run_discrete};
-use crate::reservoir::doublet::{PressureWell, doublet_flow};
+use crate::reservoir::doublet::{PressureWell, doublet_flow, doublet_wells};
 use crate::reservoir::upscale::{BlockPermeability, upscale};
 use crate::reservoir::{Grid2, NetworkFlow, ReservoirError, ThermalProps};
 use serde::{Deserialize, Serialize};
@@ -324,9 +324,9 @@ impl State {
 
 pub use crate::reservoir::doublet::{network_of_view, reaches};
 
-/// One row of `network_production.csv`.
+/// One row of `network_production.csv` (the doublet stage).
 #[derive(Clone, Debug, PartialEq)]
-pub struct ProductionRow {
+pub struct DoubletRow {
     pub state: State,
     /// Pressure drop, Pa.
     pub dp: f64,
@@ -340,7 +340,8 @@ pub struct ProductionRow {
 #[derive(Debug)]
 pub struct PipelineReport {
     pub out: PathBuf,
-    pub production: Vec<ProductionRow>,
+    /// The doublet stage's rows.
+    pub doublet: Vec<DoubletRow>,
     pub permeability: Vec<(State, BlockPermeability)>,
     /// (stage, wall seconds).
     pub stages: Vec<(&'static str, f64)>,
@@ -358,7 +359,8 @@ pub struct PipelineOptions {
     pub stop: Option<crate::sim::StopFlag>,
 }
 
-/// Run a pipeline file.
+/// Run a pipeline file, stage by stage: stimulation, doublet, upscaling, heat, then
+/// `summary.json`. Each stage's wall time is in `stages`.
 pub fn run_pipeline(path: &Path, opts: &PipelineOptions) -> Result<PipelineReport, PipelineError> {
     let spec = PipelineSpec::load(path)?;
     let out = opts
@@ -369,98 +371,142 @@ pub fn run_pipeline(path: &Path, opts: &PipelineOptions) -> Result<PipelineRepor
     plan.require_folder("stimulation")?;
     let folder = plan.open()?;
     let mut stages = Vec::new();
-
-    // 1. Stimulation.
-    let t0 = Instant::now();
-    let stim: RunReport = run_file(
-        &spec.stimulation,
-        &RunOptions {
-            out: Some(out.join("stimulation")),
-            set: spec.stimulation_set.clone(),
-            quiet: opts.quiet,
-            force: opts.force,
-            stop: opts.stop.clone(),
-            ..Default::default()
-        },
+    let stim = timed(&mut stages, "stimulation", || {
+        stimulation_stage(&spec, &out, opts)
+    })?;
+    let nets = Networks::of(&spec, &stim)?;
+    let doublet = timed(&mut stages, "doublet", || {
+        doublet_stage(&spec, &nets, &folder)
+    })?;
+    let permeability = timed(&mut stages, "upscaling", || {
+        upscaling_stage(&spec, &nets, stim.mesh_box, &folder)
+    })?;
+    let heat = heat_stage(
+        &spec,
+        &nets.views(),
+        nets.chosen,
+        &permeability,
+        stim.mesh_box,
+        &mut stages,
     )?;
-    stages.push(("stimulation", t0.elapsed().as_secs_f64()));
-    if let Some(signal) = stim.interrupted_by {
-        return Err(PipelineError::Interrupted {
-            signal,
-            out: stim.out.display().to_string(),
-        });
-    }
-    let Some([start, end]) = stim.networks.clone() else {
-        return Err(PipelineError::Invalid {
-            field: "stimulation".into(),
-            why: format!("{} has no fractures", spec.stimulation.display()),
-        });
-    };
-    let residual = stim.residual_aperture;
-    let views = [(State::Before, &start), (State::After, &end)];
-    let chosen = match spec.apertures {
-        Apertures::Residual => Some(residual),
-        Apertures::EndOfStimulation => None,
-    };
+    write_heat(&folder, &spec, &heat)?;
+    let summary = write_summary(&folder, &spec, stim.summary, &stages, &heat)?;
+    Ok(PipelineReport {
+        out,
+        doublet,
+        permeability,
+        stages,
+        reservoir: heat.rows,
+        summary,
+    })
+}
 
-    // 2. Production through the networks.
+/// Run `stage`, and on success add its wall time to `stages` as `name`.
+fn timed<T>(
+    stages: &mut Vec<(&'static str, f64)>,
+    name: &'static str,
+    stage: impl FnOnce() -> Result<T, PipelineError>,
+) -> Result<T, PipelineError> {
     let t0 = Instant::now();
+    let r = stage()?;
+    stages.push((name, t0.elapsed().as_secs_f64()));
+    Ok(r)
+}
+
+/// 1. The stimulation stage: the stimulation scenario as `hydrofrac run` runs it, into
+///    `<out>/stimulation/`.
+fn stimulation_stage(
+    spec: &PipelineSpec,
+    out: &Path,
+    opts: &PipelineOptions,
+) -> Result<RunReport, PipelineError> {
+    let opts = RunOptions {
+        out: Some(out.join("stimulation")),
+        set: spec.stimulation_set.clone(),
+        quiet: opts.quiet,
+        force: opts.force,
+        stop: opts.stop.clone(),
+        ..Default::default()
+    };
+    Ok(run_file(&spec.stimulation, &opts)?)
+}
+
+/// The stimulation's networks as the later stages take them: before and after, the residual
+/// aperture, and the apertures the pipeline file chose (`Some(residual)`, or `None`: the
+/// networks' own).
+struct Networks {
+    start: FlowView,
+    end: FlowView,
+    residual: f64,
+    chosen: Option<f64>,
+}
+
+impl Networks {
+    /// The networks of a finished stimulation: refused when a signal stopped it, or when it
+    /// has no fractures.
+    fn of(spec: &PipelineSpec, stim: &RunReport) -> Result<Self, PipelineError> {
+        if let Some(signal) = stim.interrupted_by {
+            return Err(PipelineError::Interrupted {
+                signal,
+                out: stim.out.display().to_string(),
+            });
+        }
+        let Some([start, end]) = stim.networks.clone() else {
+            return Err(PipelineError::Invalid {
+                field: "stimulation".into(),
+                why: format!("{} has no fractures", spec.stimulation.display()),
+            });
+        };
+        let residual = stim.residual_aperture;
+        let chosen = match spec.apertures {
+            Apertures::Residual => Some(residual),
+            Apertures::EndOfStimulation => None,
+        };
+        Ok(Networks {
+            start,
+            end,
+            residual,
+            chosen,
+        })
+    }
+
+    fn views(&self) -> [(State, &FlowView); 2] {
+        [(State::Before, &self.start), (State::After, &self.end)]
+    }
+}
+
+/// 2. The doublet stage: the steady flow of each network between the wells at each pressure
+///    drop, with the apertures at the end of the stimulation and every cell at the residual
+///    aperture (`network_production.csv`); the flow over the networks at the middle drop, with
+///    the chosen apertures (`production_flow_{state}.png`, the seed's Fig. 10).
+fn doublet_stage(
+    spec: &PipelineSpec,
+    nets: &Networks,
+    folder: &Folder,
+) -> Result<Vec<DoubletRow>, PipelineError> {
     let p = &spec.production;
-    let mut production = Vec::new();
-    for (state, v) in views {
+    let mut rows = Vec::new();
+    for (state, v) in nets.views() {
         for &dp in &p.pressure_drops {
-            let wells = [
-                PressureWell {
-                    position: p.injection,
-                    pressure: p.production_pressure + dp,
-                },
-                PressureWell {
-                    position: p.production,
-                    pressure: p.production_pressure,
-                },
-            ];
-            let rate_of = |res: Option<f64>| -> Result<f64, PipelineError> {
-                let net = network_of_view(v, res);
-                // A well no fracture reaches before the stimulation produces nothing through
-                // the network (the continuum model gives it the matrix's flow).
-                if state == State::Before && !reaches(&net, &wells, p.reach) {
-                    return Ok(0.0);
-                }
-                let prod = doublet_flow(&net, &wells, spec.upscaling.viscosity, p.reach)
-                    .map_err(|error| PipelineError::Reservoir {
-                        stage: "production",
-                        error,
-                    })?;
-                Ok(-prod.wells[1].1)
-            };
-            production.push(ProductionRow {
+            let wells = doublet_wells(p, dp);
+            rows.push(DoubletRow {
                 state,
                 dp,
-                rate: rate_of(None)?,
-                rate_residual: rate_of(Some(residual))?,
+                rate: doublet_rate(spec, state, v, &wells, None)?,
+                rate_residual: doublet_rate(spec, state, v, &wells, Some(nets.residual))?,
             });
         }
     }
-    write_production(&folder, &production)?;
-    // The seed's Fig. 10: flow over the network at the middle pressure drop.
+    write_doublet(folder, &rows)?;
     let dp = p.pressure_drops[p.pressure_drops.len() / 2];
-    for (state, v) in views {
-        let net = network_of_view(v, chosen);
-        let wells = [
-            PressureWell {
-                position: p.injection,
-                pressure: p.production_pressure + dp,
-            },
-            PressureWell {
-                position: p.production,
-                pressure: p.production_pressure,
-            },
-        ];
+    let wells = doublet_wells(p, dp);
+    for (state, v) in nets.views() {
+        let net = network_of_view(v, nets.chosen);
         let flow = doublet_flow(&net, &wells, spec.upscaling.viscosity, p.reach)
-            .map(|prod| prod.flow)
+            .map(|d| d.flow)
             .unwrap_or(net);
         flow_png(
-            &folder,
+            folder,
             &format!("production_flow_{}.png", state.name()),
             &format!(
                 "{}: production flow, {}, dp = {:.0} MPa, {:?} apertures",
@@ -473,33 +519,70 @@ pub fn run_pipeline(path: &Path, opts: &PipelineOptions) -> Result<PipelineRepor
             &[(p.injection, "injection"), (p.production, "production")],
         )?;
     }
-    stages.push(("production", t0.elapsed().as_secs_f64()));
+    Ok(rows)
+}
 
-    // 3. Upscaling over the stimulation's block.
-    let t0 = Instant::now();
-    let b = stim.mesh_box;
+/// The production rate of network `v` between `wells` (m^2/s per metre), with every cell at
+/// the aperture `residual`, else with its own. Before the stimulation a well no fracture
+/// reaches produces nothing through the network (the continuum model gives it the matrix's
+/// flow).
+fn doublet_rate(
+    spec: &PipelineSpec,
+    state: State,
+    v: &FlowView,
+    wells: &[PressureWell; 2],
+    residual: Option<f64>,
+) -> Result<f64, PipelineError> {
+    let p = &spec.production;
+    let net = network_of_view(v, residual);
+    if state == State::Before && !reaches(&net, wells, p.reach) {
+        return Ok(0.0);
+    }
+    let flow = doublet_flow(&net, wells, spec.upscaling.viscosity, p.reach)
+        .map_err(reservoir_error("doublet"))?;
+    Ok(-flow.wells[1].1)
+}
+
+/// 3. The upscaling stage: Oda's tensor and the flow-based permeability of each network, with
+///    the chosen apertures, on `upscaling.blocks` over the stimulation's mesh (`mesh_box`):
+///    `permeability.csv`, `permeability.vtu` and the maps `permeability_{flow,oda}_{state}.png`.
+fn upscaling_stage(
+    spec: &PipelineSpec,
+    nets: &Networks,
+    mesh_box: [f64; 4],
+    folder: &Folder,
+) -> Result<Vec<(State, BlockPermeability)>, PipelineError> {
+    let b = mesh_box;
     let grid = Grid2 {
         origin: [b[0], b[2]],
         size: [b[1] - b[0], b[3] - b[2]],
         n: spec.upscaling.blocks,
     };
     let mut permeability = Vec::new();
-    for (state, v) in views {
+    for (state, v) in nets.views() {
         let k = upscale(
             &grid,
-            &network_of_view(v, chosen),
+            &network_of_view(v, nets.chosen),
             spec.upscaling.viscosity,
             spec.upscaling.matrix_permeability,
         )
-        .map_err(|error| PipelineError::Reservoir {
-            stage: "upscaling",
-            error,
-        })?;
+        .map_err(reservoir_error("upscaling"))?;
         permeability.push((state, k));
     }
-    write_permeability(&folder, &permeability)?;
+    write_permeability(folder, &permeability)?;
+    permeability_maps(folder, spec, &permeability)?;
+    Ok(permeability)
+}
+
+/// `permeability_{flow,oda}_{state}.png`: max(k_xx, k_yy) per block, log scale, with the wells.
+fn permeability_maps(
+    folder: &Folder,
+    spec: &PipelineSpec,
+    permeability: &[(State, BlockPermeability)],
+) -> Result<(), PipelineError> {
+    let p = &spec.production;
     let wells = [(p.injection, "injection"), (p.production, "production")];
-    for (state, k) in &permeability {
+    for (state, k) in permeability {
         for (label, values) in [
             (
                 "flow",
@@ -515,7 +598,7 @@ pub fn run_pipeline(path: &Path, opts: &PipelineOptions) -> Result<PipelineRepor
                 state.name()
             );
             field_png(
-                &folder,
+                folder,
                 &name,
                 &title,
                 &k.grid,
@@ -525,25 +608,25 @@ pub fn run_pipeline(path: &Path, opts: &PipelineOptions) -> Result<PipelineRepor
             )?;
         }
     }
-    stages.push(("upscaling", t0.elapsed().as_secs_f64()));
+    Ok(())
+}
 
-    // 4. Heat extraction, both models, both states.
-    let heat = heat_stage(
-        &spec,
-        &views,
-        chosen,
-        &permeability,
-        stim.mesh_box,
-        &mut stages,
-    )?;
-    write_heat(&folder, &spec, &heat)?;
-
-    let summary = serde_json::json!({
+/// `summary.json`: the pipeline, its apertures, the stimulation's summary, the stages' wall
+/// times, the heat systems' timing, the reservoir table and the largest energy-balance error.
+fn write_summary(
+    folder: &Folder,
+    spec: &PipelineSpec,
+    stimulation: serde_json::Value,
+    stages: &[(&'static str, f64)],
+    heat: &HeatResult,
+) -> Result<serde_json::Value, PipelineError> {
+    use serde_json::json;
+    let summary = json!({
         "pipeline": spec.name,
         "apertures": format!("{:?}", spec.apertures),
-        "stimulation": stim.summary,
-        "stages": stages.iter().map(|(s, t)| serde_json::json!({"stage": s, "wall_s": t})).collect::<Vec<_>>(),
-        "systems": heat.timing.iter().map(|(s, calls, t)| serde_json::json!({"system": s, "calls": calls, "total_s": t})).collect::<Vec<_>>(),
+        "stimulation": stimulation,
+        "stages": stages.iter().map(|(s, t)| json!({"stage": s, "wall_s": t})).collect::<Vec<_>>(),
+        "systems": heat.timing.iter().map(|(s, calls, t)| json!({"system": s, "calls": calls, "total_s": t})).collect::<Vec<_>>(),
         "reservoir": heat.rows.iter().map(|r| r.json()).collect::<Vec<_>>(),
         "energy_balance": heat.energy_balance,
     });
@@ -556,17 +639,11 @@ pub fn run_pipeline(path: &Path, opts: &PipelineOptions) -> Result<PipelineRepor
             .as_bytes(),
     )
     .map_err(PipelineError::Output)?;
-    Ok(PipelineReport {
-        out,
-        production,
-        permeability,
-        stages,
-        reservoir: heat.rows,
-        summary,
-    })
+    Ok(summary)
 }
 
-fn write_production(folder: &Folder, rows: &[ProductionRow]) -> Result<(), PipelineError> {
+/// `network_production.csv`: `state,dp,rate,rate_residual` (Pa, m^2/s per metre).
+fn write_doublet(folder: &Folder, rows: &[DoubletRow]) -> Result<(), PipelineError> {
     let mut s = String::from("state,dp,rate,rate_residual\n");
     for r in rows {
         s += &format!(
@@ -671,14 +748,15 @@ fn write_permeability(
     crate::output::vtk::write_vtu(&path, &piece).map_err(PipelineError::Output)
 }
 
-/// The tables a pipeline prints: production, permeability, stage times.
+/// The tables a pipeline prints: the doublet's rates, the heat extraction, the stage times and
+/// the heat systems' timing.
 pub fn report_text(r: &PipelineReport) -> String {
-    let mut s = String::from("network production (m^2/s per metre):\n");
+    let mut s = String::from("doublet: production rate through the network (m^2/s per metre):\n");
     s += &format!(
         "{:<8} {:>10} {:>14} {:>16}\n",
         "state", "dp [MPa]", "rate", "rate (residual)"
     );
-    for p in &r.production {
+    for p in &r.doublet {
         s += &format!(
             "{:<8} {:>10.1} {:>14.4e} {:>16.4e}\n",
             p.state.name(),
@@ -897,6 +975,9 @@ fn rock_quads(g: &RockGrid) -> Vec<[[f64; 2]; 4]> {
     q
 }
 
+/// 4. The heat stage: per network state (apertures as chosen), the discrete model on the
+///    network and the continuum model on a reservoir around the upscaled zone, `heat.years` at
+///    `heat.pressure_drop`, with their systems timed; each model's wall time in `stages`.
 fn heat_stage(
     spec: &PipelineSpec,
     views: &[(State, &FlowView); 2],
@@ -905,214 +986,26 @@ fn heat_stage(
     mesh_box: [f64; 4],
     stages: &mut Vec<(&'static str, f64)>,
 ) -> Result<HeatResult, PipelineError> {
-    let h = &spec.heat;
-    let p = &spec.production;
-    let mu = h.props.fluid_viscosity;
-    let end_time = h.years * YEAR;
-    let snap_times: Vec<f64> = h
-        .snapshot_years
-        .clone()
-        .unwrap_or_else(|| h.report_years.clone())
-        .iter()
-        .filter(|&&y| y > 0.0 && y <= h.years)
-        .map(|y| y * YEAR)
-        .collect();
-    let wells = [
-        PressureWell {
-            position: p.injection,
-            pressure: p.production_pressure + h.pressure_drop,
-        },
-        PressureWell {
-            position: p.production,
-            pressure: p.production_pressure,
-        },
-    ];
+    let heat = HeatRun::new(spec, mesh_box);
     let timing = crate::timing::TimingLayer::default();
     let table = timing.table.clone();
     let subscriber =
         tracing_subscriber::layer::SubscriberExt::with(tracing_subscriber::registry(), timing);
     let mut series = Vec::new();
-    let mut snapshots = Vec::new();
-    let mut energy_balance: f64 = 0.0;
+    let mut got = Collected::default();
     let (mut t_discrete, mut t_continuum) = (0.0, 0.0);
     tracing::subscriber::with_default(subscriber, || -> Result<(), PipelineError> {
         for &(state, v) in views {
-            // Discrete: the network's steady flow, heat along it and conduction in the rock.
             let t0 = Instant::now();
-            let net = network_of_view(v, apertures);
-            let connected = reaches(&net, &wells, p.reach);
-            let mut discrete = HeatSeries::default();
-            let prod = if connected {
-                Some(
-                    doublet_flow(&net, &wells, mu, p.reach)
-                        .map_err(reservoir_error("heat (discrete)"))?,
-                )
-            } else {
-                None
-            };
-            // Wells on fractures that do not connect produce nothing (no run).
-            if let Some(prod) = prod.filter(|x| x.wells[1].1 < 0.0) {
-                let lines_x: Vec<f64> = Vec::new();
-                let mut lines_y: Vec<f64> = wells.iter().map(|w| w.position[1]).collect();
-                lines_y.sort_by(f64::total_cmp);
-                lines_y.dedup();
-                let grid = RockGrid::graded(
-                    [mesh_box[0], mesh_box[2]],
-                    [mesh_box[1], mesh_box[3]],
-                    &lines_x,
-                    &lines_y,
-                    h.discrete.h_min,
-                    h.discrete.growth,
-                    h.discrete.h_max,
-                )
-                .map_err(reservoir_error("heat (discrete)"))?;
-                let ds = DiscreteSpec {
-                    grid: grid.clone(),
-                    props: h.props,
-                    initial_temperature: h.initial_temperature,
-                    injection_temperature: h.injection_temperature,
-                    end_time,
-                    time_step: h.discrete.time_step,
-                    output_times: snap_times.clone(),
-                };
-                let run: DiscreteRun =
-                    run_discrete(&ds, &prod.flow).map_err(reservoir_error("heat (discrete)"))?;
-                energy_balance = energy_balance.max(run.energy_balance.relative_error);
-                let quads = rock_quads(&grid);
-                for s in &run.snapshots {
-                    snapshots.push((
-                        state,
-                        "discrete",
-                        s.time,
-                        quads.clone(),
-                        s.rock_temperature.clone(),
-                    ));
-                }
-                discrete = HeatSeries {
-                    times: run.times,
-                    production_temperature: run.production_temperature,
-                    thermal_power: run.thermal_power,
-                    cumulative_heat: run.cumulative_heat,
-                    rate: -prod.wells[1].1,
-                };
-            }
+            let discrete = heat.discrete(state, v, apertures, &mut got)?;
             t_discrete += t0.elapsed().as_secs_f64();
-
-            // Continuum: the upscaled zone in a matrix reservoir, Darcy and heat.
             let t0 = Instant::now();
-            let c = &h.continuum;
             let k = &permeability
                 .iter()
                 .find(|(s, _)| *s == state)
                 .expect("both states upscaled")
                 .1;
-            let d = k.grid.dx();
-            let n = [
-                (c.size[0] / d[0]).round() as usize,
-                (c.size[1] / d[1]).round() as usize,
-            ];
-            let grid = Grid2 {
-                origin: [0.0; 2],
-                size: [n[0] as f64 * d[0], n[1] as f64 * d[1]],
-                n,
-            };
-            let off = [
-                (c.zone_origin[0] / d[0]).round() as usize,
-                (c.zone_origin[1] / d[1]).round() as usize,
-            ];
-            if off[0] + k.grid.n[0] > n[0] || off[1] + k.grid.n[1] > n[1] {
-                return Err(PipelineError::Invalid {
-                    field: "heat.continuum".into(),
-                    why: format!(
-                        "the stimulated zone ({} x {} m at zone_origin {:?}, in blocks of {} x {} m) does not fit in the reservoir of size {:?} m",
-                        k.grid.size[0], k.grid.size[1], c.zone_origin, d[0], d[1], c.size
-                    ),
-                });
-            }
-            let mut perm = vec![[k.matrix; 2]; grid.len()];
-            for j in 0..k.grid.n[1] {
-                for i in 0..k.grid.n[0] {
-                    let b = k.grid.index(i, j);
-                    let kb = match c.permeability {
-                        PermeabilityChoice::FlowBased => k.flow[b],
-                        PermeabilityChoice::Oda => [k.oda[b][0], k.oda[b][1]],
-                    };
-                    perm[grid.index(off[0] + i, off[1] + j)] = kb;
-                }
-            }
-            let shift = [
-                c.zone_origin[0] - k.grid.origin[0],
-                c.zone_origin[1] - k.grid.origin[1],
-            ];
-            let at = |q: [f64; 2]| {
-                // A well on the zone's lower or left edge lies in the block beside it; nudge
-                // it a thousandth of a block inside the stimulated zone.
-                let x = [q[0] + shift[0], q[1] + shift[1]];
-                [
-                    x[0].clamp(
-                        c.zone_origin[0] + 1e-3 * d[0],
-                        c.zone_origin[0] + k.grid.size[0] - 1e-3 * d[0],
-                    ),
-                    x[1].clamp(
-                        c.zone_origin[1] + 1e-3 * d[1],
-                        c.zone_origin[1] + k.grid.size[1] - 1e-3 * d[1],
-                    ),
-                ]
-            };
-            let cs = ContinuumSpec {
-                grid,
-                permeability: perm,
-                props: h.props,
-                initial_temperature: h.initial_temperature,
-                initial_pressure: p.production_pressure,
-                wells: vec![
-                    Well {
-                        name: "injection".into(),
-                        position: at(p.injection),
-                        control: WellControl::Pressure(p.production_pressure + h.pressure_drop),
-                        injection_temperature: h.injection_temperature,
-                        radius: c.well_radius,
-                        index: WellIndex::Fractured,
-                    },
-                    Well {
-                        name: "production".into(),
-                        position: at(p.production),
-                        control: WellControl::Pressure(p.production_pressure),
-                        injection_temperature: h.injection_temperature,
-                        radius: c.well_radius,
-                        index: WellIndex::Fractured,
-                    },
-                ],
-                edges: Default::default(),
-                end_time,
-                dt: c.dt,
-                output_times: snap_times.clone(),
-            };
-            let run: ContinuumRun =
-                run_continuum(&cs).map_err(reservoir_error("heat (continuum)"))?;
-            energy_balance = energy_balance.max(run.energy_balance);
-            let quads: Vec<[[f64; 2]; 4]> = (0..grid.n[1])
-                .flat_map(|j| (0..grid.n[0]).map(move |i| (i, j)))
-                .map(|(i, j)| {
-                    let (x0, y0) = (i as f64 * d[0], j as f64 * d[1]);
-                    [
-                        [x0, y0],
-                        [x0 + d[0], y0],
-                        [x0 + d[0], y0 + d[1]],
-                        [x0, y0 + d[1]],
-                    ]
-                })
-                .collect();
-            for (t, temp) in &run.snapshots {
-                snapshots.push((state, "continuum", *t, quads.clone(), temp.clone()));
-            }
-            let continuum = HeatSeries {
-                rate: -run.flow.wells[1].rate,
-                times: run.times,
-                production_temperature: run.production_temperature,
-                thermal_power: run.thermal_power,
-                cumulative_heat: run.cumulative_heat,
-            };
+            let continuum = heat.continuum(state, k, &mut got)?;
             t_continuum += t0.elapsed().as_secs_f64();
             series.push((state, [discrete, continuum]));
         }
@@ -1120,38 +1013,9 @@ fn heat_stage(
     })?;
     stages.push(("heat (discrete)", t_discrete));
     stages.push(("heat (continuum)", t_continuum));
-    let threshold = h.initial_temperature
-        - h.breakthrough_fraction * (h.initial_temperature - h.injection_temperature);
     let rows = series
         .iter()
-        .map(|(state, m)| ReservoirRow {
-            state: *state,
-            years: h.report_years.clone(),
-            models: [0, 1].map(|k| {
-                let s = &m[k];
-                ModelFigures {
-                    rate: s.rate,
-                    breakthrough: s.first_below(threshold),
-                    temperature: h
-                        .report_years
-                        .iter()
-                        .map(|y| {
-                            if s.times.is_empty() {
-                                h.initial_temperature
-                            } else {
-                                s.at(&s.production_temperature, y * YEAR)
-                            }
-                        })
-                        .collect(),
-                    power: h
-                        .report_years
-                        .iter()
-                        .map(|y| s.at(&s.thermal_power, y * YEAR))
-                        .collect(),
-                    heat: s.cumulative_heat.last().copied().unwrap_or(0.0),
-                }
-            }),
-        })
+        .map(|(state, m)| reservoir_row(&spec.heat, *state, m))
         .collect();
     let timing = table
         .lock()
@@ -1162,10 +1026,311 @@ fn heat_stage(
     Ok(HeatResult {
         series,
         rows,
-        snapshots,
+        snapshots: got.snapshots,
         timing,
-        energy_balance,
+        energy_balance: got.energy_balance,
     })
+}
+
+/// What the heat models' runs collect besides their series: the temperature snapshots and the
+/// largest relative energy-balance error.
+#[derive(Default)]
+struct Collected {
+    snapshots: Vec<Snapshot>,
+    energy_balance: f64,
+}
+
+/// What both heat models share: the pipeline file, the end and snapshot times (s), the wells
+/// at `heat.pressure_drop` and the stimulation's mesh box.
+struct HeatRun<'a> {
+    spec: &'a PipelineSpec,
+    end_time: f64,
+    snap_times: Vec<f64>,
+    wells: [PressureWell; 2],
+    mesh_box: [f64; 4],
+}
+
+impl<'a> HeatRun<'a> {
+    fn new(spec: &'a PipelineSpec, mesh_box: [f64; 4]) -> Self {
+        let h = &spec.heat;
+        let snap_times: Vec<f64> = h
+            .snapshot_years
+            .clone()
+            .unwrap_or_else(|| h.report_years.clone())
+            .iter()
+            .filter(|&&y| y > 0.0 && y <= h.years)
+            .map(|y| y * YEAR)
+            .collect();
+        HeatRun {
+            spec,
+            end_time: h.years * YEAR,
+            snap_times,
+            wells: doublet_wells(&spec.production, h.pressure_drop),
+            mesh_box,
+        }
+    }
+
+    /// The discrete model on network `v` (with the apertures `apertures`, else its own): the
+    /// network's steady flow between the wells advects heat along it, exchanging with
+    /// conduction in the rock ([`Self::rock_grid`]). Wells on fractures that do not connect
+    /// produce nothing (no run: an empty series).
+    fn discrete(
+        &self,
+        state: State,
+        v: &FlowView,
+        apertures: Option<f64>,
+        got: &mut Collected,
+    ) -> Result<HeatSeries, PipelineError> {
+        let (h, p) = (&self.spec.heat, &self.spec.production);
+        let net = network_of_view(v, apertures);
+        if !reaches(&net, &self.wells, p.reach) {
+            return Ok(HeatSeries::default());
+        }
+        let flow = doublet_flow(&net, &self.wells, h.props.fluid_viscosity, p.reach)
+            .map_err(reservoir_error("heat (discrete)"))?;
+        let q = flow.wells[1].1;
+        if q.is_nan() || q >= 0.0 {
+            return Ok(HeatSeries::default());
+        }
+        let grid = self.rock_grid()?;
+        let ds = DiscreteSpec {
+            grid: grid.clone(),
+            props: h.props,
+            initial_temperature: h.initial_temperature,
+            injection_temperature: h.injection_temperature,
+            end_time: self.end_time,
+            time_step: h.discrete.time_step,
+            output_times: self.snap_times.clone(),
+        };
+        let run: DiscreteRun =
+            run_discrete(&ds, &flow.flow).map_err(reservoir_error("heat (discrete)"))?;
+        got.energy_balance = got.energy_balance.max(run.energy_balance.relative_error);
+        let quads = rock_quads(&grid);
+        for s in &run.snapshots {
+            got.snapshots.push((
+                state,
+                "discrete",
+                s.time,
+                quads.clone(),
+                s.rock_temperature.clone(),
+            ));
+        }
+        Ok(HeatSeries {
+            times: run.times,
+            production_temperature: run.production_temperature,
+            thermal_power: run.thermal_power,
+            cumulative_heat: run.cumulative_heat,
+            rate: -q,
+        })
+    }
+
+    /// The discrete model's rock grid over the stimulated block (the mesh box), graded from
+    /// `h_min` at the lines through the wells to `h_max`.
+    fn rock_grid(&self) -> Result<RockGrid, PipelineError> {
+        let (d, b) = (&self.spec.heat.discrete, self.mesh_box);
+        let lines_x: Vec<f64> = Vec::new();
+        let mut lines_y: Vec<f64> = self.wells.iter().map(|w| w.position[1]).collect();
+        lines_y.sort_by(f64::total_cmp);
+        lines_y.dedup();
+        RockGrid::graded(
+            [b[0], b[2]],
+            [b[1], b[3]],
+            &lines_x,
+            &lines_y,
+            d.h_min,
+            d.growth,
+            d.h_max,
+        )
+        .map_err(reservoir_error("heat (discrete)"))
+    }
+
+    /// The continuum model: Darcy flow and heat on the reservoir of [`Self::continuum_spec`]
+    /// around the upscaled zone `k`.
+    fn continuum(
+        &self,
+        state: State,
+        k: &BlockPermeability,
+        got: &mut Collected,
+    ) -> Result<HeatSeries, PipelineError> {
+        let cs = self.continuum_spec(k)?;
+        let run: ContinuumRun = run_continuum(&cs).map_err(reservoir_error("heat (continuum)"))?;
+        got.energy_balance = got.energy_balance.max(run.energy_balance);
+        let quads = block_quads(cs.grid.n, k.grid.dx());
+        for (t, temp) in &run.snapshots {
+            got.snapshots
+                .push((state, "continuum", *t, quads.clone(), temp.clone()));
+        }
+        Ok(HeatSeries {
+            rate: -run.flow.wells[1].rate,
+            times: run.times,
+            production_temperature: run.production_temperature,
+            thermal_power: run.thermal_power,
+            cumulative_heat: run.cumulative_heat,
+        })
+    }
+
+    /// The continuum reservoir: `continuum.size` in blocks of the upscaling blocks, the zone's
+    /// upscaled permeability at `zone_origin` ([`zone_permeability`]), matrix elsewhere; the
+    /// wells at the same pressures, moved with the zone, with the fractured-block well index.
+    fn continuum_spec(&self, k: &BlockPermeability) -> Result<ContinuumSpec, PipelineError> {
+        let (h, p) = (&self.spec.heat, &self.spec.production);
+        let c = &h.continuum;
+        let (grid, off) = reservoir_grid(c, k)?;
+        let well = |name: &str, position: [f64; 2], pressure: f64| Well {
+            name: name.into(),
+            position: well_in_zone(c, k, position),
+            control: WellControl::Pressure(pressure),
+            injection_temperature: h.injection_temperature,
+            radius: c.well_radius,
+            index: WellIndex::Fractured,
+        };
+        Ok(ContinuumSpec {
+            grid,
+            permeability: zone_permeability(c, k, &grid, off),
+            props: h.props,
+            initial_temperature: h.initial_temperature,
+            initial_pressure: p.production_pressure,
+            wells: vec![
+                well(
+                    "injection",
+                    p.injection,
+                    p.production_pressure + h.pressure_drop,
+                ),
+                well("production", p.production, p.production_pressure),
+            ],
+            edges: Default::default(),
+            end_time: self.end_time,
+            dt: c.dt,
+            output_times: self.snap_times.clone(),
+        })
+    }
+}
+
+/// The continuum reservoir's grid (origin 0, `c.size` rounded to whole blocks of the zone
+/// `k`) and the zone's offset in it, blocks; refused when the zone does not fit.
+fn reservoir_grid(
+    c: &ContinuumHeatSpec,
+    k: &BlockPermeability,
+) -> Result<(Grid2, [usize; 2]), PipelineError> {
+    let d = k.grid.dx();
+    let n = [
+        (c.size[0] / d[0]).round() as usize,
+        (c.size[1] / d[1]).round() as usize,
+    ];
+    let grid = Grid2 {
+        origin: [0.0; 2],
+        size: [n[0] as f64 * d[0], n[1] as f64 * d[1]],
+        n,
+    };
+    let off = [
+        (c.zone_origin[0] / d[0]).round() as usize,
+        (c.zone_origin[1] / d[1]).round() as usize,
+    ];
+    if off[0] + k.grid.n[0] > n[0] || off[1] + k.grid.n[1] > n[1] {
+        return Err(PipelineError::Invalid {
+            field: "heat.continuum".into(),
+            why: format!(
+                "the stimulated zone ({} x {} m at zone_origin {:?}, in blocks of {} x {} m) does not fit in the reservoir of size {:?} m",
+                k.grid.size[0], k.grid.size[1], c.zone_origin, d[0], d[1], c.size
+            ),
+        });
+    }
+    Ok((grid, off))
+}
+
+/// The reservoir's permeability per block: the matrix's, and the zone's upscaled diagonal
+/// (`c.permeability`: flow-based or Oda) at its offset `off`.
+fn zone_permeability(
+    c: &ContinuumHeatSpec,
+    k: &BlockPermeability,
+    grid: &Grid2,
+    off: [usize; 2],
+) -> Vec<[f64; 2]> {
+    let mut perm = vec![[k.matrix; 2]; grid.len()];
+    for j in 0..k.grid.n[1] {
+        for i in 0..k.grid.n[0] {
+            let b = k.grid.index(i, j);
+            let kb = match c.permeability {
+                PermeabilityChoice::FlowBased => k.flow[b],
+                PermeabilityChoice::Oda => [k.oda[b][0], k.oda[b][1]],
+            };
+            perm[grid.index(off[0] + i, off[1] + j)] = kb;
+        }
+    }
+    perm
+}
+
+/// A well at `q` in the stimulated block's coordinates, moved with the zone to `zone_origin`.
+/// A well on the zone's lower or left edge lies in the block beside it; it is nudged a
+/// thousandth of a block inside the stimulated zone.
+fn well_in_zone(c: &ContinuumHeatSpec, k: &BlockPermeability, q: [f64; 2]) -> [f64; 2] {
+    let d = k.grid.dx();
+    let shift = [
+        c.zone_origin[0] - k.grid.origin[0],
+        c.zone_origin[1] - k.grid.origin[1],
+    ];
+    let x = [q[0] + shift[0], q[1] + shift[1]];
+    [
+        x[0].clamp(
+            c.zone_origin[0] + 1e-3 * d[0],
+            c.zone_origin[0] + k.grid.size[0] - 1e-3 * d[0],
+        ),
+        x[1].clamp(
+            c.zone_origin[1] + 1e-3 * d[1],
+            c.zone_origin[1] + k.grid.size[1] - 1e-3 * d[1],
+        ),
+    ]
+}
+
+/// Quads of `n` blocks of size `d` from the origin (block order i + n[0] j).
+fn block_quads(n: [usize; 2], d: [f64; 2]) -> Vec<[[f64; 2]; 4]> {
+    (0..n[1])
+        .flat_map(|j| (0..n[0]).map(move |i| (i, j)))
+        .map(|(i, j)| {
+            let (x0, y0) = (i as f64 * d[0], j as f64 * d[1]);
+            [
+                [x0, y0],
+                [x0 + d[0], y0],
+                [x0 + d[0], y0 + d[1]],
+                [x0, y0 + d[1]],
+            ]
+        })
+        .collect()
+}
+
+/// One row of `reservoir.csv` from a state's two series: the rate, the breakthrough, the
+/// production temperature and power at the report years, the heat over the run.
+fn reservoir_row(h: &HeatSpec, state: State, m: &[HeatSeries; 2]) -> ReservoirRow {
+    let threshold = h.initial_temperature
+        - h.breakthrough_fraction * (h.initial_temperature - h.injection_temperature);
+    ReservoirRow {
+        state,
+        years: h.report_years.clone(),
+        models: [0, 1].map(|k| {
+            let s = &m[k];
+            ModelFigures {
+                rate: s.rate,
+                breakthrough: s.first_below(threshold),
+                temperature: h
+                    .report_years
+                    .iter()
+                    .map(|y| {
+                        if s.times.is_empty() {
+                            h.initial_temperature
+                        } else {
+                            s.at(&s.production_temperature, y * YEAR)
+                        }
+                    })
+                    .collect(),
+                power: h
+                    .report_years
+                    .iter()
+                    .map(|y| s.at(&s.thermal_power, y * YEAR))
+                    .collect(),
+                heat: s.cumulative_heat.last().copied().unwrap_or(0.0),
+            }
+        }),
+    }
 }
 
 /// A number for a CSV cell: finite values as they are; a missing breakthrough as `none`.
