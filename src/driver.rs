@@ -323,7 +323,12 @@ fn step_loop(run: &mut Run, quiet: bool) -> Stepped {
         .map(|(s, st)| {
             let t = times.get(s.name()).copied().unwrap_or_default();
             let enabled = *st == Status::Enabled;
-            (s.name().to_string(), enabled, t.calls, t.total.as_secs_f64())
+            (
+                s.name().to_string(),
+                enabled,
+                t.calls,
+                t.total.as_secs_f64(),
+            )
         })
         .collect();
     Stepped {

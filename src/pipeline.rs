@@ -1,12 +1,12 @@
-//! `hydrofrac pipeline FILE`: stimulation -> production -> upscaling -> heat extraction, on the
+//! `hydrofrac pipeline FILE`: stimulation -> doublet -> upscaling -> heat extraction, on the
 //! fracture network before and after the stimulation, in one command (`docs/reservoir.md`).
 //!
 //! Stages, each timed (`summary.json` `stages`, and the table printed at the end):
 //! 1. **stimulation**: the stimulation scenario runs as `hydrofrac run` would, into
 //!    `<out>/stimulation/`; its network at the start is "before", at the end "after".
-//! 2. **production**: the steady flow of each network between an injection and a production
-//!    well held at pressures, at each pressure drop, with the apertures at the end of the
-//!    stimulation and with every cell closed to the residual aperture
+//! 2. **doublet**: the steady flow of each network between an injection and a production
+//!    well held at pressures (`reservoir::doublet`), at each pressure drop, with the apertures
+//!    at the end of the stimulation and with every cell closed to the residual aperture
 //!    (`network_production.csv`, flow maps).
 //! 3. **upscaling**: Oda's tensor and the flow-based permeability of each network on a grid of
 //!    blocks over the stimulated block (`permeability.csv`, `permeability.vtu`, maps).
@@ -39,15 +39,16 @@ pub struct PipelineSpec {
     /// `--set PATH=VALUE` overrides applied to the stimulation scenario.
     #[serde(default)]
     pub stimulation_set: Vec<String>,
+    /// The doublet stage's wells and pressure drops (the heat stage's wells too).
     pub production: ProductionSpec,
-    /// Apertures of the networks in the production, upscaling and heat stages.
+    /// Apertures of the networks in the doublet, upscaling and heat stages.
     #[serde(default)]
     pub apertures: Apertures,
     pub upscaling: UpscalingSpec,
     pub heat: HeatSpec,
 }
 
-/// Which apertures the production, upscaling and heat stages give the fracture cells.
+/// Which apertures the doublet, upscaling and heat stages give the fracture cells.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize, Serialize)]
 pub enum Apertures {
     /// Every cell at the joints' residual aperture: the fractures closed after the pump
@@ -59,7 +60,7 @@ pub enum Apertures {
     EndOfStimulation,
 }
 
-/// The heat-extraction stage: the same wells as the production stage, at one pressure drop.
+/// The heat-extraction stage: the same wells as the doublet stage, at one pressure drop.
 #[derive(Clone, Debug, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct HeatSpec {
@@ -144,7 +145,8 @@ pub enum PermeabilityChoice {
     Oda,
 }
 
-/// The wells of the production stage, in the stimulated block's coordinates.
+/// The wells of the doublet stage (`production:` in a pipeline file), in the stimulated
+/// block's coordinates.
 pub use crate::scenario::ProductionSpec;
 
 /// The grid the networks are upscaled onto.
@@ -155,7 +157,7 @@ pub struct UpscalingSpec {
     pub blocks: [usize; 2],
     /// Permeability of the intact rock, m^2 (granite: 1e-19 to 1e-16).
     pub matrix_permeability: f64,
-    /// Fluid viscosity of the production and upscaling stages, Pa s.
+    /// Fluid viscosity of the doublet and upscaling stages, Pa s.
     pub viscosity: f64,
 }
 
@@ -211,95 +213,146 @@ impl PipelineSpec {
         Ok(crate::scenario::parse_ron(text, file, "pipeline")?)
     }
 
+    /// Every field in range, stage by stage (the doublet's wells, the upscaling grid, the
+    /// heat models, the viscosity); the error names the first field out of range.
     pub fn validate(&self) -> Result<(), PipelineError> {
-        let bad = |field: &str, why: String| PipelineError::Invalid {
-            field: field.to_string(),
-            why,
-        };
         self.production.validate("production")?;
-        let u = &self.upscaling;
-        if u.blocks.iter().any(|&n| n == 0 || n > 10_000) {
-            return Err(bad(
+        self.upscaling.validate_grid()?;
+        self.heat.validate()?;
+        self.upscaling.validate_viscosity()
+    }
+}
+
+/// An out-of-range pipeline field.
+fn invalid(field: &str, why: String) -> PipelineError {
+    PipelineError::Invalid {
+        field: field.to_string(),
+        why,
+    }
+}
+
+/// `v` (in `unit`) finite and positive, else an error naming `field`.
+fn positive(field: &str, v: f64, unit: &str) -> Result<(), PipelineError> {
+    if v.is_finite() && v > 0.0 {
+        Ok(())
+    } else {
+        Err(invalid(
+            field,
+            format!("{v} {unit} is not finite and positive"),
+        ))
+    }
+}
+
+impl UpscalingSpec {
+    /// 1 to 10000 blocks each way, a finite non-negative matrix permeability.
+    fn validate_grid(&self) -> Result<(), PipelineError> {
+        if self.blocks.iter().any(|&n| n == 0 || n > 10_000) {
+            return Err(invalid(
                 "upscaling.blocks",
-                format!("{:?}: each count must be in 1..=10000", u.blocks),
+                format!("{:?}: each count must be in 1..=10000", self.blocks),
             ));
         }
-        if !(u.matrix_permeability.is_finite() && u.matrix_permeability >= 0.0) {
-            return Err(bad(
+        let k = self.matrix_permeability;
+        if !(k.is_finite() && k >= 0.0) {
+            return Err(invalid(
                 "upscaling.matrix_permeability",
-                format!(
-                    "{} m^2 is not finite and non-negative",
-                    u.matrix_permeability
-                ),
+                format!("{k} m^2 is not finite and non-negative"),
             ));
         }
-        let h = &self.heat;
-        let positive = |field: &str, v: f64, unit: &str| -> Result<(), PipelineError> {
-            if v.is_finite() && v > 0.0 {
-                Ok(())
-            } else {
-                Err(bad(field, format!("{v} {unit} is not finite and positive")))
-            }
-        };
-        positive("heat.initial_temperature", h.initial_temperature, "K")?;
-        positive("heat.injection_temperature", h.injection_temperature, "K")?;
-        positive("heat.pressure_drop", h.pressure_drop, "Pa")?;
-        positive("heat.years", h.years, "years")?;
-        if h.years > 1e4 {
-            return Err(bad(
+        Ok(())
+    }
+
+    /// A finite positive viscosity.
+    fn validate_viscosity(&self) -> Result<(), PipelineError> {
+        if !(self.viscosity.is_finite() && self.viscosity > 0.0) {
+            return Err(invalid(
+                "upscaling.viscosity",
+                format!("{} Pa s is not finite and positive", self.viscosity),
+            ));
+        }
+        Ok(())
+    }
+}
+
+impl HeatSpec {
+    /// Finite positive temperatures, pressure drop and years (at most 10000), report years in
+    /// (0, years], a breakthrough fraction in (0, 1), then each model's grid and steps.
+    fn validate(&self) -> Result<(), PipelineError> {
+        positive("heat.initial_temperature", self.initial_temperature, "K")?;
+        positive(
+            "heat.injection_temperature",
+            self.injection_temperature,
+            "K",
+        )?;
+        positive("heat.pressure_drop", self.pressure_drop, "Pa")?;
+        positive("heat.years", self.years, "years")?;
+        if self.years > 1e4 {
+            return Err(invalid(
                 "heat.years",
-                format!("{} years: at most 10000", h.years),
+                format!("{} years: at most 10000", self.years),
             ));
         }
-        for (k, y) in h.report_years.iter().enumerate() {
-            if !(y.is_finite() && *y > 0.0 && *y <= h.years) {
-                return Err(bad(
+        for (k, y) in self.report_years.iter().enumerate() {
+            if !(y.is_finite() && *y > 0.0 && *y <= self.years) {
+                return Err(invalid(
                     &format!("heat.report_years[{k}]"),
-                    format!("{y} is not in (0, heat.years = {}]", h.years),
+                    format!("{y} is not in (0, heat.years = {}]", self.years),
                 ));
             }
         }
-        if !(h.breakthrough_fraction > 0.0 && h.breakthrough_fraction < 1.0) {
-            return Err(bad(
+        let f = self.breakthrough_fraction;
+        if !(f > 0.0 && f < 1.0) {
+            return Err(invalid(
                 "heat.breakthrough_fraction",
-                format!("{} is not in (0, 1)", h.breakthrough_fraction),
+                format!("{f} is not in (0, 1)"),
             ));
         }
-        positive("heat.discrete.h_min", h.discrete.h_min, "m")?;
-        positive("heat.discrete.h_max", h.discrete.h_max, "m")?;
-        if !(h.discrete.growth.is_finite() && h.discrete.growth >= 1.0) {
-            return Err(bad(
+        self.discrete.validate()?;
+        self.continuum.validate(self.years)
+    }
+}
+
+impl DiscreteHeatSpec {
+    /// Finite positive block sizes, a finite growth >= 1.
+    fn validate(&self) -> Result<(), PipelineError> {
+        positive("heat.discrete.h_min", self.h_min, "m")?;
+        positive("heat.discrete.h_max", self.h_max, "m")?;
+        if !(self.growth.is_finite() && self.growth >= 1.0) {
+            return Err(invalid(
                 "heat.discrete.growth",
-                format!("{} is not finite and >= 1", h.discrete.growth),
+                format!("{} is not finite and >= 1", self.growth),
             ));
         }
-        let c = &h.continuum;
-        positive("heat.continuum.size[0]", c.size[0], "m")?;
-        positive("heat.continuum.size[1]", c.size[1], "m")?;
-        positive("heat.continuum.dt", c.dt, "s")?;
-        positive("heat.continuum.well_radius", c.well_radius, "m")?;
-        if !c.zone_origin.iter().all(|x| x.is_finite() && *x >= 0.0) {
-            return Err(bad(
+        Ok(())
+    }
+}
+
+impl ContinuumHeatSpec {
+    /// A finite positive size, step and well radius, a zone origin in the reservoir, and at
+    /// most `continuum::MAX_STEPS` steps over `years`.
+    fn validate(&self, years: f64) -> Result<(), PipelineError> {
+        positive("heat.continuum.size[0]", self.size[0], "m")?;
+        positive("heat.continuum.size[1]", self.size[1], "m")?;
+        positive("heat.continuum.dt", self.dt, "s")?;
+        positive("heat.continuum.well_radius", self.well_radius, "m")?;
+        if !self.zone_origin.iter().all(|x| x.is_finite() && *x >= 0.0) {
+            return Err(invalid(
                 "heat.continuum.zone_origin",
-                format!("{:?} is not a finite point in the reservoir", c.zone_origin),
-            ));
-        }
-        let steps = h.years * YEAR / c.dt;
-        if steps > crate::reservoir::continuum::MAX_STEPS as f64 {
-            return Err(bad(
-                "heat.continuum.dt",
                 format!(
-                    "{} s gives {steps:.0} steps over {} years, more than {}",
-                    c.dt,
-                    h.years,
-                    crate::reservoir::continuum::MAX_STEPS
+                    "{:?} is not a finite point in the reservoir",
+                    self.zone_origin
                 ),
             ));
         }
-        if !(u.viscosity.is_finite() && u.viscosity > 0.0) {
-            return Err(bad(
-                "upscaling.viscosity",
-                format!("{} Pa s is not finite and positive", u.viscosity),
+        let steps = years * YEAR / self.dt;
+        let most = crate::reservoir::continuum::MAX_STEPS;
+        if steps > most as f64 {
+            return Err(invalid(
+                "heat.continuum.dt",
+                format!(
+                    "{} s gives {steps:.0} steps over {years} years, more than {most}",
+                    self.dt
+                ),
             ));
         }
         Ok(())
@@ -660,6 +713,7 @@ fn write_doublet(folder: &Folder, rows: &[DoubletRow]) -> Result<(), PipelineErr
     crate::output::write_atomic(&path, s.as_bytes()).map_err(PipelineError::Output)
 }
 
+/// `permeability.csv` (`state,block,x,y` and both estimates, m^2) and `permeability.vtu`.
 fn write_permeability(
     folder: &Folder,
     k: &[(State, BlockPermeability)],
@@ -688,7 +742,15 @@ fn write_permeability(
         .claim("permeability.csv")
         .map_err(PipelineError::Output)?;
     crate::output::write_atomic(&path, s.as_bytes()).map_err(PipelineError::Output)?;
-    // ParaView: the blocks as quads, both estimates of both states as cell data.
+    write_permeability_vtu(folder, k)
+}
+
+/// `permeability.vtu` (ParaView): the blocks as quads, both estimates of both states as cell
+/// data.
+fn write_permeability_vtu(
+    folder: &Folder,
+    k: &[(State, BlockPermeability)],
+) -> Result<(), PipelineError> {
     let g = &k[0].1.grid;
     let d = g.dx();
     let mut points = Vec::new();
@@ -1341,13 +1403,34 @@ fn cell(x: Option<f64>) -> String {
     }
 }
 
+/// The heat stage's outputs: `reservoir.csv`, the time series `heat_{model}_{state}.csv`, the
+/// plots `heat_temperature.png` and `heat_power.png`, and the rock temperature fields
+/// (`temperature_{model}_{state}.pvd` and frames, `temperature_{model}_{state}_{N}y.png`).
 fn write_heat(
     folder: &Folder,
     spec: &PipelineSpec,
     heat: &HeatResult,
 ) -> Result<(), PipelineError> {
+    write_reservoir_csv(folder, spec, &heat.rows)?;
+    write_heat_series(folder, &heat.series)?;
+    heat_plots(folder, spec, &heat.series)?;
+    write_temperature_frames(folder, &heat.snapshots)?;
+    temperature_maps(folder, spec, &heat.snapshots)
+}
+
+/// A plot that could not be drawn, as an output error.
+fn plot_err(e: crate::plot::PlotError) -> PipelineError {
+    PipelineError::Output(std::io::Error::other(e.to_string()))
+}
+
+/// `reservoir.csv`: one row per state; per model the rate, the breakthrough (years), the
+/// production temperature and power at the report years, the heat over the run.
+fn write_reservoir_csv(
+    folder: &Folder,
+    spec: &PipelineSpec,
+    rows: &[ReservoirRow],
+) -> Result<(), PipelineError> {
     let io = PipelineError::Output;
-    // reservoir.csv: one row per state.
     let mut head = String::from("state");
     for m in MODELS {
         head += &format!(",rate_{m},breakthrough_years_{m}");
@@ -1360,7 +1443,7 @@ fn write_heat(
         head += &format!(",heat_total_{m}");
     }
     let mut s = head + "\n";
-    for r in &heat.rows {
+    for r in rows {
         s += r.state.name();
         for f in &r.models {
             s += &format!(",{:e},{}", f.rate, cell(f.breakthrough.map(|t| t / YEAR)));
@@ -1375,9 +1458,16 @@ fn write_heat(
         s += "\n";
     }
     crate::output::write_atomic(&folder.claim("reservoir.csv").map_err(io)?, s.as_bytes())
-        .map_err(io)?;
-    // Time series per model and state.
-    for (state, m) in &heat.series {
+        .map_err(io)
+}
+
+/// `heat_{model}_{state}.csv`: each model's time series per state.
+fn write_heat_series(
+    folder: &Folder,
+    series: &[(State, [HeatSeries; 2])],
+) -> Result<(), PipelineError> {
+    let io = PipelineError::Output;
+    for (state, m) in series {
         for (name, sr) in MODELS.iter().zip(m) {
             let mut s = String::from(
                 "time_s,time_years,production_temperature,thermal_power,cumulative_heat\n",
@@ -1398,9 +1488,19 @@ fn write_heat(
             crate::output::write_atomic(&path, s.as_bytes()).map_err(io)?;
         }
     }
-    // Production temperature and power against time, before and after on one plot.
-    let plot_err =
-        |e: crate::plot::PlotError| PipelineError::Output(std::io::Error::other(e.to_string()));
+    Ok(())
+}
+
+/// Production temperature and power against time, both models and both states on one plot
+/// each (`heat_temperature.png`, `heat_power.png`). Log-log: the short-circuit of a single
+/// fracture happens in hours, the decline of a network over years. Non-positive values (a
+/// state that produces nothing) are left out.
+fn heat_plots(
+    folder: &Folder,
+    spec: &PipelineSpec,
+    series: &[(State, [HeatSeries; 2])],
+) -> Result<(), PipelineError> {
+    let t_inj = spec.heat.injection_temperature;
     for (file, what, unit, pick) in [
         (
             "heat_temperature.png",
@@ -1410,11 +1510,8 @@ fn write_heat(
         ),
         ("heat_power.png", "thermal power", "power [W/m]", 1),
     ] {
-        // Log-log: the short-circuit of a single fracture happens in hours, the decline of a
-        // network over years. Non-positive values (a state that produces nothing) are left out.
-        let t_inj = spec.heat.injection_temperature;
         let mut lines = Vec::new();
-        for (state, m) in &heat.series {
+        for (state, m) in series {
             for (name, sr) in MODELS.iter().zip(m) {
                 let y: Vec<f64> = if pick == 0 {
                     sr.production_temperature
@@ -1441,7 +1538,7 @@ fn write_heat(
             }
         }
         crate::plot::loglog(
-            &folder.claim(file).map_err(io)?,
+            &folder.claim(file).map_err(PipelineError::Output)?,
             &format!("{}: {what}", spec.name),
             "time [years]",
             unit,
@@ -1449,10 +1546,15 @@ fn write_heat(
         )
         .map_err(plot_err)?;
     }
-    // ParaView: one collection per model and state, a frame per snapshot (quads, cell data
-    // `temperature` in K).
+    Ok(())
+}
+
+/// ParaView: one collection per model and state (`temperature_{model}_{state}.pvd`), a frame
+/// per snapshot (quads, cell data `temperature` in K).
+fn write_temperature_frames(folder: &Folder, snapshots: &[Snapshot]) -> Result<(), PipelineError> {
+    let io = PipelineError::Output;
     let mut pvds: Vec<(String, crate::output::vtk::PvdWriter)> = Vec::new();
-    for (k, (state, model, t, quads, values)) in heat.snapshots.iter().enumerate() {
+    for (k, (state, model, t, quads, values)) in snapshots.iter().enumerate() {
         let stem = format!("temperature_{model}_{}", state.name());
         let frame = format!("{stem}_{k:03}.vtu");
         let mut points = Vec::with_capacity(4 * quads.len());
@@ -1485,7 +1587,16 @@ fn write_heat(
         };
         pvds[pos].1.add(*t, &frame).map_err(io)?;
     }
-    for (state, model, t, quads, values) in &heat.snapshots {
+    Ok(())
+}
+
+/// `temperature_{model}_{state}_{N}y.png`: the rock temperature field of each snapshot.
+fn temperature_maps(
+    folder: &Folder,
+    spec: &PipelineSpec,
+    snapshots: &[Snapshot],
+) -> Result<(), PipelineError> {
+    for (state, model, t, quads, values) in snapshots {
         let name = format!("temperature_{model}_{}_{:.0}y.png", state.name(), t / YEAR);
         let title = format!(
             "{}: {model} model, {}, rock temperature at {:.1} years",
@@ -1494,7 +1605,7 @@ fn write_heat(
             t / YEAR
         );
         crate::plot::fracture_map(
-            &folder.claim(&name).map_err(io)?,
+            &folder.claim(&name).map_err(PipelineError::Output)?,
             &title,
             &[],
             quads,

@@ -22,7 +22,9 @@
 use crate::checkpoint::State as SimState;
 use crate::error::SetupError;
 use crate::reservoir::NetworkFlow;
-use crate::reservoir::doublet::{PressureWell, doublet_flow, doublet_wells, network_of_view, reaches};
+use crate::reservoir::doublet::{
+    PressureWell, doublet_flow, doublet_wells, network_of_view, reaches,
+};
 use crate::scenario::{Damping, End, ProductionStage, Scenario, SolidScheme};
 use crate::sim::{Simulation, StopFlag};
 use crate::systems::RunError;

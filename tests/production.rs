@@ -6,7 +6,7 @@
 use hydrofrac::production_stage::{
     NetworkState, production_sim, run_production, solve_state, solve_state_reporting,
 };
-use hydrofrac::reservoir::doublet::{PressureWell, network_of_view, doublet_flow};
+use hydrofrac::reservoir::doublet::{PressureWell, doublet_flow, network_of_view};
 use hydrofrac::scenario::Scenario;
 
 /// A 20 m x 20 m block under Example I's in-situ stress (sigma_yy = -10 MPa across the
