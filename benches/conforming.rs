@@ -5,11 +5,13 @@
 //!
 //! Run: `cargo bench --bench conforming`.
 
-use criterion::{Criterion, criterion_group, criterion_main};
+#[macro_use]
+mod common;
+
+use criterion::Criterion;
 use hydrofrac::scenario::MeshSpec;
 use hydrofrac::setup::build_mesh_around;
 use hydrofrac::verify::conforming_cases::network_100;
-use std::time::Duration;
 
 fn bench(c: &mut Criterion) {
     let segs: Vec<([f64; 2], [f64; 2])> = network_100()
@@ -18,9 +20,7 @@ fn bench(c: &mut Criterion) {
         .map(|f| (f.from, f.to))
         .collect();
     let mut g = c.benchmark_group("conforming");
-    g.sample_size(10)
-        .warm_up_time(Duration::from_millis(300))
-        .measurement_time(Duration::from_secs(3));
+    common::ten_samples(&mut g, 300, 3);
     for h in [1.0, 0.5] {
         let spec = MeshSpec::Conforming {
             width: 100.0,
@@ -41,9 +41,4 @@ fn bench(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group! {
-    name = benches;
-    config = Criterion::default().without_plots();
-    targets = bench
-}
-criterion_main!(benches);
+bench_main!(bench);

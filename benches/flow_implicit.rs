@@ -9,61 +9,20 @@
 //!
 //! Run: `cargo bench --bench flow_implicit`. HYDROFRAC_BENCH_FLOW=10,32 picks lattice sizes.
 
-use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
+#[macro_use]
+mod common;
+
+use criterion::{BenchmarkId, Criterion, Throughput};
 use hydrofrac::flow::implicit::{ImplicitSolver, implicit_step};
-use hydrofrac::network;
-use hydrofrac::scenario::{End, FlowBcKind, FlowTarget, InitialFluid};
-use hydrofrac::sim::Simulation;
 use hydrofrac::systems::flow::flow_step;
-use hydrofrac::verify::flow_cases::{WATER, bc, flow_scenario, net};
-use std::time::Duration;
-
-fn lattice(n: usize) -> Simulation {
-    let len = (n - 1) as f64;
-    let fr = network::lattice(n, |k| 1e-4 * (1.0 + 0.5 * ((k * 7919) % 13) as f64 / 13.0));
-    let mut inlet = bc(
-        "in",
-        FlowTarget::Node([0.0, 0.0]),
-        FlowBcKind::Pressure(2e6),
-    );
-    inlet.schedule = vec![(0.0, 1.0), (1.0, 2.0)];
-    let sc = flow_scenario(
-        "bench",
-        net(fr, None, 1.0),
-        vec![
-            inlet,
-            bc(
-                "out",
-                FlowTarget::Node([len, len]),
-                FlowBcKind::Pressure(1e6),
-            ),
-        ],
-        InitialFluid::Full(1e6),
-        End::Time(1.0),
-        WATER,
-    );
-    Simulation::new(sc.validate().unwrap(), &[]).unwrap()
-}
-
-fn sizes() -> Vec<usize> {
-    std::env::var("HYDROFRAC_BENCH_FLOW")
-        .ok()
-        .map(|s| s.split(',').filter_map(|x| x.trim().parse().ok()).collect())
-        .unwrap_or_else(|| vec![23, 71, 224])
-}
 
 fn bench(c: &mut Criterion) {
     let mut group = c.benchmark_group("flow_per_cell");
-    group
-        .sample_size(10)
-        .warm_up_time(Duration::from_millis(300))
-        .measurement_time(Duration::from_secs(3));
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(1)
-        .build()
-        .unwrap();
-    for n in sizes() {
-        let mut sim = lattice(n);
+    common::ten_samples(&mut group, 300, 3);
+    let pool = common::pool(1);
+    for n in common::flow_sizes() {
+        // The inlet at 1 x its pressure at t = 0, 2 x at t = 1 s.
+        let mut sim = common::lattice(n, vec![(0.0, 1.0), (1.0, 2.0)]);
         let specs = sim.scenario().flow_boundaries.clone();
         let params = sim.params().fluid;
         let f = sim.flow_mut().unwrap();
@@ -99,9 +58,4 @@ fn bench(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group! {
-    name = benches;
-    config = Criterion::default().without_plots();
-    targets = bench
-}
-criterion_main!(benches);
+bench_main!(bench);

@@ -4,10 +4,12 @@
 //! `solve_fresh`: new solver each time (symbolic analysis + numeric factorisation + solve).
 //! `solve_reused`: symbolic analysis reused, only numeric factorisation + solve.
 
-use std::hint::black_box;
-use std::time::Duration;
+#[macro_use]
+mod common;
 
-use criterion::{Criterion, criterion_group, criterion_main};
+use std::hint::black_box;
+
+use criterion::Criterion;
 use hydrofrac::flow::steady::{SteadyProblem, SteadySolver};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -87,16 +89,4 @@ fn bench_steady(c: &mut Criterion) {
     assert_eq!(solver.symbolic_count(), 1);
 }
 
-fn config() -> Criterion {
-    Criterion::default()
-        .without_plots()
-        .sample_size(10)
-        .measurement_time(Duration::from_secs(3))
-}
-
-criterion_group! {
-    name = benches;
-    config = config();
-    targets = bench_steady
-}
-criterion_main!(benches);
+bench_main!(common::criterion_10_samples(); bench_steady);

@@ -5,56 +5,18 @@
 //!
 //! Run: `cargo bench --bench flow_step`. HYDROFRAC_BENCH_FLOW=10,32 picks lattice sizes.
 
-use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
-use hydrofrac::network;
+#[macro_use]
+mod common;
+
+use criterion::{BenchmarkId, Criterion, Throughput};
 use hydrofrac::reference::FlatFlow;
-use hydrofrac::scenario::{End, FlowBcKind, FlowTarget, InitialFluid};
-use hydrofrac::sim::Simulation;
 use hydrofrac::systems::flow::flow_step;
-use hydrofrac::verify::flow_cases::{WATER, bc, flow_scenario, net};
-use std::time::Duration;
-
-/// A square lattice of n x n fracture lines, 1 m apart: about 2 n^2 cells.
-fn lattice(n: usize) -> Simulation {
-    let len = (n - 1) as f64;
-    let fr = network::lattice(n, |k| 1e-4 * (1.0 + 0.5 * ((k * 7919) % 13) as f64 / 13.0));
-    let sc = flow_scenario(
-        "bench",
-        net(fr, None, 1.0),
-        vec![
-            bc(
-                "in",
-                FlowTarget::Node([0.0, 0.0]),
-                FlowBcKind::Pressure(2e6),
-            ),
-            bc(
-                "out",
-                FlowTarget::Node([len, len]),
-                FlowBcKind::Pressure(1e6),
-            ),
-        ],
-        InitialFluid::Full(1e6),
-        End::Time(1.0),
-        WATER,
-    );
-    Simulation::new(sc.validate().unwrap(), &[]).unwrap()
-}
-
-fn sizes() -> Vec<usize> {
-    std::env::var("HYDROFRAC_BENCH_FLOW")
-        .ok()
-        .map(|s| s.split(',').filter_map(|x| x.trim().parse().ok()).collect())
-        .unwrap_or_else(|| vec![23, 71, 224])
-}
 
 fn bench(c: &mut Criterion) {
     let mut group = c.benchmark_group("flow_substep");
-    group
-        .sample_size(10)
-        .warm_up_time(Duration::from_millis(300))
-        .measurement_time(Duration::from_secs(2));
-    for n in sizes() {
-        let mut sim = lattice(n);
+    common::ten_samples(&mut group, 300, 2);
+    for n in common::flow_sizes() {
+        let mut sim = common::lattice(n, Vec::new());
         let specs = sim.scenario().flow_boundaries.clone();
         let params = sim.params().fluid;
         let f = sim.flow_mut().unwrap();
@@ -64,10 +26,7 @@ fn bench(c: &mut Criterion) {
         eprintln!("lattice {n}: {cells} cells, {pairs} pairs");
         group.throughput(Throughput::Elements(pairs as u64));
         for threads in [1usize, 2] {
-            let pool = rayon::ThreadPoolBuilder::new()
-                .num_threads(threads)
-                .build()
-                .unwrap();
+            let pool = common::pool(threads);
             group.bench_function(BenchmarkId::new(format!("ecs/{threads}t"), cells), |b| {
                 pool.install(|| b.iter(|| flow_step(&mut f.view, &params, &specs, dt, 0.0)))
             });
@@ -79,9 +38,4 @@ fn bench(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group! {
-    name = benches;
-    config = Criterion::default().without_plots();
-    targets = bench
-}
-criterion_main!(benches);
+bench_main!(bench);

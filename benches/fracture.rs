@@ -4,22 +4,19 @@
 //!
 //! Run: `cargo bench --bench fracture`.
 
-use criterion::{BatchSize, Criterion, criterion_group, criterion_main};
+#[macro_use]
+mod common;
+
+use common::ROCK;
+use criterion::{BatchSize, Criterion};
 use hydrofrac::mesh::TriMesh;
 use hydrofrac::model::Model;
-use hydrofrac::scenario::{Damping, End, FractureSpec, Material, PreFracture};
+use hydrofrac::scenario::{Damping, End, FractureSpec, PreFracture};
 use hydrofrac::sim::Simulation;
 use hydrofrac::snap::{adjacency, snap_segment};
 use hydrofrac::split::open_edges;
 use hydrofrac::verify::solid_cases::seed_block;
 use hydrofrac::view::SolidView;
-use std::time::Duration;
-
-const ROCK: Material = Material {
-    young: 20e9,
-    poisson: 0.2,
-    density: 2700.0,
-};
 
 fn crack_edges(model: &Model, mesh: &TriMesh) -> Vec<hecs::Entity> {
     use hydrofrac::components::{EdgeNodes, StableId};
@@ -40,9 +37,7 @@ fn crack_edges(model: &Model, mesh: &TriMesh) -> Vec<hecs::Entity> {
 
 fn bench(c: &mut Criterion) {
     let mut g = c.benchmark_group("fracture");
-    g.sample_size(10)
-        .warm_up_time(Duration::from_millis(300))
-        .measurement_time(Duration::from_secs(3));
+    common::ten_samples(&mut g, 300, 3);
     let mesh = TriMesh::regular(100.0, 100.0, 1.0, [0.0, 0.0]).unwrap();
     // Split: a straight crack across the mesh, 100 edges, 101 nodes split.
     g.bench_function("open_100_edge_crack", |b| {
@@ -89,10 +84,7 @@ fn bench(c: &mut Criterion) {
         }
         Simulation::new(sc.validate().unwrap(), &[]).unwrap()
     };
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(1)
-        .build()
-        .unwrap();
+    let pool = common::pool(1);
     for (name, with) in [("step_no_joints_1t", false), ("step_1000_joints_1t", true)] {
         let mut sim = mk(with);
         eprintln!("{name}: {} joints", sim.solid().joint_nodes.len());
@@ -103,9 +95,4 @@ fn bench(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group! {
-    name = benches;
-    config = Criterion::default().without_plots();
-    targets = bench
-}
-criterion_main!(benches);
+bench_main!(bench);

@@ -4,10 +4,12 @@
 //! `darcy_100x100`: the steady pressure solve alone (sparse Cholesky).
 //! `run_100x100_1y`: pressure solve, heat matrix LU (once) and 12 implicit heat steps.
 
-use std::hint::black_box;
-use std::time::Duration;
+#[macro_use]
+mod common;
 
-use criterion::{Criterion, criterion_group, criterion_main};
+use std::hint::black_box;
+
+use criterion::Criterion;
 use hydrofrac::reservoir::continuum::{darcy_flow, run_continuum};
 use hydrofrac::verify::heat_continuum_cases::doublet_spec;
 
@@ -23,16 +25,4 @@ fn bench_continuum(c: &mut Criterion) {
     group.finish();
 }
 
-fn config() -> Criterion {
-    Criterion::default()
-        .without_plots()
-        .sample_size(10)
-        .measurement_time(Duration::from_secs(3))
-}
-
-criterion_group! {
-    name = benches;
-    config = config();
-    targets = bench_continuum
-}
-criterion_main!(benches);
+bench_main!(common::criterion_10_samples(); bench_continuum);

@@ -6,10 +6,12 @@
 //! `assemble`: validation, exchange geometry, pattern and symbolic LU.
 //! `run_30_years`: assembly plus the whole run.
 
-use std::hint::black_box;
-use std::time::Duration;
+#[macro_use]
+mod common;
 
-use criterion::{Criterion, criterion_group, criterion_main};
+use std::hint::black_box;
+
+use criterion::Criterion;
 use hydrofrac::reservoir::discrete::{DiscreteModel, run_discrete};
 use hydrofrac::verify::heat_discrete_cases::{lattice_network, thirty_year_spec};
 
@@ -52,16 +54,4 @@ fn bench_discrete(c: &mut Criterion) {
     group.finish();
 }
 
-fn config() -> Criterion {
-    Criterion::default()
-        .without_plots()
-        .sample_size(10)
-        .measurement_time(Duration::from_secs(3))
-}
-
-criterion_group! {
-    name = benches;
-    config = config();
-    targets = bench_discrete
-}
-criterion_main!(benches);
+bench_main!(common::criterion_10_samples(); bench_discrete);

@@ -13,12 +13,14 @@
 //!
 //! Run: `cargo bench --bench quasi_static`.
 
-use criterion::{Criterion, criterion_group, criterion_main};
+#[macro_use]
+mod common;
+
+use criterion::Criterion;
 use hydrofrac::scenario::{Damping, End, LinearSolver, SolidScheme};
 use hydrofrac::sim::Simulation;
 use hydrofrac::systems::quasi_static::{QuasiStatic, StepEnd, Systems, solve};
 use hydrofrac::verify::solid_cases::seed_block;
-use std::time::Duration;
 
 fn quasi_static(c: &mut Criterion) {
     let mut sc = seed_block(
@@ -40,10 +42,7 @@ fn quasi_static(c: &mut Criterion) {
         fluid: false,
     });
     let mut group = c.benchmark_group("quasi_static_20k");
-    group
-        .sample_size(10)
-        .warm_up_time(Duration::from_millis(500))
-        .measurement_time(Duration::from_secs(3));
+    common::ten_samples(&mut group, 500, 3);
     let mut k = 0u64;
     let mut step = |qs: &mut QuasiStatic, refactor: bool| {
         k += 1;
@@ -78,10 +77,7 @@ fn frictional(c: &mut Criterion) {
     let sim = Simulation::new(sc.validate().unwrap(), &[]).unwrap();
     let (v0, p) = (sim.solid().clone(), sim.params().clone());
     let mut group = c.benchmark_group("quasi_static_slip_160_joints");
-    group
-        .sample_size(10)
-        .warm_up_time(Duration::from_millis(500))
-        .measurement_time(Duration::from_secs(5));
+    common::ten_samples(&mut group, 500, 5);
     for (name, linear) in [
         ("cholesky_smw", LinearSolver::Cholesky),
         ("sparse_lu", LinearSolver::Lu),
@@ -115,9 +111,4 @@ fn frictional(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group! {
-    name = benches;
-    config = Criterion::default().without_plots();
-    targets = quasi_static, frictional
-}
-criterion_main!(benches);
+bench_main!(quasi_static, frictional);

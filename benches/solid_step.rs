@@ -6,34 +6,21 @@
 //! Run: `cargo bench --bench solid_step` (criterion reports Melem/s; ns/element = 1000 / that).
 //! Set HYDROFRAC_BENCH_SIZES=100,400 to pick meshes (cells per side of the 100 m square).
 
-use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
+#[macro_use]
+mod common;
+
+use common::ROCK;
+use criterion::{BenchmarkId, Criterion, Throughput};
 use hydrofrac::mesh::TriMesh;
 use hydrofrac::reference::FlatSolid;
-use hydrofrac::scenario::{Damping, End, Material};
+use hydrofrac::scenario::{Damping, End};
 use hydrofrac::sim::Simulation;
 use hydrofrac::verify::solid_cases::seed_block;
-use std::time::Duration;
-
-const ROCK: Material = Material {
-    young: 20e9,
-    poisson: 0.2,
-    density: 2700.0,
-};
-
-fn sizes() -> Vec<usize> {
-    std::env::var("HYDROFRAC_BENCH_SIZES")
-        .ok()
-        .map(|s| s.split(',').filter_map(|x| x.trim().parse().ok()).collect())
-        .unwrap_or_else(|| vec![100, 400, 800])
-}
 
 fn solid_step(c: &mut Criterion) {
     let mut group = c.benchmark_group("solid_step");
-    group
-        .sample_size(10)
-        .warm_up_time(Duration::from_millis(500))
-        .measurement_time(Duration::from_secs(2));
-    for n in sizes() {
+    common::ten_samples(&mut group, 500, 2);
+    for n in common::sizes("HYDROFRAC_BENCH_SIZES", &[100, 400, 800]) {
         let h = 100.0 / n as f64;
         let elems = 2 * n * n;
         group.throughput(Throughput::Elements(elems as u64));
@@ -53,10 +40,7 @@ fn solid_step(c: &mut Criterion) {
             bcs[j * w + i]
         });
         for threads in [1usize, 2] {
-            let pool = rayon::ThreadPoolBuilder::new()
-                .num_threads(threads)
-                .build()
-                .unwrap();
+            let pool = common::pool(threads);
             group.bench_function(BenchmarkId::new(format!("ecs/{threads}t"), elems), |b| {
                 pool.install(|| b.iter(|| sim.step_once().unwrap()))
             });
@@ -74,9 +58,4 @@ fn solid_step(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group! {
-    name = benches;
-    config = Criterion::default().without_plots();
-    targets = solid_step
-}
-criterion_main!(benches);
+bench_main!(solid_step);

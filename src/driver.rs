@@ -87,7 +87,7 @@ pub enum DriverError {
     /// Boxed: a production error carries a run error, and every `Result` of the driver would
     /// grow with it.
     #[error(transparent)]
-    Production(Box<crate::production::ProductionError>),
+    Production(Box<crate::production_stage::ProductionError>),
     #[error("--trace {}: {why}", .path.display())]
     Trace { path: PathBuf, why: String },
 }
@@ -98,38 +98,84 @@ pub fn run_file(path: &Path, opts: &RunOptions) -> Result<RunReport, DriverError
     run_scenario(scenario, opts)
 }
 
-/// Run a validated scenario.
+/// Run a validated scenario, stage by stage: check resources, set up, the step loop, the
+/// run's summary and figures, the production stage, write the results.
 pub fn run_scenario(scenario: ValidScenario, opts: &RunOptions) -> Result<RunReport, DriverError> {
     let out = opts
         .out
         .clone()
         .unwrap_or_else(|| PathBuf::from("out").join(&scenario.name));
+    check_resources(&scenario, opts)?;
+    let sim = Simulation::new(scenario, &opts.disable)?;
+    let mut run = set_up(sim, opts, &out)?;
+    let stepped = step_loop(&mut run, opts.quiet);
+    let mut summary = run_summary(&mut run, &stepped);
+    network_outputs(&mut run, &mut summary)?;
+    let production = if stepped.result.is_ok() && run.sim.interrupted_by().is_none() {
+        production_stage(&mut run, &mut summary, opts)?
+    } else {
+        StageEnd::Done
+    };
+    write_results(run, stepped, summary, production, opts, out)
+}
+
+/// A run set up: the simulation with its outputs open, and what the later stages report
+/// from its start.
+struct Run {
+    sim: Simulation,
+    /// The `--trace` file, emptied, for the step loop.
+    trace: Option<std::fs::File>,
+    /// The fracture cells at setup (the production stage's and the pipeline's "before").
+    start_network: Option<crate::flow::FlowView>,
+    /// The checkpoint the run continued from: its file, step and time.
+    restarted_from: Option<(String, u64, f64)>,
+    /// The outputs' estimated size, bytes (`summary.json` `output_estimate_bytes`).
+    output_estimate: f64,
+    /// Figures or tables that were not written (the run goes on): `summary.json` `warnings`.
+    warnings: Vec<String>,
+}
+
+/// What the step loop hands on: its outcome, its wall time and the systems' timing.
+struct Stepped {
+    result: Result<Finish, RunError>,
+    wall: f64,
+    /// Per system: name, enabled, calls, seconds.
+    rows: Vec<(String, bool, u64, f64)>,
+    timing_table: String,
+    /// The first error writing the trace file, if any.
+    trace_error: TraceError,
+}
+
+/// How the production stage ended.
+enum StageEnd {
+    /// Solved and written, or not run (no `production:`, or the run did not end).
+    Done,
+    /// Stopped by this signal: the run's outputs are complete, the stage's are not written.
+    Interrupted(usize),
+    /// Failed: the run's outputs and summary are written, then the run fails with this.
+    Failed(crate::production_stage::ProductionError),
+}
+
+/// Check resources: refuse a scenario whose mesh and network need more memory than
+/// `--max-memory` (default: the machine's), estimated before anything is allocated.
+fn check_resources(scenario: &ValidScenario, opts: &RunOptions) -> Result<(), DriverError> {
     let (limit, source) = match opts.max_memory {
         Some(b) => (b, "set by --max-memory"),
         None => crate::resources::default_limit(),
     };
-    crate::resources::check(&scenario, limit, source)?;
-    let mut sim = Simulation::new(scenario, &opts.disable)?;
+    crate::resources::check(scenario, limit, source)?;
+    Ok(())
+}
+
+/// Set up: the restart, the stop signal, the disk check, then the output folder (with the
+/// trace file) and the outputs written at setup. Everything that can refuse the run is
+/// checked before the folder is touched.
+fn set_up(mut sim: Simulation, opts: &RunOptions, out: &Path) -> Result<Run, DriverError> {
     let start_network = network_now(&sim);
     // Read and checked before the output folder is touched: a refused checkpoint leaves it
     // as it was (and a checkpoint inside it can be restarted from into the same folder).
     let restarted_from = match &opts.restart {
-        Some(path) => {
-            let (header, state) = crate::checkpoint::read(path)?;
-            crate::checkpoint::check_scenario(path, &header, sim.scenario(), &opts.disable)?;
-            sim.restore(state)
-                .map_err(|why| crate::checkpoint::CheckpointError::Refused {
-                    path: path.display().to_string(),
-                    why,
-                })?;
-            if sim.quasi_static_counts().is_some() {
-                tracing::warn!(
-                    "quasi-static restart: the solver's factor is rebuilt, so the run continues \
-                     to the solver's tolerance, not bit for bit"
-                );
-            }
-            Some((path.display().to_string(), header.step, header.time))
-        }
+        Some(path) => Some(restart(&mut sim, path, &opts.disable)?),
         None => None,
     };
     if let Some(stop) = &opts.stop {
@@ -137,11 +183,55 @@ pub fn run_scenario(scenario: ValidScenario, opts: &RunOptions) -> Result<RunRep
     }
     let (disk_limit, disk_source) = match opts.max_disk {
         Some(b) => (b, "set by --max-disk".to_string()),
-        None => crate::resources::default_disk_limit(&out),
+        None => crate::resources::default_disk_limit(out),
     };
     let disk = crate::resources::check_disk(&output_plan(&sim), disk_limit, &disk_source)?;
-    // Every path is checked before anything in the folder is removed or written.
-    let mut plan = Plan::check(&out, opts.force)?;
+    let (folder, trace) = open_folder(out, opts)?;
+    let outputs = Outputs::new(folder, &sim.params().output.fields, &sim.series_columns())
+        .map_err(DriverError::Output)?;
+    let warnings = setup_outputs(&sim, &outputs)?;
+    sim.set_output(outputs);
+    Ok(Run {
+        sim,
+        trace,
+        start_network,
+        restarted_from,
+        output_estimate: disk.total,
+        warnings,
+    })
+}
+
+/// Continue from the checkpoint at `path`: read, checked against the scenario, `--set` and
+/// `--disable`, and restored. Returns its file, step and time.
+fn restart(
+    sim: &mut Simulation,
+    path: &Path,
+    disable: &[String],
+) -> Result<(String, u64, f64), DriverError> {
+    let (header, state) = crate::checkpoint::read(path)?;
+    crate::checkpoint::check_scenario(path, &header, sim.scenario(), disable)?;
+    sim.restore(state)
+        .map_err(|why| crate::checkpoint::CheckpointError::Refused {
+            path: path.display().to_string(),
+            why,
+        })?;
+    if sim.quasi_static_counts().is_some() {
+        tracing::warn!(
+            "quasi-static restart: the solver's factor is rebuilt, so the run continues \
+             to the solver's tolerance, not bit for bit"
+        );
+    }
+    Ok((path.display().to_string(), header.step, header.time))
+}
+
+/// Open the output folder (and `frames/` in it) with the `--trace` file: every path is
+/// checked before anything in the folder is removed or written. Returns the folder and the
+/// trace file, emptied.
+fn open_folder(
+    out: &Path,
+    opts: &RunOptions,
+) -> Result<(crate::output::folder::Folder, Option<std::fs::File>), DriverError> {
+    let mut plan = Plan::check(out, opts.force)?;
     plan.require_folder("frames")?;
     let trace = match &opts.trace {
         Some(path) => Some(open_trace(path, &mut plan)?),
@@ -157,11 +247,16 @@ pub fn run_scenario(scenario: ValidScenario, opts: &RunOptions) -> Result<RunRep
         }
         None => None,
     };
-    let outputs = Outputs::new(folder, &sim.params().output.fields, &sim.series_columns())
-        .map_err(DriverError::Output)?;
-    // Figures or tables that were not written (the run goes on): summary.json `warnings`.
-    let mut warnings: Vec<String> = Vec::new();
-    const NOT_FINITE: &str = "not written: the table has non-finite values";
+    Ok((folder, trace))
+}
+
+/// A table not written because it has non-finite values (a `summary.json` warning).
+const NOT_FINITE: &str = "not written: the table has non-finite values";
+
+/// The outputs of the setup: the generated network's and the pre-existing fractures' tables.
+/// Returns the warnings (tables not written, fractures that zigzag on the mesh).
+fn setup_outputs(sim: &Simulation, outputs: &Outputs) -> Result<Vec<String>, DriverError> {
+    let mut warnings = Vec::new();
     if let Some(f) = sim.flow()
         && !outputs
             .write_fractures_csv(&f.network.fractures)
@@ -180,12 +275,17 @@ pub fn run_scenario(scenario: ValidScenario, opts: &RunOptions) -> Result<RunRep
     {
         warnings.push(format!("preexisting_fractures.csv {NOT_FINITE}"));
     }
-    sim.set_output(outputs);
+    Ok(warnings)
+}
 
+/// The step loop ([`Simulation::run`]: checkpoints and the stop signal as the scenario and
+/// the options set them), with a progress bar, each system timed by a tracing layer and,
+/// with `--trace`, traced into the trace file.
+fn step_loop(run: &mut Run, quiet: bool) -> Stepped {
     let timing = TimingLayer::default();
     let table = timing.table.clone();
     let trace_error = TraceError::default();
-    let (chrome, _guard) = match trace {
+    let (chrome, guard) = match run.trace.take() {
         Some(file) => {
             let (layer, guard) = tracing_chrome::ChromeLayerBuilder::new()
                 .writer(TraceWriter {
@@ -199,11 +299,10 @@ pub fn run_scenario(scenario: ValidScenario, opts: &RunOptions) -> Result<RunRep
         None => (None, None),
     };
     let subscriber = tracing_subscriber::registry().with(timing).with(chrome);
-
-    let bar = progress_bar(opts.quiet);
+    let bar = progress_bar(quiet);
     let t0 = Instant::now();
     let result = tracing::subscriber::with_default(subscriber, || {
-        sim.run(|s| {
+        run.sim.run(|s| {
             bar.set_position(progress_position(s));
             bar.set_message(format!(
                 "t = {:.4e} s  residual {:.2e}",
@@ -214,25 +313,39 @@ pub fn run_scenario(scenario: ValidScenario, opts: &RunOptions) -> Result<RunRep
     });
     let wall = t0.elapsed().as_secs_f64();
     bar.finish_and_clear();
-    drop(_guard);
-
+    drop(guard);
     let times = table.lock().expect("timing table").clone();
-    let rows: Vec<(String, bool, u64, f64)> = sim
+    let rows: Vec<(String, bool, u64, f64)> = run
+        .sim
         .schedule()
         .entries
         .iter()
         .map(|(s, st)| {
             let t = times.get(s.name()).copied().unwrap_or_default();
+            let enabled = *st == Status::Enabled;
             (
                 s.name().to_string(),
-                *st == Status::Enabled,
+                enabled,
                 t.calls,
                 t.total.as_secs_f64(),
             )
         })
         .collect();
-    let timing_table = format_table(&rows);
-    let mut summary = summary_json(&sim, &result, wall, &rows);
+    Stepped {
+        result,
+        wall,
+        timing_table: format_table(&rows),
+        rows,
+        trace_error,
+    }
+}
+
+/// The run's `summary.json` as the step loop left it ([`summary_json`]), with the
+/// interruption, the quasi-static counts, the tips, the output estimate, the checkpoints and
+/// the restart.
+fn run_summary(run: &mut Run, stepped: &Stepped) -> serde_json::Value {
+    let sim = &mut run.sim;
+    let mut summary = summary_json(sim, &stepped.result, stepped.wall, &stepped.rows);
     if let Some(sig) = sim.interrupted_by() {
         summary["status"] = json!("interrupted");
         summary["reason"] = json!(format!(
@@ -244,52 +357,33 @@ pub fn run_scenario(scenario: ValidScenario, opts: &RunOptions) -> Result<RunRep
     if let Some(c) = sim.quasi_static_counts() {
         summary["quasi_static"] = json!(c);
     }
-    if result.is_ok() && sim.interrupted_by().is_none() && sim.params().has_fractures {
-        summary["tips"] = tips_summary(&mut sim);
+    if stepped.result.is_ok() && sim.interrupted_by().is_none() && sim.params().has_fractures {
+        summary["tips"] = tips_summary(sim);
     }
-    summary["output_estimate_bytes"] = json!(disk.total);
+    summary["output_estimate_bytes"] = json!(run.output_estimate);
     if sim.params().output.checkpoint_every.is_some() {
         summary["checkpoints"] = json!(sim.checkpoint_stats());
     }
-    if let Some((path, step, time)) = restarted_from {
+    if let Some((path, step, time)) = &run.restarted_from {
         // The quasi-static solver's factor is rebuilt at the restart (not in the checkpoint):
         // that run continues to the solver's tolerance, every other one bit for bit.
         let exact = sim.quasi_static_counts().is_none();
         summary["restarted_from"] =
             json!({"file": path, "step": step, "time": time, "bit_identical": exact});
     }
+    summary
+}
+
+/// The network and fracture outputs at the end of the run: `network.csv`, the fracture and
+/// flow figures, and `summary.json` `fractures`.
+fn network_outputs(run: &mut Run, summary: &mut serde_json::Value) -> Result<(), DriverError> {
+    let (sim, warnings) = (&mut run.sim, &mut run.warnings);
     if let (Some(v), Some(o)) = (sim.fracture_view(), sim.output()) {
         if !o.write_network_csv(&v).map_err(DriverError::Output)? {
             warnings.push(format!("network.csv {NOT_FINITE}"));
         }
-        let length: f64 = v.length.iter().sum();
-        summary["fractures"] = json!({"cells": v.n_cells(), "total_length": length,
-            "new_cells": v.kind.iter().filter(|k| **k == crate::components::CellKind::New).count()});
-        if let Err(e) =
-            crate::output::plots::fracture_figure(&sim.params().name, sim.time(), &v, o.folder())
-        {
-            warnings.push(format!("figures not written: {e}"));
-        }
-        // The seed's Fig. 7 view: the mesh with apertures magnified 20x, coloured by the
-        // prescribed face pressure (zero without one).
-        let mut v = v;
-        let p = sim.params().face_pressure.unwrap_or(0.0);
-        v.pressure.iter_mut().for_each(|x| *x = p);
-        let title = format!(
-            "{}: fractures, apertures x20, t = {:.4} s",
-            sim.params().name,
-            sim.time()
-        );
-        if let Err(e) = crate::output::plots::fracture_pressure_figure(
-            &o.claim("fractures_mesh.png").map_err(DriverError::Output)?,
-            &title,
-            sim.solid(),
-            &v,
-            20.0,
-            None,
-        ) {
-            warnings.push(format!("figures not written: {e}"));
-        }
+        summary["fractures"] = fractures_json(&v);
+        fracture_figures(sim, v, warnings)?;
     }
     if sim.flow().is_some_and(|f| f.coupling.is_some()) {
         if let Some(o) = sim.output() {
@@ -298,10 +392,9 @@ pub fn run_scenario(scenario: ValidScenario, opts: &RunOptions) -> Result<RunRep
         }
         sim.fracture_pressure_figure("fractures_pressure.png");
         let f = sim.flow().expect("coupled");
-        let length: f64 = f.view.length.iter().sum();
-        summary["fractures"] = json!({"cells": f.view.n_cells(), "total_length": length,
-            "new_cells": f.view.kind.iter().filter(|k| **k == crate::components::CellKind::New).count(),
-            "max_aperture": f.view.aperture.iter().fold(0.0f64, |a, &b| a.max(b))});
+        summary["fractures"] = fractures_json(&f.view);
+        summary["fractures"]["max_aperture"] =
+            json!(f.view.aperture.iter().fold(0.0f64, |a, &b| a.max(b)));
     }
     if let (Some(f), Some(o)) = (sim.flow(), sim.output()) {
         if !o.write_network_csv(&f.view).map_err(DriverError::Output)? {
@@ -313,142 +406,205 @@ pub fn run_scenario(scenario: ValidScenario, opts: &RunOptions) -> Result<RunRep
             warnings.push(format!("figures not written: {e}"));
         }
     }
-    // The production stage (`production:`): before and after the run, after a run that ended.
-    let mut production_error = None;
-    let mut production_interrupted = None;
-    if result.is_ok()
-        && sim.interrupted_by().is_none()
-        && let Some(stage) = sim.scenario().production.clone()
-    {
-        let t = Instant::now();
-        let end = sim
-            .checkpoint_state()
-            .map_err(|e| DriverError::Output(std::io::Error::other(format!("production: {e}"))))?
-            .1;
-        let bar = production_bar(opts.quiet);
-        // The before and the after states run side by side: the spinner shows the latest
-        // message of each.
-        let lines = std::sync::Mutex::new([String::new(), String::new()]);
-        let solved = crate::production::run_production(
-            sim.scenario(),
-            end,
-            opts.stop.as_ref(),
-            &|m: &str| {
-                let mut l = lines.lock().unwrap_or_else(|e| e.into_inner());
-                l[usize::from(m.starts_with("production after"))] = m.to_string();
-                let shown: Vec<&str> = l
-                    .iter()
-                    .filter(|x| !x.is_empty())
-                    .map(|x| x.as_str())
-                    .collect();
-                bar.set_message(shown.join("\n  "));
-            },
-        );
-        bar.finish_and_clear();
-        let stage_result = match solved {
-            Ok(x) => x,
-            Err(crate::production::ProductionError::Interrupted(sig)) => {
-                // Stopped between two steps of an equilibrium: the run's outputs are complete,
-                // the production table is not written.
-                summary["status"] = json!("interrupted");
-                summary["reason"] = json!(format!(
-                    "interrupted by {} during the production stage, after {:.1} s of it",
-                    signal_name(sig),
-                    t.elapsed().as_secs_f64()
-                ));
-                summary["production"] = json!({"interrupted": true});
-                production_interrupted = Some(sig);
-                Default::default()
-            }
-            Err(e) => {
-                summary["production"] = json!({"error": e.to_string()});
-                production_error = Some(e);
-                Default::default()
-            }
-        };
-        let crate::production::StageResult {
-            rows,
-            figures,
-            failed,
-        } = stage_result;
-        if production_error.is_none() && production_interrupted.is_none() {
-            summary["production"] = crate::production::production_json(&stage, &rows, &failed);
-            summary["production"]["wall_s"] = json!(t.elapsed().as_secs_f64());
-            for r in &rows {
-                if !r.converged {
-                    warnings.push(format!(
-                        "production {} dp = {:.1} MPa did not converge in {} iterations \
-                         (last change {:.1e})",
-                        r.state.name(),
-                        r.dp / 1e6,
-                        r.iterations,
-                        r.change
-                    ));
-                }
-                if !r.frozen_settled {
-                    warnings.push(format!(
-                        "production {} dp = {:.1} MPa: the rock without fluid pressure did \
-                         not settle (a fracture grew in each relaxation), so rate_frozen is \
-                         not an equilibrium's",
-                        r.state.name(),
-                        r.dp / 1e6
-                    ));
-                }
-            }
-            for f in &failed {
-                warnings.push(format!(
-                    "production {} dp = {:.1} MPa failed, no row: {}",
-                    f.state.name(),
-                    f.dp / 1e6,
-                    f.error
-                ));
-            }
+    Ok(())
+}
+
+/// `summary.json` `fractures`: the cells, their total length and the new cells of `v`.
+fn fractures_json(v: &crate::flow::FlowView) -> serde_json::Value {
+    let length: f64 = v.length.iter().sum();
+    let new = v
+        .kind
+        .iter()
+        .filter(|k| **k == crate::components::CellKind::New)
+        .count();
+    json!({"cells": v.n_cells(), "total_length": length, "new_cells": new})
+}
+
+/// The fracture figures of a run with an output folder: the fractures, and the seed's Fig. 7
+/// view (the mesh with apertures magnified 20x, coloured by the prescribed face pressure,
+/// zero without one). A figure that fails is a warning.
+fn fracture_figures(
+    sim: &Simulation,
+    mut v: crate::flow::FlowView,
+    warnings: &mut Vec<String>,
+) -> Result<(), DriverError> {
+    let Some(o) = sim.output() else {
+        return Ok(());
+    };
+    let name = &sim.params().name;
+    if let Err(e) = crate::output::plots::fracture_figure(name, sim.time(), &v, o.folder()) {
+        warnings.push(format!("figures not written: {e}"));
+    }
+    let p = sim.params().face_pressure.unwrap_or(0.0);
+    v.pressure.iter_mut().for_each(|x| *x = p);
+    let title = format!("{name}: fractures, apertures x20, t = {:.4} s", sim.time());
+    if let Err(e) = crate::output::plots::fracture_pressure_figure(
+        &o.claim("fractures_mesh.png").map_err(DriverError::Output)?,
+        &title,
+        sim.solid(),
+        &v,
+        20.0,
+        None,
+    ) {
+        warnings.push(format!("figures not written: {e}"));
+    }
+    Ok(())
+}
+
+/// The production stage (`production:`, [`crate::production_stage`]): the coupled steady
+/// states before and after the run, after a run that ended, with a spinner; then
+/// `summary.json` `production`, its warnings, `production.csv` and its figures.
+fn production_stage(
+    run: &mut Run,
+    summary: &mut serde_json::Value,
+    opts: &RunOptions,
+) -> Result<StageEnd, DriverError> {
+    use crate::production_stage::{ProductionError, StageResult};
+    let Some(stage) = run.sim.scenario().production.clone() else {
+        return Ok(StageEnd::Done);
+    };
+    let t = Instant::now();
+    let solved = solve_production(&run.sim, opts)?;
+    let StageResult {
+        rows,
+        figures,
+        failed,
+    } = match solved {
+        Ok(x) => x,
+        Err(ProductionError::Interrupted(sig)) => {
+            // Stopped between two steps of an equilibrium: the run's outputs are complete,
+            // the production table is not written.
+            summary["status"] = json!("interrupted");
+            summary["reason"] = json!(format!(
+                "interrupted by {} during the production stage, after {:.1} s of it",
+                signal_name(sig),
+                t.elapsed().as_secs_f64()
+            ));
+            summary["production"] = json!({"interrupted": true});
+            return Ok(StageEnd::Interrupted(sig));
         }
-        if let (Some(o), None, None) = (sim.output(), &production_error, production_interrupted) {
-            let csv = crate::production::production_csv(&rows);
-            write_atomic(
-                &o.claim("production.csv").map_err(DriverError::Output)?,
-                csv.as_bytes(),
-            )
-            .map_err(DriverError::Output)?;
-            let w = &stage.wells;
-            let markers = [(w.injection, "injection"), (w.production, "production")];
-            for s in &figures {
-                let name = format!("production_flow_{}.png", s.row.state.name());
-                let title = format!(
-                    "{}: production flow {}, dp = {:.0} MPa, coupled; rate {:.3e} m^2/s",
-                    sim.params().name,
-                    s.row.state.name(),
-                    s.row.dp / 1e6,
-                    s.row.rate
-                );
-                let path = o.claim(&name).map_err(DriverError::Output)?;
-                if let Err(e) =
-                    crate::reservoir::production::flow_map(&path, &title, &s.flow, &markers)
-                {
-                    warnings.push(format!("{name} not written: {e}"));
-                }
-            }
-            let now = network_now(&sim);
-            let views = [
-                ("before", start_network.as_ref(), 0.0),
-                ("after", now.as_ref(), sim.time()),
-            ];
-            for (state, view, time) in views {
-                let Some(view) = view else { continue };
-                let name = format!("network_{state}.png");
-                let title = format!(
-                    "{}: fracture network {state} (t = {time:.3} s)",
-                    sim.params().name
-                );
-                let path = o.claim(&name).map_err(DriverError::Output)?;
-                if let Err(e) = crate::production::network_figure(&path, &title, view, &markers) {
-                    warnings.push(format!("{name} not written: {e}"));
-                }
-            }
+        Err(e) => {
+            summary["production"] = json!({"error": e.to_string()});
+            return Ok(StageEnd::Failed(e));
+        }
+    };
+    summary["production"] = crate::production_stage::production_json(&stage, &rows, &failed);
+    summary["production"]["wall_s"] = json!(t.elapsed().as_secs_f64());
+    run.warnings
+        .extend(crate::production_stage::stage_warnings(&rows, &failed));
+    let start = run.start_network.as_ref();
+    let written = write_production(&run.sim, &stage, &rows, &figures, start)?;
+    run.warnings.extend(written);
+    Ok(StageEnd::Done)
+}
+
+/// Solve the production states from the end of the run ([`run_production`]), with a spinner:
+/// the before and the after states run side by side, and it shows the latest message of each.
+///
+/// [`run_production`]: crate::production_stage::run_production
+fn solve_production(
+    sim: &Simulation,
+    opts: &RunOptions,
+) -> Result<
+    Result<crate::production_stage::StageResult, crate::production_stage::ProductionError>,
+    DriverError,
+> {
+    let end = sim
+        .checkpoint_state()
+        .map_err(|e| DriverError::Output(std::io::Error::other(format!("production: {e}"))))?
+        .1;
+    let bar = production_bar(opts.quiet);
+    let lines = std::sync::Mutex::new([String::new(), String::new()]);
+    let solved = crate::production_stage::run_production(
+        sim.scenario(),
+        end,
+        opts.stop.as_ref(),
+        &|m: &str| {
+            let mut l = lines.lock().unwrap_or_else(|e| e.into_inner());
+            l[usize::from(m.starts_with("production after"))] = m.to_string();
+            let shown: Vec<&str> = l
+                .iter()
+                .filter(|x| !x.is_empty())
+                .map(|x| x.as_str())
+                .collect();
+            bar.set_message(shown.join("\n  "));
+        },
+    );
+    bar.finish_and_clear();
+    Ok(solved)
+}
+
+/// The production stage's outputs in a run with an output folder: `production.csv`, the flow
+/// at the middle pressure drop of each state (`production_flow_{state}.png`) and the network
+/// before and after (`network_{before,after}.png`). Returns the figures not written.
+fn write_production(
+    sim: &Simulation,
+    stage: &crate::scenario::ProductionStage,
+    rows: &[crate::production_stage::ProductionRow],
+    figures: &[crate::production_stage::StateSolve],
+    start_network: Option<&crate::flow::FlowView>,
+) -> Result<Vec<String>, DriverError> {
+    let Some(o) = sim.output() else {
+        return Ok(Vec::new());
+    };
+    let mut warnings = Vec::new();
+    let csv = crate::production_stage::production_csv(rows);
+    write_atomic(
+        &o.claim("production.csv").map_err(DriverError::Output)?,
+        csv.as_bytes(),
+    )
+    .map_err(DriverError::Output)?;
+    let w = &stage.wells;
+    let markers = [(w.injection, "injection"), (w.production, "production")];
+    let name = &sim.params().name;
+    for s in figures {
+        let (state, dp) = (s.row.state.name(), s.row.dp / 1e6);
+        let file = format!("production_flow_{state}.png");
+        let title = format!(
+            "{name}: production flow {state}, dp = {dp:.0} MPa, coupled; rate {:.3e} m^2/s",
+            s.row.rate
+        );
+        let path = o.claim(&file).map_err(DriverError::Output)?;
+        if let Err(e) = crate::reservoir::doublet::flow_map(&path, &title, &s.flow, &markers) {
+            warnings.push(format!("{file} not written: {e}"));
         }
     }
-    if let (Some(e), Some(path)) = (trace_error.lock().expect("trace error").take(), &opts.trace) {
+    let now = network_now(sim);
+    let views = [
+        ("before", start_network, 0.0),
+        ("after", now.as_ref(), sim.time()),
+    ];
+    for (state, view, time) in views {
+        let Some(view) = view else { continue };
+        let file = format!("network_{state}.png");
+        let title = format!("{name}: fracture network {state} (t = {time:.3} s)");
+        let path = o.claim(&file).map_err(DriverError::Output)?;
+        if let Err(e) = crate::production_stage::network_figure(&path, &title, view, &markers) {
+            warnings.push(format!("{file} not written: {e}"));
+        }
+    }
+    Ok(warnings)
+}
+
+/// Write the results: the trace's and the stages' warnings into `summary.json`, written last
+/// (into the folder, or beside it without outputs), the temporaries removed; then the run's
+/// outcome: the production stage's error, the step loop's, or the report.
+fn write_results(
+    run: Run,
+    stepped: Stepped,
+    mut summary: serde_json::Value,
+    production: StageEnd,
+    opts: &RunOptions,
+    out: PathBuf,
+) -> Result<RunReport, DriverError> {
+    let Run {
+        sim,
+        start_network,
+        mut warnings,
+        ..
+    } = run;
+    let trace_error = stepped.trace_error.lock().expect("trace error").take();
+    if let (Some(e), Some(path)) = (trace_error, &opts.trace) {
         warnings.push(format!(
             "trace {} is incomplete: writing it failed: {e}",
             path.display()
@@ -471,10 +627,12 @@ pub fn run_scenario(scenario: ValidScenario, opts: &RunOptions) -> Result<RunRep
     if let Some(o) = sim.output() {
         o.folder().remove_temporaries();
     }
-    if let Some(e) = production_error {
-        return Err(DriverError::Production(Box::new(e)));
-    }
-    if let Err(e) = result {
+    let production_interrupted = match production {
+        StageEnd::Failed(e) => return Err(DriverError::Production(Box::new(e))),
+        StageEnd::Interrupted(sig) => Some(sig),
+        StageEnd::Done => None,
+    };
+    if let Err(e) = stepped.result {
         return Err(DriverError::Run {
             error: e,
             out: out.display().to_string(),
@@ -483,26 +641,29 @@ pub fn run_scenario(scenario: ValidScenario, opts: &RunOptions) -> Result<RunRep
     Ok(RunReport {
         out,
         summary,
-        timing_table,
+        timing_table: stepped.timing_table,
         interrupted_by: sim.interrupted_by().or(production_interrupted),
         networks: start_network.zip(network_now(&sim)).map(|(a, b)| [a, b]),
-        mesh_box: sim.solid().x0.iter().fold(
-            [
-                f64::INFINITY,
-                f64::NEG_INFINITY,
-                f64::INFINITY,
-                f64::NEG_INFINITY,
-            ],
-            |b, p| {
-                [
-                    b[0].min(p[0]),
-                    b[1].max(p[0]),
-                    b[2].min(p[1]),
-                    b[3].max(p[1]),
-                ]
-            },
-        ),
+        mesh_box: mesh_box(&sim),
         residual_aperture: sim.params().residual_aperture,
+    })
+}
+
+/// Bounding box of the rock mesh in reference positions, `[xmin, xmax, ymin, ymax]` m.
+fn mesh_box(sim: &Simulation) -> [f64; 4] {
+    let empty = [
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+    ];
+    sim.solid().x0.iter().fold(empty, |b, p| {
+        [
+            b[0].min(p[0]),
+            b[1].max(p[0]),
+            b[2].min(p[1]),
+            b[3].max(p[1]),
+        ]
     })
 }
 
@@ -667,6 +828,8 @@ fn progress_position(s: &Simulation) -> u64 {
     .min(1000)
 }
 
+/// `summary.json` of the run as the step loop left it: its outcome, the mesh, the steps, the
+/// flow, the fractures' counts, the stress range and the systems' timing (`rows`).
 fn summary_json(
     sim: &Simulation,
     result: &Result<Finish, RunError>,
@@ -674,51 +837,14 @@ fn summary_json(
     rows: &[(String, bool, u64, f64)],
 ) -> serde_json::Value {
     let (mean, min, max) = sim.solid().stress_summary(&sim.params().solid);
-    let systems: Vec<serde_json::Value> = sim
-        .schedule()
-        .entries
-        .iter()
-        .zip(rows)
-        .map(|((_, st), (name, enabled, calls, total))| {
-            json!({"name": name, "enabled": enabled, "status": st, "calls": calls, "total_s": total})
-        })
-        .collect();
     let (status, finish, error) = match result {
         Ok(f) => ("ok", Some(*f), None),
         Err(e) => ("failed", None, Some(e.to_string())),
     };
-    let flow = sim.flow().map(|f| {
-        let (inj, prod, stored, err) = sim.flow_balance().unwrap_or_default();
-        let bcs: Vec<serde_json::Value> = f
-            .view
-            .bcs
-            .iter()
-            .map(|b| {
-                json!({"name": sim.bc_name(b.index), "pressure": b.pressure, "rate": b.rate,
-                       "volume_in": b.volume_in, "volume_out": b.volume_out})
-            })
-            .collect();
-        json!({
-            "cells": f.view.n_cells(),
-            "pairs": f.view.pairs.len(),
-            "dt": f.dt,
-            "dt_critical": finite(f.dt_crit),
-            "substeps": f.substeps,
-            "scheme": if f.implicit.is_some() { "implicit" } else { "explicit" },
-            "newton_iterations": f.implicit.as_ref().map(|s| s.total_iterations),
-            "lu_factorisations": f.implicit.as_ref().map(|s| s.factorisations),
-            "chord_iterations": f.implicit.as_ref().map(|s| s.chord_iterations),
-            "residual": f.residual,
-            "boundaries": bcs,
-            "injected_volume": inj,
-            "produced_volume": prod,
-            "stored_volume_change": stored,
-            "mass_balance_error": err,
-        })
-    });
+    let stress = |s: [f64; 3]| json!({"xx": s[0], "yy": s[1], "xy": s[2]});
     let mut s = json!({
         "scenario": sim.params().name,
-        "flow": flow,
+        "flow": flow_json(sim),
         "solid_scheme": if sim.quasi_static_counts().is_some() { "quasi_static" } else { "explicit" },
         "status": status,
         "finish": finish,
@@ -730,12 +856,7 @@ fn summary_json(
         "time": sim.time(),
         "dt": sim.dt(),
         "dt_critical": finite(sim.dt_crit()),
-        "mass_scaling": sim.params().time.selective.map(|j| {
-            let (nodes, added) = sim.raised_masses();
-            let total: f64 = sim.solid().mass.iter().sum();
-            json!({"critical_step": j.dt_crit, "unscaled_critical_step": j.dt_unscaled,
-                   "nodes": nodes, "added_mass_fraction": added / (total - added)})
-        }),
+        "mass_scaling": mass_scaling_json(sim),
         "wall_s": wall,
         "residual": sim.residual(),
         "kinetic_energy": sim.stats().kinetic,
@@ -747,16 +868,73 @@ fn summary_json(
         "joints": sim.solid().joint_nodes.len(),
         "preexisting_fractures": sim.placed(),
         "mesh": (sim.solid().n_elems() > 0).then(|| sim.mesh_info()),
-        "stress_mean": {"xx": mean[0], "yy": mean[1], "xy": mean[2]},
-        "stress_min": {"xx": min[0], "yy": min[1], "xy": min[2]},
-        "stress_max": {"xx": max[0], "yy": max[1], "xy": max[2]},
-        "systems": systems,
+        "stress_mean": stress(mean),
+        "stress_min": stress(min),
+        "stress_max": stress(max),
+        "systems": systems_json(sim, rows),
     });
     omit_if_null(&mut s, OPTIONAL);
     if let Some(flow) = s.get_mut("flow") {
         omit_if_null(flow, OPTIONAL_FLOW);
     }
     s
+}
+
+/// `summary.json` `systems`: per system of the schedule, its status and timing (`rows`).
+fn systems_json(sim: &Simulation, rows: &[(String, bool, u64, f64)]) -> Vec<serde_json::Value> {
+    sim.schedule()
+        .entries
+        .iter()
+        .zip(rows)
+        .map(|((_, st), (name, enabled, calls, total))| {
+            json!({"name": name, "enabled": enabled, "status": st, "calls": calls, "total_s": total})
+        })
+        .collect()
+}
+
+/// `summary.json` `flow` (`None` without a network): the network, the step and scheme, the
+/// boundaries' volumes and the mass balance.
+fn flow_json(sim: &Simulation) -> Option<serde_json::Value> {
+    let f = sim.flow()?;
+    let (inj, prod, stored, err) = sim.flow_balance().unwrap_or_default();
+    let bcs: Vec<serde_json::Value> = f
+        .view
+        .bcs
+        .iter()
+        .map(|b| {
+            json!({"name": sim.bc_name(b.index), "pressure": b.pressure, "rate": b.rate,
+                   "volume_in": b.volume_in, "volume_out": b.volume_out})
+        })
+        .collect();
+    let implicit = f.implicit.as_ref();
+    Some(json!({
+        "cells": f.view.n_cells(),
+        "pairs": f.view.pairs.len(),
+        "dt": f.dt,
+        "dt_critical": finite(f.dt_crit),
+        "substeps": f.substeps,
+        "scheme": if implicit.is_some() { "implicit" } else { "explicit" },
+        "newton_iterations": implicit.map(|s| s.total_iterations),
+        "lu_factorisations": implicit.map(|s| s.factorisations),
+        "chord_iterations": implicit.map(|s| s.chord_iterations),
+        "residual": f.residual,
+        "boundaries": bcs,
+        "injected_volume": inj,
+        "produced_volume": prod,
+        "stored_volume_change": stored,
+        "mass_balance_error": err,
+    }))
+}
+
+/// `summary.json` `mass_scaling` (`None` without `time.selective_mass_scaling`): the critical
+/// steps with and without it, the nodes it made heavier and the mass it added.
+fn mass_scaling_json(sim: &Simulation) -> Option<serde_json::Value> {
+    sim.params().time.selective.map(|j| {
+        let (nodes, added) = sim.raised_masses();
+        let total: f64 = sim.solid().mass.iter().sum();
+        json!({"critical_step": j.dt_crit, "unscaled_critical_step": j.dt_unscaled,
+               "nodes": nodes, "added_mass_fraction": added / (total - added)})
+    })
 }
 
 /// The warning for pre-existing fractures whose mesh path zigzags (orientation not a mesh

@@ -27,6 +27,6 @@ pub use hydrofrac_systems as systems;
 
 pub mod driver;
 pub mod pipeline;
-pub mod production;
+pub mod production_stage;
 pub mod reference;
 pub mod verify;

@@ -80,8 +80,8 @@ enum Command {
         #[arg(long)]
         force: bool,
     },
-    /// Stimulation -> production -> upscaling -> heat extraction, before and after, in one
-    /// run (a pipeline file, e.g. scenarios/example1_reservoir.ron).
+    /// Stimulation -> doublet (production between two wells) -> upscaling -> heat extraction,
+    /// before and after, in one run (a pipeline file, e.g. scenarios/example1_reservoir.ron).
     Pipeline {
         /// Pipeline file (RON)
         file: PathBuf,
@@ -182,8 +182,7 @@ fn print_report(report: &hydrofrac::driver::RunReport) -> std::io::Result<()> {
 }
 
 fn real_main() -> Result<ExitCode> {
-    let cli = Cli::parse();
-    match cli.command {
+    match Cli::parse().command {
         Command::Run {
             scenario,
             out,
@@ -208,71 +207,14 @@ fn real_main() -> Result<ExitCode> {
                 max_disk,
                 restart,
             };
-            let report = run_file(&scenario, &opts)?;
-            let code = report.interrupted_by.map_or(ExitCode::SUCCESS, signal_exit);
-            if let Some(reason) = report.summary["reason"].as_str() {
-                let _ = writeln!(
-                    std::io::stderr(),
-                    "{reason}: outputs finished in {}",
-                    report.out.display()
-                );
-            }
-            if !quiet && let Err(e) = print_report(&report) {
-                // A closed stdout: the run is done and its outputs are written.
-                if e.kind() != std::io::ErrorKind::BrokenPipe {
-                    return Err(e.into());
-                }
-            }
-            Ok(code)
+            run_command(&scenario, &opts)
         }
         Command::Verify {
             cases,
             out,
             quick,
             force,
-        } => {
-            let known = hydrofrac::verify::cases();
-            if cases.iter().any(|n| !known.iter().any(|c| c.name == n)) {
-                // `run_cases` names the unknown case (and the valid ones) before it writes
-                // anything: the folder is not touched.
-                hydrofrac::verify::run_cases(&cases, &out, quick)?;
-            }
-            // The cases write their files by name; what is new or changed afterwards is
-            // listed in the manifest as this run's.
-            let folder = hydrofrac::output::folder::Folder::prepare(&out, force)?;
-            let before = folder.snapshot();
-            // SIGINT/SIGTERM: the case in progress finishes and is written, the rest is not
-            // run (a second signal ends the process at once).
-            let stop = install_stop_handlers()?;
-            let result = hydrofrac::verify::run_cases_until(&cases, &out, quick, Some(&stop));
-            folder.adopt_changed(&before)?;
-            // A closed stdout stops the cases at their next line: not a quiet success here.
-            let verdict = result.map_err(|e| {
-                if is_broken_pipe(&e) {
-                    anyhow::anyhow!(
-                        "stdout was closed: the verification stopped before it finished"
-                    )
-                } else {
-                    e
-                }
-            })?;
-            if let Some(sig) = verdict.interrupted_by {
-                let _ = writeln!(
-                    std::io::stderr(),
-                    "interrupted by {} after {} of {} cases: their CSV and PNG are in {}",
-                    hydrofrac::driver::signal_name(sig),
-                    verdict.finished.len(),
-                    verdict.total,
-                    out.display()
-                );
-                return Ok(signal_exit(sig));
-            }
-            Ok(if verdict.passed {
-                ExitCode::SUCCESS
-            } else {
-                ExitCode::FAILURE
-            })
-        }
+        } => verify_command(&cases, &out, quick, force),
         Command::Pipeline {
             file,
             out,
@@ -285,35 +227,119 @@ fn real_main() -> Result<ExitCode> {
                 force,
                 stop: Some(install_stop_handlers()?),
             };
-            let report = match hydrofrac::pipeline::run_pipeline(&file, &opts) {
-                Err(e @ hydrofrac::pipeline::PipelineError::Interrupted { signal, .. }) => {
-                    let _ = writeln!(std::io::stderr(), "{e}");
-                    return Ok(signal_exit(signal));
-                }
-                r => r?,
-            };
-            if !quiet {
-                let mut o = std::io::stdout().lock();
-                let text = hydrofrac::pipeline::report_text(&report);
-                if let Err(e) = write!(o, "{text}")
-                    && e.kind() != std::io::ErrorKind::BrokenPipe
-                {
-                    return Err(e.into());
-                }
-            }
-            Ok(ExitCode::SUCCESS)
+            pipeline_command(&file, &opts)
         }
-        Command::Systems => {
-            let mut out = std::io::stdout().lock();
-            for s in hydrofrac::systems::SystemId::ORDER {
-                // A closed stdout (`hydrofrac systems | head -1`): the rest has no reader; a
-                // quiet exit, not a panic.
-                match writeln!(out, "{:<16} {}", s.name(), s.doc()) {
-                    Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => break,
-                    r => r?,
-                }
-            }
-            Ok(ExitCode::SUCCESS)
+        Command::Systems => systems_command(),
+    }
+}
+
+/// `hydrofrac run`: the run, its reason on stderr when a signal stopped it, the report on
+/// stdout unless `--quiet`; exit 128 + the signal number when a signal stopped it.
+fn run_command(scenario: &std::path::Path, opts: &RunOptions) -> Result<ExitCode> {
+    let report = run_file(scenario, opts)?;
+    let code = report.interrupted_by.map_or(ExitCode::SUCCESS, signal_exit);
+    if let Some(reason) = report.summary["reason"].as_str() {
+        let _ = writeln!(
+            std::io::stderr(),
+            "{reason}: outputs finished in {}",
+            report.out.display()
+        );
+    }
+    if !opts.quiet
+        && let Err(e) = print_report(&report)
+    {
+        // A closed stdout: the run is done and its outputs are written.
+        if e.kind() != std::io::ErrorKind::BrokenPipe {
+            return Err(e.into());
         }
     }
+    Ok(code)
+}
+
+/// `hydrofrac verify`: the cases into `out` (what they wrote listed in its manifest); failure
+/// when a case failed, 128 + the signal number when a signal stopped them.
+fn verify_command(
+    cases: &[String],
+    out: &std::path::Path,
+    quick: bool,
+    force: bool,
+) -> Result<ExitCode> {
+    let known = hydrofrac::verify::cases();
+    if cases.iter().any(|n| !known.iter().any(|c| c.name == n)) {
+        // `run_cases` names the unknown case (and the valid ones) before it writes
+        // anything: the folder is not touched.
+        hydrofrac::verify::run_cases(cases, out, quick)?;
+    }
+    // The cases write their files by name; what is new or changed afterwards is
+    // listed in the manifest as this run's.
+    let folder = hydrofrac::output::folder::Folder::prepare(out, force)?;
+    let before = folder.snapshot();
+    // SIGINT/SIGTERM: the case in progress finishes and is written, the rest is not
+    // run (a second signal ends the process at once).
+    let stop = install_stop_handlers()?;
+    let result = hydrofrac::verify::run_cases_until(cases, out, quick, Some(&stop));
+    folder.adopt_changed(&before)?;
+    // A closed stdout stops the cases at their next line: not a quiet success here.
+    let verdict = result.map_err(|e| {
+        if is_broken_pipe(&e) {
+            anyhow::anyhow!("stdout was closed: the verification stopped before it finished")
+        } else {
+            e
+        }
+    })?;
+    if let Some(sig) = verdict.interrupted_by {
+        let _ = writeln!(
+            std::io::stderr(),
+            "interrupted by {} after {} of {} cases: their CSV and PNG are in {}",
+            hydrofrac::driver::signal_name(sig),
+            verdict.finished.len(),
+            verdict.total,
+            out.display()
+        );
+        return Ok(signal_exit(sig));
+    }
+    Ok(if verdict.passed {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::FAILURE
+    })
+}
+
+/// `hydrofrac pipeline`: the pipeline, its tables on stdout unless `--quiet`; 128 + the
+/// signal number when a signal stopped the stimulation.
+fn pipeline_command(
+    file: &std::path::Path,
+    opts: &hydrofrac::pipeline::PipelineOptions,
+) -> Result<ExitCode> {
+    let report = match hydrofrac::pipeline::run_pipeline(file, opts) {
+        Err(e @ hydrofrac::pipeline::PipelineError::Interrupted { signal, .. }) => {
+            let _ = writeln!(std::io::stderr(), "{e}");
+            return Ok(signal_exit(signal));
+        }
+        r => r?,
+    };
+    if !opts.quiet {
+        let mut o = std::io::stdout().lock();
+        let text = hydrofrac::pipeline::report_text(&report);
+        if let Err(e) = write!(o, "{text}")
+            && e.kind() != std::io::ErrorKind::BrokenPipe
+        {
+            return Err(e.into());
+        }
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// `hydrofrac systems`: the systems of a step in order, with their docs.
+fn systems_command() -> Result<ExitCode> {
+    let mut out = std::io::stdout().lock();
+    for s in hydrofrac::systems::SystemId::ORDER {
+        // A closed stdout (`hydrofrac systems | head -1`): the rest has no reader; a
+        // quiet exit, not a panic.
+        match writeln!(out, "{:<16} {}", s.name(), s.doc()) {
+            Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => break,
+            r => r?,
+        }
+    }
+    Ok(ExitCode::SUCCESS)
 }

@@ -1,12 +1,12 @@
-//! `hydrofrac pipeline FILE`: stimulation -> production -> upscaling -> heat extraction, on the
+//! `hydrofrac pipeline FILE`: stimulation -> doublet -> upscaling -> heat extraction, on the
 //! fracture network before and after the stimulation, in one command (`docs/reservoir.md`).
 //!
 //! Stages, each timed (`summary.json` `stages`, and the table printed at the end):
 //! 1. **stimulation**: the stimulation scenario runs as `hydrofrac run` would, into
 //!    `<out>/stimulation/`; its network at the start is "before", at the end "after".
-//! 2. **production**: the steady flow of each network between an injection and a production
-//!    well held at pressures, at each pressure drop, with the apertures at the end of the
-//!    stimulation and with every cell closed to the residual aperture
+//! 2. **doublet**: the steady flow of each network between an injection and a production
+//!    well held at pressures (`reservoir::doublet`), at each pressure drop, with the apertures
+//!    at the end of the stimulation and with every cell closed to the residual aperture
 //!    (`network_production.csv`, flow maps).
 //! 3. **upscaling**: Oda's tensor and the flow-based permeability of each network on a grid of
 //!    blocks over the stimulated block (`permeability.csv`, `permeability.vtu`, maps).
@@ -22,7 +22,7 @@ use crate::reservoir::continuum::{
     ContinuumRun, ContinuumSpec, Well, WellControl, WellIndex, run_continuum,
 };
 use crate::reservoir::discrete::{DiscreteRun, DiscreteSpec, RockGrid, TimeStep, run_discrete};
-use crate::reservoir::production::{PressureWell, steady_production};
+use crate::reservoir::doublet::{PressureWell, doublet_flow, doublet_wells};
 use crate::reservoir::upscale::{BlockPermeability, upscale};
 use crate::reservoir::{Grid2, NetworkFlow, ReservoirError, ThermalProps};
 use serde::{Deserialize, Serialize};
@@ -39,15 +39,16 @@ pub struct PipelineSpec {
     /// `--set PATH=VALUE` overrides applied to the stimulation scenario.
     #[serde(default)]
     pub stimulation_set: Vec<String>,
+    /// The doublet stage's wells and pressure drops (the heat stage's wells too).
     pub production: ProductionSpec,
-    /// Apertures of the networks in the production, upscaling and heat stages.
+    /// Apertures of the networks in the doublet, upscaling and heat stages.
     #[serde(default)]
     pub apertures: Apertures,
     pub upscaling: UpscalingSpec,
     pub heat: HeatSpec,
 }
 
-/// Which apertures the production, upscaling and heat stages give the fracture cells.
+/// Which apertures the doublet, upscaling and heat stages give the fracture cells.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize, Serialize)]
 pub enum Apertures {
     /// Every cell at the joints' residual aperture: the fractures closed after the pump
@@ -59,7 +60,7 @@ pub enum Apertures {
     EndOfStimulation,
 }
 
-/// The heat-extraction stage: the same wells as the production stage, at one pressure drop.
+/// The heat-extraction stage: the same wells as the doublet stage, at one pressure drop.
 #[derive(Clone, Debug, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct HeatSpec {
@@ -144,7 +145,8 @@ pub enum PermeabilityChoice {
     Oda,
 }
 
-/// The wells of the production stage, in the stimulated block's coordinates.
+/// The wells of the doublet stage (`production:` in a pipeline file), in the stimulated
+/// block's coordinates.
 pub use crate::scenario::ProductionSpec;
 
 /// The grid the networks are upscaled onto.
@@ -155,7 +157,7 @@ pub struct UpscalingSpec {
     pub blocks: [usize; 2],
     /// Permeability of the intact rock, m^2 (granite: 1e-19 to 1e-16).
     pub matrix_permeability: f64,
-    /// Fluid viscosity of the production and upscaling stages, Pa s.
+    /// Fluid viscosity of the doublet and upscaling stages, Pa s.
     pub viscosity: f64,
 }
 
@@ -211,95 +213,146 @@ impl PipelineSpec {
         Ok(crate::scenario::parse_ron(text, file, "pipeline")?)
     }
 
+    /// Every field in range, stage by stage (the doublet's wells, the upscaling grid, the
+    /// heat models, the viscosity); the error names the first field out of range.
     pub fn validate(&self) -> Result<(), PipelineError> {
-        let bad = |field: &str, why: String| PipelineError::Invalid {
-            field: field.to_string(),
-            why,
-        };
         self.production.validate("production")?;
-        let u = &self.upscaling;
-        if u.blocks.iter().any(|&n| n == 0 || n > 10_000) {
-            return Err(bad(
+        self.upscaling.validate_grid()?;
+        self.heat.validate()?;
+        self.upscaling.validate_viscosity()
+    }
+}
+
+/// An out-of-range pipeline field.
+fn invalid(field: &str, why: String) -> PipelineError {
+    PipelineError::Invalid {
+        field: field.to_string(),
+        why,
+    }
+}
+
+/// `v` (in `unit`) finite and positive, else an error naming `field`.
+fn positive(field: &str, v: f64, unit: &str) -> Result<(), PipelineError> {
+    if v.is_finite() && v > 0.0 {
+        Ok(())
+    } else {
+        Err(invalid(
+            field,
+            format!("{v} {unit} is not finite and positive"),
+        ))
+    }
+}
+
+impl UpscalingSpec {
+    /// 1 to 10000 blocks each way, a finite non-negative matrix permeability.
+    fn validate_grid(&self) -> Result<(), PipelineError> {
+        if self.blocks.iter().any(|&n| n == 0 || n > 10_000) {
+            return Err(invalid(
                 "upscaling.blocks",
-                format!("{:?}: each count must be in 1..=10000", u.blocks),
+                format!("{:?}: each count must be in 1..=10000", self.blocks),
             ));
         }
-        if !(u.matrix_permeability.is_finite() && u.matrix_permeability >= 0.0) {
-            return Err(bad(
+        let k = self.matrix_permeability;
+        if !(k.is_finite() && k >= 0.0) {
+            return Err(invalid(
                 "upscaling.matrix_permeability",
-                format!(
-                    "{} m^2 is not finite and non-negative",
-                    u.matrix_permeability
-                ),
+                format!("{k} m^2 is not finite and non-negative"),
             ));
         }
-        let h = &self.heat;
-        let positive = |field: &str, v: f64, unit: &str| -> Result<(), PipelineError> {
-            if v.is_finite() && v > 0.0 {
-                Ok(())
-            } else {
-                Err(bad(field, format!("{v} {unit} is not finite and positive")))
-            }
-        };
-        positive("heat.initial_temperature", h.initial_temperature, "K")?;
-        positive("heat.injection_temperature", h.injection_temperature, "K")?;
-        positive("heat.pressure_drop", h.pressure_drop, "Pa")?;
-        positive("heat.years", h.years, "years")?;
-        if h.years > 1e4 {
-            return Err(bad(
+        Ok(())
+    }
+
+    /// A finite positive viscosity.
+    fn validate_viscosity(&self) -> Result<(), PipelineError> {
+        if !(self.viscosity.is_finite() && self.viscosity > 0.0) {
+            return Err(invalid(
+                "upscaling.viscosity",
+                format!("{} Pa s is not finite and positive", self.viscosity),
+            ));
+        }
+        Ok(())
+    }
+}
+
+impl HeatSpec {
+    /// Finite positive temperatures, pressure drop and years (at most 10000), report years in
+    /// (0, years], a breakthrough fraction in (0, 1), then each model's grid and steps.
+    fn validate(&self) -> Result<(), PipelineError> {
+        positive("heat.initial_temperature", self.initial_temperature, "K")?;
+        positive(
+            "heat.injection_temperature",
+            self.injection_temperature,
+            "K",
+        )?;
+        positive("heat.pressure_drop", self.pressure_drop, "Pa")?;
+        positive("heat.years", self.years, "years")?;
+        if self.years > 1e4 {
+            return Err(invalid(
                 "heat.years",
-                format!("{} years: at most 10000", h.years),
+                format!("{} years: at most 10000", self.years),
             ));
         }
-        for (k, y) in h.report_years.iter().enumerate() {
-            if !(y.is_finite() && *y > 0.0 && *y <= h.years) {
-                return Err(bad(
+        for (k, y) in self.report_years.iter().enumerate() {
+            if !(y.is_finite() && *y > 0.0 && *y <= self.years) {
+                return Err(invalid(
                     &format!("heat.report_years[{k}]"),
-                    format!("{y} is not in (0, heat.years = {}]", h.years),
+                    format!("{y} is not in (0, heat.years = {}]", self.years),
                 ));
             }
         }
-        if !(h.breakthrough_fraction > 0.0 && h.breakthrough_fraction < 1.0) {
-            return Err(bad(
+        let f = self.breakthrough_fraction;
+        if !(f > 0.0 && f < 1.0) {
+            return Err(invalid(
                 "heat.breakthrough_fraction",
-                format!("{} is not in (0, 1)", h.breakthrough_fraction),
+                format!("{f} is not in (0, 1)"),
             ));
         }
-        positive("heat.discrete.h_min", h.discrete.h_min, "m")?;
-        positive("heat.discrete.h_max", h.discrete.h_max, "m")?;
-        if !(h.discrete.growth.is_finite() && h.discrete.growth >= 1.0) {
-            return Err(bad(
+        self.discrete.validate()?;
+        self.continuum.validate(self.years)
+    }
+}
+
+impl DiscreteHeatSpec {
+    /// Finite positive block sizes, a finite growth >= 1.
+    fn validate(&self) -> Result<(), PipelineError> {
+        positive("heat.discrete.h_min", self.h_min, "m")?;
+        positive("heat.discrete.h_max", self.h_max, "m")?;
+        if !(self.growth.is_finite() && self.growth >= 1.0) {
+            return Err(invalid(
                 "heat.discrete.growth",
-                format!("{} is not finite and >= 1", h.discrete.growth),
+                format!("{} is not finite and >= 1", self.growth),
             ));
         }
-        let c = &h.continuum;
-        positive("heat.continuum.size[0]", c.size[0], "m")?;
-        positive("heat.continuum.size[1]", c.size[1], "m")?;
-        positive("heat.continuum.dt", c.dt, "s")?;
-        positive("heat.continuum.well_radius", c.well_radius, "m")?;
-        if !c.zone_origin.iter().all(|x| x.is_finite() && *x >= 0.0) {
-            return Err(bad(
+        Ok(())
+    }
+}
+
+impl ContinuumHeatSpec {
+    /// A finite positive size, step and well radius, a zone origin in the reservoir, and at
+    /// most `continuum::MAX_STEPS` steps over `years`.
+    fn validate(&self, years: f64) -> Result<(), PipelineError> {
+        positive("heat.continuum.size[0]", self.size[0], "m")?;
+        positive("heat.continuum.size[1]", self.size[1], "m")?;
+        positive("heat.continuum.dt", self.dt, "s")?;
+        positive("heat.continuum.well_radius", self.well_radius, "m")?;
+        if !self.zone_origin.iter().all(|x| x.is_finite() && *x >= 0.0) {
+            return Err(invalid(
                 "heat.continuum.zone_origin",
-                format!("{:?} is not a finite point in the reservoir", c.zone_origin),
-            ));
-        }
-        let steps = h.years * YEAR / c.dt;
-        if steps > crate::reservoir::continuum::MAX_STEPS as f64 {
-            return Err(bad(
-                "heat.continuum.dt",
                 format!(
-                    "{} s gives {steps:.0} steps over {} years, more than {}",
-                    c.dt,
-                    h.years,
-                    crate::reservoir::continuum::MAX_STEPS
+                    "{:?} is not a finite point in the reservoir",
+                    self.zone_origin
                 ),
             ));
         }
-        if !(u.viscosity.is_finite() && u.viscosity > 0.0) {
-            return Err(bad(
-                "upscaling.viscosity",
-                format!("{} Pa s is not finite and positive", u.viscosity),
+        let steps = years * YEAR / self.dt;
+        let most = crate::reservoir::continuum::MAX_STEPS;
+        if steps > most as f64 {
+            return Err(invalid(
+                "heat.continuum.dt",
+                format!(
+                    "{} s gives {steps:.0} steps over {years} years, more than {most}",
+                    self.dt
+                ),
             ));
         }
         Ok(())
@@ -322,11 +375,11 @@ impl State {
     }
 }
 
-pub use crate::reservoir::production::{network_of_view, reaches};
+pub use crate::reservoir::doublet::{network_of_view, reaches};
 
-/// One row of `network_production.csv`.
+/// One row of `network_production.csv` (the doublet stage).
 #[derive(Clone, Debug, PartialEq)]
-pub struct ProductionRow {
+pub struct DoubletRow {
     pub state: State,
     /// Pressure drop, Pa.
     pub dp: f64,
@@ -340,7 +393,8 @@ pub struct ProductionRow {
 #[derive(Debug)]
 pub struct PipelineReport {
     pub out: PathBuf,
-    pub production: Vec<ProductionRow>,
+    /// The doublet stage's rows.
+    pub doublet: Vec<DoubletRow>,
     pub permeability: Vec<(State, BlockPermeability)>,
     /// (stage, wall seconds).
     pub stages: Vec<(&'static str, f64)>,
@@ -358,7 +412,8 @@ pub struct PipelineOptions {
     pub stop: Option<crate::sim::StopFlag>,
 }
 
-/// Run a pipeline file.
+/// Run a pipeline file, stage by stage: stimulation, doublet, upscaling, heat, then
+/// `summary.json`. Each stage's wall time is in `stages`.
 pub fn run_pipeline(path: &Path, opts: &PipelineOptions) -> Result<PipelineReport, PipelineError> {
     let spec = PipelineSpec::load(path)?;
     let out = opts
@@ -369,98 +424,142 @@ pub fn run_pipeline(path: &Path, opts: &PipelineOptions) -> Result<PipelineRepor
     plan.require_folder("stimulation")?;
     let folder = plan.open()?;
     let mut stages = Vec::new();
-
-    // 1. Stimulation.
-    let t0 = Instant::now();
-    let stim: RunReport = run_file(
-        &spec.stimulation,
-        &RunOptions {
-            out: Some(out.join("stimulation")),
-            set: spec.stimulation_set.clone(),
-            quiet: opts.quiet,
-            force: opts.force,
-            stop: opts.stop.clone(),
-            ..Default::default()
-        },
+    let stim = timed(&mut stages, "stimulation", || {
+        stimulation_stage(&spec, &out, opts)
+    })?;
+    let nets = Networks::of(&spec, &stim)?;
+    let doublet = timed(&mut stages, "doublet", || {
+        doublet_stage(&spec, &nets, &folder)
+    })?;
+    let permeability = timed(&mut stages, "upscaling", || {
+        upscaling_stage(&spec, &nets, stim.mesh_box, &folder)
+    })?;
+    let heat = heat_stage(
+        &spec,
+        &nets.views(),
+        nets.chosen,
+        &permeability,
+        stim.mesh_box,
+        &mut stages,
     )?;
-    stages.push(("stimulation", t0.elapsed().as_secs_f64()));
-    if let Some(signal) = stim.interrupted_by {
-        return Err(PipelineError::Interrupted {
-            signal,
-            out: stim.out.display().to_string(),
-        });
-    }
-    let Some([start, end]) = stim.networks.clone() else {
-        return Err(PipelineError::Invalid {
-            field: "stimulation".into(),
-            why: format!("{} has no fractures", spec.stimulation.display()),
-        });
-    };
-    let residual = stim.residual_aperture;
-    let views = [(State::Before, &start), (State::After, &end)];
-    let chosen = match spec.apertures {
-        Apertures::Residual => Some(residual),
-        Apertures::EndOfStimulation => None,
-    };
+    write_heat(&folder, &spec, &heat)?;
+    let summary = write_summary(&folder, &spec, stim.summary, &stages, &heat)?;
+    Ok(PipelineReport {
+        out,
+        doublet,
+        permeability,
+        stages,
+        reservoir: heat.rows,
+        summary,
+    })
+}
 
-    // 2. Production through the networks.
+/// Run `stage`, and on success add its wall time to `stages` as `name`.
+fn timed<T>(
+    stages: &mut Vec<(&'static str, f64)>,
+    name: &'static str,
+    stage: impl FnOnce() -> Result<T, PipelineError>,
+) -> Result<T, PipelineError> {
     let t0 = Instant::now();
+    let r = stage()?;
+    stages.push((name, t0.elapsed().as_secs_f64()));
+    Ok(r)
+}
+
+/// 1. The stimulation stage: the stimulation scenario as `hydrofrac run` runs it, into
+///    `<out>/stimulation/`.
+fn stimulation_stage(
+    spec: &PipelineSpec,
+    out: &Path,
+    opts: &PipelineOptions,
+) -> Result<RunReport, PipelineError> {
+    let opts = RunOptions {
+        out: Some(out.join("stimulation")),
+        set: spec.stimulation_set.clone(),
+        quiet: opts.quiet,
+        force: opts.force,
+        stop: opts.stop.clone(),
+        ..Default::default()
+    };
+    Ok(run_file(&spec.stimulation, &opts)?)
+}
+
+/// The stimulation's networks as the later stages take them: before and after, the residual
+/// aperture, and the apertures the pipeline file chose (`Some(residual)`, or `None`: the
+/// networks' own).
+struct Networks {
+    start: FlowView,
+    end: FlowView,
+    residual: f64,
+    chosen: Option<f64>,
+}
+
+impl Networks {
+    /// The networks of a finished stimulation: refused when a signal stopped it, or when it
+    /// has no fractures.
+    fn of(spec: &PipelineSpec, stim: &RunReport) -> Result<Self, PipelineError> {
+        if let Some(signal) = stim.interrupted_by {
+            return Err(PipelineError::Interrupted {
+                signal,
+                out: stim.out.display().to_string(),
+            });
+        }
+        let Some([start, end]) = stim.networks.clone() else {
+            return Err(PipelineError::Invalid {
+                field: "stimulation".into(),
+                why: format!("{} has no fractures", spec.stimulation.display()),
+            });
+        };
+        let residual = stim.residual_aperture;
+        let chosen = match spec.apertures {
+            Apertures::Residual => Some(residual),
+            Apertures::EndOfStimulation => None,
+        };
+        Ok(Networks {
+            start,
+            end,
+            residual,
+            chosen,
+        })
+    }
+
+    fn views(&self) -> [(State, &FlowView); 2] {
+        [(State::Before, &self.start), (State::After, &self.end)]
+    }
+}
+
+/// 2. The doublet stage: the steady flow of each network between the wells at each pressure
+///    drop, with the apertures at the end of the stimulation and every cell at the residual
+///    aperture (`network_production.csv`); the flow over the networks at the middle drop, with
+///    the chosen apertures (`production_flow_{state}.png`, the seed's Fig. 10).
+fn doublet_stage(
+    spec: &PipelineSpec,
+    nets: &Networks,
+    folder: &Folder,
+) -> Result<Vec<DoubletRow>, PipelineError> {
     let p = &spec.production;
-    let mut production = Vec::new();
-    for (state, v) in views {
+    let mut rows = Vec::new();
+    for (state, v) in nets.views() {
         for &dp in &p.pressure_drops {
-            let wells = [
-                PressureWell {
-                    position: p.injection,
-                    pressure: p.production_pressure + dp,
-                },
-                PressureWell {
-                    position: p.production,
-                    pressure: p.production_pressure,
-                },
-            ];
-            let rate_of = |res: Option<f64>| -> Result<f64, PipelineError> {
-                let net = network_of_view(v, res);
-                // A well no fracture reaches before the stimulation produces nothing through
-                // the network (the continuum model gives it the matrix's flow).
-                if state == State::Before && !reaches(&net, &wells, p.reach) {
-                    return Ok(0.0);
-                }
-                let prod = steady_production(&net, &wells, spec.upscaling.viscosity, p.reach)
-                    .map_err(|error| PipelineError::Reservoir {
-                        stage: "production",
-                        error,
-                    })?;
-                Ok(-prod.wells[1].1)
-            };
-            production.push(ProductionRow {
+            let wells = doublet_wells(p, dp);
+            rows.push(DoubletRow {
                 state,
                 dp,
-                rate: rate_of(None)?,
-                rate_residual: rate_of(Some(residual))?,
+                rate: doublet_rate(spec, state, v, &wells, None)?,
+                rate_residual: doublet_rate(spec, state, v, &wells, Some(nets.residual))?,
             });
         }
     }
-    write_production(&folder, &production)?;
-    // The seed's Fig. 10: flow over the network at the middle pressure drop.
+    write_doublet(folder, &rows)?;
     let dp = p.pressure_drops[p.pressure_drops.len() / 2];
-    for (state, v) in views {
-        let net = network_of_view(v, chosen);
-        let wells = [
-            PressureWell {
-                position: p.injection,
-                pressure: p.production_pressure + dp,
-            },
-            PressureWell {
-                position: p.production,
-                pressure: p.production_pressure,
-            },
-        ];
-        let flow = steady_production(&net, &wells, spec.upscaling.viscosity, p.reach)
-            .map(|prod| prod.flow)
+    let wells = doublet_wells(p, dp);
+    for (state, v) in nets.views() {
+        let net = network_of_view(v, nets.chosen);
+        let flow = doublet_flow(&net, &wells, spec.upscaling.viscosity, p.reach)
+            .map(|d| d.flow)
             .unwrap_or(net);
         flow_png(
-            &folder,
+            folder,
             &format!("production_flow_{}.png", state.name()),
             &format!(
                 "{}: production flow, {}, dp = {:.0} MPa, {:?} apertures",
@@ -473,33 +572,70 @@ pub fn run_pipeline(path: &Path, opts: &PipelineOptions) -> Result<PipelineRepor
             &[(p.injection, "injection"), (p.production, "production")],
         )?;
     }
-    stages.push(("production", t0.elapsed().as_secs_f64()));
+    Ok(rows)
+}
 
-    // 3. Upscaling over the stimulation's block.
-    let t0 = Instant::now();
-    let b = stim.mesh_box;
+/// The production rate of network `v` between `wells` (m^2/s per metre), with every cell at
+/// the aperture `residual`, else with its own. Before the stimulation a well no fracture
+/// reaches produces nothing through the network (the continuum model gives it the matrix's
+/// flow).
+fn doublet_rate(
+    spec: &PipelineSpec,
+    state: State,
+    v: &FlowView,
+    wells: &[PressureWell; 2],
+    residual: Option<f64>,
+) -> Result<f64, PipelineError> {
+    let p = &spec.production;
+    let net = network_of_view(v, residual);
+    if state == State::Before && !reaches(&net, wells, p.reach) {
+        return Ok(0.0);
+    }
+    let flow = doublet_flow(&net, wells, spec.upscaling.viscosity, p.reach)
+        .map_err(reservoir_error("doublet"))?;
+    Ok(-flow.wells[1].1)
+}
+
+/// 3. The upscaling stage: Oda's tensor and the flow-based permeability of each network, with
+///    the chosen apertures, on `upscaling.blocks` over the stimulation's mesh (`mesh_box`):
+///    `permeability.csv`, `permeability.vtu` and the maps `permeability_{flow,oda}_{state}.png`.
+fn upscaling_stage(
+    spec: &PipelineSpec,
+    nets: &Networks,
+    mesh_box: [f64; 4],
+    folder: &Folder,
+) -> Result<Vec<(State, BlockPermeability)>, PipelineError> {
+    let b = mesh_box;
     let grid = Grid2 {
         origin: [b[0], b[2]],
         size: [b[1] - b[0], b[3] - b[2]],
         n: spec.upscaling.blocks,
     };
     let mut permeability = Vec::new();
-    for (state, v) in views {
+    for (state, v) in nets.views() {
         let k = upscale(
             &grid,
-            &network_of_view(v, chosen),
+            &network_of_view(v, nets.chosen),
             spec.upscaling.viscosity,
             spec.upscaling.matrix_permeability,
         )
-        .map_err(|error| PipelineError::Reservoir {
-            stage: "upscaling",
-            error,
-        })?;
+        .map_err(reservoir_error("upscaling"))?;
         permeability.push((state, k));
     }
-    write_permeability(&folder, &permeability)?;
+    write_permeability(folder, &permeability)?;
+    permeability_maps(folder, spec, &permeability)?;
+    Ok(permeability)
+}
+
+/// `permeability_{flow,oda}_{state}.png`: max(k_xx, k_yy) per block, log scale, with the wells.
+fn permeability_maps(
+    folder: &Folder,
+    spec: &PipelineSpec,
+    permeability: &[(State, BlockPermeability)],
+) -> Result<(), PipelineError> {
+    let p = &spec.production;
     let wells = [(p.injection, "injection"), (p.production, "production")];
-    for (state, k) in &permeability {
+    for (state, k) in permeability {
         for (label, values) in [
             (
                 "flow",
@@ -515,7 +651,7 @@ pub fn run_pipeline(path: &Path, opts: &PipelineOptions) -> Result<PipelineRepor
                 state.name()
             );
             field_png(
-                &folder,
+                folder,
                 &name,
                 &title,
                 &k.grid,
@@ -525,25 +661,25 @@ pub fn run_pipeline(path: &Path, opts: &PipelineOptions) -> Result<PipelineRepor
             )?;
         }
     }
-    stages.push(("upscaling", t0.elapsed().as_secs_f64()));
+    Ok(())
+}
 
-    // 4. Heat extraction, both models, both states.
-    let heat = heat_stage(
-        &spec,
-        &views,
-        chosen,
-        &permeability,
-        stim.mesh_box,
-        &mut stages,
-    )?;
-    write_heat(&folder, &spec, &heat)?;
-
-    let summary = serde_json::json!({
+/// `summary.json`: the pipeline, its apertures, the stimulation's summary, the stages' wall
+/// times, the heat systems' timing, the reservoir table and the largest energy-balance error.
+fn write_summary(
+    folder: &Folder,
+    spec: &PipelineSpec,
+    stimulation: serde_json::Value,
+    stages: &[(&'static str, f64)],
+    heat: &HeatResult,
+) -> Result<serde_json::Value, PipelineError> {
+    use serde_json::json;
+    let summary = json!({
         "pipeline": spec.name,
         "apertures": format!("{:?}", spec.apertures),
-        "stimulation": stim.summary,
-        "stages": stages.iter().map(|(s, t)| serde_json::json!({"stage": s, "wall_s": t})).collect::<Vec<_>>(),
-        "systems": heat.timing.iter().map(|(s, calls, t)| serde_json::json!({"system": s, "calls": calls, "total_s": t})).collect::<Vec<_>>(),
+        "stimulation": stimulation,
+        "stages": stages.iter().map(|(s, t)| json!({"stage": s, "wall_s": t})).collect::<Vec<_>>(),
+        "systems": heat.timing.iter().map(|(s, calls, t)| json!({"system": s, "calls": calls, "total_s": t})).collect::<Vec<_>>(),
         "reservoir": heat.rows.iter().map(|r| r.json()).collect::<Vec<_>>(),
         "energy_balance": heat.energy_balance,
     });
@@ -556,17 +692,11 @@ pub fn run_pipeline(path: &Path, opts: &PipelineOptions) -> Result<PipelineRepor
             .as_bytes(),
     )
     .map_err(PipelineError::Output)?;
-    Ok(PipelineReport {
-        out,
-        production,
-        permeability,
-        stages,
-        reservoir: heat.rows,
-        summary,
-    })
+    Ok(summary)
 }
 
-fn write_production(folder: &Folder, rows: &[ProductionRow]) -> Result<(), PipelineError> {
+/// `network_production.csv`: `state,dp,rate,rate_residual` (Pa, m^2/s per metre).
+fn write_doublet(folder: &Folder, rows: &[DoubletRow]) -> Result<(), PipelineError> {
     let mut s = String::from("state,dp,rate,rate_residual\n");
     for r in rows {
         s += &format!(
@@ -583,6 +713,7 @@ fn write_production(folder: &Folder, rows: &[ProductionRow]) -> Result<(), Pipel
     crate::output::write_atomic(&path, s.as_bytes()).map_err(PipelineError::Output)
 }
 
+/// `permeability.csv` (`state,block,x,y` and both estimates, m^2) and `permeability.vtu`.
 fn write_permeability(
     folder: &Folder,
     k: &[(State, BlockPermeability)],
@@ -611,7 +742,15 @@ fn write_permeability(
         .claim("permeability.csv")
         .map_err(PipelineError::Output)?;
     crate::output::write_atomic(&path, s.as_bytes()).map_err(PipelineError::Output)?;
-    // ParaView: the blocks as quads, both estimates of both states as cell data.
+    write_permeability_vtu(folder, k)
+}
+
+/// `permeability.vtu` (ParaView): the blocks as quads, both estimates of both states as cell
+/// data.
+fn write_permeability_vtu(
+    folder: &Folder,
+    k: &[(State, BlockPermeability)],
+) -> Result<(), PipelineError> {
     let g = &k[0].1.grid;
     let d = g.dx();
     let mut points = Vec::new();
@@ -671,14 +810,15 @@ fn write_permeability(
     crate::output::vtk::write_vtu(&path, &piece).map_err(PipelineError::Output)
 }
 
-/// The tables a pipeline prints: production, permeability, stage times.
+/// The tables a pipeline prints: the doublet's rates, the heat extraction, the stage times and
+/// the heat systems' timing.
 pub fn report_text(r: &PipelineReport) -> String {
-    let mut s = String::from("network production (m^2/s per metre):\n");
+    let mut s = String::from("doublet: production rate through the network (m^2/s per metre):\n");
     s += &format!(
         "{:<8} {:>10} {:>14} {:>16}\n",
         "state", "dp [MPa]", "rate", "rate (residual)"
     );
-    for p in &r.production {
+    for p in &r.doublet {
         s += &format!(
             "{:<8} {:>10.1} {:>14.4e} {:>16.4e}\n",
             p.state.name(),
@@ -766,7 +906,7 @@ fn flow_png(
     markers: &[([f64; 2], &str)],
 ) -> Result<(), PipelineError> {
     let path = folder.claim(name).map_err(PipelineError::Output)?;
-    crate::reservoir::production::flow_map(&path, title, net, markers)
+    crate::reservoir::doublet::flow_map(&path, title, net, markers)
         .map_err(|e| PipelineError::Output(std::io::Error::other(e.to_string())))
 }
 
@@ -897,6 +1037,9 @@ fn rock_quads(g: &RockGrid) -> Vec<[[f64; 2]; 4]> {
     q
 }
 
+/// 4. The heat stage: per network state (apertures as chosen), the discrete model on the
+///    network and the continuum model on a reservoir around the upscaled zone, `heat.years` at
+///    `heat.pressure_drop`, with their systems timed; each model's wall time in `stages`.
 fn heat_stage(
     spec: &PipelineSpec,
     views: &[(State, &FlowView); 2],
@@ -905,214 +1048,26 @@ fn heat_stage(
     mesh_box: [f64; 4],
     stages: &mut Vec<(&'static str, f64)>,
 ) -> Result<HeatResult, PipelineError> {
-    let h = &spec.heat;
-    let p = &spec.production;
-    let mu = h.props.fluid_viscosity;
-    let end_time = h.years * YEAR;
-    let snap_times: Vec<f64> = h
-        .snapshot_years
-        .clone()
-        .unwrap_or_else(|| h.report_years.clone())
-        .iter()
-        .filter(|&&y| y > 0.0 && y <= h.years)
-        .map(|y| y * YEAR)
-        .collect();
-    let wells = [
-        PressureWell {
-            position: p.injection,
-            pressure: p.production_pressure + h.pressure_drop,
-        },
-        PressureWell {
-            position: p.production,
-            pressure: p.production_pressure,
-        },
-    ];
+    let heat = HeatRun::new(spec, mesh_box);
     let timing = crate::timing::TimingLayer::default();
     let table = timing.table.clone();
     let subscriber =
         tracing_subscriber::layer::SubscriberExt::with(tracing_subscriber::registry(), timing);
     let mut series = Vec::new();
-    let mut snapshots = Vec::new();
-    let mut energy_balance: f64 = 0.0;
+    let mut got = Collected::default();
     let (mut t_discrete, mut t_continuum) = (0.0, 0.0);
     tracing::subscriber::with_default(subscriber, || -> Result<(), PipelineError> {
         for &(state, v) in views {
-            // Discrete: the network's steady flow, heat along it and conduction in the rock.
             let t0 = Instant::now();
-            let net = network_of_view(v, apertures);
-            let connected = reaches(&net, &wells, p.reach);
-            let mut discrete = HeatSeries::default();
-            let prod = if connected {
-                Some(
-                    steady_production(&net, &wells, mu, p.reach)
-                        .map_err(reservoir_error("heat (discrete)"))?,
-                )
-            } else {
-                None
-            };
-            // Wells on fractures that do not connect produce nothing (no run).
-            if let Some(prod) = prod.filter(|x| x.wells[1].1 < 0.0) {
-                let lines_x: Vec<f64> = Vec::new();
-                let mut lines_y: Vec<f64> = wells.iter().map(|w| w.position[1]).collect();
-                lines_y.sort_by(f64::total_cmp);
-                lines_y.dedup();
-                let grid = RockGrid::graded(
-                    [mesh_box[0], mesh_box[2]],
-                    [mesh_box[1], mesh_box[3]],
-                    &lines_x,
-                    &lines_y,
-                    h.discrete.h_min,
-                    h.discrete.growth,
-                    h.discrete.h_max,
-                )
-                .map_err(reservoir_error("heat (discrete)"))?;
-                let ds = DiscreteSpec {
-                    grid: grid.clone(),
-                    props: h.props,
-                    initial_temperature: h.initial_temperature,
-                    injection_temperature: h.injection_temperature,
-                    end_time,
-                    time_step: h.discrete.time_step,
-                    output_times: snap_times.clone(),
-                };
-                let run: DiscreteRun =
-                    run_discrete(&ds, &prod.flow).map_err(reservoir_error("heat (discrete)"))?;
-                energy_balance = energy_balance.max(run.energy_balance.relative_error);
-                let quads = rock_quads(&grid);
-                for s in &run.snapshots {
-                    snapshots.push((
-                        state,
-                        "discrete",
-                        s.time,
-                        quads.clone(),
-                        s.rock_temperature.clone(),
-                    ));
-                }
-                discrete = HeatSeries {
-                    times: run.times,
-                    production_temperature: run.production_temperature,
-                    thermal_power: run.thermal_power,
-                    cumulative_heat: run.cumulative_heat,
-                    rate: -prod.wells[1].1,
-                };
-            }
+            let discrete = heat.discrete(state, v, apertures, &mut got)?;
             t_discrete += t0.elapsed().as_secs_f64();
-
-            // Continuum: the upscaled zone in a matrix reservoir, Darcy and heat.
             let t0 = Instant::now();
-            let c = &h.continuum;
             let k = &permeability
                 .iter()
                 .find(|(s, _)| *s == state)
                 .expect("both states upscaled")
                 .1;
-            let d = k.grid.dx();
-            let n = [
-                (c.size[0] / d[0]).round() as usize,
-                (c.size[1] / d[1]).round() as usize,
-            ];
-            let grid = Grid2 {
-                origin: [0.0; 2],
-                size: [n[0] as f64 * d[0], n[1] as f64 * d[1]],
-                n,
-            };
-            let off = [
-                (c.zone_origin[0] / d[0]).round() as usize,
-                (c.zone_origin[1] / d[1]).round() as usize,
-            ];
-            if off[0] + k.grid.n[0] > n[0] || off[1] + k.grid.n[1] > n[1] {
-                return Err(PipelineError::Invalid {
-                    field: "heat.continuum".into(),
-                    why: format!(
-                        "the stimulated zone ({} x {} m at zone_origin {:?}, in blocks of {} x {} m) does not fit in the reservoir of size {:?} m",
-                        k.grid.size[0], k.grid.size[1], c.zone_origin, d[0], d[1], c.size
-                    ),
-                });
-            }
-            let mut perm = vec![[k.matrix; 2]; grid.len()];
-            for j in 0..k.grid.n[1] {
-                for i in 0..k.grid.n[0] {
-                    let b = k.grid.index(i, j);
-                    let kb = match c.permeability {
-                        PermeabilityChoice::FlowBased => k.flow[b],
-                        PermeabilityChoice::Oda => [k.oda[b][0], k.oda[b][1]],
-                    };
-                    perm[grid.index(off[0] + i, off[1] + j)] = kb;
-                }
-            }
-            let shift = [
-                c.zone_origin[0] - k.grid.origin[0],
-                c.zone_origin[1] - k.grid.origin[1],
-            ];
-            let at = |q: [f64; 2]| {
-                // A well on the zone's lower or left edge lies in the block beside it; nudge
-                // it a thousandth of a block inside the stimulated zone.
-                let x = [q[0] + shift[0], q[1] + shift[1]];
-                [
-                    x[0].clamp(
-                        c.zone_origin[0] + 1e-3 * d[0],
-                        c.zone_origin[0] + k.grid.size[0] - 1e-3 * d[0],
-                    ),
-                    x[1].clamp(
-                        c.zone_origin[1] + 1e-3 * d[1],
-                        c.zone_origin[1] + k.grid.size[1] - 1e-3 * d[1],
-                    ),
-                ]
-            };
-            let cs = ContinuumSpec {
-                grid,
-                permeability: perm,
-                props: h.props,
-                initial_temperature: h.initial_temperature,
-                initial_pressure: p.production_pressure,
-                wells: vec![
-                    Well {
-                        name: "injection".into(),
-                        position: at(p.injection),
-                        control: WellControl::Pressure(p.production_pressure + h.pressure_drop),
-                        injection_temperature: h.injection_temperature,
-                        radius: c.well_radius,
-                        index: WellIndex::Fractured,
-                    },
-                    Well {
-                        name: "production".into(),
-                        position: at(p.production),
-                        control: WellControl::Pressure(p.production_pressure),
-                        injection_temperature: h.injection_temperature,
-                        radius: c.well_radius,
-                        index: WellIndex::Fractured,
-                    },
-                ],
-                edges: Default::default(),
-                end_time,
-                dt: c.dt,
-                output_times: snap_times.clone(),
-            };
-            let run: ContinuumRun =
-                run_continuum(&cs).map_err(reservoir_error("heat (continuum)"))?;
-            energy_balance = energy_balance.max(run.energy_balance);
-            let quads: Vec<[[f64; 2]; 4]> = (0..grid.n[1])
-                .flat_map(|j| (0..grid.n[0]).map(move |i| (i, j)))
-                .map(|(i, j)| {
-                    let (x0, y0) = (i as f64 * d[0], j as f64 * d[1]);
-                    [
-                        [x0, y0],
-                        [x0 + d[0], y0],
-                        [x0 + d[0], y0 + d[1]],
-                        [x0, y0 + d[1]],
-                    ]
-                })
-                .collect();
-            for (t, temp) in &run.snapshots {
-                snapshots.push((state, "continuum", *t, quads.clone(), temp.clone()));
-            }
-            let continuum = HeatSeries {
-                rate: -run.flow.wells[1].rate,
-                times: run.times,
-                production_temperature: run.production_temperature,
-                thermal_power: run.thermal_power,
-                cumulative_heat: run.cumulative_heat,
-            };
+            let continuum = heat.continuum(state, k, &mut got)?;
             t_continuum += t0.elapsed().as_secs_f64();
             series.push((state, [discrete, continuum]));
         }
@@ -1120,38 +1075,9 @@ fn heat_stage(
     })?;
     stages.push(("heat (discrete)", t_discrete));
     stages.push(("heat (continuum)", t_continuum));
-    let threshold = h.initial_temperature
-        - h.breakthrough_fraction * (h.initial_temperature - h.injection_temperature);
     let rows = series
         .iter()
-        .map(|(state, m)| ReservoirRow {
-            state: *state,
-            years: h.report_years.clone(),
-            models: [0, 1].map(|k| {
-                let s = &m[k];
-                ModelFigures {
-                    rate: s.rate,
-                    breakthrough: s.first_below(threshold),
-                    temperature: h
-                        .report_years
-                        .iter()
-                        .map(|y| {
-                            if s.times.is_empty() {
-                                h.initial_temperature
-                            } else {
-                                s.at(&s.production_temperature, y * YEAR)
-                            }
-                        })
-                        .collect(),
-                    power: h
-                        .report_years
-                        .iter()
-                        .map(|y| s.at(&s.thermal_power, y * YEAR))
-                        .collect(),
-                    heat: s.cumulative_heat.last().copied().unwrap_or(0.0),
-                }
-            }),
-        })
+        .map(|(state, m)| reservoir_row(&spec.heat, *state, m))
         .collect();
     let timing = table
         .lock()
@@ -1162,10 +1088,311 @@ fn heat_stage(
     Ok(HeatResult {
         series,
         rows,
-        snapshots,
+        snapshots: got.snapshots,
         timing,
-        energy_balance,
+        energy_balance: got.energy_balance,
     })
+}
+
+/// What the heat models' runs collect besides their series: the temperature snapshots and the
+/// largest relative energy-balance error.
+#[derive(Default)]
+struct Collected {
+    snapshots: Vec<Snapshot>,
+    energy_balance: f64,
+}
+
+/// What both heat models share: the pipeline file, the end and snapshot times (s), the wells
+/// at `heat.pressure_drop` and the stimulation's mesh box.
+struct HeatRun<'a> {
+    spec: &'a PipelineSpec,
+    end_time: f64,
+    snap_times: Vec<f64>,
+    wells: [PressureWell; 2],
+    mesh_box: [f64; 4],
+}
+
+impl<'a> HeatRun<'a> {
+    fn new(spec: &'a PipelineSpec, mesh_box: [f64; 4]) -> Self {
+        let h = &spec.heat;
+        let snap_times: Vec<f64> = h
+            .snapshot_years
+            .clone()
+            .unwrap_or_else(|| h.report_years.clone())
+            .iter()
+            .filter(|&&y| y > 0.0 && y <= h.years)
+            .map(|y| y * YEAR)
+            .collect();
+        HeatRun {
+            spec,
+            end_time: h.years * YEAR,
+            snap_times,
+            wells: doublet_wells(&spec.production, h.pressure_drop),
+            mesh_box,
+        }
+    }
+
+    /// The discrete model on network `v` (with the apertures `apertures`, else its own): the
+    /// network's steady flow between the wells advects heat along it, exchanging with
+    /// conduction in the rock ([`Self::rock_grid`]). Wells on fractures that do not connect
+    /// produce nothing (no run: an empty series).
+    fn discrete(
+        &self,
+        state: State,
+        v: &FlowView,
+        apertures: Option<f64>,
+        got: &mut Collected,
+    ) -> Result<HeatSeries, PipelineError> {
+        let (h, p) = (&self.spec.heat, &self.spec.production);
+        let net = network_of_view(v, apertures);
+        if !reaches(&net, &self.wells, p.reach) {
+            return Ok(HeatSeries::default());
+        }
+        let flow = doublet_flow(&net, &self.wells, h.props.fluid_viscosity, p.reach)
+            .map_err(reservoir_error("heat (discrete)"))?;
+        let q = flow.wells[1].1;
+        if q.is_nan() || q >= 0.0 {
+            return Ok(HeatSeries::default());
+        }
+        let grid = self.rock_grid()?;
+        let ds = DiscreteSpec {
+            grid: grid.clone(),
+            props: h.props,
+            initial_temperature: h.initial_temperature,
+            injection_temperature: h.injection_temperature,
+            end_time: self.end_time,
+            time_step: h.discrete.time_step,
+            output_times: self.snap_times.clone(),
+        };
+        let run: DiscreteRun =
+            run_discrete(&ds, &flow.flow).map_err(reservoir_error("heat (discrete)"))?;
+        got.energy_balance = got.energy_balance.max(run.energy_balance.relative_error);
+        let quads = rock_quads(&grid);
+        for s in &run.snapshots {
+            got.snapshots.push((
+                state,
+                "discrete",
+                s.time,
+                quads.clone(),
+                s.rock_temperature.clone(),
+            ));
+        }
+        Ok(HeatSeries {
+            times: run.times,
+            production_temperature: run.production_temperature,
+            thermal_power: run.thermal_power,
+            cumulative_heat: run.cumulative_heat,
+            rate: -q,
+        })
+    }
+
+    /// The discrete model's rock grid over the stimulated block (the mesh box), graded from
+    /// `h_min` at the lines through the wells to `h_max`.
+    fn rock_grid(&self) -> Result<RockGrid, PipelineError> {
+        let (d, b) = (&self.spec.heat.discrete, self.mesh_box);
+        let lines_x: Vec<f64> = Vec::new();
+        let mut lines_y: Vec<f64> = self.wells.iter().map(|w| w.position[1]).collect();
+        lines_y.sort_by(f64::total_cmp);
+        lines_y.dedup();
+        RockGrid::graded(
+            [b[0], b[2]],
+            [b[1], b[3]],
+            &lines_x,
+            &lines_y,
+            d.h_min,
+            d.growth,
+            d.h_max,
+        )
+        .map_err(reservoir_error("heat (discrete)"))
+    }
+
+    /// The continuum model: Darcy flow and heat on the reservoir of [`Self::continuum_spec`]
+    /// around the upscaled zone `k`.
+    fn continuum(
+        &self,
+        state: State,
+        k: &BlockPermeability,
+        got: &mut Collected,
+    ) -> Result<HeatSeries, PipelineError> {
+        let cs = self.continuum_spec(k)?;
+        let run: ContinuumRun = run_continuum(&cs).map_err(reservoir_error("heat (continuum)"))?;
+        got.energy_balance = got.energy_balance.max(run.energy_balance);
+        let quads = block_quads(cs.grid.n, k.grid.dx());
+        for (t, temp) in &run.snapshots {
+            got.snapshots
+                .push((state, "continuum", *t, quads.clone(), temp.clone()));
+        }
+        Ok(HeatSeries {
+            rate: -run.flow.wells[1].rate,
+            times: run.times,
+            production_temperature: run.production_temperature,
+            thermal_power: run.thermal_power,
+            cumulative_heat: run.cumulative_heat,
+        })
+    }
+
+    /// The continuum reservoir: `continuum.size` in blocks of the upscaling blocks, the zone's
+    /// upscaled permeability at `zone_origin` ([`zone_permeability`]), matrix elsewhere; the
+    /// wells at the same pressures, moved with the zone, with the fractured-block well index.
+    fn continuum_spec(&self, k: &BlockPermeability) -> Result<ContinuumSpec, PipelineError> {
+        let (h, p) = (&self.spec.heat, &self.spec.production);
+        let c = &h.continuum;
+        let (grid, off) = reservoir_grid(c, k)?;
+        let well = |name: &str, position: [f64; 2], pressure: f64| Well {
+            name: name.into(),
+            position: well_in_zone(c, k, position),
+            control: WellControl::Pressure(pressure),
+            injection_temperature: h.injection_temperature,
+            radius: c.well_radius,
+            index: WellIndex::Fractured,
+        };
+        Ok(ContinuumSpec {
+            grid,
+            permeability: zone_permeability(c, k, &grid, off),
+            props: h.props,
+            initial_temperature: h.initial_temperature,
+            initial_pressure: p.production_pressure,
+            wells: vec![
+                well(
+                    "injection",
+                    p.injection,
+                    p.production_pressure + h.pressure_drop,
+                ),
+                well("production", p.production, p.production_pressure),
+            ],
+            edges: Default::default(),
+            end_time: self.end_time,
+            dt: c.dt,
+            output_times: self.snap_times.clone(),
+        })
+    }
+}
+
+/// The continuum reservoir's grid (origin 0, `c.size` rounded to whole blocks of the zone
+/// `k`) and the zone's offset in it, blocks; refused when the zone does not fit.
+fn reservoir_grid(
+    c: &ContinuumHeatSpec,
+    k: &BlockPermeability,
+) -> Result<(Grid2, [usize; 2]), PipelineError> {
+    let d = k.grid.dx();
+    let n = [
+        (c.size[0] / d[0]).round() as usize,
+        (c.size[1] / d[1]).round() as usize,
+    ];
+    let grid = Grid2 {
+        origin: [0.0; 2],
+        size: [n[0] as f64 * d[0], n[1] as f64 * d[1]],
+        n,
+    };
+    let off = [
+        (c.zone_origin[0] / d[0]).round() as usize,
+        (c.zone_origin[1] / d[1]).round() as usize,
+    ];
+    if off[0] + k.grid.n[0] > n[0] || off[1] + k.grid.n[1] > n[1] {
+        return Err(PipelineError::Invalid {
+            field: "heat.continuum".into(),
+            why: format!(
+                "the stimulated zone ({} x {} m at zone_origin {:?}, in blocks of {} x {} m) does not fit in the reservoir of size {:?} m",
+                k.grid.size[0], k.grid.size[1], c.zone_origin, d[0], d[1], c.size
+            ),
+        });
+    }
+    Ok((grid, off))
+}
+
+/// The reservoir's permeability per block: the matrix's, and the zone's upscaled diagonal
+/// (`c.permeability`: flow-based or Oda) at its offset `off`.
+fn zone_permeability(
+    c: &ContinuumHeatSpec,
+    k: &BlockPermeability,
+    grid: &Grid2,
+    off: [usize; 2],
+) -> Vec<[f64; 2]> {
+    let mut perm = vec![[k.matrix; 2]; grid.len()];
+    for j in 0..k.grid.n[1] {
+        for i in 0..k.grid.n[0] {
+            let b = k.grid.index(i, j);
+            let kb = match c.permeability {
+                PermeabilityChoice::FlowBased => k.flow[b],
+                PermeabilityChoice::Oda => [k.oda[b][0], k.oda[b][1]],
+            };
+            perm[grid.index(off[0] + i, off[1] + j)] = kb;
+        }
+    }
+    perm
+}
+
+/// A well at `q` in the stimulated block's coordinates, moved with the zone to `zone_origin`.
+/// A well on the zone's lower or left edge lies in the block beside it; it is nudged a
+/// thousandth of a block inside the stimulated zone.
+fn well_in_zone(c: &ContinuumHeatSpec, k: &BlockPermeability, q: [f64; 2]) -> [f64; 2] {
+    let d = k.grid.dx();
+    let shift = [
+        c.zone_origin[0] - k.grid.origin[0],
+        c.zone_origin[1] - k.grid.origin[1],
+    ];
+    let x = [q[0] + shift[0], q[1] + shift[1]];
+    [
+        x[0].clamp(
+            c.zone_origin[0] + 1e-3 * d[0],
+            c.zone_origin[0] + k.grid.size[0] - 1e-3 * d[0],
+        ),
+        x[1].clamp(
+            c.zone_origin[1] + 1e-3 * d[1],
+            c.zone_origin[1] + k.grid.size[1] - 1e-3 * d[1],
+        ),
+    ]
+}
+
+/// Quads of `n` blocks of size `d` from the origin (block order i + n[0] j).
+fn block_quads(n: [usize; 2], d: [f64; 2]) -> Vec<[[f64; 2]; 4]> {
+    (0..n[1])
+        .flat_map(|j| (0..n[0]).map(move |i| (i, j)))
+        .map(|(i, j)| {
+            let (x0, y0) = (i as f64 * d[0], j as f64 * d[1]);
+            [
+                [x0, y0],
+                [x0 + d[0], y0],
+                [x0 + d[0], y0 + d[1]],
+                [x0, y0 + d[1]],
+            ]
+        })
+        .collect()
+}
+
+/// One row of `reservoir.csv` from a state's two series: the rate, the breakthrough, the
+/// production temperature and power at the report years, the heat over the run.
+fn reservoir_row(h: &HeatSpec, state: State, m: &[HeatSeries; 2]) -> ReservoirRow {
+    let threshold = h.initial_temperature
+        - h.breakthrough_fraction * (h.initial_temperature - h.injection_temperature);
+    ReservoirRow {
+        state,
+        years: h.report_years.clone(),
+        models: [0, 1].map(|k| {
+            let s = &m[k];
+            ModelFigures {
+                rate: s.rate,
+                breakthrough: s.first_below(threshold),
+                temperature: h
+                    .report_years
+                    .iter()
+                    .map(|y| {
+                        if s.times.is_empty() {
+                            h.initial_temperature
+                        } else {
+                            s.at(&s.production_temperature, y * YEAR)
+                        }
+                    })
+                    .collect(),
+                power: h
+                    .report_years
+                    .iter()
+                    .map(|y| s.at(&s.thermal_power, y * YEAR))
+                    .collect(),
+                heat: s.cumulative_heat.last().copied().unwrap_or(0.0),
+            }
+        }),
+    }
 }
 
 /// A number for a CSV cell: finite values as they are; a missing breakthrough as `none`.
@@ -1176,13 +1403,34 @@ fn cell(x: Option<f64>) -> String {
     }
 }
 
+/// The heat stage's outputs: `reservoir.csv`, the time series `heat_{model}_{state}.csv`, the
+/// plots `heat_temperature.png` and `heat_power.png`, and the rock temperature fields
+/// (`temperature_{model}_{state}.pvd` and frames, `temperature_{model}_{state}_{N}y.png`).
 fn write_heat(
     folder: &Folder,
     spec: &PipelineSpec,
     heat: &HeatResult,
 ) -> Result<(), PipelineError> {
+    write_reservoir_csv(folder, spec, &heat.rows)?;
+    write_heat_series(folder, &heat.series)?;
+    heat_plots(folder, spec, &heat.series)?;
+    write_temperature_frames(folder, &heat.snapshots)?;
+    temperature_maps(folder, spec, &heat.snapshots)
+}
+
+/// A plot that could not be drawn, as an output error.
+fn plot_err(e: crate::plot::PlotError) -> PipelineError {
+    PipelineError::Output(std::io::Error::other(e.to_string()))
+}
+
+/// `reservoir.csv`: one row per state; per model the rate, the breakthrough (years), the
+/// production temperature and power at the report years, the heat over the run.
+fn write_reservoir_csv(
+    folder: &Folder,
+    spec: &PipelineSpec,
+    rows: &[ReservoirRow],
+) -> Result<(), PipelineError> {
     let io = PipelineError::Output;
-    // reservoir.csv: one row per state.
     let mut head = String::from("state");
     for m in MODELS {
         head += &format!(",rate_{m},breakthrough_years_{m}");
@@ -1195,7 +1443,7 @@ fn write_heat(
         head += &format!(",heat_total_{m}");
     }
     let mut s = head + "\n";
-    for r in &heat.rows {
+    for r in rows {
         s += r.state.name();
         for f in &r.models {
             s += &format!(",{:e},{}", f.rate, cell(f.breakthrough.map(|t| t / YEAR)));
@@ -1210,9 +1458,16 @@ fn write_heat(
         s += "\n";
     }
     crate::output::write_atomic(&folder.claim("reservoir.csv").map_err(io)?, s.as_bytes())
-        .map_err(io)?;
-    // Time series per model and state.
-    for (state, m) in &heat.series {
+        .map_err(io)
+}
+
+/// `heat_{model}_{state}.csv`: each model's time series per state.
+fn write_heat_series(
+    folder: &Folder,
+    series: &[(State, [HeatSeries; 2])],
+) -> Result<(), PipelineError> {
+    let io = PipelineError::Output;
+    for (state, m) in series {
         for (name, sr) in MODELS.iter().zip(m) {
             let mut s = String::from(
                 "time_s,time_years,production_temperature,thermal_power,cumulative_heat\n",
@@ -1233,9 +1488,19 @@ fn write_heat(
             crate::output::write_atomic(&path, s.as_bytes()).map_err(io)?;
         }
     }
-    // Production temperature and power against time, before and after on one plot.
-    let plot_err =
-        |e: crate::plot::PlotError| PipelineError::Output(std::io::Error::other(e.to_string()));
+    Ok(())
+}
+
+/// Production temperature and power against time, both models and both states on one plot
+/// each (`heat_temperature.png`, `heat_power.png`). Log-log: the short-circuit of a single
+/// fracture happens in hours, the decline of a network over years. Non-positive values (a
+/// state that produces nothing) are left out.
+fn heat_plots(
+    folder: &Folder,
+    spec: &PipelineSpec,
+    series: &[(State, [HeatSeries; 2])],
+) -> Result<(), PipelineError> {
+    let t_inj = spec.heat.injection_temperature;
     for (file, what, unit, pick) in [
         (
             "heat_temperature.png",
@@ -1245,11 +1510,8 @@ fn write_heat(
         ),
         ("heat_power.png", "thermal power", "power [W/m]", 1),
     ] {
-        // Log-log: the short-circuit of a single fracture happens in hours, the decline of a
-        // network over years. Non-positive values (a state that produces nothing) are left out.
-        let t_inj = spec.heat.injection_temperature;
         let mut lines = Vec::new();
-        for (state, m) in &heat.series {
+        for (state, m) in series {
             for (name, sr) in MODELS.iter().zip(m) {
                 let y: Vec<f64> = if pick == 0 {
                     sr.production_temperature
@@ -1276,7 +1538,7 @@ fn write_heat(
             }
         }
         crate::plot::loglog(
-            &folder.claim(file).map_err(io)?,
+            &folder.claim(file).map_err(PipelineError::Output)?,
             &format!("{}: {what}", spec.name),
             "time [years]",
             unit,
@@ -1284,10 +1546,15 @@ fn write_heat(
         )
         .map_err(plot_err)?;
     }
-    // ParaView: one collection per model and state, a frame per snapshot (quads, cell data
-    // `temperature` in K).
+    Ok(())
+}
+
+/// ParaView: one collection per model and state (`temperature_{model}_{state}.pvd`), a frame
+/// per snapshot (quads, cell data `temperature` in K).
+fn write_temperature_frames(folder: &Folder, snapshots: &[Snapshot]) -> Result<(), PipelineError> {
+    let io = PipelineError::Output;
     let mut pvds: Vec<(String, crate::output::vtk::PvdWriter)> = Vec::new();
-    for (k, (state, model, t, quads, values)) in heat.snapshots.iter().enumerate() {
+    for (k, (state, model, t, quads, values)) in snapshots.iter().enumerate() {
         let stem = format!("temperature_{model}_{}", state.name());
         let frame = format!("{stem}_{k:03}.vtu");
         let mut points = Vec::with_capacity(4 * quads.len());
@@ -1320,7 +1587,16 @@ fn write_heat(
         };
         pvds[pos].1.add(*t, &frame).map_err(io)?;
     }
-    for (state, model, t, quads, values) in &heat.snapshots {
+    Ok(())
+}
+
+/// `temperature_{model}_{state}_{N}y.png`: the rock temperature field of each snapshot.
+fn temperature_maps(
+    folder: &Folder,
+    spec: &PipelineSpec,
+    snapshots: &[Snapshot],
+) -> Result<(), PipelineError> {
+    for (state, model, t, quads, values) in snapshots {
         let name = format!("temperature_{model}_{}_{:.0}y.png", state.name(), t / YEAR);
         let title = format!(
             "{}: {model} model, {}, rock temperature at {:.1} years",
@@ -1329,7 +1605,7 @@ fn write_heat(
             t / YEAR
         );
         crate::plot::fracture_map(
-            &folder.claim(&name).map_err(io)?,
+            &folder.claim(&name).map_err(PipelineError::Output)?,
             &title,
             &[],
             quads,

@@ -6,8 +6,12 @@
 //! (the field and the reason), and nothing created, neither in the working folder nor in the
 //! output folder.
 
+#[path = "support/cli.rs"]
+mod cli;
+
+use cli::{bin, root, tmp_dir};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Stdio};
+use std::process::Stdio;
 use std::time::{Duration, Instant};
 
 /// One bad input.
@@ -1085,17 +1089,6 @@ const MESH_FILES: &[(&str, &str)] = &[
     ),
 ];
 
-fn root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-}
-
-fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("hydrofrac-bad-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
 /// The case's scenario file, written into `dir`.
 fn scenario_file(case: &Case, k: usize, dir: &Path) -> PathBuf {
     let mut text = if case.base.ends_with(".ron") {
@@ -1120,18 +1113,18 @@ fn scenario_file(case: &Case, k: usize, dir: &Path) -> PathBuf {
 /// error line, and nothing is created in the working folder or the output folder.
 #[test]
 fn every_bad_input_is_refused_with_a_clear_message() {
-    let files = tmp("files");
+    let files = tmp_dir("files");
     for (name, text) in MESH_FILES {
         std::fs::write(files.join(name), text).unwrap();
     }
     std::fs::create_dir_all(files.join("folder.msh")).unwrap();
-    let cwd = tmp("cwd");
+    let cwd = tmp_dir("cwd");
     let limit = Duration::from_secs(30);
     let mut failures = Vec::new();
     for (k, case) in CASES.iter().enumerate() {
         let file = scenario_file(case, k, &files);
         let out = cwd.join("out-folder");
-        let mut child = Command::new(env!("CARGO_BIN_EXE_hydrofrac"))
+        let mut child = bin()
             .current_dir(&cwd)
             .arg("run")
             .arg(&file)

@@ -8,6 +8,8 @@ use hydrofrac::checkpoint;
 use hydrofrac::scenario::Scenario;
 use hydrofrac::sim::{Finish, Simulation};
 
+#[path = "support/cli.rs"]
+mod cli;
 #[path = "support/scenes.rs"]
 mod scenes;
 
@@ -176,29 +178,8 @@ fn restart_is_bit_identical_dry_notched_plate() {
 // The binary: checkpoint files in the output folder, `--restart`, refusals.
 // ---------------------------------------------------------------------------------------------
 
+use cli::{run, stderr, summary, tmp};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("hydrofrac-ckpt-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    d
-}
-
-fn hydrofrac(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_hydrofrac"))
-        .args(args)
-        .output()
-        .expect("binary runs")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-fn summary(dir: &Path) -> serde_json::Value {
-    serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap()
-}
 
 fn manifest(dir: &Path) -> Vec<String> {
     std::fs::read_to_string(dir.join("hydrofrac-manifest.txt"))
@@ -250,7 +231,7 @@ fn cli_restart_continues_series_and_summary_exactly() {
     let dir = tmp("restart");
     let sc = coupled_file(&dir);
     let (a, b) = (dir.join("a"), dir.join("b"));
-    let o = hydrofrac(&[
+    let o = run(&[
         "run",
         sc.to_str().unwrap(),
         "--quiet",
@@ -274,7 +255,7 @@ fn cli_restart_continues_series_and_summary_exactly() {
 
     let ck = dir.join("at5000.ckpt");
     std::fs::copy(a.join(checkpoint::PREV_FILE), &ck).unwrap();
-    let o = hydrofrac(&[
+    let o = run(&[
         "run",
         sc.to_str().unwrap(),
         "--quiet",
@@ -330,7 +311,7 @@ fn cli_refuses_bad_checkpoints() {
     let dir = tmp("refuse");
     let sc = coupled_file(&dir);
     let a = dir.join("a");
-    let o = hydrofrac(&[
+    let o = run(&[
         "run",
         sc.to_str().unwrap(),
         "--quiet",
@@ -396,7 +377,7 @@ fn cli_refuses_bad_checkpoints() {
             file.to_str().unwrap(),
         ];
         args.extend(extra);
-        let o = hydrofrac(&args);
+        let o = run(&args);
         let e = stderr(&o);
         assert!(!o.status.success(), "{expect}: accepted");
         assert!(e.contains(expect), "expected '{expect}' in: {e}");
@@ -407,7 +388,7 @@ fn cli_refuses_bad_checkpoints() {
     // Another scenario altogether (the notched plate) is refused by name.
     let notch = dir.join("notch.ron");
     std::fs::write(&notch, scenes::notched_plate("Some(3e6)")).unwrap();
-    let o = hydrofrac(&[
+    let o = run(&[
         "run",
         notch.to_str().unwrap(),
         "--quiet",

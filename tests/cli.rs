@@ -1,34 +1,14 @@
 //! The `hydrofrac` binary as a user meets it: outputs of a run, ablation, overrides, and clear
 //! one-line errors (with a non-zero exit and no panic) for bad input.
 
+#[path = "support/cli.rs"]
+mod cli;
 #[path = "support/vtu.rs"]
 mod vtu;
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use cli::{assert_refused, run, stderr, summary, tmp};
+use std::path::PathBuf;
 use vtu::{read_pvd, read_vtu};
-
-fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_hydrofrac"))
-}
-
-fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("hydrofrac-cli-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    d
-}
-
-fn run(args: &[&str]) -> Output {
-    bin().args(args).output().expect("binary runs")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-fn summary(dir: &Path) -> serde_json::Value {
-    serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap()
-}
 
 /// The shipped in-situ scenario (coarsened by --set for test time) writes every output and the
 /// stress field read back from the last frame is -20/-10 MPa.
@@ -147,19 +127,8 @@ fn disable_changes_the_result_and_is_recorded() {
     );
 }
 
-fn assert_one_line_error(o: &Output, needles: &[&str]) {
-    assert!(!o.status.success(), "expected failure");
-    let e = stderr(o);
-    assert!(!e.contains("panicked"), "panic: {e}");
-    let first = e.lines().next().unwrap_or("");
-    assert!(first.starts_with("error: "), "{e}");
-    for n in needles {
-        assert!(first.contains(n), "`{n}` not in: {first}");
-    }
-}
-
 fn write_scenario(name: &str, text: &str) -> PathBuf {
-    let p = std::env::temp_dir().join(format!("hydrofrac-cli-{}-{name}.ron", std::process::id()));
+    let p = tmp(&format!("{name}.ron"));
     std::fs::write(&p, text).unwrap();
     p
 }
@@ -171,7 +140,7 @@ fn malformed_ron_names_file_line_and_column() {
     let p = write_scenario("malformed", &GOOD.replace("poisson: 0.2,", "poisson: 0.2"));
     let o = run(&["run", p.to_str().unwrap()]);
     let file = p.display().to_string();
-    assert_one_line_error(&o, &[&file]);
+    assert_refused(&o, &[&file]);
     let first = stderr(&o).lines().next().unwrap().to_string();
     // file:line:col
     let rest = first.split(&file).nth(1).unwrap();
@@ -188,19 +157,19 @@ fn unknown_field_and_wrong_type_name_the_field() {
         "unknown",
         &GOOD.replace("density: 2700.0", "density: 2700.0, colour: 3"),
     );
-    assert_one_line_error(&run(&["run", p.to_str().unwrap()]), &["colour", "material"]);
+    assert_refused(&run(&["run", p.to_str().unwrap()]), &["colour", "material"]);
     let p = write_scenario("wrongtype", &GOOD.replace("young: 20e9", "young: \"hard\""));
-    assert_one_line_error(&run(&["run", p.to_str().unwrap()]), &["material.young"]);
+    assert_refused(&run(&["run", p.to_str().unwrap()]), &["material.young"]);
 }
 
 #[test]
 fn non_physical_values_are_explained() {
     let p = write_scenario("nu", &GOOD.replace("poisson: 0.2", "poisson: 0.7"));
-    assert_one_line_error(
+    assert_refused(
         &run(&["run", p.to_str().unwrap()]),
         &["material.poisson", "0.5"],
     );
-    assert_one_line_error(
+    assert_refused(
         &run(&[
             "run",
             "scenarios/insitu_stress.ron",
@@ -209,7 +178,7 @@ fn non_physical_values_are_explained() {
         ]),
         &["time.safety", "(0, 1]"],
     );
-    assert_one_line_error(
+    assert_refused(
         &run(&[
             "run",
             "scenarios/insitu_stress.ron",
@@ -222,7 +191,7 @@ fn non_physical_values_are_explained() {
 
 #[test]
 fn missing_file_unwritable_folder_and_unknown_system() {
-    assert_one_line_error(
+    assert_refused(
         &run(&["run", "scenarios/no_such_file.ron"]),
         &["no_such_file.ron"],
     );
@@ -236,21 +205,21 @@ fn missing_file_unwritable_folder_and_unknown_system() {
         out.to_str().unwrap(),
         "--quiet",
     ]);
-    assert_one_line_error(&o, &["output folder"]);
+    assert_refused(&o, &["output folder"]);
     let o = run(&[
         "run",
         "scenarios/insitu_stress.ron",
         "--disable",
         "dampening",
     ]);
-    assert_one_line_error(&o, &["dampening", "internal_force", "damping"]);
+    assert_refused(&o, &["dampening", "internal_force", "damping"]);
     let o = run(&[
         "run",
         "scenarios/insitu_stress.ron",
         "--set",
         "material.colour=1",
     ]);
-    assert_one_line_error(&o, &["material.colour", "young"]);
+    assert_refused(&o, &["material.colour", "young"]);
 }
 
 /// A step far above the stability limit (1.6x, undamped: local damping 0.8 happens to tame
@@ -274,7 +243,7 @@ fn blow_up_is_reported_and_earlier_outputs_survive() {
         "output.frame_every=2",
         "--quiet",
     ]);
-    assert_one_line_error(&o, &["blow-up at step", "node", "speed"]);
+    assert_refused(&o, &["blow-up at step", "node", "speed"]);
     let s = summary(&out);
     assert_eq!(s["status"], "failed");
     assert!(s["error"].as_str().unwrap().contains("blow-up"));
@@ -302,7 +271,7 @@ fn verify_writes_csv_and_png() {
     assert!(csv.lines().count() >= 7);
     let png = std::fs::read(out.join("patch.png")).unwrap();
     assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
-    assert_one_line_error(&run(&["verify", "nosuch"]), &["nosuch", "patch", "mms"]);
+    assert_refused(&run(&["verify", "nosuch"]), &["nosuch", "patch", "mms"]);
 }
 
 /// `summary.json` `tips`: the shipped Sneddon crack (half-length a = 1 m, p = 1 MPa, a/h = 20)

@@ -6,6 +6,8 @@
 //! conforming mesh by changing the `mesh` field alone; the 100-fracture mesh and the patch test
 //! on conforming meshes (`verify conforming_mesh --quick`).
 
+#[path = "support/cli.rs"]
+mod cli;
 #[path = "support/geometry.rs"]
 mod geometry;
 
@@ -140,7 +142,7 @@ fn the_same_scenario_gives_the_same_mesh_bits() {
 /// fractures zigzag.
 #[test]
 fn summary_reports_the_mesh_and_warns_only_about_zigzags() {
-    let dir = std::env::temp_dir().join(format!("hydrofrac-conforming-{}", std::process::id()));
+    let dir = cli::tmp("summary");
     let run = |mesh: &str, name: &str| {
         let sc = Scenario::parse(&crossing_scene(mesh, "Time(1e-3)"), "crossing.ron").unwrap();
         let opts = RunOptions {

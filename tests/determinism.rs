@@ -4,6 +4,8 @@
 use hydrofrac::scenario::Scenario;
 use hydrofrac::sim::Simulation;
 
+#[path = "support/cli.rs"]
+mod cli;
 #[path = "support/scenes.rs"]
 mod scenes;
 
@@ -141,11 +143,10 @@ fn splitting_unequal_elements_gives_the_same_bits_every_run() {
 /// fix four runs of this scene gave four meshes: 5,192 to 5,232 nodes).
 #[test]
 fn conforming_mesh_is_the_same_in_every_process() {
-    let exe = env!("CARGO_BIN_EXE_hydrofrac");
-    let base = std::env::temp_dir().join(format!("hf_conf_det_{}", std::process::id()));
+    let base = cli::tmp("conforming");
     let mesh_of = |k: usize| -> String {
         let out = base.join(k.to_string());
-        let st = std::process::Command::new(exe)
+        let st = cli::bin()
             .args(["run", "scenarios/inclined_crack.ron", "--quiet", "--out"])
             .arg(&out)
             .args(["--set", "time.max_steps=10"])

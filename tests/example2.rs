@@ -5,17 +5,15 @@
 //! horizontal fractures, so each state is one iteration) keeps the test under a minute; the
 //! coupling's effect at higher drops is `tests/production.rs`'s.
 
-use hydrofrac::driver::{RunOptions, run_file};
-use std::path::PathBuf;
+#[path = "support/cli.rs"]
+mod cli;
 
-fn root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-}
+use cli::root;
+use hydrofrac::driver::{RunOptions, run_file};
 
 #[test]
 fn small_example2_stimulates_and_produces() {
-    let out = std::env::temp_dir().join(format!("hydrofrac-example2-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&out);
+    let out = cli::tmp("example2");
     let report = run_file(
         &root().join("scenarios/example2_small.ron"),
         &RunOptions {
@@ -103,8 +101,7 @@ fn small_example2_stimulates_and_produces() {
 #[test]
 fn selective_mass_scaling_lengthens_the_step_and_keeps_the_pumping() {
     let run = |name: &str, set: &[String]| {
-        let out = std::env::temp_dir().join(format!("hydrofrac-sms-{name}-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&out);
+        let out = cli::tmp(&format!("sms-{name}"));
         let mut set = set.to_vec();
         set.extend(["time.end=Time(0.3)".into(), "production=None".into()]);
         let r = run_file(

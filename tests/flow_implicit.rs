@@ -2,6 +2,9 @@
 //! `docs/verification.md` R10-R13. Tolerances and their reasons are stated at each check (the
 //! verification cases' own are in `src/verify/flow_cases.rs`).
 
+#[path = "support/cli.rs"]
+mod cli;
+
 use hydrofrac::flow::implicit::{
     ImplicitError, ImplicitSolver, Pattern, assemble, implicit_step, residual,
 };
@@ -254,27 +257,17 @@ fn scenario_switch() {
 /// and the explicit stability check skipped (the step is about 1e5 x the explicit bound).
 #[test]
 fn cli_single_fracture_implicit() {
-    let out = std::env::temp_dir().join(format!("hydrofrac-implicit-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&out);
-    let o = std::process::Command::new(env!("CARGO_BIN_EXE_hydrofrac"))
-        .args([
-            "run",
-            "scenarios/flow_single_fracture.ron",
-            "--quiet",
-            "--out",
-        ])
-        .arg(&out)
-        .args([
+    let out = cli::tmp("implicit");
+    let s = cli::run_ok(
+        "scenarios/flow_single_fracture.ron",
+        &out,
+        &[
             "--set",
             "time.flow_scheme=\"Implicit\"",
             "--set",
             "time.dt=0.5",
-        ])
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let s: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+        ],
+    );
     assert_eq!(s["finish"], "converged");
     assert_eq!(s["flow"]["substeps"], 1);
     assert!(s["flow"]["dt"].as_f64().unwrap() > 1e3 * s["flow"]["dt_critical"].as_f64().unwrap());

@@ -2,28 +2,19 @@
 //! are scheduled, the network frames and network.csv read back, the figures exist, and the
 //! physics in summary.json is right (cubic law, splitting at the junction, mass balance).
 
+#[path = "support/cli.rs"]
+mod cli;
 #[path = "support/vtu.rs"]
 mod vtu;
 
 use std::path::{Path, PathBuf};
-use std::process::Command;
 use vtu::{read_pvd, read_vtu};
 
+/// Run `scenario` into a folder of its own: the folder and `summary.json`.
 fn run(scenario: &str, extra: &[&str]) -> (PathBuf, serde_json::Value) {
-    let out = std::env::temp_dir().join(format!(
-        "hydrofrac-flow-{}-{}",
-        std::process::id(),
-        Path::new(scenario).file_stem().unwrap().to_string_lossy()
-    ));
-    let _ = std::fs::remove_dir_all(&out);
-    let o = Command::new(env!("CARGO_BIN_EXE_hydrofrac"))
-        .args(["run", scenario, "--quiet", "--out", out.to_str().unwrap()])
-        .args(extra)
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let s =
-        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let stem = Path::new(scenario).file_stem().unwrap().to_string_lossy();
+    let out = cli::tmp(&stem);
+    let s = cli::run_ok(scenario, &out, extra);
     (out, s)
 }
 

@@ -4,6 +4,8 @@
 //! below it, the crack starts at the notch tip and runs straight along y = 5 (mode I), every new
 //! cell within one cell of the notch line, and the topology stays valid.
 
+#[path = "support/cli.rs"]
+mod cli;
 #[path = "support/scenes.rs"]
 mod scenes;
 #[path = "support/vtu.rs"]
@@ -166,7 +168,7 @@ fn fracture_outputs_are_written() {
         time: (end: Time(0.02)),
         output: (frame_every: 50),
     )"#;
-    let out = std::env::temp_dir().join(format!("hydrofrac-fracout-{}", std::process::id()));
+    let out = cli::tmp("notch");
     let sc = Scenario::parse(text, "notch.ron").unwrap();
     let opts = hydrofrac::driver::RunOptions {
         out: Some(out.clone()),

@@ -2,6 +2,9 @@
 //! the patch test: u = c0 + G x on the boundary is reproduced inside to round-off (1e-9), and a
 //! scenario names it relative to its own folder.
 
+#[path = "support/cli.rs"]
+mod cli;
+
 use hydrofrac::scenario::Scenario;
 use hydrofrac::sim::{Finish, Simulation};
 
@@ -14,7 +17,7 @@ fn imported_mesh_passes_the_patch_test() {
         time: (end: Static(tol: 1e-13)),
     )"#;
     // A scenario folder with the mesh in meshes/, as a user would lay it out.
-    let dir = std::env::temp_dir().join(format!("hydrofrac-gmsh-{}", std::process::id()));
+    let dir = cli::tmp("patch");
     std::fs::create_dir_all(dir.join("meshes")).unwrap();
     std::fs::copy("scenarios/meshes/patch.msh", dir.join("meshes/patch.msh")).unwrap();
     std::fs::write(dir.join("patch.ron"), text).unwrap();

@@ -6,14 +6,12 @@
 //! their estimates (then the largest peak so far is at most the latest estimate when every
 //! estimate bounds its own run).
 
+#[path = "support/cli.rs"]
+mod cli;
+
+use cli::{bin, root};
 use hydrofrac::scenario::{MeshSpec, Scenario};
 use hydrofrac::setup::build_mesh;
-use std::path::PathBuf;
-use std::process::Command;
-
-fn root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-}
 
 /// Largest peak resident size of the waited-for children, bytes.
 #[cfg(target_os = "linux")]
@@ -58,9 +56,8 @@ fn the_estimate_bounds_the_peak_memory_of_real_runs() {
             "case {k}: estimates must increase ({est} after {last})"
         );
         last = est;
-        let out = std::env::temp_dir().join(format!("hydrofrac-mem-{}-{k}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&out);
-        let mut cmd = Command::new(env!("CARGO_BIN_EXE_hydrofrac"));
+        let out = cli::tmp(&k.to_string());
+        let mut cmd = bin();
         cmd.arg("run")
             .arg(&path)
             .arg("--out")

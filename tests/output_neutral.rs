@@ -10,6 +10,8 @@ use hydrofrac::output::Outputs;
 use hydrofrac::scenario::Scenario;
 use hydrofrac::sim::Simulation;
 
+#[path = "support/cli.rs"]
+mod cli;
 #[path = "support/scenes.rs"]
 mod scenes;
 
@@ -18,7 +20,7 @@ type Fingerprint = (u64, Vec<u64>, Vec<u64>, Vec<u64>, usize);
 
 fn run(text: &str, frames: bool, tag: &str) -> Fingerprint {
     let mut sc = Scenario::parse(text, "neutral.ron").unwrap();
-    let dir = std::env::temp_dir().join(format!("hydrofrac-neutral-{tag}-{}", std::process::id()));
+    let dir = cli::tmp(tag);
     if frames {
         sc.output.frame_every = 1;
         sc.output.series_every = 1;

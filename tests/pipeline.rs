@@ -3,17 +3,16 @@
 //! of heat: before/after table, physics consistency between the models, outputs finite, the
 //! output folder's rules.
 
+#[path = "support/cli.rs"]
+mod cli;
 #[path = "support/finite.rs"]
 mod finite;
 #[path = "support/vtu.rs"]
 mod vtu;
 
+use cli::root;
 use hydrofrac::pipeline::{PipelineOptions, State, run_pipeline};
 use std::path::{Path, PathBuf};
-
-fn root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-}
 
 /// The shipped pipeline with a 0.5 s stimulation, the production well at (14, 50) m on the new
 /// fracture (4 m from the pre-existing one's end: not connected before), 2 years of heat on
@@ -46,9 +45,7 @@ fn short_pipeline(dir: &Path) -> PathBuf {
 
 #[test]
 fn stimulation_improves_production_and_heat() {
-    let tmp = std::env::temp_dir().join(format!("hydrofrac-pipeline-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&tmp);
-    std::fs::create_dir_all(&tmp).unwrap();
+    let tmp = cli::tmp_dir("pipeline");
     let file = short_pipeline(&tmp);
     let out = tmp.join("out");
     let opts = PipelineOptions {
@@ -180,8 +177,7 @@ fn stimulation_improves_production_and_heat() {
 /// Bad pipeline files get one clear line naming the file position or the field.
 #[test]
 fn bad_pipelines_are_named() {
-    let tmp = std::env::temp_dir().join(format!("hydrofrac-pipeline-bad-{}", std::process::id()));
-    std::fs::create_dir_all(&tmp).unwrap();
+    let tmp = cli::tmp_dir("bad");
     let good = std::fs::read_to_string(root().join("scenarios/example1_reservoir.ron")).unwrap();
     for (from, to, expect) in [
         ("years: 30.0", "years: -1.0", "heat.years"),

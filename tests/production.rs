@@ -3,10 +3,10 @@
 //! what the coupling adds when the fractures can open, and named errors for a bad
 //! `production` section.
 
-use hydrofrac::production::{
+use hydrofrac::production_stage::{
     NetworkState, production_sim, run_production, solve_state, solve_state_reporting,
 };
-use hydrofrac::reservoir::production::{PressureWell, network_of_view, steady_production};
+use hydrofrac::reservoir::doublet::{PressureWell, doublet_flow, network_of_view};
 use hydrofrac::scenario::Scenario;
 
 /// A 20 m x 20 m block under Example I's in-situ stress (sigma_yy = -10 MPa across the
@@ -65,7 +65,7 @@ fn rigid_rate(sc: &Scenario, dp: f64) -> f64 {
             pressure: 0.0,
         },
     ];
-    let prod = steady_production(&net, &wells, sim.params().fluid.mu, 0.5).unwrap();
+    let prod = doublet_flow(&net, &wells, sim.params().fluid.mu, 0.5).unwrap();
     -prod.wells[1].1
 }
 

@@ -3,54 +3,18 @@
 //! names and bad `--trace` paths, and a scan of every text output of successful runs for
 //! `inf`, `NaN` and `null`.
 
+#[path = "support/cli.rs"]
+mod cli;
 #[path = "support/finite.rs"]
 mod finite;
 #[path = "support/vtu.rs"]
 mod vtu;
 
+use cli::{assert_refused, bin, run, scenario, stderr, tmp};
 use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Output, Stdio};
+use std::path::Path;
+use std::process::{Child, Stdio};
 use std::time::{Duration, Instant};
-
-fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_hydrofrac"))
-}
-
-fn root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-}
-
-fn scenario(name: &str) -> String {
-    root().join("scenarios").join(name).display().to_string()
-}
-
-fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("hydrofrac-rel-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    d
-}
-
-fn run(args: &[&str]) -> Output {
-    bin().args(args).output().expect("binary runs")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-/// A refusal: non-zero exit that is not a panic (101), one `error: ` line containing `needles`.
-fn assert_refused(o: &Output, needles: &[&str]) {
-    let e = stderr(o);
-    assert!(!o.status.success(), "expected failure: {e}");
-    assert_ne!(o.status.code(), Some(101), "panic: {e}");
-    assert!(!e.contains("panicked"), "panic: {e}");
-    let first = e.lines().next().unwrap_or("");
-    assert!(first.starts_with("error: "), "{e}");
-    for n in needles {
-        assert!(first.contains(n), "`{n}` not in: {first}");
-    }
-}
 
 /// Every file under `dir` (relative path, `/`-separated) with its bytes.
 fn files(dir: &Path) -> BTreeMap<String, Vec<u8>> {
@@ -269,8 +233,7 @@ fn bad_trace_path_fails_before_touching_the_folder() {
 /// whose only boundary rate drops to zero (it wrote `inf` residuals before).
 #[test]
 fn successful_runs_write_only_finite_values() {
-    let shutin =
-        std::env::temp_dir().join(format!("hydrofrac-rel-{}-shutin.ron", std::process::id()));
+    let shutin = tmp("shutin.ron");
     std::fs::write(
         &shutin,
         r#"(

@@ -2,6 +2,8 @@
 //! `fracture.file`): snapped to mesh edges, opened as joints with flow cells, and connected
 //! where they cross: the cell network's connected components are the geometric network's.
 
+#[path = "support/cli.rs"]
+mod cli;
 #[path = "support/geometry.rs"]
 mod geometry;
 
@@ -55,7 +57,7 @@ fn a_random_network_is_placed_and_connected_where_it_crosses() {
 
 #[test]
 fn a_mapped_network_comes_from_a_csv_file() {
-    let dir = std::env::temp_dir().join(format!("hydrofrac-rocknet-{}", std::process::id()));
+    let dir = cli::tmp("mapped");
     std::fs::create_dir_all(&dir).unwrap();
     std::fs::write(
         dir.join("mapped.csv"),

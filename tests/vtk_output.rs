@@ -2,6 +2,8 @@
 //! (`support/vtu.rs`, on roxmltree): bit-exact floats, escaped names, the `.pvd` index, and
 //! files the reader must refuse (truncated, garbled, or with sizes that do not agree).
 
+#[path = "support/cli.rs"]
+mod cli;
 #[path = "support/vtu.rs"]
 mod vtu;
 
@@ -9,13 +11,6 @@ use hydrofrac::output::vtk::{CellKind, DataArray, PvdWriter, VtuPiece, write_vtu
 use std::fs;
 use std::path::{Path, PathBuf};
 use vtu::{VtkError, read_pvd, read_vtu};
-
-fn tmp_dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("vtk_output_{}_{name}", std::process::id()));
-    let _ = fs::remove_dir_all(&d);
-    fs::create_dir_all(&d).unwrap();
-    d
-}
 
 fn bits(v: &[f64]) -> Vec<u64> {
     v.iter().map(|x| x.to_bits()).collect()
@@ -55,7 +50,7 @@ fn two_triangles(dir: &Path) -> (PathBuf, Vec<[f64; 3]>, Vec<f64>, Vec<f64>) {
 
 #[test]
 fn triangle_round_trip_is_bit_exact() {
-    let dir = tmp_dir("tri");
+    let dir = cli::tmp_dir("tri");
     let (path, points, disp, stress) = two_triangles(&dir);
     let d = read_vtu(&path).unwrap();
     assert_eq!(d.points.len(), 4);
@@ -79,7 +74,7 @@ fn triangle_round_trip_is_bit_exact() {
 
 #[test]
 fn line_piece_round_trip() {
-    let dir = tmp_dir("line");
+    let dir = cli::tmp_dir("line");
     let path = dir.join("lines.vtu");
     let points = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [2.0, 0.5, 0.0]];
     let aperture = [1e-4, 2e-4];
@@ -110,7 +105,7 @@ fn line_piece_round_trip() {
 
 #[test]
 fn non_finite_values_are_written_as_tokens() {
-    let dir = tmp_dir("nonfinite");
+    let dir = cli::tmp_dir("nonfinite");
     let path = dir.join("nf.vtu");
     let vals = [f64::NAN, f64::INFINITY, f64::NEG_INFINITY];
     write_vtu(
@@ -140,7 +135,7 @@ fn non_finite_values_are_written_as_tokens() {
 
 #[test]
 fn pvd_lists_entries_in_order() {
-    let dir = tmp_dir("pvd");
+    let dir = cli::tmp_dir("pvd");
     let path = dir.join("run.pvd");
     let mut pvd = PvdWriter::new(&path);
     assert!(!path.exists());
@@ -165,7 +160,7 @@ fn pvd_lists_entries_in_order() {
 
 #[test]
 fn truncated_or_garbled_input_is_an_error() {
-    let dir = tmp_dir("trunc");
+    let dir = cli::tmp_dir("trunc");
     let (path, _, _, _) = two_triangles(&dir);
     let full = fs::read(&path).unwrap();
     let cut = dir.join("cut.vtu");
@@ -203,7 +198,7 @@ fn truncated_or_garbled_input_is_an_error() {
 /// points, values or cells, or a broken escape, would fail the round-trip tests above.
 #[test]
 fn inconsistent_files_are_refused() {
-    let dir = tmp_dir("inconsistent");
+    let dir = cli::tmp_dir("inconsistent");
     let (path, _, _, _) = two_triangles(&dir);
     let good = fs::read_to_string(&path).unwrap();
     let bad = dir.join("bad.vtu");
@@ -263,7 +258,7 @@ fn inconsistent_files_are_refused() {
 
 #[test]
 fn no_tmp_file_remains() {
-    let dir = tmp_dir("tmp");
+    let dir = cli::tmp_dir("tmp");
     let (path, _, _, _) = two_triangles(&dir);
     assert!(path.exists());
     assert!(!dir.join("tri.tmp.vtu").exists());
@@ -280,7 +275,7 @@ fn no_tmp_file_remains() {
 #[test]
 fn large_piece_writes_quickly() {
     // ~200k triangles; guards against per-value allocation.
-    let dir = tmp_dir("large");
+    let dir = cli::tmp_dir("large");
     let n = 300usize;
     let mut points = Vec::with_capacity((n + 1) * (n + 1));
     for j in 0..=n {

@@ -8,7 +8,7 @@
 
 use super::{CaseResult, Row};
 use crate::network::{NetworkSpec, RandomNetwork};
-use crate::reservoir::production::network_of;
+use crate::reservoir::doublet::network_of;
 use crate::reservoir::upscale::{flow_based, oda};
 use crate::reservoir::{Grid2, NetworkFlow};
 use std::time::Instant;

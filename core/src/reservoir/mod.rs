@@ -8,13 +8,14 @@
 //!   equilibrium on a block permeability field (implicit finite volumes).
 //! - [`discrete`]: heat advected along the fracture cells by the network's steady flow,
 //!   exchanging with conduction in the rock.
+//! - [`doublet`]: that steady flow of a rigid network between wells held at pressures.
 //!
 //! The types here are the contract between them: a regular grid, the thermal properties, and a
 //! network with its steady flow field.
 
 pub mod continuum;
 pub mod discrete;
-pub mod production;
+pub mod doublet;
 pub mod upscale;
 
 use serde::{Deserialize, Serialize};

@@ -1,6 +1,7 @@
-//! Steady production through a rigid fracture network between wells held at pressures: the
-//! flow field the discrete heat model advects heat with, and the production rate of a network
-//! state. SI: m, Pa, Pa s, m^2/s per metre of thickness.
+//! The doublet: the steady flow through a rigid fracture network between wells held at
+//! pressures (an injection and a production well): the flow field the discrete heat model
+//! advects heat with, and the production rate of a network state (the reservoir pipeline's
+//! doublet stage). SI: m, Pa, Pa s, m^2/s per metre of thickness.
 //!
 //! The network is discretised as the engine's flow is (`crate::flow`): one pressure per cell,
 //! every two cells meeting at a node exchange kappa_ij (p_i - p_j) with the two-half-cell
@@ -20,9 +21,24 @@ pub struct PressureWell {
     pub pressure: f64,
 }
 
-/// The steady flow of a network between pressure wells.
+/// The doublet of `spec` at pressure drop `dp` (Pa): the injection well at
+/// `production_pressure + dp`, the production well at `production_pressure`.
+pub fn doublet_wells(spec: &crate::scenario::ProductionSpec, dp: f64) -> [PressureWell; 2] {
+    [
+        PressureWell {
+            position: spec.injection,
+            pressure: spec.production_pressure + dp,
+        },
+        PressureWell {
+            position: spec.production,
+            pressure: spec.production_pressure,
+        },
+    ]
+}
+
+/// The steady flow of a network between pressure wells (a doublet).
 #[derive(Clone, Debug, PartialEq)]
-pub struct Production {
+pub struct DoubletFlow {
     /// The network with its fluxes and well exchanges filled in.
     pub flow: NetworkFlow,
     /// Per well: the node it is connected to and the rate into the network, m^2/s (> 0
@@ -61,12 +77,12 @@ pub fn nearest_node(net: &NetworkFlow, p: [f64; 2]) -> Option<(u32, f64)> {
 /// Steady flow of `net` (geometry and apertures; its fluxes are ignored) between `wells`. Each
 /// well connects to the nearest network node, which must lie within `reach` (m) of it.
 /// Cells no well reaches carry no flow.
-pub fn steady_production(
+pub fn doublet_flow(
     net: &NetworkFlow,
     wells: &[PressureWell],
     viscosity: f64,
     reach: f64,
-) -> Result<Production, ReservoirError> {
+) -> Result<DoubletFlow, ReservoirError> {
     if !(viscosity.is_finite() && viscosity > 0.0) {
         return Err(ReservoirError::invalid(
             "viscosity",
@@ -201,7 +217,7 @@ pub fn steady_production(
             rates[w] += q;
         }
     }
-    Ok(Production {
+    Ok(DoubletFlow {
         flow,
         wells: well_node.into_iter().zip(rates).collect(),
         pressure: sol.pressure,
@@ -300,7 +316,7 @@ mod tests {
                 pressure: 0.0,
             },
         ];
-        let prod = steady_production(&net, &wells, mu, 0.5).unwrap();
+        let prod = doublet_flow(&net, &wells, mu, 0.5).unwrap();
         let exact = a.powi(3) * dp / (12.0 * mu * l);
         assert!((prod.wells[0].1 - exact).abs() < 1e-10 * exact);
         assert!((prod.wells[1].1 + exact).abs() < 1e-10 * exact);
@@ -309,6 +325,6 @@ mod tests {
             position: [0.0, 5.0],
             pressure: 0.0,
         }; 2];
-        assert!(steady_production(&net, &far, mu, 0.5).is_err());
+        assert!(doublet_flow(&net, &far, mu, 0.5).is_err());
     }
 }

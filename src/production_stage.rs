@@ -13,7 +13,7 @@
 //!    mean pressures held at p; the hydraulic apertures a_c = max(delta_n, a_r) of that
 //!    equilibrium (seed (12));
 //! 2. the network's steady flow through those apertures between the wells
-//!    ([`steady_production`]): new cell pressures G(p).
+//!    ([`doublet_flow`]): new cell pressures G(p).
 //!
 //! p_0 = 0 (the pump off, the fractures drained): its apertures give the frozen rate. Then
 //! p_{k+1} = p_k + w (G(p_k) - p_k) until max_c |G(p_k) - p_k| / dp and the rate's change are
@@ -22,7 +22,9 @@
 use crate::checkpoint::State as SimState;
 use crate::error::SetupError;
 use crate::reservoir::NetworkFlow;
-use crate::reservoir::production::{PressureWell, network_of_view, reaches, steady_production};
+use crate::reservoir::doublet::{
+    PressureWell, doublet_flow, doublet_wells, network_of_view, reaches,
+};
 use crate::scenario::{Damping, End, ProductionStage, Scenario, SolidScheme};
 use crate::sim::{Simulation, StopFlag};
 use crate::systems::RunError;
@@ -373,7 +375,7 @@ fn steady(
     if !reaches(net, wells, reach) {
         return Ok((0.0, vec![0.0; net.cells.len()], net.clone()));
     }
-    let prod = steady_production(net, wells, viscosity, reach).map_err(|e| e.to_string())?;
+    let prod = doublet_flow(net, wells, viscosity, reach).map_err(|e| e.to_string())?;
     // 0 - q, not -q: no negative zero in the table.
     Ok((0.0 - prod.wells[1].1, prod.pressure, prod.flow))
 }
@@ -401,127 +403,218 @@ pub fn solve_state_reporting(
     dp: f64,
     report: &dyn Fn(&str),
 ) -> Result<StateSolve, ProductionError> {
-    let t0 = Instant::now();
-    let w = &stage.wells;
-    let wells = [
-        PressureWell {
-            position: w.injection,
-            pressure: w.production_pressure + dp,
-        },
-        PressureWell {
-            position: w.production,
-            pressure: w.production_pressure,
-        },
-    ];
-    let mu = sim.params().fluid.mu;
-    let (name, cells0) = (state.name(), sim.flow().map_or(0, |f| f.view.n_cells()));
-    let run_err = |error| ProductionError::Run {
-        state: name,
+    let on = Solving {
+        stage,
+        state,
         dp,
-        error,
+        wells: doublet_wells(&stage.wells, dp),
+        mu: sim.params().fluid.mu,
+        cells0: cell_count(sim),
+        t0: Instant::now(),
     };
-    let flow_err = |why| ProductionError::Flow {
-        state: name,
-        dp,
-        why,
+    // p_0 = 0: the frozen apertures.
+    let (steps, frozen_settled) = relax_frozen(sim, stage, report).map_err(|e| on.run_err(e))?;
+    let frozen_net = network(sim, &apertures(sim));
+    let (rate_frozen, target, frozen) = on.steady(&frozen_net)?;
+    // The first iterate is G(p_0) itself; the later ones are under-relaxed.
+    let mut it = FixedPoint {
+        p: vec![0.0; target.len()],
+        target,
+        rate: rate_frozen,
+        flow: frozen.clone(),
+        a: Vec::new(),
+        iterations: 0,
+        converged: false,
+        change: f64::INFINITY,
+        steps,
     };
-    // p_0 = 0: the frozen apertures (relaxed again after any growth, until none, at most
-    // `max_iterations` times).
-    let (mut steps, mut frozen_settled) = (0, false);
+    on.iterate(sim, &mut it, report)?;
+    let row = on.row(sim, &it, rate_frozen, frozen_settled);
+    Ok(StateSolve {
+        row,
+        flow: it.flow,
+        frozen,
+    })
+}
+
+/// Fracture cells of the simulation's network now.
+fn cell_count(sim: &Simulation) -> usize {
+    sim.flow().map_or(0, |f| f.view.n_cells())
+}
+
+/// The rock without fluid pressure (p_0 = 0, the frozen apertures), relaxed again after any
+/// growth until none, at most `max_iterations` times. Returns the steps and whether it
+/// settled (no fracture grew in the last relaxation).
+fn relax_frozen(
+    sim: &mut Simulation,
+    stage: &ProductionStage,
+    report: &dyn Fn(&str),
+) -> Result<(u64, bool), RunError> {
+    let mut steps = 0;
     for _ in 0..stage.max_iterations {
         if sim.stop_signal().is_some() {
             break;
         }
-        let p0 = vec![0.0; sim.flow().map_or(0, |f| f.view.n_cells())];
+        let p0 = vec![0.0; cell_count(sim)];
         report("the rock without fluid pressure (frozen apertures)");
-        let (n, grew) =
-            relax(sim, &p0, stage.static_tol, stage.max_steps, report).map_err(run_err)?;
+        let (n, grew) = relax(sim, &p0, stage.static_tol, stage.max_steps, report)?;
         steps += n;
         if !grew {
-            frozen_settled = true;
-            break;
+            return Ok((steps, true));
         }
     }
-    let frozen_net = network(sim, &apertures(sim));
-    let (rate_frozen, mut target, frozen) =
-        steady(&frozen_net, &wells, mu, w.reach).map_err(flow_err)?;
-    // The first iterate is G(p_0) itself; the later ones are under-relaxed.
-    let mut p = vec![0.0; target.len()];
-    let (mut rate, mut flow, mut a) = (rate_frozen, frozen.clone(), Vec::new());
-    let (mut iterations, mut converged, mut change) = (0, false, f64::INFINITY);
-    let mut first = true;
-    while iterations < stage.max_iterations && sim.stop_signal().is_none() {
-        iterations += 1;
-        let omega = if first { 1.0 } else { stage.relaxation };
-        first = false;
-        for (pc, tc) in p.iter_mut().zip(&target) {
-            *pc += omega * (tc - *pc);
+    Ok((steps, false))
+}
+
+/// One production state being solved: the stage, the network state, the pressure drop (Pa)
+/// and its wells, the viscosity (Pa s), the fracture cells at the start and the start time.
+struct Solving<'a> {
+    stage: &'a ProductionStage,
+    state: NetworkState,
+    dp: f64,
+    wells: [PressureWell; 2],
+    mu: f64,
+    cells0: usize,
+    t0: Instant,
+}
+
+/// The fixed-point iteration p_{k+1} = p_k + w (G(p_k) - p_k) as it stands.
+struct FixedPoint {
+    /// The cells' pressures p_k, Pa.
+    p: Vec<f64>,
+    /// G(p_k): the steady flow's cell pressures through p_k's apertures, Pa.
+    target: Vec<f64>,
+    /// The production rate of the last steady flow, m^2/s, and that flow.
+    rate: f64,
+    flow: NetworkFlow,
+    /// The hydraulic apertures of the last equilibrium, m.
+    a: Vec<f64>,
+    iterations: usize,
+    converged: bool,
+    /// The last change (max of the relative pressure and rate changes).
+    change: f64,
+    /// Steps of the rock in all the equilibria.
+    steps: u64,
+}
+
+impl Solving<'_> {
+    fn run_err(&self, error: RunError) -> ProductionError {
+        ProductionError::Run {
+            state: self.state.name(),
+            dp: self.dp,
+            error,
         }
-        let (n, grew) =
-            relax(sim, &p, stage.static_tol, stage.max_steps, report).map_err(run_err)?;
-        steps += n;
-        a = apertures(sim);
-        let (r, next, fl) = steady(&network(sim, &a), &wells, mu, w.reach).map_err(flow_err)?;
-        if grew {
-            // A fracture grew: start again from the flow of the new network.
-            let cells = sim.flow().map_or(0, |f| f.view.n_cells());
+    }
+
+    /// [`steady`] between the state's wells.
+    fn steady(&self, net: &NetworkFlow) -> Result<(f64, Vec<f64>, NetworkFlow), ProductionError> {
+        steady(net, &self.wells, self.mu, self.stage.wells.reach).map_err(|why| {
+            ProductionError::Flow {
+                state: self.state.name(),
+                dp: self.dp,
+                why,
+            }
+        })
+    }
+
+    /// Iterate until the change is below `production.tolerance`, `max_iterations` or a stop
+    /// signal: each iterate an equilibrium of the rock under p_k and the steady flow through
+    /// its apertures. Where a fracture grew the iteration starts again from the new network.
+    fn iterate(
+        &self,
+        sim: &mut Simulation,
+        it: &mut FixedPoint,
+        report: &dyn Fn(&str),
+    ) -> Result<(), ProductionError> {
+        let stage = self.stage;
+        let mut first = true;
+        while it.iterations < stage.max_iterations && sim.stop_signal().is_none() {
+            it.iterations += 1;
+            let k = it.iterations;
+            let omega = if first { 1.0 } else { stage.relaxation };
+            first = false;
+            for (pc, tc) in it.p.iter_mut().zip(&it.target) {
+                *pc += omega * (tc - *pc);
+            }
+            let (n, grew) = relax(sim, &it.p, stage.static_tol, stage.max_steps, report)
+                .map_err(|e| self.run_err(e))?;
+            it.steps += n;
+            it.a = apertures(sim);
+            let (r, next, fl) = self.steady(&network(sim, &it.a))?;
+            if grew {
+                // A fracture grew: start again from the flow of the new network.
+                report(&format!(
+                    "iteration {k}: a fracture grew ({} new cells in this state); rate \
+                     {r:.4e} m^2/s on the new network",
+                    cell_count(sim).saturating_sub(self.cells0)
+                ));
+                (it.p, it.target, it.rate, it.flow) = (next.clone(), next, r, fl);
+                first = true;
+                continue;
+            }
+            it.change = iteration_change(&it.p, &next, self.dp, r, it.rate);
+            (it.target, it.rate, it.flow) = (next, r, fl);
             report(&format!(
-                "iteration {iterations}: a fracture grew ({} new cells in this state); rate \
-                 {r:.4e} m^2/s on the new network",
-                cells.saturating_sub(cells0)
+                "iteration {k}: rate {:.4e} m^2/s, change {:.2e} (tolerance {:.0e}), {:.0} s",
+                it.rate,
+                it.change,
+                stage.tolerance,
+                self.t0.elapsed().as_secs_f64()
             ));
-            (p, target, rate, flow) = (next.clone(), next, r, fl);
-            first = true;
-            continue;
+            if it.change < stage.tolerance {
+                it.converged = true;
+                break;
+            }
         }
-        let dp_change = p
-            .iter()
-            .zip(&next)
-            .map(|(x, y)| (x - y).abs())
-            .fold(0.0, f64::max)
-            / dp;
-        let rate_change = (r - rate).abs() / r.abs().max(f64::MIN_POSITIVE);
-        change = if r == 0.0 && rate == 0.0 {
-            dp_change
-        } else {
-            dp_change.max(rate_change)
-        };
-        (target, rate, flow) = (next, r, fl);
-        report(&format!(
-            "iteration {iterations}: rate {rate:.4e} m^2/s, change {change:.2e} (tolerance \
-             {:.0e}), {:.0} s",
-            stage.tolerance,
-            t0.elapsed().as_secs_f64()
-        ));
-        if change < stage.tolerance {
-            converged = true;
-            break;
-        }
+        Ok(())
     }
-    let cells = sim.flow().map_or(0, |f| f.view.n_cells());
-    Ok(StateSolve {
-        row: ProductionRow {
-            state,
-            dp,
-            rate,
+
+    /// The state's row of `production.csv` once the iteration ended.
+    fn row(
+        &self,
+        sim: &Simulation,
+        it: &FixedPoint,
+        rate_frozen: f64,
+        frozen_settled: bool,
+    ) -> ProductionRow {
+        ProductionRow {
+            state: self.state,
+            dp: self.dp,
+            rate: it.rate,
             rate_frozen,
-            iterations,
-            converged,
-            change,
-            relax_steps: steps,
-            new_cells: cells.saturating_sub(cells0),
-            max_aperture: a.iter().fold(0.0, |m: f64, &x| m.max(x)),
-            wall_s: t0.elapsed().as_secs_f64(),
+            iterations: it.iterations,
+            converged: it.converged,
+            change: it.change,
+            relax_steps: it.steps,
+            new_cells: cell_count(sim).saturating_sub(self.cells0),
+            max_aperture: it.a.iter().fold(0.0, |m: f64, &x| m.max(x)),
+            wall_s: self.t0.elapsed().as_secs_f64(),
             rock: match sim.params().time.solid_scheme {
                 SolidScheme::QuasiStatic => "quasi-static",
                 SolidScheme::Explicit => "relaxation",
             },
             fallback: None,
             frozen_settled,
-        },
-        flow,
-        frozen,
-    })
+        }
+    }
+}
+
+/// The fixed-point iteration's change: the largest change of a cell's pressure relative to
+/// `dp`, and the largest of that and the rate's relative change (`r` the new rate, `rate` the
+/// last) unless nothing flows.
+fn iteration_change(p: &[f64], next: &[f64], dp: f64, r: f64, rate: f64) -> f64 {
+    let dp_change = p
+        .iter()
+        .zip(next)
+        .map(|(x, y)| (x - y).abs())
+        .fold(0.0, f64::max)
+        / dp;
+    let rate_change = (r - rate).abs() / r.abs().max(f64::MIN_POSITIVE);
+    if r == 0.0 && rate == 0.0 {
+        dp_change
+    } else {
+        dp_change.max(rate_change)
+    }
 }
 
 /// Every production state of `sc.production`: before (from setup) and after (from `end`, the
@@ -561,7 +654,14 @@ fn run_states(
     stop: Option<&StopFlag>,
     report: &(dyn Fn(&str) + Sync),
 ) -> Result<StageResult, ProductionError> {
-    let interrupted = |sim: &Simulation| sim.stop_signal().map(ProductionError::Interrupted);
+    let states = States {
+        sc,
+        stage,
+        state,
+        end,
+        stop,
+        report,
+    };
     let drops = &stage.wells.pressure_drops;
     let middle = drops.len() / 2;
     let mut out = StageResult::default();
@@ -569,68 +669,14 @@ fn run_states(
     // higher drop (more pressure, more sliding) goes to relaxation without trying it.
     let mut failed_at: Option<String> = None;
     for (k, &dp) in drops.iter().enumerate() {
-        let start = end.cloned();
-        let label = format!("production {} dp = {:.1} MPa", state.name(), dp / 1e6);
-        let relax = |start: Option<SimState>, why: String| {
-            let mut relaxed = sc.clone();
-            if let Some(p) = relaxed.production.as_mut() {
-                p.rock = SolidScheme::Explicit;
-            }
-            let mut sim = production_sim(&relaxed, start, stop)?;
-            let tell = |m: &str| report(&format!("{label} (relaxation): {m}"));
-            let solved = solve_state_reporting(&mut sim, stage, state, dp, &tell);
-            if let Some(e) = interrupted(&sim) {
-                return Err(e);
-            }
-            let mut s = solved?;
-            s.row.fallback = Some(why);
-            Ok(s)
-        };
-        let solved = if let Some(lower) = &failed_at {
-            report(&format!("{label}: relaxation ({lower})"));
-            relax(start, lower.clone())
-        } else {
-            let tell = |m: &str| report(&format!("{label}: {m}"));
-            let mut sim = production_sim(sc, start.clone(), stop)?;
-            let solved = solve_state_reporting(&mut sim, stage, state, dp, &tell);
-            if let Some(e) = interrupted(&sim) {
-                return Err(e);
-            }
-            match solved {
-                // Past the friction limit the rock may have no static equilibrium under a
-                // trial pressure (a block held by sliding joints alone): the Newton solve
-                // cannot find one, the relaxation follows the sliding until it stops.
-                Err(ProductionError::Run {
-                    error: error @ RunError::QuasiStatic { .. },
-                    ..
-                }) => {
-                    tracing::warn!(
-                        "production {} dp = {:.1} MPa: the quasi-static rock failed \
-                         ({error}); dynamic relaxation instead",
-                        state.name(),
-                        dp / 1e6
-                    );
-                    report(&format!(
-                        "{label}: the quasi-static rock failed ({error}); relaxation instead"
-                    ));
-                    failed_at = Some(format!(
-                        "not tried: the quasi-static rock failed at dp = {:.1} MPa of this \
-                         state",
-                        dp / 1e6
-                    ));
-                    relax(start, error.to_string())
-                }
-                r => r,
-            }
-        };
-        let s = match solved {
+        let s = match states.solve_drop(dp, &mut failed_at) {
             Ok(s) => s,
             // A state that fails (a blow-up: a block expelled where no static equilibrium
             // holds it, say) is reported and the stage goes on with the next one, so the
             // states solved are kept.
             Err(e @ (ProductionError::Run { .. } | ProductionError::Flow { .. })) => {
                 tracing::warn!("{e}");
-                report(&format!("{label}: failed ({e})"));
+                report(&format!("{}: failed ({e})", states.label(dp)));
                 out.failed.push(FailedState {
                     state,
                     dp,
@@ -654,6 +700,89 @@ fn run_states(
         }
     }
     Ok(out)
+}
+
+/// The states of one network being solved: the scenario and its stage, the network state, its
+/// start (`None`: setup), the stop signal and the progress report.
+struct States<'a> {
+    sc: &'a Scenario,
+    stage: &'a ProductionStage,
+    state: NetworkState,
+    end: Option<&'a SimState>,
+    stop: Option<&'a StopFlag>,
+    report: &'a (dyn Fn(&str) + Sync),
+}
+
+impl States<'_> {
+    /// How the progress report names the state at `dp`.
+    fn label(&self, dp: f64) -> String {
+        format!("production {} dp = {:.1} MPa", self.state.name(), dp / 1e6)
+    }
+
+    /// The state at pressure drop `dp` with the rock of `production.rock`; where the
+    /// quasi-static rock fails, or failed at a lower drop (`failed_at`, then set), by dynamic
+    /// relaxation.
+    fn solve_drop(
+        &self,
+        dp: f64,
+        failed_at: &mut Option<String>,
+    ) -> Result<StateSolve, ProductionError> {
+        let (state, report, label) = (self.state, self.report, self.label(dp));
+        if let Some(lower) = failed_at {
+            report(&format!("{label}: relaxation ({lower})"));
+            return self.relaxed(dp, lower.clone());
+        }
+        let tell = |m: &str| report(&format!("{label}: {m}"));
+        let mut sim = production_sim(self.sc, self.end.cloned(), self.stop)?;
+        let solved = solve_state_reporting(&mut sim, self.stage, state, dp, &tell);
+        if let Some(sig) = sim.stop_signal() {
+            return Err(ProductionError::Interrupted(sig));
+        }
+        match solved {
+            // Past the friction limit the rock may have no static equilibrium under a trial
+            // pressure (a block held by sliding joints alone): the Newton solve cannot find
+            // one, the relaxation follows the sliding until it stops.
+            Err(ProductionError::Run {
+                error: error @ RunError::QuasiStatic { .. },
+                ..
+            }) => {
+                tracing::warn!(
+                    "production {} dp = {:.1} MPa: the quasi-static rock failed \
+                     ({error}); dynamic relaxation instead",
+                    state.name(),
+                    dp / 1e6
+                );
+                report(&format!(
+                    "{label}: the quasi-static rock failed ({error}); relaxation instead"
+                ));
+                *failed_at = Some(format!(
+                    "not tried: the quasi-static rock failed at dp = {:.1} MPa of this \
+                     state",
+                    dp / 1e6
+                ));
+                self.relaxed(dp, error.to_string())
+            }
+            r => r,
+        }
+    }
+
+    /// The state at `dp` by dynamic relaxation, `why` the quasi-static rock was not used.
+    fn relaxed(&self, dp: f64, why: String) -> Result<StateSolve, ProductionError> {
+        let mut relaxed = self.sc.clone();
+        if let Some(p) = relaxed.production.as_mut() {
+            p.rock = SolidScheme::Explicit;
+        }
+        let mut sim = production_sim(&relaxed, self.end.cloned(), self.stop)?;
+        let label = self.label(dp);
+        let tell = |m: &str| (self.report)(&format!("{label} (relaxation): {m}"));
+        let solved = solve_state_reporting(&mut sim, self.stage, self.state, dp, &tell);
+        if let Some(sig) = sim.stop_signal() {
+            return Err(ProductionError::Interrupted(sig));
+        }
+        let mut s = solved?;
+        s.row.fallback = Some(why);
+        Ok(s)
+    }
 }
 
 /// A production state that failed (`summary.json` `production.failed`; no row).
@@ -697,6 +826,38 @@ pub fn production_csv(rows: &[ProductionRow]) -> String {
         );
     }
     s
+}
+
+/// The stage's `summary.json` warnings: a state that did not converge, a rock without fluid
+/// pressure that did not settle, a state that failed.
+pub fn stage_warnings(rows: &[ProductionRow], failed: &[FailedState]) -> Vec<String> {
+    let mut warnings = Vec::new();
+    for r in rows {
+        let (state, dp) = (r.state.name(), r.dp / 1e6);
+        if !r.converged {
+            warnings.push(format!(
+                "production {state} dp = {dp:.1} MPa did not converge in {} iterations \
+                 (last change {:.1e})",
+                r.iterations, r.change
+            ));
+        }
+        if !r.frozen_settled {
+            warnings.push(format!(
+                "production {state} dp = {dp:.1} MPa: the rock without fluid pressure did \
+                 not settle (a fracture grew in each relaxation), so rate_frozen is \
+                 not an equilibrium's"
+            ));
+        }
+    }
+    for f in failed {
+        warnings.push(format!(
+            "production {} dp = {:.1} MPa failed, no row: {}",
+            f.state.name(),
+            f.dp / 1e6,
+            f.error
+        ));
+    }
+    warnings
 }
 
 /// `summary.json`'s `production`: the wells and one entry per row (ratios after / before).

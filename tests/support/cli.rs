@@ -1,0 +1,87 @@
+//! Test support: the `hydrofrac` binary as a user runs it, what a run leaves in its folder, and
+//! temporary folders. Each test file pulls it in with `#[path = "support/cli.rs"] mod cli;`
+//! and uses what it needs. A temporary folder is named after the test binary, this process and
+//! the name asked for, so two tests (or two test binaries) never share one.
+#![allow(dead_code)]
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+/// The `hydrofrac` binary of this build, to add arguments to.
+pub fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_hydrofrac"))
+}
+
+/// Run the binary with `args` and wait for it.
+pub fn run(args: &[&str]) -> Output {
+    bin().args(args).output().expect("binary runs")
+}
+
+/// `hydrofrac run SCENARIO --quiet --out OUT EXTRA...`, which must succeed; its `summary.json`.
+pub fn run_ok(scenario: impl AsRef<Path>, out: &Path, extra: &[&str]) -> serde_json::Value {
+    let o = bin()
+        .arg("run")
+        .arg(scenario.as_ref())
+        .arg("--quiet")
+        .arg("--out")
+        .arg(out)
+        .args(extra)
+        .output()
+        .expect("binary runs");
+    assert!(o.status.success(), "{}", stderr(&o));
+    summary(out)
+}
+
+/// The run's standard error, as text.
+pub fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// The `summary.json` a run wrote into `dir`.
+pub fn summary(dir: &Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap()
+}
+
+/// A refusal: a non-zero exit that is not a panic (101), one `error: ` line containing every
+/// one of `needles`.
+pub fn assert_refused(o: &Output, needles: &[&str]) {
+    let e = stderr(o);
+    assert!(!o.status.success(), "expected failure: {e}");
+    assert_ne!(o.status.code(), Some(101), "panic: {e}");
+    assert!(!e.contains("panicked"), "panic: {e}");
+    let first = e.lines().next().unwrap_or("");
+    assert!(first.starts_with("error: "), "{e}");
+    for n in needles {
+        assert!(first.contains(n), "`{n}` not in: {first}");
+    }
+}
+
+/// The repository's root.
+pub fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// The path of the shipped scenario `scenarios/<name>`, as an argument.
+pub fn scenario(name: &str) -> String {
+    root().join("scenarios").join(name).display().to_string()
+}
+
+/// A temporary path for `name` (a folder or a file), removed if it is there (not created):
+/// `hydrofrac-<test binary>-<process>-<name>` in the system's temporary folder.
+pub fn tmp(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!(
+        "hydrofrac-{}-{}-{name}",
+        env!("CARGO_CRATE_NAME"),
+        std::process::id()
+    ));
+    let _ = std::fs::remove_dir_all(&d);
+    let _ = std::fs::remove_file(&d);
+    d
+}
+
+/// [`tmp`], created as an empty folder.
+pub fn tmp_dir(name: &str) -> PathBuf {
+    let d = tmp(name);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
