@@ -42,7 +42,7 @@
 //! `sum C (T - T_0)` equals the advective heat injected `rho_w c_w q_inj (T_inj - T_0) dt`
 //! minus that produced `rho_w c_w |q_prod| (T_i - T_0) dt`, summed over the steps.
 
-use super::{NetworkFlow, ReservoirError, ThermalProps};
+use super::{HeatSeries, NetworkFlow, ReservoirError, Summation, ThermalProps};
 use crate::sparse::SparsePattern;
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
 use faer::sparse::SparseColMatRef;
@@ -814,17 +814,9 @@ impl DiscreteModel {
         let mut factored_dt = f64::NAN;
         let mut factorisations = 0;
 
-        let mut out = DiscreteRun {
-            times: Vec::new(),
-            production_temperature: Vec::new(),
-            thermal_power: Vec::new(),
-            cumulative_heat: Vec::new(),
-            snapshots: Vec::new(),
-            energy_balance: EnergyBalance::default(),
-            factorisations: 0,
-            unknowns: n,
-        };
-        let (mut injected, mut produced, mut cumulative) = (0.0f64, 0.0f64, 0.0f64);
+        let mut series = HeatSeries::new(Summation::Plain, 0);
+        let mut snapshots = Vec::new();
+        let (mut injected, mut produced) = (0.0f64, 0.0f64);
         let mut t = 0.0f64;
         let mut next_out = 0;
         let mut k_step = 0i32;
@@ -907,13 +899,9 @@ impl DiscreteModel {
             // T_prod - T_0, flux-weighted.
             let du_prod = prod_heat / (rwcw * q_prod);
             let power = rwcw * q_prod * (du_prod - du_inj);
-            cumulative += dt * power;
-            out.times.push(t);
-            out.production_temperature.push(t0 + du_prod);
-            out.thermal_power.push(power);
-            out.cumulative_heat.push(cumulative);
+            series.record(t, dt, Some(t0 + du_prod), power);
             if next_out < spec.output_times.len() && t == spec.output_times[next_out] {
-                out.snapshots.push(Snapshot {
+                snapshots.push(Snapshot {
                     time: t,
                     cell_temperature: u[..nc].iter().map(|x| t0 + x).collect(),
                     rock_temperature: u[nc..].iter().map(|x| t0 + x).collect(),
@@ -928,13 +916,12 @@ impl DiscreteModel {
         } else {
             0.0
         };
-        out.energy_balance = EnergyBalance {
+        let energy_balance = EnergyBalance {
             stored,
             injected,
             produced,
             relative_error,
         };
-        out.factorisations = factorisations;
         if relative_error.is_nan() || relative_error > ENERGY_TOLERANCE {
             return Err(ReservoirError::Solve {
                 what: "heat_discrete energy balance".into(),
@@ -943,7 +930,23 @@ impl DiscreteModel {
                 ),
             });
         }
-        Ok(out)
+        let HeatSeries {
+            times,
+            production_temperature,
+            thermal_power,
+            cumulative_heat,
+            ..
+        } = series;
+        Ok(DiscreteRun {
+            times,
+            production_temperature,
+            thermal_power,
+            cumulative_heat,
+            snapshots,
+            energy_balance,
+            factorisations,
+            unknowns: n,
+        })
     }
 }
 
