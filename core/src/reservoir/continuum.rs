@@ -1116,6 +1116,25 @@ fn stored_heat(block_capacity: f64, theta: &[f64]) -> f64 {
     s
 }
 
+/// An error unless the energy balance, the time series and the final temperatures (K) of a
+/// run are all finite.
+fn check_run_finite(
+    energy_balance: f64,
+    series: &HeatSeries,
+    temperature: &[f64],
+) -> Result<(), ReservoirError> {
+    let all_finite = energy_balance.is_finite()
+        && series.all_finite()
+        && temperature.iter().all(|v| v.is_finite());
+    if !all_finite {
+        return Err(ReservoirError::Solve {
+            what: "continuum heat run".into(),
+            why: "non-finite production temperature, power or balance".into(),
+        });
+    }
+    Ok(())
+}
+
 /// Runs the flow and then the heat extraction to `end_time`.
 pub fn run_continuum(spec: &ContinuumSpec) -> Result<ContinuumRun, ReservoirError> {
     spec.validate()?;
@@ -1185,15 +1204,7 @@ pub fn run_continuum(spec: &ContinuumSpec) -> Result<ContinuumRun, ReservoirErro
     let stored = stored_heat(block_capacity, &theta);
     let energy_balance = accounts.energy_balance(stored);
     let temperature: Vec<f64> = theta.iter().map(|th| t0 + th).collect();
-    let all_finite = energy_balance.is_finite()
-        && series.all_finite()
-        && temperature.iter().all(|v| v.is_finite());
-    if !all_finite {
-        return Err(ReservoirError::Solve {
-            what: "continuum heat run".into(),
-            why: "non-finite production temperature, power or balance".into(),
-        });
-    }
+    check_run_finite(energy_balance, &series, &temperature)?;
     let HeatSeries {
         times,
         production_temperature,
