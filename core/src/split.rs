@@ -42,14 +42,29 @@ pub fn root(world: &hecs::World, n: Entity) -> Entity {
         .unwrap_or(n)
 }
 
-/// Open the given internal solid edges by node splitting. `aperture` is the initial hydraulic
-/// aperture of the new cells (m), `t` the time they are created (s). Edges that are not internal
-/// solid edges are ignored; edges that no split separates stay as they are (a ready edge with
-/// both ends interior waits until the fracture reaches it).
-pub fn open_edges(model: &mut Model, ready: &[Entity], aperture: f64, t: f64) -> SplitReport {
-    let world = &model.world;
-    // Solid edges around every node, and the ready set.
-    let ready: BTreeSet<(u64, Entity)> = ready
+/// The split nodes by stable id: (node, element -> group index, number of groups).
+type NodeGroups = BTreeMap<u64, (Entity, BTreeMap<Entity, usize>, usize)>;
+
+/// The daughters of the split nodes and, per split node, the group of each of its elements.
+struct Daughters<'a> {
+    of: HashMap<Entity, Vec<Entity>>,
+    group_of: HashMap<Entity, &'a BTreeMap<Entity, usize>>,
+}
+
+impl Daughters<'_> {
+    /// The node that element `el` uses in place of `n`: the daughter of its group where `n` was
+    /// split, else `n`.
+    fn daughter_of(&self, n: Entity, el: Entity) -> Entity {
+        match self.group_of.get(&n) {
+            Some(of_elem) => self.of[&n][of_elem[&el]],
+            None => n,
+        }
+    }
+}
+
+/// The edges of `ready` that are internal solid edges not yet opened, by stable id.
+fn ready_edges(world: &hecs::World, ready: &[Entity]) -> BTreeSet<(u64, Entity)> {
+    ready
         .iter()
         .filter(|&&e| {
             let st = world.get::<&EdgeState>(e);
@@ -57,11 +72,11 @@ pub fn open_edges(model: &mut Model, ready: &[Entity], aperture: f64, t: f64) ->
             matches!((st, el), (Ok(s), Ok(l)) if !s.opened && !l.is_external())
         })
         .map(|&e| (stable(world, e), e))
-        .collect();
-    if ready.is_empty() {
-        return SplitReport::default();
-    }
-    let is_ready: HashMap<Entity, ()> = ready.iter().map(|&(_, e)| (e, ())).collect();
+        .collect()
+}
+
+/// The solid (not opened) edges around every node.
+fn solid_edges_at_nodes(world: &hecs::World) -> HashMap<Entity, Vec<Entity>> {
     let mut node_edges: HashMap<Entity, Vec<Entity>> = HashMap::new();
     for (e, en, st) in world.query::<(Entity, &EdgeNodes, &EdgeState)>().iter() {
         if !st.opened {
@@ -70,14 +85,24 @@ pub fn open_edges(model: &mut Model, ready: &[Entity], aperture: f64, t: f64) ->
             }
         }
     }
+    node_edges
+}
+
+/// The nodes of the ready edges that split (two ready edges, or one and two external), each
+/// with the groups of its elements.
+fn split_groups(
+    world: &hecs::World,
+    ready: &BTreeSet<(u64, Entity)>,
+    is_ready: &HashMap<Entity, ()>,
+    node_edges: &HashMap<Entity, Vec<Entity>>,
+) -> NodeGroups {
     // Candidate nodes in stable order and the conditions.
     let candidates: BTreeMap<u64, Entity> = ready
         .iter()
         .flat_map(|&(_, e)| world.get::<&EdgeNodes>(e).expect("edge").0)
         .map(|n| (stable(world, n), n))
         .collect();
-    // For each split node: element -> group index, and the number of groups.
-    let mut groups: BTreeMap<u64, (Entity, BTreeMap<Entity, usize>, usize)> = BTreeMap::new();
+    let mut groups = NodeGroups::new();
     for (&nid, &n) in &candidates {
         let edges = &node_edges[&n];
         let r = edges.iter().filter(|e| is_ready.contains_key(e)).count();
@@ -88,54 +113,72 @@ pub fn open_edges(model: &mut Model, ready: &[Entity], aperture: f64, t: f64) ->
         if !(r >= 2 || (r >= 1 && x >= 2)) {
             continue;
         }
-        // Union the elements around n across edges that stay closed.
-        let mut elems: Vec<Entity> = Vec::new();
-        for &e in edges {
-            for el in world
-                .get::<&EdgeElems>(e)
-                .expect("edge")
-                .0
-                .into_iter()
-                .flatten()
-            {
-                if !elems.contains(&el) {
-                    elems.push(el);
-                }
-            }
-        }
-        elems.sort_by_key(|&el| stable(world, el));
-        let mut sets = UnionFind::new(elems.len());
-        for &e in edges {
-            if is_ready.contains_key(&e) {
-                continue;
-            }
-            if let [Some(a), Some(b)] = world.get::<&EdgeElems>(e).expect("edge").0 {
-                let ia = elems.iter().position(|&x| x == a).expect("element at node");
-                let ib = elems.iter().position(|&x| x == b).expect("element at node");
-                sets.union(ia, ib);
-            }
-        }
-        // Group numbers in order of the smallest element stable id. `of_elem` is ordered so
-        // that the daughters' masses below are summed in the same order in every process (a
-        // HashMap's iteration order changes from run to run, and so would the masses' last
-        // bits on a mesh of unequal elements).
-        let mut number: HashMap<usize, usize> = HashMap::new();
-        let mut of_elem = BTreeMap::new();
-        for (i, &el) in elems.iter().enumerate() {
-            let r = sets.find(i);
-            let next = number.len();
-            let g = *number.entry(r).or_insert(next);
-            of_elem.insert(el, g);
-        }
-        if number.len() >= 2 {
-            groups.insert(nid, (n, of_elem, number.len()));
+        let (of_elem, count) = element_groups(world, edges, is_ready);
+        if count >= 2 {
+            groups.insert(nid, (n, of_elem, count));
         }
     }
-    if groups.is_empty() {
-        return SplitReport::default();
+    groups
+}
+
+/// The elements around a node (its solid `edges`) grouped across the edges that stay closed:
+/// element -> group index (numbered in order of the smallest element stable id), and the
+/// number of groups.
+fn element_groups(
+    world: &hecs::World,
+    edges: &[Entity],
+    is_ready: &HashMap<Entity, ()>,
+) -> (BTreeMap<Entity, usize>, usize) {
+    // Union the elements around n across edges that stay closed.
+    let mut elems: Vec<Entity> = Vec::new();
+    for &e in edges {
+        for el in world
+            .get::<&EdgeElems>(e)
+            .expect("edge")
+            .0
+            .into_iter()
+            .flatten()
+        {
+            if !elems.contains(&el) {
+                elems.push(el);
+            }
+        }
     }
-    let mut report = SplitReport::default();
-    // Daughters.
+    elems.sort_by_key(|&el| stable(world, el));
+    let mut sets = UnionFind::new(elems.len());
+    for &e in edges {
+        if is_ready.contains_key(&e) {
+            continue;
+        }
+        if let [Some(a), Some(b)] = world.get::<&EdgeElems>(e).expect("edge").0 {
+            let ia = elems.iter().position(|&x| x == a).expect("element at node");
+            let ib = elems.iter().position(|&x| x == b).expect("element at node");
+            sets.union(ia, ib);
+        }
+    }
+    // Group numbers in order of the smallest element stable id. `of_elem` is ordered so
+    // that the daughters' masses below are summed in the same order in every process (a
+    // HashMap's iteration order changes from run to run, and so would the masses' last
+    // bits on a mesh of unequal elements).
+    let mut number: HashMap<usize, usize> = HashMap::new();
+    let mut of_elem = BTreeMap::new();
+    for (i, &el) in elems.iter().enumerate() {
+        let r = sets.find(i);
+        let next = number.len();
+        let g = *number.entry(r).or_insert(next);
+        of_elem.insert(el, g);
+    }
+    (of_elem, number.len())
+}
+
+/// Spawns the daughters of every split node (same reference position, state and boundary
+/// condition, the lumped mass `rho A / 3` of its group's elements in kg per metre, the loads
+/// shared in proportion to mass) and takes the mother out of the solid.
+fn spawn_daughters(
+    model: &mut Model,
+    groups: &NodeGroups,
+    report: &mut SplitReport,
+) -> HashMap<Entity, Vec<Entity>> {
     let rho = model.material.density;
     let mut daughters: HashMap<Entity, Vec<Entity>> = HashMap::new();
     for (n, of_elem, ng) in groups.values() {
@@ -185,29 +228,35 @@ pub fn open_edges(model: &mut Model, ready: &[Entity], aperture: f64, t: f64) ->
         report.daughters += ds.len();
         daughters.insert(*n, ds);
     }
-    let group_of: HashMap<Entity, &BTreeMap<Entity, usize>> =
-        groups.values().map(|(n, g, _)| (*n, g)).collect();
-    let daughter_of = |n: Entity, el: Entity| -> Entity {
-        match group_of.get(&n) {
-            Some(of_elem) => daughters[&n][of_elem[&el]],
-            None => n,
-        }
-    };
-    // Elements: relink to the daughters of their group.
+    daughters
+}
+
+/// Relinks every element at a split node to the daughter of its group.
+fn relink_elements(model: &mut Model, split: &Daughters) {
     let elems_at: Vec<(Entity, [Entity; 3])> = model
         .world
         .query::<(Entity, &ElemNodes)>()
         .iter()
-        .filter(|(_, en)| en.0.iter().any(|n| daughters.contains_key(n)))
+        .filter(|(_, en)| en.0.iter().any(|n| split.of.contains_key(n)))
         .map(|(e, en)| (e, en.0))
         .collect();
     for (el, nodes) in elems_at {
-        let new = nodes.map(|n| daughter_of(n, el));
+        let new = nodes.map(|n| split.daughter_of(n, el));
         model.world.get::<&mut ElemNodes>(el).expect("element").0 = new;
     }
-    // Edges that stay closed or were already external: relink their split ends.
+}
+
+/// Relinks the split ends of the edges at split nodes that stay closed or were already
+/// external; returns the ready edges that a split end separates (to open), unsorted.
+fn relink_edges(
+    model: &mut Model,
+    split: &Daughters,
+    node_edges: &HashMap<Entity, Vec<Entity>>,
+    is_ready: &HashMap<Entity, ()>,
+) -> Vec<Entity> {
     let mut opened: Vec<Entity> = Vec::new();
-    let touched: BTreeSet<(u64, Entity)> = daughters
+    let touched: BTreeSet<(u64, Entity)> = split
+        .of
         .keys()
         .flat_map(|n| node_edges[n].iter().copied())
         .map(|e| (stable(&model.world, e), e))
@@ -223,79 +272,119 @@ pub fn open_edges(model: &mut Model, ready: &[Entity], aperture: f64, t: f64) ->
         if is_ready.contains_key(&e) {
             let [Some(a), Some(b)] = ee else { continue };
             // Opened where some split end separates the two elements.
-            if en
-                .iter()
-                .any(|&n| daughters.contains_key(&n) && daughter_of(n, a) != daughter_of(n, b))
-            {
+            if en.iter().any(|&n| {
+                split.of.contains_key(&n) && split.daughter_of(n, a) != split.daughter_of(n, b)
+            }) {
                 opened.push(e);
             } else {
-                let new = en.map(|n| daughter_of(n, a));
+                let new = en.map(|n| split.daughter_of(n, a));
                 model.world.get::<&mut EdgeNodes>(e).expect("edge").0 = new;
             }
             continue;
         }
         let el = ee[0].expect("edge has an element");
-        let new = en.map(|n| daughter_of(n, el));
+        let new = en.map(|n| split.daughter_of(n, el));
         model.world.get::<&mut EdgeNodes>(e).expect("edge").0 = new;
     }
+    opened
+}
+
+/// Opens the mother edge `e`: one daughter edge per element (the sisters), the edge out of the
+/// solid, a flow cell of initial aperture `aperture` (m) created at `t` (s) between the root
+/// mothers of its ends, and the joint of the three.
+fn open_mother_edge(
+    model: &mut Model,
+    split: &Daughters,
+    e: Entity,
+    (aperture, t): (f64, f64),
+    report: &mut SplitReport,
+) {
+    let (en, ee) = {
+        let w = &model.world;
+        (
+            w.get::<&EdgeNodes>(e).expect("edge").0,
+            w.get::<&EdgeElems>(e).expect("edge").0,
+        )
+    };
+    let mut sisters = [e; 2];
+    for (s, el) in ee.into_iter().enumerate() {
+        let el = el.expect("internal edge");
+        let id = model.next_edge_id;
+        model.next_edge_id += 1;
+        let bundle: EdgeBundle = (
+            StableId(id),
+            EdgeNodes(en.map(|n| split.daughter_of(n, el))),
+            EdgeElems([Some(el), None]),
+            EdgeState::default(),
+        );
+        sisters[s] = model.world.spawn(bundle);
+    }
+    {
+        let mut st = model.world.get::<&mut EdgeState>(e).expect("edge");
+        st.opened = true;
+        st.fracture_ready = true;
+    }
+    let ends = en.map(|n| root(&model.world, n));
+    let cid = model.next_cell_id;
+    model.next_cell_id += 1;
+    let cell_bundle: CellBundle = (
+        StableId(cid),
+        CellNodes(ends),
+        CellFluid {
+            aperture,
+            ..Default::default()
+        },
+        CellOrigin {
+            kind: CellKind::New,
+            created_t: t,
+        },
+    );
+    let cell = model.world.spawn(cell_bundle);
+    let jid = model.next_joint_id;
+    model.next_joint_id += 1;
+    let joint_bundle: JointBundle = (
+        StableId(jid),
+        Joint {
+            edges: sisters,
+            mother_edge: e,
+            cell,
+        },
+        JointState::default(),
+    );
+    report.joints.push(model.world.spawn(joint_bundle));
+    report.cells.push(cell);
+    report.opened_edges += 1;
+}
+
+/// Open the given internal solid edges by node splitting. `aperture` is the initial hydraulic
+/// aperture of the new cells (m), `t` the time they are created (s). Edges that are not internal
+/// solid edges are ignored; edges that no split separates stay as they are (a ready edge with
+/// both ends interior waits until the fracture reaches it).
+pub fn open_edges(model: &mut Model, ready: &[Entity], aperture: f64, t: f64) -> SplitReport {
+    let world = &model.world;
+    // Solid edges around every node, and the ready set.
+    let ready = ready_edges(world, ready);
+    if ready.is_empty() {
+        return SplitReport::default();
+    }
+    let is_ready: HashMap<Entity, ()> = ready.iter().map(|&(_, e)| (e, ())).collect();
+    let node_edges = solid_edges_at_nodes(world);
+    let groups = split_groups(world, &ready, &is_ready, &node_edges);
+    if groups.is_empty() {
+        return SplitReport::default();
+    }
+    let mut report = SplitReport::default();
+    let of = spawn_daughters(model, &groups, &mut report);
+    let split = Daughters {
+        of,
+        group_of: groups.values().map(|(n, g, _)| (*n, g)).collect(),
+    };
+    relink_elements(model, &split);
+    let mut opened = relink_edges(model, &split, &node_edges, &is_ready);
     // Opened mother edges: two daughter edges, a flow cell between root mothers, a joint.
     opened.sort_by_key(|&e| stable(&model.world, e));
     for e in opened {
-        let (en, ee) = {
-            let w = &model.world;
-            (
-                w.get::<&EdgeNodes>(e).expect("edge").0,
-                w.get::<&EdgeElems>(e).expect("edge").0,
-            )
-        };
-        let mut sisters = [e; 2];
-        for (s, el) in ee.into_iter().enumerate() {
-            let el = el.expect("internal edge");
-            let id = model.next_edge_id;
-            model.next_edge_id += 1;
-            let bundle: EdgeBundle = (
-                StableId(id),
-                EdgeNodes(en.map(|n| daughter_of(n, el))),
-                EdgeElems([Some(el), None]),
-                EdgeState::default(),
-            );
-            sisters[s] = model.world.spawn(bundle);
-        }
-        {
-            let mut st = model.world.get::<&mut EdgeState>(e).expect("edge");
-            st.opened = true;
-            st.fracture_ready = true;
-        }
-        let ends = en.map(|n| root(&model.world, n));
-        let cid = model.next_cell_id;
-        model.next_cell_id += 1;
-        let cell_bundle: CellBundle = (
-            StableId(cid),
-            CellNodes(ends),
-            CellFluid {
-                aperture,
-                ..Default::default()
-            },
-            CellOrigin {
-                kind: CellKind::New,
-                created_t: t,
-            },
-        );
-        let cell = model.world.spawn(cell_bundle);
-        let jid = model.next_joint_id;
-        model.next_joint_id += 1;
-        let joint_bundle: JointBundle = (
-            StableId(jid),
-            Joint {
-                edges: sisters,
-                mother_edge: e,
-                cell,
-            },
-            JointState::default(),
-        );
-        report.joints.push(model.world.spawn(joint_bundle));
-        report.cells.push(cell);
-        report.opened_edges += 1;
+        open_mother_edge(model, &split, e, (aperture, t), &mut report);
     }
     model.topology_generation += 1;
     report

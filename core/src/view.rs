@@ -118,6 +118,39 @@ pub fn incidence<const K: usize>(
     (ptr, inc)
 }
 
+/// An internal solid edge: (stable id, entity, its two elements, its two nodes (dense), unit
+/// normal, state).
+type EdgeRow = (u64, Entity, [u32; 2], [u32; 2], [f64; 2], EdgeState);
+
+/// The internal solid edges not opened (opened mother edges left the solid: their sister
+/// daughters are joints), by stable id, with dense element and node indices and the unit
+/// normal of the reference positions.
+fn internal_edges(world: &hecs::World, dense: &[u32], elem_dense: &[u32]) -> Vec<EdgeRow> {
+    let mut edges: Vec<EdgeRow> = world
+        .query::<(Entity, &StableId, &EdgeNodes, &EdgeElems, &EdgeState)>()
+        .iter()
+        .filter_map(|(e, id, en, ee, st)| {
+            // Opened (mother) edges left the solid: their sister daughters are joints.
+            let ([Some(a), Some(b)], false) = (ee.0, st.opened) else {
+                return None;
+            };
+            let [p, q] = en.0.map(|n| world.get::<&NodeRef>(n).expect("node").0);
+            let (dx, dy) = (q[0] - p[0], q[1] - p[1]);
+            let len = dx.hypot(dy);
+            Some((
+                id.0,
+                e,
+                [elem_dense[a.id() as usize], elem_dense[b.id() as usize]],
+                en.0.map(|x| dense[x.id() as usize]),
+                [dy / len, -dx / len],
+                *st,
+            ))
+        })
+        .collect();
+    edges.sort_unstable_by_key(|r| r.0);
+    edges
+}
+
 impl SolidView {
     /// Joints whose two faces share one end node, by node then joint: (that node, joint, the
     /// daughter pair at the joint's other end [face p's, face q's]). A node listed once is a
@@ -148,6 +181,37 @@ impl SolidView {
     /// Build the view from the model (nodes in the solid only), ordered by stable id.
     pub fn build(model: &Model) -> Self {
         let world = &model.world;
+        let max_index = world
+            .iter()
+            .map(|e| e.entity().id())
+            .max()
+            .map_or(0, |m| m as usize + 1);
+        let mut dense = vec![NONE; max_index];
+        let mut v = SolidView {
+            generation: model.topology_generation,
+            ..Default::default()
+        };
+        v.push_nodes(world, &mut dense);
+        v.push_elements(world, &dense);
+        // Node incidence (CSR) for the deterministic gather of element forces.
+        (v.inc_ptr, v.inc) = incidence(v.n_nodes(), &v.conn, |e, k| (6 * e + 2 * k) as u32);
+        // Internal edges for the fracture criterion.
+        let mut elem_dense = vec![NONE; max_index];
+        for (k, e) in v.elem_entity.iter().enumerate() {
+            elem_dense[e.id() as usize] = k as u32;
+        }
+        let edges = internal_edges(world, &dense, &elem_dense);
+        v.push_edge_patches(&edges);
+        v.push_edges(edges);
+        v.push_joints(model, &dense);
+        v
+    }
+
+    /// The nodes in the solid, by stable id: reference position (m), displacement (m),
+    /// velocity (m/s), mass and its inverse (kg per metre), load (N per metre) and the
+    /// prescribed displacements (mask and values, m); `dense` maps each node entity's index to
+    /// its dense index.
+    fn push_nodes(&mut self, world: &hecs::World, dense: &mut [u32]) {
         let mut nodes: Vec<(u64, Entity, [f64; 2], NodeState, f64, NodeBc)> = world
             .query::<(
                 Entity,
@@ -163,17 +227,8 @@ impl SolidView {
             .map(|(e, id, x, s, m, bc, _)| (id.0, e, x.0, *s, m.0, *bc))
             .collect();
         nodes.sort_unstable_by_key(|r| r.0);
-        let max_index = world
-            .iter()
-            .map(|e| e.entity().id())
-            .max()
-            .map_or(0, |m| m as usize + 1);
-        let mut dense = vec![NONE; max_index];
         let n = nodes.len();
-        let mut v = SolidView {
-            generation: model.topology_generation,
-            ..Default::default()
-        };
+        let v = self;
         v.node_entity.reserve(n);
         for (i, (id, e, x, s, m, bc)) in nodes.into_iter().enumerate() {
             dense[e.id() as usize] = i as u32;
@@ -198,7 +253,11 @@ impl SolidView {
         }
         v.force = vec![[0.0; 2]; n];
         v.f_damp = vec![[0.0; 2]; n];
+    }
 
+    /// The elements by stable id: connectivity (dense node indices), geometry (area m^2 and
+    /// shape-function gradients 1/m) and stress (Pa).
+    fn push_elements(&mut self, world: &hecs::World, dense: &[u32]) {
         let mut elems: Vec<(u64, Entity, ElemNodes, ElemGeom, [f64; 3])> = world
             .query::<(Entity, &StableId, &ElemNodes, &ElemGeom, &ElemStress)>()
             .iter()
@@ -206,6 +265,7 @@ impl SolidView {
             .collect();
         elems.sort_unstable_by_key(|r| r.0);
         let ne = elems.len();
+        let v = self;
         v.elem_entity.reserve(ne);
         for (id, e, en, g, s) in elems {
             v.elem_entity.push(e);
@@ -217,40 +277,15 @@ impl SolidView {
             v.stress.push(s);
         }
         v.elem_force = vec![[0.0; 6]; ne];
-        // Node incidence (CSR) for the deterministic gather of element forces.
-        (v.inc_ptr, v.inc) = incidence(n, &v.conn, |e, k| (6 * e + 2 * k) as u32);
-        // Internal edges for the fracture criterion.
-        let mut elem_dense = vec![NONE; max_index];
-        for (k, e) in v.elem_entity.iter().enumerate() {
-            elem_dense[e.id() as usize] = k as u32;
-        }
-        // (stable id, entity, its two elements, unit normal, state)
-        type EdgeRow = (u64, Entity, [u32; 2], [u32; 2], [f64; 2], EdgeState);
-        let mut edges: Vec<EdgeRow> = world
-            .query::<(Entity, &StableId, &EdgeNodes, &EdgeElems, &EdgeState)>()
-            .iter()
-            .filter_map(|(e, id, en, ee, st)| {
-                // Opened (mother) edges left the solid: their sister daughters are joints.
-                let ([Some(a), Some(b)], false) = (ee.0, st.opened) else {
-                    return None;
-                };
-                let [p, q] = en.0.map(|n| world.get::<&NodeRef>(n).expect("node").0);
-                let (dx, dy) = (q[0] - p[0], q[1] - p[1]);
-                let len = dx.hypot(dy);
-                Some((
-                    id.0,
-                    e,
-                    [elem_dense[a.id() as usize], elem_dense[b.id() as usize]],
-                    en.0.map(|x| dense[x.id() as usize]),
-                    [dy / len, -dx / len],
-                    *st,
-                ))
-            })
-            .collect();
-        edges.sort_unstable_by_key(|r| r.0);
+    }
+
+    /// Per internal edge (in `edges`' order), the patch of elements around it whose centroids
+    /// project strictly inside the edge, each with its share of the patch's area.
+    fn push_edge_patches(&mut self, edges: &[EdgeRow]) {
+        let v = self;
         v.patch_ptr.push(0);
         let mut cand: Vec<u32> = Vec::new();
-        for &(_, _, _, nodes, _, _) in &edges {
+        for &(_, _, _, nodes, _, _) in edges {
             let [a, b] = nodes.map(|x| v.x0[x as usize]);
             let t = [b[0] - a[0], b[1] - a[1]];
             let l2 = t[0] * t[0] + t[1] * t[1];
@@ -281,15 +316,25 @@ impl SolidView {
             }
             v.patch_ptr.push(v.patch.len() as u32);
         }
+    }
+
+    /// The internal edges: entity, elements, nodes, unit normal, normal stress (Pa) and
+    /// readiness.
+    fn push_edges(&mut self, edges: Vec<EdgeRow>) {
         for (_, e, el, nodes, n, st) in edges {
-            v.edge_entity.push(e);
-            v.edge_elems.push(el);
-            v.edge_nodes.push(nodes);
-            v.edge_normal.push(n);
-            v.edge_sigma_n.push(st.sigma_n);
-            v.edge_ready.push(st.fracture_ready);
+            self.edge_entity.push(e);
+            self.edge_elems.push(el);
+            self.edge_nodes.push(nodes);
+            self.edge_normal.push(n);
+            self.edge_sigma_n.push(st.sigma_n);
+            self.edge_ready.push(st.fracture_ready);
         }
-        // Joints.
+    }
+
+    /// The joints whose four face nodes are all in the solid, by stable id: dense nodes, the
+    /// sign of face p's tangent against its outward normal, and state.
+    fn push_joints(&mut self, model: &Model, dense: &[u32]) {
+        let world = &model.world;
         let mut joints: Vec<(u64, Entity, Joint, JointState)> = world
             .query::<(Entity, &StableId, &Joint, &JointState)>()
             .iter()
@@ -310,12 +355,11 @@ impl SolidView {
             } else {
                 -1.0
             };
-            v.joint_entity.push(e);
-            v.joint_nodes.push(nodes);
-            v.joint_sign.push(sign);
-            v.joint_state.push(st);
+            self.joint_entity.push(e);
+            self.joint_nodes.push(nodes);
+            self.joint_sign.push(sign);
+            self.joint_state.push(st);
         }
-        v
     }
 
     pub fn n_nodes(&self) -> usize {

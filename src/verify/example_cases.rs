@@ -198,132 +198,162 @@ pub fn example1(_quick: bool) -> anyhow::Result<CaseResult> {
             continue;
         };
         for (r, s) in [(&e, "explicit"), (&q, "quasi_static")] {
-            res.check_max(format!("{name}: mass balance, {s}"), r.balance, 1e-9);
-            let new = r.new_cells();
-            res.check_range(
-                format!("{name}: new cells, {s}"),
-                new.len() as f64,
-                1.0,
-                1e9,
-            );
-            if name == "cross" {
-                let (beyond, closed, off) = cross_outcome(r);
-                res.check_range(
-                    format!("{name}: new cells past x = 17 m, {s}"),
-                    beyond as f64,
-                    1.0,
-                    1e9,
-                );
-                // "Mostly closed" (R9): at least 6 of the 8 cells at the residual aperture.
-                res.check_range(
-                    format!("{name}: vertical cells closed (of 8), {s}"),
-                    closed as f64,
-                    6.0,
-                    8.0,
-                );
-                res.check_max(
-                    format!("{name}: new cells off y = 50 m, {s}"),
-                    off as f64,
-                    0.0,
-                );
-            } else {
-                let (beyond, filled, tips) = offset_outcome(r);
-                res.check_max(
-                    format!("{name}: new cells past x = 17 m on y = 50 m, {s}"),
-                    beyond as f64,
-                    0.0,
-                );
-                res.check_range(
-                    format!("{name}: vertical cells above 10 MPa (of 8), {s}"),
-                    filled as f64,
-                    8.0,
-                    8.0,
-                );
-                res.check_range(
-                    format!("{name}: new cells near the vertical tips, {s}"),
-                    tips as f64,
-                    1.0,
-                    1e9,
-                );
-            }
+            check_fig7_outcome(&mut res, name, s, r);
         }
-        let (missing, extra, mean, worst) = agreement(&e, &q);
+        check_scheme_agreement(&mut res, name, &e, &q);
+        table += &cells_table(name, &e, &q);
+    }
+    example1_toughness(&mut res, end)?;
+    res.files.push(("example1_cells.csv".into(), table));
+    Ok(res)
+}
+
+/// Checks one strength-criterion run `r` of scene `name` (scheme `s`) for mass balance, new
+/// cells and Fig. 7's outcome (cross: the fracture runs past x = 17 m on y = 50 m, the
+/// vertical cells mostly closed, nothing off it; offset: nothing past x = 17 m on y = 50 m,
+/// the vertical cells above 10 MPa, new cells near the vertical tips).
+fn check_fig7_outcome(res: &mut CaseResult, name: &str, s: &str, r: &ExampleRun) {
+    res.check_max(format!("{name}: mass balance, {s}"), r.balance, 1e-9);
+    let new = r.new_cells();
+    res.check_range(
+        format!("{name}: new cells, {s}"),
+        new.len() as f64,
+        1.0,
+        1e9,
+    );
+    if name == "cross" {
+        let (beyond, closed, off) = cross_outcome(r);
+        res.check_range(
+            format!("{name}: new cells past x = 17 m, {s}"),
+            beyond as f64,
+            1.0,
+            1e9,
+        );
+        // "Mostly closed" (R9): at least 6 of the 8 cells at the residual aperture.
+        res.check_range(
+            format!("{name}: vertical cells closed (of 8), {s}"),
+            closed as f64,
+            6.0,
+            8.0,
+        );
         res.check_max(
-            format!("{name}: explicit cells the quasi-static run lacks"),
-            missing as f64,
+            format!("{name}: new cells off y = 50 m, {s}"),
+            off as f64,
             0.0,
         );
-        // Extra cells only at the paths' ends: the quasi-static fracture runs ahead by the
-        // inertia the explicit rock has (measured 6 of 33 in cross at 1.5 s, 0 in offset).
+    } else {
+        let (beyond, filled, tips) = offset_outcome(r);
         res.check_max(
-            format!("{name}: quasi-static cells the explicit run lacks / explicit cells"),
-            extra as f64 / e.new_cells().len().max(1) as f64,
-            0.25,
+            format!("{name}: new cells past x = 17 m on y = 50 m, {s}"),
+            beyond as f64,
+            0.0,
         );
-        // Without inertia each face reaches the criterion earlier (measured 5-15 %).
         res.check_range(
-            format!("{name}: mean creation time (q - e) / e"),
-            mean,
-            -0.25,
-            0.05,
+            format!("{name}: vertical cells above 10 MPa (of 8), {s}"),
+            filled as f64,
+            8.0,
+            8.0,
         );
-        let dv = (q.injected - e.injected) / e.injected;
-        // The pump (a pressure-limited curve) injects more into a longer fracture: with the
-        // quasi-static path ahead (18 % more cells in cross at 1.5 s) the volume is 16 % more
-        // there, 1.7 % in offset (the same cells).
-        res.check_max(
-            format!("{name}: injected volume |q - e| / e"),
-            dv.abs(),
-            0.2,
+        res.check_range(
+            format!("{name}: new cells near the vertical tips, {s}"),
+            tips as f64,
+            1.0,
+            1e9,
         );
-        for (r, s) in [(&e, "explicit"), (&q, "quasi_static")] {
-            for (m, err) in [("injected", dv.abs()), ("created", mean.abs())] {
-                res.rows.push(Row {
-                    case: "example1",
-                    level: 0,
-                    h: 1.0,
-                    unknowns: r.unknowns,
-                    metric: format!("{name}_{m}_{s}"),
-                    error: err,
-                    wall_s: r.wall,
-                });
-            }
+    }
+}
+
+/// Checks that the quasi-static run `q` of scene `name` agrees with the explicit run `e` (the
+/// same cells, creation times and injected volume within the measured bounds) and adds the
+/// rows (relative differences) and the note.
+fn check_scheme_agreement(res: &mut CaseResult, name: &str, e: &ExampleRun, q: &ExampleRun) {
+    let (missing, extra, mean, worst) = agreement(e, q);
+    res.check_max(
+        format!("{name}: explicit cells the quasi-static run lacks"),
+        missing as f64,
+        0.0,
+    );
+    // Extra cells only at the paths' ends: the quasi-static fracture runs ahead by the
+    // inertia the explicit rock has (measured 6 of 33 in cross at 1.5 s, 0 in offset).
+    res.check_max(
+        format!("{name}: quasi-static cells the explicit run lacks / explicit cells"),
+        extra as f64 / e.new_cells().len().max(1) as f64,
+        0.25,
+    );
+    // Without inertia each face reaches the criterion earlier (measured 5-15 %).
+    res.check_range(
+        format!("{name}: mean creation time (q - e) / e"),
+        mean,
+        -0.25,
+        0.05,
+    );
+    let dv = (q.injected - e.injected) / e.injected;
+    // The pump (a pressure-limited curve) injects more into a longer fracture: with the
+    // quasi-static path ahead (18 % more cells in cross at 1.5 s) the volume is 16 % more
+    // there, 1.7 % in offset (the same cells).
+    res.check_max(
+        format!("{name}: injected volume |q - e| / e"),
+        dv.abs(),
+        0.2,
+    );
+    for (r, s) in [(e, "explicit"), (q, "quasi_static")] {
+        for (m, err) in [("injected", dv.abs()), ("created", mean.abs())] {
+            res.rows.push(Row {
+                case: "example1",
+                level: 0,
+                h: 1.0,
+                unknowns: r.unknowns,
+                metric: format!("{name}_{m}_{s}"),
+                error: err,
+                wall_s: r.wall,
+            });
         }
-        res.notes.push(format!(
+    }
+    res.notes.push(format!(
             "{name}: explicit {} steps {:.1} s, {} new cells, injected {:.4} m^2; quasi-static {} steps {:.1} s ({:.2}x), {} new cells, injected {:.4} m^2; creation time (q - e) / e mean {:+.3}, largest {:.3}",
             e.steps, e.wall, e.new_cells().len(), e.injected,
             q.steps, q.wall, q.wall / e.wall, q.new_cells().len(), q.injected, mean, worst
         ));
-        for c in e.new_cells() {
-            let tq = q.new_cells().iter().find(|d| d.same(&c)).map(|d| d.created);
-            table += &format!(
-                "{name},{},{},{},{},{:e},{}\n",
-                c.x[0],
-                c.x[1],
-                c.y[0],
-                c.y[1],
-                c.created,
-                tq.map_or(String::new(), |t| format!("{t:e}"))
-            );
-        }
-        for c in q
-            .new_cells()
-            .iter()
-            .filter(|c| !e.new_cells().iter().any(|d| d.same(c)))
-        {
-            table += &format!(
-                "{name},{},{},{},{},,{:e}\n",
-                c.x[0], c.x[1], c.y[0], c.y[1], c.created
-            );
-        }
+}
+
+/// The rows of `example1_cells.csv` for scene `name`: every new cell of the explicit run `e`
+/// (ends in m, creation time in s, with the quasi-static run `q`'s where it has the cell),
+/// then the cells only `q` has.
+fn cells_table(name: &str, e: &ExampleRun, q: &ExampleRun) -> String {
+    let mut table = String::new();
+    for c in e.new_cells() {
+        let tq = q.new_cells().iter().find(|d| d.same(&c)).map(|d| d.created);
+        table += &format!(
+            "{name},{},{},{},{},{:e},{}\n",
+            c.x[0],
+            c.x[1],
+            c.y[0],
+            c.y[1],
+            c.created,
+            tq.map_or(String::new(), |t| format!("{t:e}"))
+        );
     }
-    // The toughness criterion on the same scenes, checked for Fig. 7's outcome (cross: the
-    // fracture runs on past x = 17 m on y = 50 m and nothing starts off it; offset: nothing
-    // past x = 17 m on y = 50 m, new fractures near the vertical fracture's tips):
-    // K_Ic = 38.5 MPa sqrt(m), the toughness the seed's strength test acts like on this mesh
-    // (3.5 (s0 + lambda T0) sqrt(h) with s0 = 10 MPa, lambda T0 = 1 MPa, h = 1 m), and the
-    // seed's 1 MPa as the initiation strength away from tips. The shipped scenarios keep the
-    // strength criterion.
+    for c in q
+        .new_cells()
+        .iter()
+        .filter(|c| !e.new_cells().iter().any(|d| d.same(c)))
+    {
+        table += &format!(
+            "{name},{},{},{},{},,{:e}\n",
+            c.x[0], c.x[1], c.y[0], c.y[1], c.created
+        );
+    }
+    table
+}
+
+/// The toughness criterion on the same scenes, checked for Fig. 7's outcome (cross: the
+/// fracture runs on past x = 17 m on y = 50 m and nothing starts off it; offset: nothing
+/// past x = 17 m on y = 50 m, new fractures near the vertical fracture's tips):
+/// K_Ic = 38.5 MPa sqrt(m), the toughness the seed's strength test acts like on this mesh
+/// (3.5 (s0 + lambda T0) sqrt(h) with s0 = 10 MPa, lambda T0 = 1 MPa, h = 1 m), and the
+/// seed's 1 MPa as the initiation strength away from tips, runs to `end` (s). The shipped
+/// scenarios keep the strength criterion.
+fn example1_toughness(res: &mut CaseResult, end: f64) -> anyhow::Result<()> {
     for (name, ron) in [("cross", CROSS_RON), ("offset", OFFSET_RON)] {
         let from = "strength: Some(1e6),";
         anyhow::ensure!(
@@ -348,61 +378,60 @@ pub fn example1(_quick: bool) -> anyhow::Result<CaseResult> {
                     res.notes
                         .push(format!("{name}, toughness, {scheme}: {e:#}"));
                 }
-                Ok(r) => {
-                    res.check_max(
-                        format!("{name}: mass balance, toughness, {scheme}"),
-                        r.balance,
-                        1e-9,
-                    );
-                    let new = r.new_cells();
-                    let reach = new.iter().map(|c| c.x[1].max(c.x[0])).fold(0.0, f64::max);
-                    let outcome = if name == "cross" {
-                        let (beyond, closed, off) = cross_outcome(&r);
-                        res.check_range(
-                            format!("{name}: new cells past x = 17 m, toughness, {scheme}"),
-                            beyond as f64,
-                            1.0,
-                            1e9,
-                        );
-                        res.check_max(
-                            format!("{name}: new cells off y = 50 m, toughness, {scheme}"),
-                            off as f64,
-                            0.0,
-                        );
-                        format!(
-                            "{beyond} new cells past x = 17 m on y = 50 m, {closed} of 8 vertical cells closed, {off} new cells off y = 50 m"
-                        )
-                    } else {
-                        let (beyond, filled, tips) = offset_outcome(&r);
-                        res.check_max(
-                            format!(
-                                "{name}: new cells past x = 17 m on y = 50 m, toughness, {scheme}"
-                            ),
-                            beyond as f64,
-                            0.0,
-                        );
-                        res.check_range(
-                            format!(
-                                "{name}: new cells near the vertical tips, toughness, {scheme}"
-                            ),
-                            tips as f64,
-                            1.0,
-                            1e9,
-                        );
-                        format!(
-                            "{beyond} new cells past x = 17 m on y = 50 m, {filled} of 8 vertical cells above 10 MPa, {tips} new cells near the vertical tips"
-                        )
-                    };
-                    res.notes.push(format!(
-                    "{name}, toughness criterion (K_Ic = {:.1} MPa sqrt(m), {scheme}): {} steps {:.1} s, {} new cells reaching x = {reach:.1} m, injected {:.4} m^2; {outcome}",
-                    1e-6 * EXAMPLE1_K_IC, r.steps, r.wall, new.len(), r.injected
-                ));
-                }
+                Ok(r) => check_toughness_run(res, name, scheme, &r),
             }
         }
     }
-    res.files.push(("example1_cells.csv".into(), table));
-    Ok(res)
+    Ok(())
+}
+
+/// Checks one toughness-criterion run `r` of scene `name` (scheme `scheme`) for mass balance
+/// and Fig. 7's outcome, and adds its note.
+fn check_toughness_run(res: &mut CaseResult, name: &str, scheme: &str, r: &ExampleRun) {
+    res.check_max(
+        format!("{name}: mass balance, toughness, {scheme}"),
+        r.balance,
+        1e-9,
+    );
+    let new = r.new_cells();
+    let reach = new.iter().map(|c| c.x[1].max(c.x[0])).fold(0.0, f64::max);
+    let outcome = if name == "cross" {
+        let (beyond, closed, off) = cross_outcome(r);
+        res.check_range(
+            format!("{name}: new cells past x = 17 m, toughness, {scheme}"),
+            beyond as f64,
+            1.0,
+            1e9,
+        );
+        res.check_max(
+            format!("{name}: new cells off y = 50 m, toughness, {scheme}"),
+            off as f64,
+            0.0,
+        );
+        format!(
+            "{beyond} new cells past x = 17 m on y = 50 m, {closed} of 8 vertical cells closed, {off} new cells off y = 50 m"
+        )
+    } else {
+        let (beyond, filled, tips) = offset_outcome(r);
+        res.check_max(
+            format!("{name}: new cells past x = 17 m on y = 50 m, toughness, {scheme}"),
+            beyond as f64,
+            0.0,
+        );
+        res.check_range(
+            format!("{name}: new cells near the vertical tips, toughness, {scheme}"),
+            tips as f64,
+            1.0,
+            1e9,
+        );
+        format!(
+            "{beyond} new cells past x = 17 m on y = 50 m, {filled} of 8 vertical cells above 10 MPa, {tips} new cells near the vertical tips"
+        )
+    };
+    res.notes.push(format!(
+                    "{name}, toughness criterion (K_Ic = {:.1} MPa sqrt(m), {scheme}): {} steps {:.1} s, {} new cells reaching x = {reach:.1} m, injected {:.4} m^2; {outcome}",
+                    1e-6 * EXAMPLE1_K_IC, r.steps, r.wall, new.len(), r.injected
+                ));
 }
 
 /// K_Ic of `example1`'s toughness-criterion runs, Pa sqrt(m).

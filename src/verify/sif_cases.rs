@@ -216,13 +216,28 @@ pub fn sif(quick: bool) -> anyhow::Result<CaseResult> {
     } else {
         &[10.0, 20.0, 40.0]
     };
-    let (p, sigma) = (1e6, 1e6);
     let mut res = CaseResult::default();
-    let quarter = 0.25 * PI;
-    let (snapped, conforming) = (CrackMesh::Snapped, CrackMesh::Conforming);
     // The far boundary's effect on K_I of the horizontal crack, per level.
     let mut horizontal_domain = Vec::new();
-    for (case, angle, load, mesh) in [
+    for case in sif_cases() {
+        for (level, &n) in levels.iter().enumerate() {
+            sif_level(&mut res, case, (level, n), &mut horizontal_domain)?;
+        }
+    }
+    Ok(res)
+}
+
+/// A SIF case: (name, crack angle from the x axis in rad, load, mesh).
+type SifCase = (&'static str, f64, CrackLoad, CrackMesh);
+
+/// The SIF cases: a pressurised crack (1 MPa) at 0 and 45 degrees on the graded mesh, one
+/// under remote tension (1 MPa) at 45 degrees, and both loads at 30 degrees on the conforming
+/// mesh.
+fn sif_cases() -> [SifCase; 5] {
+    let (p, sigma) = (1e6, 1e6);
+    let quarter = 0.25 * PI;
+    let (snapped, conforming) = (CrackMesh::Snapped, CrackMesh::Conforming);
+    [
         ("pressure_0deg", 0.0, CrackLoad::Pressure(p), snapped),
         ("pressure_45deg", quarter, CrackLoad::Pressure(p), snapped),
         (
@@ -244,118 +259,188 @@ pub fn sif(quick: bool) -> anyhow::Result<CaseResult> {
             CrackLoad::TensionY(sigma),
             conforming,
         ),
-    ] {
-        for (level, &n) in levels.iter().enumerate() {
-            let (a, h) = if angle == 0.0 || mesh == conforming {
-                (1.0, 1.0 / n)
-            } else {
-                let nd = (n / 2f64.sqrt()).round();
-                (1.0, 1.0 / (nd * 2f64.sqrt()))
-            };
-            let ah = a / h;
-            let run = crack_sif(a, h, 20.0 * a, angle, load, mesh)?;
-            let k0 = match load {
-                CrackLoad::Pressure(p) => p * (PI * a).sqrt(),
-                CrackLoad::TensionY(s) => s * (PI * a).sqrt(),
-            };
-            let (k1_exact, k2_exact) = match load {
-                CrackLoad::Pressure(_) => (k0, 0.0),
-                // The remote sigma_yy resolved on the crack at `angle` from the x axis:
-                // sigma_nn = sigma cos^2, tau = sigma sin cos.
-                CrackLoad::TensionY(_) => {
-                    (k0 * angle.cos().powi(2), k0 * angle.sin() * angle.cos())
-                }
-            };
-            res.check_max(
-                format!("{case}: snapping error, a/h = {ah:.1} (m)"),
-                run.snap_error,
-                1e-9,
-            );
-            // Both tips alike: the problem is symmetric under a half turn, the mesh nearly
-            // (its diagonal pattern and, under tension, the rollers on two sides only; the
-            // conforming mesh's refinement is not exactly symmetric: measured up to 8.4e-5).
-            res.check_max(
-                format!("{case}: K_I tips differ, a/h = {ah:.1}"),
-                (run.k1[0] - run.k1[1]).abs() / k0,
-                if mesh == conforming { 5e-4 } else { 1e-4 },
-            );
-            let e1 = (run.k1[1] - k1_exact) / k1_exact;
-            let mut rows = vec![("k1".to_string(), e1, run.wall_s)];
-            match load {
-                CrackLoad::Pressure(p) => {
-                    // On the conforming mesh, larger squares also change the mesh near the
-                    // crack (measured: +0.93 % at a/h = 10, -0.19 % at 20), so the far
-                    // boundary's effect is taken from the horizontal crack on the graded mesh
-                    // at the same a/h (0.34-0.37 %; 0.31-0.33 % at 45 degrees: it hardly
-                    // depends on the angle).
-                    let (d, wall) = match mesh {
-                        CrackMesh::Conforming => (
-                            *horizontal_domain.get(level).ok_or_else(|| {
-                                anyhow::anyhow!("sif: no horizontal domain effect at level {level}")
-                            })?,
-                            0.0,
-                        ),
-                        CrackMesh::Snapped => domain_effect(a, h, angle, p, run.k1[1])?,
-                    };
-                    if case == "pressure_0deg" {
-                        horizontal_domain.push(d);
-                    }
-                    let corrected = (1.0 + e1) * (1.0 + d) - 1.0;
-                    rows.push(("k1_corrected".into(), corrected, run.wall_s + wall));
-                    rows.push(("domain_effect".into(), d, wall));
-                    // Zero by symmetry about the crack line; the diagonal pattern is not
-                    // mirror-symmetric about it (measured 1.2e-4 to 1.4e-4), nor is the
-                    // conforming mesh (measured 2.0e-3 to 3.2e-3).
-                    res.check_max(
-                        format!("{case}: |K_II| / p sqrt(pi a), a/h = {ah:.1}"),
-                        run.k2[1].abs() / k0,
-                        if mesh == conforming { 5e-3 } else { 1e-3 },
-                    );
-                    res.check_range(
-                        format!("{case}: domain effect on K_I at 20a, a/h = {ah:.1}"),
-                        d,
-                        0.0,
-                        0.01,
-                    );
-                    if n >= 20.0 {
-                        res.check_max(
-                            format!("{case}: corrected K_I error, a/h = {ah:.1}"),
-                            corrected.abs(),
-                            0.02,
-                        );
-                    }
-                }
-                CrackLoad::TensionY(_) => {
-                    let e2 = (run.k2[1].abs() - k2_exact) / k2_exact;
-                    rows.push(("k2".into(), e2, run.wall_s));
-                    let exact_theta =
-                        crate::systems::toughness::max_hoop_stress(k1_exact, k2_exact).0;
-                    // The growth angle at the upper tip, against the maximum hoop stress's
-                    // (-53.13 degrees for K_I = K_II; the sign of K_II follows the slip).
-                    let theta = run.theta[1].abs();
-                    rows.push((
-                        "theta".into(),
-                        (theta - exact_theta.abs()) / exact_theta.abs(),
-                        run.wall_s,
-                    ));
-                    if n >= 20.0 {
-                        res.check_max(format!("{case}: K_I error, a/h = {ah:.1}"), e1.abs(), 0.03);
-                        res.check_max(format!("{case}: K_II error, a/h = {ah:.1}"), e2.abs(), 0.03);
-                    }
-                }
-            }
-            for (metric, err, wall) in rows {
-                res.rows.push(Row {
-                    case: "sif",
-                    level,
-                    h,
-                    unknowns: run.unknowns,
-                    metric: format!("{metric}_{case}"),
-                    error: err.abs(),
-                    wall_s: wall,
-                });
-            }
-        }
+    ]
+}
+
+/// One SIF run at a level: its case, the crack's half-length `a` and mesh size `h` (m), the
+/// refinement `level` with `n` cells along the half-length, `k0 = load sqrt(pi a)`
+/// (Pa sqrt(m)), the relative K_I error `e1` at the upper tip, and the run.
+struct SifLevel<'a> {
+    case: &'a str,
+    angle: f64,
+    mesh: CrackMesh,
+    level: usize,
+    n: f64,
+    a: f64,
+    h: f64,
+    k0: f64,
+    e1: f64,
+    run: &'a SifRun,
+}
+
+/// One SIF case at `n` cells along the half-length (refinement `level`): the run, its checks
+/// (snapping, both tips alike, the load's own below) and its rows; the horizontal pressure
+/// case records its domain effect per level in `horizontal_domain`.
+fn sif_level(
+    res: &mut CaseResult,
+    (case, angle, load, mesh): SifCase,
+    (level, n): (usize, f64),
+    horizontal_domain: &mut Vec<f64>,
+) -> anyhow::Result<()> {
+    let conforming = CrackMesh::Conforming;
+    let (a, h) = if angle == 0.0 || mesh == conforming {
+        (1.0, 1.0 / n)
+    } else {
+        let nd = (n / 2f64.sqrt()).round();
+        (1.0, 1.0 / (nd * 2f64.sqrt()))
+    };
+    let ah = a / h;
+    let run = crack_sif(a, h, 20.0 * a, angle, load, mesh)?;
+    let k0 = match load {
+        CrackLoad::Pressure(p) => p * (PI * a).sqrt(),
+        CrackLoad::TensionY(s) => s * (PI * a).sqrt(),
+    };
+    let (k1_exact, k2_exact) = match load {
+        CrackLoad::Pressure(_) => (k0, 0.0),
+        // The remote sigma_yy resolved on the crack at `angle` from the x axis:
+        // sigma_nn = sigma cos^2, tau = sigma sin cos.
+        CrackLoad::TensionY(_) => (k0 * angle.cos().powi(2), k0 * angle.sin() * angle.cos()),
+    };
+    res.check_max(
+        format!("{case}: snapping error, a/h = {ah:.1} (m)"),
+        run.snap_error,
+        1e-9,
+    );
+    // Both tips alike: the problem is symmetric under a half turn, the mesh nearly
+    // (its diagonal pattern and, under tension, the rollers on two sides only; the
+    // conforming mesh's refinement is not exactly symmetric: measured up to 8.4e-5).
+    res.check_max(
+        format!("{case}: K_I tips differ, a/h = {ah:.1}"),
+        (run.k1[0] - run.k1[1]).abs() / k0,
+        if mesh == conforming { 5e-4 } else { 1e-4 },
+    );
+    let e1 = (run.k1[1] - k1_exact) / k1_exact;
+    let mut rows = vec![("k1".to_string(), e1, run.wall_s)];
+    let lv = SifLevel {
+        case,
+        angle,
+        mesh,
+        level,
+        n,
+        a,
+        h,
+        k0,
+        e1,
+        run: &run,
+    };
+    match load {
+        CrackLoad::Pressure(p) => sif_pressure_checks(res, &lv, p, horizontal_domain, &mut rows)?,
+        CrackLoad::TensionY(_) => sif_tension_checks(res, &lv, (k1_exact, k2_exact), &mut rows),
     }
-    Ok(res)
+    for (metric, err, wall) in rows {
+        res.rows.push(Row {
+            case: "sif",
+            level,
+            h,
+            unknowns: run.unknowns,
+            metric: format!("{metric}_{case}"),
+            error: err.abs(),
+            wall_s: wall,
+        });
+    }
+    Ok(())
+}
+
+/// The pressurised crack's checks and rows: K_I corrected by the far boundary's effect
+/// (`p`, Pa, the pressure), the domain effect itself, and K_II zero by symmetry.
+fn sif_pressure_checks(
+    res: &mut CaseResult,
+    lv: &SifLevel,
+    p: f64,
+    horizontal_domain: &mut Vec<f64>,
+    rows: &mut Vec<(String, f64, f64)>,
+) -> anyhow::Result<()> {
+    let SifLevel {
+        case,
+        angle,
+        mesh,
+        level,
+        n,
+        a,
+        h,
+        k0,
+        e1,
+        run,
+    } = *lv;
+    let conforming = CrackMesh::Conforming;
+    let ah = a / h;
+    // On the conforming mesh, larger squares also change the mesh near the
+    // crack (measured: +0.93 % at a/h = 10, -0.19 % at 20), so the far
+    // boundary's effect is taken from the horizontal crack on the graded mesh
+    // at the same a/h (0.34-0.37 %; 0.31-0.33 % at 45 degrees: it hardly
+    // depends on the angle).
+    let (d, wall) = match mesh {
+        CrackMesh::Conforming => (
+            *horizontal_domain.get(level).ok_or_else(|| {
+                anyhow::anyhow!("sif: no horizontal domain effect at level {level}")
+            })?,
+            0.0,
+        ),
+        CrackMesh::Snapped => domain_effect(a, h, angle, p, run.k1[1])?,
+    };
+    if case == "pressure_0deg" {
+        horizontal_domain.push(d);
+    }
+    let corrected = (1.0 + e1) * (1.0 + d) - 1.0;
+    rows.push(("k1_corrected".into(), corrected, run.wall_s + wall));
+    rows.push(("domain_effect".into(), d, wall));
+    // Zero by symmetry about the crack line; the diagonal pattern is not
+    // mirror-symmetric about it (measured 1.2e-4 to 1.4e-4), nor is the
+    // conforming mesh (measured 2.0e-3 to 3.2e-3).
+    res.check_max(
+        format!("{case}: |K_II| / p sqrt(pi a), a/h = {ah:.1}"),
+        run.k2[1].abs() / k0,
+        if mesh == conforming { 5e-3 } else { 1e-3 },
+    );
+    res.check_range(
+        format!("{case}: domain effect on K_I at 20a, a/h = {ah:.1}"),
+        d,
+        0.0,
+        0.01,
+    );
+    if n >= 20.0 {
+        res.check_max(
+            format!("{case}: corrected K_I error, a/h = {ah:.1}"),
+            corrected.abs(),
+            0.02,
+        );
+    }
+    Ok(())
+}
+
+/// The crack under remote tension: K_II's error against `exact` (K_I, K_II in Pa sqrt(m))
+/// and the growth angle's against the maximum hoop stress criterion.
+fn sif_tension_checks(
+    res: &mut CaseResult,
+    lv: &SifLevel,
+    (k1_exact, k2_exact): (f64, f64),
+    rows: &mut Vec<(String, f64, f64)>,
+) {
+    let (case, n, run, e1) = (lv.case, lv.n, lv.run, lv.e1);
+    let ah = lv.a / lv.h;
+    let e2 = (run.k2[1].abs() - k2_exact) / k2_exact;
+    rows.push(("k2".into(), e2, run.wall_s));
+    let exact_theta = crate::systems::toughness::max_hoop_stress(k1_exact, k2_exact).0;
+    // The growth angle at the upper tip, against the maximum hoop stress's
+    // (-53.13 degrees for K_I = K_II; the sign of K_II follows the slip).
+    let theta = run.theta[1].abs();
+    rows.push((
+        "theta".into(),
+        (theta - exact_theta.abs()) / exact_theta.abs(),
+        run.wall_s,
+    ));
+    if n >= 20.0 {
+        res.check_max(format!("{case}: K_I error, a/h = {ah:.1}"), e1.abs(), 0.03);
+        res.check_max(format!("{case}: K_II error, a/h = {ah:.1}"), e2.abs(), 0.03);
+    }
 }

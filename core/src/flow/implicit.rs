@@ -609,6 +609,191 @@ pub fn assemble(
     }
 }
 
+impl ImplicitSolver {
+    /// Sizes the work vectors for the view's `n` cells and sets the step's weights
+    /// `w_i = dt K / V_i` (s/m^2 times the pressure modulus K, Pa) and start values
+    /// `y0_i = K m_i / (rho_r V_i)` (Pa) from the excess masses; `y` starts at `y0`. Errors on
+    /// a cell whose volume is not finite and positive.
+    fn load_step(
+        &mut self,
+        v: &FlowView,
+        params: &FlowParams,
+        dt: f64,
+    ) -> Result<(), ImplicitError> {
+        let n = v.n_cells();
+        let k = params.k;
+        for buf in [
+            &mut self.y0,
+            &mut self.y,
+            &mut self.y_try,
+            &mut self.r,
+            &mut self.delta,
+            &mut self.w,
+            &mut self.scale,
+            &mut self.net,
+            &mut self.r_try,
+        ] {
+            buf.clear();
+            buf.resize(n, 0.0);
+        }
+        for i in 0..n {
+            let vol = v.volume[i];
+            if !(vol.is_finite() && vol > 0.0) {
+                return Err(ImplicitError::BadVolume {
+                    cell_index: i,
+                    cell: v.cell_label(i),
+                    volume: vol,
+                });
+            }
+            self.w[i] = dt * k / vol;
+            self.y0[i] = k * v.excess[i] / (params.rho_r * vol);
+        }
+        self.y.copy_from_slice(&self.y0);
+        Ok(())
+    }
+
+    /// Rebuilds the sparsity pattern (and its symbolic analysis) when the view's network
+    /// changed, then, after a restart, factorises the checkpoint's pending Jacobian values again
+    /// so that the kept factor is the interrupted run's.
+    fn refresh_pattern(&mut self, v: &FlowView) -> Result<(), ImplicitError> {
+        if v.n_cells() > 0 && !self.pattern.as_ref().is_some_and(|p| p.matches(v)) {
+            self.pattern = None;
+            self.pattern = Some(Pattern::build(v)?);
+            self.symbolic_count += 1;
+        }
+        if !self.pending.is_empty() {
+            // A restart: the interrupted run's kept factor, factorised again from its values.
+            let values = std::mem::take(&mut self.pending);
+            if let Some(pat) = self.pattern.as_mut()
+                && values.len() == pat.sparse.nnz()
+            {
+                self.values = values;
+                if factorise(pat, &mut self.numeric, &self.values).is_ok() {
+                    self.kept = Some(self.symbolic_count);
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// One chord iteration: the kept factor's direction from `y`, taken when it is finite and
+    /// contracts the residual (`phi` by CHORD_CONTRACTION^2 of `phi0`, or converges). Returns
+    /// whether it was taken (`y` then holds the new iterate).
+    fn chord_iteration(
+        &mut self,
+        v: &mut FlowView,
+        specs: &[FlowBoundary],
+        t1: f64,
+        phi0: f64,
+    ) -> bool {
+        let pat = self.pattern.as_mut().expect("built above");
+        direction(pat, &self.numeric, &self.r, &mut self.delta);
+        if !self.delta.iter().all(|d| d.is_finite()) {
+            return false;
+        }
+        for i in 0..self.y.len() {
+            self.y_try[i] = self.y[i] + self.delta[i];
+        }
+        residual(
+            v,
+            specs,
+            t1,
+            &self.y_try,
+            &self.y0,
+            &self.w,
+            &mut self.net,
+            &mut self.r_try,
+        );
+        let (w_try, _, phi) = measure(&self.r_try, &self.scale);
+        if w_try <= 1.0 || phi <= CHORD_CONTRACTION * CHORD_CONTRACTION * phi0 {
+            std::mem::swap(&mut self.y, &mut self.y_try);
+            self.chord_iterations += 1;
+            return true;
+        }
+        false
+    }
+
+    /// The Newton direction at `y`: assembles the Jacobian, factorises it (kept for the chord
+    /// iterations) and solves `J delta = -r` into `delta`.
+    fn newton_direction(
+        &mut self,
+        v: &FlowView,
+        specs: &[FlowBoundary],
+        t1: f64,
+    ) -> Result<(), ImplicitError> {
+        let pat = self.pattern.as_mut().expect("built above");
+        assemble(v, specs, t1, &self.y, &self.w, pat, &mut self.values);
+        self.kept = None;
+        factorise(pat, &mut self.numeric, &self.values).map_err(|e| {
+            ImplicitError::Factorisation {
+                detail: format!("{e:?}"),
+            }
+        })?;
+        self.kept = Some(self.symbolic_count);
+        self.factorisations += 1;
+        direction(pat, &self.numeric, &self.r, &mut self.delta);
+        Ok(())
+    }
+
+    /// Line search along `delta` from `y` on phi = sum (r_i / scale_i)^2 with the scales of
+    /// this iterate (Armijo with c = 1e-4: the Newton direction's slope is -2 phi, `phi0` at
+    /// `y`). Candidates: the full step; then the first kink on the way, the smallest fraction
+    /// at which a cell changes branch of the pressure law (landing on y = 0 when it fills,
+    /// just below when it drains, so that the next Jacobian takes the branch the step was
+    /// heading for): up to there the residual is smooth and the Newton model exact for the
+    /// linear boundaries, so it decreases, where halving alone would creep towards the kink;
+    /// then halving from 1/2. Takes the accepted step into `y` and returns true, or false when
+    /// the halving fell below MIN_ALPHA (stalled; `y` unchanged).
+    fn line_search(
+        &mut self,
+        v: &mut FlowView,
+        specs: &[FlowBoundary],
+        t1: f64,
+        phi0: f64,
+    ) -> bool {
+        let n = self.y.len();
+        let (kink, kink_cell) =
+            first_kink(&self.y, &self.delta).unwrap_or((f64::INFINITY, usize::MAX));
+        let mut alpha = 1.0;
+        let mut halving = 1.0;
+        let mut tried_kink = false;
+        loop {
+            for i in 0..n {
+                self.y_try[i] = self.y[i] + alpha * self.delta[i];
+            }
+            if alpha == kink {
+                self.y_try[kink_cell] = kink_landing(self.delta[kink_cell]);
+            }
+            residual(
+                v,
+                specs,
+                t1,
+                &self.y_try,
+                &self.y0,
+                &self.w,
+                &mut self.net,
+                &mut self.r_try,
+            );
+            let (w_try, _, phi) = measure(&self.r_try, &self.scale);
+            if phi <= (1.0 - 1e-4 * alpha) * phi0 || w_try <= 1.0 {
+                break;
+            }
+            if !tried_kink && kink < 1.0 {
+                tried_kink = true;
+                alpha = kink;
+            } else {
+                halving *= 0.5;
+                alpha = halving;
+            }
+            if halving < MIN_ALPHA {
+                return false;
+            }
+        }
+        std::mem::swap(&mut self.y, &mut self.y_try);
+        true
+    }
+}
+
 /// One backward-Euler step of length `dt` (s) from time `t` (s) to `t + dt` over the whole
 /// network, with the view's current volumes (m^2) as the end-of-step volumes and the boundary
 /// schedules evaluated at `t + dt`. Updates everything the explicit [`flow_step`] updates: the
@@ -636,50 +821,8 @@ pub fn implicit_step(
     let t1 = t + dt;
     let k = params.k;
     let s = solver;
-    for buf in [
-        &mut s.y0,
-        &mut s.y,
-        &mut s.y_try,
-        &mut s.r,
-        &mut s.delta,
-        &mut s.w,
-        &mut s.scale,
-        &mut s.net,
-        &mut s.r_try,
-    ] {
-        buf.clear();
-        buf.resize(n, 0.0);
-    }
-    for i in 0..n {
-        let vol = v.volume[i];
-        if !(vol.is_finite() && vol > 0.0) {
-            return Err(ImplicitError::BadVolume {
-                cell_index: i,
-                cell: v.cell_label(i),
-                volume: vol,
-            });
-        }
-        s.w[i] = dt * k / vol;
-        s.y0[i] = k * v.excess[i] / (params.rho_r * vol);
-    }
-    s.y.copy_from_slice(&s.y0);
-    if n > 0 && !s.pattern.as_ref().is_some_and(|p| p.matches(v)) {
-        s.pattern = None;
-        s.pattern = Some(Pattern::build(v)?);
-        s.symbolic_count += 1;
-    }
-    if !s.pending.is_empty() {
-        // A restart: the interrupted run's kept factor, factorised again from its values.
-        let values = std::mem::take(&mut s.pending);
-        if let Some(pat) = s.pattern.as_mut()
-            && values.len() == pat.sparse.nnz()
-        {
-            s.values = values;
-            if factorise(pat, &mut s.numeric, &s.values).is_ok() {
-                s.kept = Some(s.symbolic_count);
-            }
-        }
-    }
+    s.load_step(v, params, dt)?;
+    s.refresh_pattern(v)?;
     // The chord: while the kept factor (of an earlier iterate's Jacobian, on this pattern)
     // shrinks the residual by CHORD_CONTRACTION an iteration, no new factorisation.
     let mut chord = s.chord && n > 0 && s.kept == Some(s.symbolic_count);
@@ -705,8 +848,8 @@ pub fn implicit_step(
             s.last_residual = s.r.iter().fold(0.0f64, |a, r| a.max(r.abs())) / k;
             break;
         }
-        if it >= s.max_iter {
-            return Err(ImplicitError::NotConverged {
+        let not_converged =
+            |v: &FlowView, s: &ImplicitSolver, it, why| ImplicitError::NotConverged {
                 t: t1,
                 dt,
                 iterations: it,
@@ -714,105 +857,26 @@ pub fn implicit_step(
                 cell: v.cell_label(cell),
                 residual: rel,
                 allowed: s.scale[cell] / k,
-                why: "reached the iteration cap",
-            });
+                why,
+            };
+        if it >= s.max_iter {
+            return Err(not_converged(v, s, it, "reached the iteration cap"));
         }
         it += 1;
         if chord {
-            let pat = s.pattern.as_mut().expect("built above");
-            direction(pat, &s.numeric, &s.r, &mut s.delta);
-            if s.delta.iter().all(|d| d.is_finite()) {
-                for i in 0..n {
-                    s.y_try[i] = s.y[i] + s.delta[i];
-                }
-                residual(
-                    v,
-                    specs,
-                    t1,
-                    &s.y_try,
-                    &s.y0,
-                    &s.w,
-                    &mut s.net,
-                    &mut s.r_try,
-                );
-                let (w_try, _, phi) = measure(&s.r_try, &s.scale);
-                if w_try <= 1.0 || phi <= CHORD_CONTRACTION * CHORD_CONTRACTION * phi0 {
-                    std::mem::swap(&mut s.y, &mut s.y_try);
-                    s.chord_iterations += 1;
-                    continue;
-                }
-            }
-            // Not contracting (a cell filled or drained, the step changed): Newton from y,
-            // whose residual the next pass evaluates again.
-            chord = false;
+            // Not taken (not contracting: a cell filled or drained, the step changed): Newton
+            // from y, whose residual the next pass evaluates again.
+            chord = s.chord_iteration(v, specs, t1, phi0);
             continue;
         }
-        // Newton direction: J delta = -r.
-        let pat = s.pattern.as_mut().expect("built above");
-        assemble(v, specs, t1, &s.y, &s.w, pat, &mut s.values);
-        s.kept = None;
-        factorise(pat, &mut s.numeric, &s.values).map_err(|e| ImplicitError::Factorisation {
-            detail: format!("{e:?}"),
-        })?;
-        s.kept = Some(s.symbolic_count);
-        s.factorisations += 1;
-        direction(pat, &s.numeric, &s.r, &mut s.delta);
+        s.newton_direction(v, specs, t1)?;
         if let Some(c) = s.delta.iter().position(|d| !d.is_finite()) {
             return Err(not_finite(v, it, c, "Newton update"));
         }
-        // Line search on phi = sum (r_i / scale_i)^2 with the scales of this iterate (Armijo
-        // with c = 1e-4: the Newton direction's slope is -2 phi). Candidates: the full step;
-        // then the first kink on the way, the smallest fraction at which a cell changes branch
-        // of the pressure law (landing on y = 0 when it fills, just below when it drains, so
-        // that the next Jacobian takes the branch the step was heading for): up to there the
-        // residual is smooth and the Newton model exact for the linear boundaries, so it
-        // decreases, where halving alone would creep towards the kink; then halving from 1/2.
-        let (kink, kink_cell) = first_kink(&s.y, &s.delta).unwrap_or((f64::INFINITY, usize::MAX));
-        let mut alpha = 1.0;
-        let mut halving = 1.0;
-        let mut tried_kink = false;
-        loop {
-            for i in 0..n {
-                s.y_try[i] = s.y[i] + alpha * s.delta[i];
-            }
-            if alpha == kink {
-                s.y_try[kink_cell] = kink_landing(s.delta[kink_cell]);
-            }
-            residual(
-                v,
-                specs,
-                t1,
-                &s.y_try,
-                &s.y0,
-                &s.w,
-                &mut s.net,
-                &mut s.r_try,
-            );
-            let (w_try, _, phi) = measure(&s.r_try, &s.scale);
-            if phi <= (1.0 - 1e-4 * alpha) * phi0 || w_try <= 1.0 {
-                break;
-            }
-            if !tried_kink && kink < 1.0 {
-                tried_kink = true;
-                alpha = kink;
-            } else {
-                halving *= 0.5;
-                alpha = halving;
-            }
-            if halving < MIN_ALPHA {
-                return Err(ImplicitError::NotConverged {
-                    t: t1,
-                    dt,
-                    iterations: it,
-                    cell_index: cell,
-                    cell: v.cell_label(cell),
-                    residual: rel,
-                    allowed: s.scale[cell] / k,
-                    why: "stalled (the line search found no decrease)",
-                });
-            }
+        if !s.line_search(v, specs, t1, phi0) {
+            let why = "stalled (the line search found no decrease)";
+            return Err(not_converged(v, s, it, why));
         }
-        std::mem::swap(&mut s.y, &mut s.y_try);
     }
     // The view now holds the converged pressures, pair fluxes and boundary flows; update the
     // masses with exactly those fluxes and the boundary volumes with the same rates.

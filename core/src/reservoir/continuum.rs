@@ -41,13 +41,13 @@
 //! is `sum C V (T - T0)` and the enthalpy fluxes `rho_w c_w Q (T - T0)`. The energy balance of
 //! the run compares the stored change with the time integral of the edge and well fluxes.
 
-use super::{Grid2, ReservoirError, ThermalProps};
+use super::{Grid2, HeatSeries, ReservoirError, Summation, ThermalProps};
 use crate::flow::kahan_add;
 use crate::flow::steady::{SteadyProblem, SteadySolver};
 use crate::sparse::SparsePattern;
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
 use faer::sparse::SparseColMatRef;
-use faer::sparse::linalg::lu::{LuRef, NumericLu, factorize_symbolic_lu};
+use faer::sparse::linalg::lu::{LuRef, NumericLu, SymbolicLu, factorize_symbolic_lu};
 use faer::{Conj, MatMut, Par};
 use serde::{Deserialize, Serialize};
 
@@ -306,6 +306,17 @@ fn positive(field: &str, v: f64) -> Result<(), ReservoirError> {
 impl ContinuumSpec {
     /// Checks every input; the error names the field and why.
     pub fn validate(&self) -> Result<(), ReservoirError> {
+        self.validate_grid()?;
+        self.validate_props()?;
+        self.validate_edges()?;
+        self.validate_wells()?;
+        self.validate_rate_balance()?;
+        self.validate_time()
+    }
+
+    /// The grid (origin and size in m, block counts) and one positive permeability pair
+    /// (m^2) per block.
+    fn validate_grid(&self) -> Result<(), ReservoirError> {
         let g = &self.grid;
         for k in 0..2 {
             finite(&format!("grid.origin[{k}]"), g.origin[k])?;
@@ -335,6 +346,12 @@ impl ContinuumSpec {
                 positive(&format!("permeability[{b}].{name}"), k[c])?;
             }
         }
+        Ok(())
+    }
+
+    /// The rock and fluid properties (positive; porosity in [0, 1]), the initial temperature
+    /// (K, positive) and pressure (Pa, finite).
+    fn validate_props(&self) -> Result<(), ReservoirError> {
         let p = &self.props;
         for (name, v) in [
             ("props.rock_density", p.rock_density),
@@ -355,6 +372,11 @@ impl ContinuumSpec {
         }
         positive("initial_temperature", self.initial_temperature)?;
         finite("initial_pressure", self.initial_pressure)?;
+        Ok(())
+    }
+
+    /// The held edges: finite pressure (Pa), positive temperature (K).
+    fn validate_edges(&self) -> Result<(), ReservoirError> {
         for (name, e) in self.edges.sides() {
             if let EdgeCondition::Held {
                 pressure,
@@ -365,6 +387,15 @@ impl ContinuumSpec {
                 positive(&format!("edges.{name}.temperature"), temperature)?;
             }
         }
+        Ok(())
+    }
+
+    /// The wells: inside the grid, one per block, a finite non-zero rate (m^2/s) or finite
+    /// pressure (Pa), positive injection temperature (K) and a radius (m) below the block's
+    /// Peaceman equivalent radius.
+    fn validate_wells(&self) -> Result<(), ReservoirError> {
+        let g = &self.grid;
+        let p = &self.props;
         let mut blocks: Vec<(usize, usize)> = Vec::with_capacity(self.wells.len());
         for (w, well) in self.wells.iter().enumerate() {
             let f = |s: &str| format!("wells[{w}] ({}).{s}", well.name);
@@ -418,6 +449,12 @@ impl ContinuumSpec {
                 ));
             }
         }
+        Ok(())
+    }
+
+    /// Without a pressure well or held edge, the well rates must sum to zero (to
+    /// [`RATE_BALANCE_TOL`] of their gross).
+    fn validate_rate_balance(&self) -> Result<(), ReservoirError> {
         let referenced = self
             .wells
             .iter()
@@ -445,6 +482,12 @@ impl ContinuumSpec {
                 ));
             }
         }
+        Ok(())
+    }
+
+    /// The run length and step (s, positive, at most [`MAX_STEPS`] steps) and the output
+    /// times (s, ascending in [0, end_time]).
+    fn validate_time(&self) -> Result<(), ReservoirError> {
         positive("end_time", self.end_time)?;
         positive("dt", self.dt)?;
         if self.end_time / self.dt > MAX_STEPS as f64 {
@@ -732,23 +775,374 @@ fn solve_darcy(
     Ok((field, face_q, edge_q))
 }
 
-/// The heat matrix: its pattern and values.
-struct HeatOperator {
+/// Per block, the heat terms of the held edges and the wells (relative to T0), and the
+/// producing wells: what the heat step adds to the capacity and the faces.
+struct HeatSources {
+    /// Constant inflow source per block, W/m.
+    src: Vec<f64>,
+    /// Outflow coefficient per block, W/(m K).
+    out_coef: Vec<f64>,
+    /// The producing wells: (block, |rate| m^2/s).
+    producers: Vec<(usize, f64)>,
+    /// Total production rate, m^2/s.
+    q_prod: f64,
+    /// Flux-weighted injection temperature of the injecting wells (T0 when none injects), K.
+    reference_temperature: f64,
+}
+
+impl HeatSources {
+    /// The sources of the held edges (steady inflows `edge_q`, m^2/s) and of the wells of
+    /// `flow`.
+    fn new(
+        spec: &ContinuumSpec,
+        edges: &[(EdgeLink, bool, usize, f64)],
+        edge_q: &[f64],
+        flow: &DarcyField,
+    ) -> Self {
+        let n = spec.grid.len();
+        let t0 = spec.initial_temperature;
+        let rc_w = spec.props.fluid_rho_c();
+        let mut src = vec![0.0; n];
+        let mut out_coef = vec![0.0; n];
+        let (mut q_inj, mut qt_inj) = (0.0, 0.0);
+        let mut producers: Vec<(usize, f64)> = Vec::new();
+        for ((e, ..), &q) in edges.iter().zip(edge_q) {
+            let th = e.temperature - t0;
+            src[e.block] += e.cond * th;
+            out_coef[e.block] += e.cond;
+            if q > 0.0 {
+                src[e.block] += rc_w * q * th;
+            } else {
+                out_coef[e.block] += rc_w * (-q);
+            }
+        }
+        for (k, w) in flow.wells.iter().enumerate() {
+            if w.rate > 0.0 {
+                let ti = spec.wells[k].injection_temperature;
+                src[w.block] += rc_w * w.rate * (ti - t0);
+                q_inj += w.rate;
+                qt_inj += w.rate * ti;
+            } else if w.rate < 0.0 {
+                out_coef[w.block] += rc_w * (-w.rate);
+                producers.push((w.block, -w.rate));
+            }
+        }
+        let reference_temperature = if q_inj > 0.0 { qt_inj / q_inj } else { t0 };
+        let q_prod: f64 = producers.iter().map(|p| p.1).sum();
+        HeatSources {
+            src,
+            out_coef,
+            producers,
+            q_prod,
+            reference_temperature,
+        }
+    }
+
+    /// The flux-weighted production temperature (K; `None` when nothing produces) and the
+    /// thermal power `rho_w c_w q_prod (T_prod - T_ref)` (W/m) of the block temperatures
+    /// `theta` (relative to `t0`, K); `rc_w` is `rho_w c_w`, J/(m^3 K).
+    fn production(&self, t0: f64, rc_w: f64, theta: &[f64]) -> (Option<f64>, f64) {
+        if self.q_prod > 0.0 {
+            let tp = t0
+                + self
+                    .producers
+                    .iter()
+                    .map(|&(b, q)| q * theta[b])
+                    .sum::<f64>()
+                    / self.q_prod;
+            (
+                Some(tp),
+                rc_w * self.q_prod * (tp - self.reference_temperature),
+            )
+        } else {
+            (None, 0.0)
+        }
+    }
+}
+
+/// The constant parts of the heat matrix: the bulk capacity of a block (J/(m K)), the
+/// outflow coefficients (W/(m K)), the interior faces with their steady flows (m^2/s) and
+/// `rho_w c_w` (J/(m^3 K)).
+struct HeatTerms<'a> {
+    block_capacity: f64,
+    out_coef: &'a [f64],
+    faces: &'a Faces,
+    face_q: &'a [f64],
+    rc_w: f64,
+}
+
+/// The heat matrix (pattern, values, diagonal and face slots) with its sparse LU: the
+/// symbolic analysis once, the numeric factorisation whenever the step length changes.
+struct HeatSolver {
     pattern: SparsePattern,
     values: Vec<f64>,
+    diag: Vec<usize>,
+    face_slots: Vec<[usize; 2]>,
+    symbolic: SymbolicLu<usize>,
+    numeric: NumericLu<usize, f64>,
+    mem: MemBuffer,
+    /// The step length (s) the numeric factors are those of (NaN before the first).
+    factored_dt: f64,
+    /// Numeric factorisations done.
+    factorisations: usize,
+}
+
+impl HeatSolver {
+    /// The matrix pattern of `n` blocks (the diagonal and both directions of every interior
+    /// face), its symbolic LU and the LU workspace.
+    fn new(n: usize, faces: &Faces) -> Result<Self, ReservoirError> {
+        let mut entries: Vec<(usize, usize)> = (0..n).map(|i| (i, i)).collect();
+        for &(a, b, ..) in &faces.list {
+            entries.push((a, b));
+            entries.push((b, a));
+        }
+        let pattern =
+            SparsePattern::from_entries(n, entries).map_err(|why| ReservoirError::Solve {
+                what: "continuum heat matrix".into(),
+                why,
+            })?;
+        let slot = |r: usize, c: usize| pattern.slot(r, c).expect("entry is in the pattern");
+        let diag: Vec<usize> = (0..n).map(|i| slot(i, i)).collect();
+        let face_slots: Vec<[usize; 2]> = faces
+            .list
+            .iter()
+            .map(|&(a, b, ..)| [slot(a, b), slot(b, a)])
+            .collect();
+        let symbolic =
+            factorize_symbolic_lu(pattern.as_ref(), Default::default()).map_err(|e| {
+                ReservoirError::Solve {
+                    what: "continuum heat matrix".into(),
+                    why: format!("symbolic LU: {e:?}"),
+                }
+            })?;
+        let req = StackReq::any_of(&[
+            symbolic.factorize_numeric_lu_scratch::<f64>(Par::Seq, Default::default()),
+            symbolic.solve_in_place_scratch::<f64>(1, Par::Seq),
+        ]);
+        let mem = MemBuffer::try_new(req).map_err(|_| ReservoirError::Solve {
+            what: "continuum heat matrix".into(),
+            why: "out of memory for the LU workspace".into(),
+        })?;
+        Ok(HeatSolver {
+            values: vec![0.0; pattern.nnz()],
+            pattern,
+            diag,
+            face_slots,
+            symbolic,
+            numeric: NumericLu::<usize, f64>::new(),
+            mem,
+            factored_dt: f64::NAN,
+            factorisations: 0,
+        })
+    }
+
+    /// The matrix values of a step `dt` (s): capacity over dt and outflow on the diagonal,
+    /// conduction and upwind advection through every interior face.
+    fn assemble(&mut self, terms: &HeatTerms, dt: f64) {
+        let (diag, values) = (&self.diag, &mut self.values);
+        values.iter_mut().for_each(|v| *v = 0.0);
+        for (i, &d) in diag.iter().enumerate() {
+            values[d] += terms.block_capacity / dt + terms.out_coef[i];
+        }
+        let rc_w = terms.rc_w;
+        for (f, &(a, b, _, cond, _)) in terms.faces.list.iter().enumerate() {
+            let q = terms.face_q[f];
+            let [ab, ba] = self.face_slots[f];
+            values[diag[a]] += cond;
+            values[diag[b]] += cond;
+            values[ab] -= cond;
+            values[ba] -= cond;
+            if q > 0.0 {
+                values[diag[a]] += rc_w * q;
+                values[ba] -= rc_w * q;
+            } else if q < 0.0 {
+                values[diag[b]] += rc_w * (-q);
+                values[ab] -= rc_w * (-q);
+            }
+        }
+    }
+
+    /// Makes the numeric factors those of a step `dt` (s): assembles and factorises when `dt`
+    /// is not the step already factorised.
+    fn factor_for(&mut self, terms: &HeatTerms, dt: f64) -> Result<(), ReservoirError> {
+        if dt == self.factored_dt {
+            return Ok(());
+        }
+        self.assemble(terms, dt);
+        let a = SparseColMatRef::new(self.pattern.as_ref(), &self.values);
+        self.symbolic
+            .factorize_numeric_lu(
+                &mut self.numeric,
+                a,
+                Par::Seq,
+                MemStack::new(&mut self.mem),
+                Default::default(),
+            )
+            .map_err(|e| ReservoirError::Solve {
+                what: "continuum heat LU".into(),
+                why: format!("{e:?}"),
+            })?;
+        self.factored_dt = dt;
+        self.factorisations += 1;
+        Ok(())
+    }
+
+    /// Solves in place with the current factors (those of [`HeatSolver::factor_for`]'s last
+    /// step).
+    fn solve_in_place(&mut self, rhs: &mut [f64]) {
+        let n = rhs.len();
+        // The factors are those of `factored_dt`: `factor_for` rebuilt them when it changed.
+        let lu = LuRef::new_unchecked(&self.symbolic, &self.numeric);
+        lu.solve_in_place_with_conj(
+            Conj::No,
+            MatMut::from_column_major_slice_mut(rhs, n, 1),
+            Par::Seq,
+            MemStack::new(&mut self.mem),
+        );
+    }
+}
+
+/// Heat through the edges and wells over the run, J per metre (Kahan sums): net into the
+/// reservoir, gross in and gross out, from the constant sources and the outflows at
+/// end-of-step temperatures.
+struct HeatAccounts {
+    net_in: (f64, f64),
+    heat_in: (f64, f64),
+    heat_out: (f64, f64),
+    /// Sum, positive and negative parts of the constant sources, W/m.
+    src_total: f64,
+    src_pos: f64,
+    src_neg: f64,
+}
+
+impl HeatAccounts {
+    /// Empty accounts for the constant sources `src` (W/m per block).
+    fn new(src: &[f64]) -> Self {
+        HeatAccounts {
+            net_in: (0.0, 0.0),
+            heat_in: (0.0, 0.0),
+            heat_out: (0.0, 0.0),
+            src_total: src.iter().sum(),
+            src_pos: src.iter().filter(|&&s| s > 0.0).sum(),
+            src_neg: src.iter().filter(|&&s| s < 0.0).sum(),
+        }
+    }
+
+    /// Adds a step of `dt` (s) ending at the block temperatures `theta` (relative to T0, K),
+    /// with the outflow coefficients `out_coef` (W/(m K)).
+    fn add_step(&mut self, dt: f64, out_coef: &[f64], theta: &[f64]) {
+        let outflow: f64 = out_coef.iter().zip(theta).map(|(c, th)| c * th).sum();
+        let (s, c) = &mut self.net_in;
+        kahan_add(s, c, dt * (self.src_total - outflow));
+        let (mut o_pos, mut o_neg) = (0.0, 0.0);
+        for (c, th) in out_coef.iter().zip(theta) {
+            let h = c * th;
+            if h > 0.0 {
+                o_pos += h;
+            } else {
+                o_neg += h;
+            }
+        }
+        let (s, c) = &mut self.heat_in;
+        kahan_add(s, c, dt * (self.src_pos - o_neg));
+        let (s, c) = &mut self.heat_out;
+        kahan_add(s, c, dt * (o_pos - self.src_neg));
+    }
+
+    /// `|stored - net in| / max(|stored|, heat in, heat out)` for the stored heat change
+    /// `stored` (J/m); 0 when nothing moved.
+    fn energy_balance(&self, stored: f64) -> f64 {
+        let denom = stored.abs().max(self.heat_in.0).max(self.heat_out.0);
+        if denom > 0.0 {
+            (stored - self.net_in.0).abs() / denom
+        } else {
+            0.0
+        }
+    }
+}
+
+/// Number of steps to `end_time`: all of length dt but the last, shortened to end at
+/// `end_time` (a last step shorter than 1e-9 dt is merged into the one before).
+fn step_count(spec: &ContinuumSpec) -> usize {
+    let mut n_steps = (spec.end_time / spec.dt).ceil() as usize;
+    if n_steps == 0 {
+        n_steps = 1;
+    }
+    if spec.end_time - (n_steps - 1) as f64 * spec.dt <= 1e-9 * spec.dt && n_steps > 1 {
+        n_steps -= 1;
+    }
+    n_steps
+}
+
+/// The end (s) and length (s) of step `step` of `n_steps` that starts at `t` (s). Every step
+/// has length dt but a shortened last one (`t1 - t` differs from dt by round-off, which must
+/// not trigger a refactorisation).
+fn step_end(spec: &ContinuumSpec, step: usize, n_steps: usize, t: f64) -> (f64, f64) {
+    let t1 = if step + 1 == n_steps {
+        spec.end_time
+    } else {
+        (step + 1) as f64 * spec.dt
+    };
+    let dt = if (t1 - t - spec.dt).abs() <= 1e-9 * spec.dt {
+        spec.dt
+    } else {
+        t1 - t
+    };
+    (t1, dt)
+}
+
+/// Takes the snapshots `(t, T per block in K)` of the output times from `*next_out` on that are
+/// at or before `until` (s), from the block temperatures `theta` (relative to `t0`, K).
+fn take_snapshots(
+    output_times: &[f64],
+    next_out: &mut usize,
+    until: f64,
+    (t, t0, theta): (f64, f64, &[f64]),
+    snapshots: &mut Vec<(f64, Vec<f64>)>,
+) {
+    while *next_out < output_times.len() && output_times[*next_out] <= until {
+        snapshots.push((t, theta.iter().map(|th| t0 + th).collect()));
+        *next_out += 1;
+    }
+}
+
+/// Heat stored relative to T0 in blocks of capacity `block_capacity` (J/(m K)) at the block
+/// temperatures `theta` (relative to T0, K), J per metre (Kahan sum).
+fn stored_heat(block_capacity: f64, theta: &[f64]) -> f64 {
+    let (mut s, mut c) = (0.0, 0.0);
+    for th in theta {
+        kahan_add(&mut s, &mut c, block_capacity * th);
+    }
+    s
+}
+
+/// An error unless the energy balance, the time series and the final temperatures (K) of a
+/// run are all finite.
+fn check_run_finite(
+    energy_balance: f64,
+    series: &HeatSeries,
+    temperature: &[f64],
+) -> Result<(), ReservoirError> {
+    let all_finite = energy_balance.is_finite()
+        && series.all_finite()
+        && temperature.iter().all(|v| v.is_finite());
+    if !all_finite {
+        return Err(ReservoirError::Solve {
+            what: "continuum heat run".into(),
+            why: "non-finite production temperature, power or balance".into(),
+        });
+    }
+    Ok(())
 }
 
 /// Runs the flow and then the heat extraction to `end_time`.
 pub fn run_continuum(spec: &ContinuumSpec) -> Result<ContinuumRun, ReservoirError> {
     spec.validate()?;
-    let g = &spec.grid;
-    let n = g.len();
-    let props = &spec.props;
-    let lambda = bulk_conductivity(props);
-    let cap = bulk_heat_capacity(props);
-    let rc_w = props.fluid_rho_c();
-    let d = g.dx();
-    let volume = d[0] * d[1];
+    let n = spec.grid.len();
+    let lambda = bulk_conductivity(&spec.props);
+    let d = spec.grid.dx();
+    let block_capacity = bulk_heat_capacity(&spec.props) * (d[0] * d[1]);
+    let rc_w = spec.props.fluid_rho_c();
     let t0 = spec.initial_temperature;
 
     let faces = interior_faces(spec, lambda);
@@ -760,183 +1154,39 @@ pub fn run_continuum(spec: &ContinuumSpec) -> Result<ContinuumRun, ReservoirErro
 
     let heat_span = tracing::info_span!(target: "hydrofrac::system", "heat_continuum");
     let entered = heat_span.enter();
-    // Per block: the constant inflow source (W/m, relative to T0) and the outflow coefficient
-    // (W/(m K)) of the edges and wells; per face the matrix terms.
-    let mut src = vec![0.0; n];
-    let mut out_coef = vec![0.0; n];
-    let (mut q_inj, mut qt_inj) = (0.0, 0.0);
-    let mut producers: Vec<(usize, f64)> = Vec::new();
-    for ((e, ..), &q) in edges.iter().zip(&edge_q) {
-        let th = e.temperature - t0;
-        src[e.block] += e.cond * th;
-        out_coef[e.block] += e.cond;
-        if q > 0.0 {
-            src[e.block] += rc_w * q * th;
-        } else {
-            out_coef[e.block] += rc_w * (-q);
-        }
-    }
-    for (k, w) in flow.wells.iter().enumerate() {
-        if w.rate > 0.0 {
-            let ti = spec.wells[k].injection_temperature;
-            src[w.block] += rc_w * w.rate * (ti - t0);
-            q_inj += w.rate;
-            qt_inj += w.rate * ti;
-        } else if w.rate < 0.0 {
-            out_coef[w.block] += rc_w * (-w.rate);
-            producers.push((w.block, -w.rate));
-        }
-    }
-    let reference_temperature = if q_inj > 0.0 { qt_inj / q_inj } else { t0 };
-    let q_prod: f64 = producers.iter().map(|p| p.1).sum();
-
-    // Matrix pattern: diagonal, both directions of every interior face.
-    let mut entries: Vec<(usize, usize)> = (0..n).map(|i| (i, i)).collect();
-    for &(a, b, ..) in &faces.list {
-        entries.push((a, b));
-        entries.push((b, a));
-    }
-    let pattern = SparsePattern::from_entries(n, entries).map_err(|why| ReservoirError::Solve {
-        what: "continuum heat matrix".into(),
-        why,
-    })?;
-    let slot = |r: usize, c: usize| pattern.slot(r, c).expect("entry is in the pattern");
-    let diag: Vec<usize> = (0..n).map(|i| slot(i, i)).collect();
-    let face_slots: Vec<[usize; 2]> = faces
-        .list
-        .iter()
-        .map(|&(a, b, ..)| [slot(a, b), slot(b, a)])
-        .collect();
-    let mut op = HeatOperator {
-        values: vec![0.0; pattern.nnz()],
-        pattern,
+    let sources = HeatSources::new(spec, &edges, &edge_q, &flow);
+    let terms = HeatTerms {
+        block_capacity,
+        out_coef: &sources.out_coef,
+        faces: &faces,
+        face_q: &face_q,
+        rc_w,
     };
-    let symbolic = factorize_symbolic_lu(op.pattern.as_ref(), Default::default()).map_err(|e| {
-        ReservoirError::Solve {
-            what: "continuum heat matrix".into(),
-            why: format!("symbolic LU: {e:?}"),
-        }
-    })?;
-    let req = StackReq::any_of(&[
-        symbolic.factorize_numeric_lu_scratch::<f64>(Par::Seq, Default::default()),
-        symbolic.solve_in_place_scratch::<f64>(1, Par::Seq),
-    ]);
-    let mut mem = MemBuffer::try_new(req).map_err(|_| ReservoirError::Solve {
-        what: "continuum heat matrix".into(),
-        why: "out of memory for the LU workspace".into(),
-    })?;
-    let mut numeric = NumericLu::<usize, f64>::new();
-    let assemble = |op: &mut HeatOperator, dt: f64| {
-        op.values.iter_mut().for_each(|v| *v = 0.0);
-        for i in 0..n {
-            op.values[diag[i]] += cap * volume / dt + out_coef[i];
-        }
-        for (f, &(a, b, _, cond, _)) in faces.list.iter().enumerate() {
-            let q = face_q[f];
-            let [ab, ba] = face_slots[f];
-            op.values[diag[a]] += cond;
-            op.values[diag[b]] += cond;
-            op.values[ab] -= cond;
-            op.values[ba] -= cond;
-            if q > 0.0 {
-                op.values[diag[a]] += rc_w * q;
-                op.values[ba] -= rc_w * q;
-            } else if q < 0.0 {
-                op.values[diag[b]] += rc_w * (-q);
-                op.values[ab] -= rc_w * (-q);
-            }
-        }
-    };
+    let mut solver = HeatSolver::new(n, &faces)?;
     drop(entered);
 
-    // Steps: all of length dt but the last, shortened to end at end_time.
-    let mut n_steps = (spec.end_time / spec.dt).ceil() as usize;
-    if n_steps == 0 {
-        n_steps = 1;
-    }
-    if spec.end_time - (n_steps - 1) as f64 * spec.dt <= 1e-9 * spec.dt && n_steps > 1 {
-        n_steps -= 1;
-    }
+    let n_steps = step_count(spec);
     let mut theta = vec![0.0; n];
     let mut rhs = vec![0.0; n];
-    let mut times = Vec::with_capacity(n_steps + 1);
-    let mut t_prod = Vec::new();
-    let mut power = Vec::with_capacity(n_steps + 1);
-    let mut cumulative = Vec::with_capacity(n_steps + 1);
+    let mut series = HeatSeries::new(Summation::Compensated, n_steps + 1);
     let mut snapshots = Vec::with_capacity(spec.output_times.len());
     let mut next_out = 0;
-    let (mut net_in, mut net_c) = (0.0, 0.0);
-    let (mut heat_in, mut heat_in_c) = (0.0, 0.0);
-    let (mut heat_out, mut heat_out_c) = (0.0, 0.0);
-    let (mut cum, mut cum_c) = (0.0, 0.0);
-    let src_total: f64 = src.iter().sum();
-    let src_pos: f64 = src.iter().filter(|&&s| s > 0.0).sum();
-    let src_neg: f64 = src.iter().filter(|&&s| s < 0.0).sum();
+    let mut accounts = HeatAccounts::new(&sources.src);
+    let (tp, power) = sources.production(t0, rc_w, &theta);
+    series.start(0.0, tp, power);
+    let outs = &spec.output_times;
+    take_snapshots(outs, &mut next_out, 0.0, (0.0, t0, &theta), &mut snapshots);
 
-    let record = |theta: &[f64], t_prod: &mut Vec<f64>, power: &mut Vec<f64>| {
-        if q_prod > 0.0 {
-            let tp = t0 + producers.iter().map(|&(b, q)| q * theta[b]).sum::<f64>() / q_prod;
-            t_prod.push(tp);
-            power.push(rc_w * q_prod * (tp - reference_temperature));
-        } else {
-            power.push(0.0);
-        }
-    };
-    times.push(0.0);
-    record(&theta, &mut t_prod, &mut power);
-    cumulative.push(0.0);
-    while next_out < spec.output_times.len() && spec.output_times[next_out] <= 0.0 {
-        snapshots.push((0.0, vec![t0; n]));
-        next_out += 1;
-    }
-
-    let mut factored_dt = f64::NAN;
-    let mut factorisations = 0;
     let mut t = 0.0;
     for step in 0..n_steps {
         let _span = heat_span.enter();
-        let t1 = if step + 1 == n_steps {
-            spec.end_time
-        } else {
-            (step + 1) as f64 * spec.dt
-        };
-        // Every step has length dt but a shortened last one (t1 - t differs from dt by
-        // round-off, which must not trigger a refactorisation).
-        let dt = if (t1 - t - spec.dt).abs() <= 1e-9 * spec.dt {
-            spec.dt
-        } else {
-            t1 - t
-        };
-        if dt != factored_dt {
-            assemble(&mut op, dt);
-            let a = SparseColMatRef::new(op.pattern.as_ref(), &op.values);
-            symbolic
-                .factorize_numeric_lu(
-                    &mut numeric,
-                    a,
-                    Par::Seq,
-                    MemStack::new(&mut mem),
-                    Default::default(),
-                )
-                .map_err(|e| ReservoirError::Solve {
-                    what: "continuum heat LU".into(),
-                    why: format!("{e:?}"),
-                })?;
-            factored_dt = dt;
-            factorisations += 1;
-        }
-        let c = cap * volume / dt;
+        let (t1, dt) = step_end(spec, step, n_steps, t);
+        solver.factor_for(&terms, dt)?;
+        let c = block_capacity / dt;
         for i in 0..n {
-            rhs[i] = c * theta[i] + src[i];
+            rhs[i] = c * theta[i] + sources.src[i];
         }
-        // The factors are those of `factored_dt` (= dt): rebuilt above when it changed.
-        let lu = LuRef::new_unchecked(&symbolic, &numeric);
-        lu.solve_in_place_with_conj(
-            Conj::No,
-            MatMut::from_column_major_slice_mut(&mut rhs, n, 1),
-            Par::Seq,
-            MemStack::new(&mut mem),
-        );
+        solver.solve_in_place(&mut rhs);
         if let Some(b) = rhs.iter().position(|v| !v.is_finite()) {
             return Err(ReservoirError::Solve {
                 what: "continuum heat step".into(),
@@ -944,77 +1194,38 @@ pub fn run_continuum(spec: &ContinuumSpec) -> Result<ContinuumRun, ReservoirErro
             });
         }
         std::mem::swap(&mut theta, &mut rhs);
-        // Heat into the reservoir over the step (edges and wells, end-of-step temperatures).
-        let outflow: f64 = out_coef.iter().zip(&theta).map(|(c, th)| c * th).sum();
-        kahan_add(&mut net_in, &mut net_c, dt * (src_total - outflow));
-        let (mut o_pos, mut o_neg) = (0.0, 0.0);
-        for (c, th) in out_coef.iter().zip(&theta) {
-            let h = c * th;
-            if h > 0.0 {
-                o_pos += h;
-            } else {
-                o_neg += h;
-            }
-        }
-        kahan_add(&mut heat_in, &mut heat_in_c, dt * (src_pos - o_neg));
-        kahan_add(&mut heat_out, &mut heat_out_c, dt * (o_pos - src_neg));
+        accounts.add_step(dt, &sources.out_coef, &theta);
         t = t1;
-        times.push(t);
-        record(&theta, &mut t_prod, &mut power);
-        kahan_add(
-            &mut cum,
-            &mut cum_c,
-            dt * power.last().copied().unwrap_or(0.0),
-        );
-        cumulative.push(cum);
-        while next_out < spec.output_times.len()
-            && spec.output_times[next_out] <= t + 1e-9 * spec.dt
-        {
-            snapshots.push((t, theta.iter().map(|th| t0 + th).collect()));
-            next_out += 1;
-        }
+        let (tp, power) = sources.production(t0, rc_w, &theta);
+        series.record(t, dt, tp, power);
+        let until = t + 1e-9 * spec.dt;
+        take_snapshots(outs, &mut next_out, until, (t, t0, &theta), &mut snapshots);
     }
-    let stored = {
-        let (mut s, mut c) = (0.0, 0.0);
-        for th in &theta {
-            kahan_add(&mut s, &mut c, cap * volume * th);
-        }
-        s
-    };
-    let denom = stored.abs().max(heat_in).max(heat_out);
-    let energy_balance = if denom > 0.0 {
-        (stored - net_in).abs() / denom
-    } else {
-        0.0
-    };
+    let stored = stored_heat(block_capacity, &theta);
+    let energy_balance = accounts.energy_balance(stored);
     let temperature: Vec<f64> = theta.iter().map(|th| t0 + th).collect();
-    let all_finite = energy_balance.is_finite()
-        && t_prod
-            .iter()
-            .chain(&power)
-            .chain(&cumulative)
-            .all(|v| v.is_finite())
-        && temperature.iter().all(|v| v.is_finite());
-    if !all_finite {
-        return Err(ReservoirError::Solve {
-            what: "continuum heat run".into(),
-            why: "non-finite production temperature, power or balance".into(),
-        });
-    }
+    check_run_finite(energy_balance, &series, &temperature)?;
+    let HeatSeries {
+        times,
+        production_temperature,
+        thermal_power,
+        cumulative_heat,
+        ..
+    } = series;
     Ok(ContinuumRun {
         times,
-        production_temperature: t_prod,
-        thermal_power: power,
-        cumulative_heat: cumulative,
-        reference_temperature,
+        production_temperature,
+        thermal_power,
+        cumulative_heat,
+        reference_temperature: sources.reference_temperature,
         mass_balance: flow.mass_balance,
         flow,
         snapshots,
         temperature,
         stored_heat_change: stored,
-        net_heat_in: net_in,
+        net_heat_in: accounts.net_in.0,
         energy_balance,
         steps: n_steps,
-        factorisations,
+        factorisations: solver.factorisations,
     })
 }

@@ -42,7 +42,7 @@
 //! `sum C (T - T_0)` equals the advective heat injected `rho_w c_w q_inj (T_inj - T_0) dt`
 //! minus that produced `rho_w c_w |q_prod| (T_i - T_0) dt`, summed over the steps.
 
-use super::{NetworkFlow, ReservoirError, ThermalProps};
+use super::{HeatSeries, NetworkFlow, ReservoirError, Summation, ThermalProps};
 use crate::sparse::SparsePattern;
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
 use faer::sparse::SparseColMatRef;
@@ -814,60 +814,18 @@ impl DiscreteModel {
         let mut factored_dt = f64::NAN;
         let mut factorisations = 0;
 
-        let mut out = DiscreteRun {
-            times: Vec::new(),
-            production_temperature: Vec::new(),
-            thermal_power: Vec::new(),
-            cumulative_heat: Vec::new(),
-            snapshots: Vec::new(),
-            energy_balance: EnergyBalance::default(),
-            factorisations: 0,
-            unknowns: n,
-        };
-        let (mut injected, mut produced, mut cumulative) = (0.0f64, 0.0f64, 0.0f64);
+        let mut series = HeatSeries::new(Summation::Plain, 0);
+        let mut snapshots = Vec::new();
+        let (mut injected, mut produced) = (0.0f64, 0.0f64);
         let mut t = 0.0f64;
         let mut next_out = 0;
         let mut k_step = 0i32;
         while t < spec.end_time {
             let _enter = span.enter();
-            let rule = match spec.time_step {
-                TimeStep::Fixed { dt } => dt,
-                TimeStep::Geometric { first, growth, max } => {
-                    (first * growth.powi(k_step.min(100_000))).min(max)
-                }
-            };
+            let (dt, t1) = step_to(spec, k_step, t, next_out);
             k_step = k_step.saturating_add(1);
-            let target = spec
-                .output_times
-                .get(next_out)
-                .copied()
-                .unwrap_or(spec.end_time)
-                .min(spec.end_time);
-            let mut dt = rule.min(target - t);
-            // Avoid a sliver step before the target.
-            if target - (t + dt) < 1e-6 * rule {
-                dt = target - t;
-            }
-            let t1 = if dt == target - t { target } else { t + dt };
-
             if dt != factored_dt {
-                values.copy_from_slice(&self.base);
-                for (i, &c) in self.cap.iter().enumerate() {
-                    values[self.diag[i]] += c / dt;
-                }
-                let a = SparseColMatRef::new(self.pattern.as_ref(), &values);
-                self.symbolic
-                    .factorize_numeric_lu(
-                        &mut numeric,
-                        a,
-                        Par::Seq,
-                        MemStack::new(&mut self.mem),
-                        Default::default(),
-                    )
-                    .map_err(|e| ReservoirError::Solve {
-                        what: "heat_discrete LU".into(),
-                        why: format!("{e:?}"),
-                    })?;
+                self.factorise(&mut values, &mut numeric, dt)?;
                 factored_dt = dt;
                 factorisations += 1;
             }
@@ -885,19 +843,7 @@ impl DiscreteModel {
                 Par::Seq,
                 MemStack::new(&mut self.mem),
             );
-            if let Some(k) = rhs.iter().position(|v| !v.is_finite()) {
-                return Err(ReservoirError::Solve {
-                    what: "heat_discrete step".into(),
-                    why: format!(
-                        "non-finite temperature at t = {t1:e} s in {}",
-                        if k < nc {
-                            format!("cell {k}")
-                        } else {
-                            format!("block {}", k - nc)
-                        }
-                    ),
-                });
-            }
+            check_finite(&rhs, nc, t1)?;
             std::mem::swap(&mut u, &mut rhs);
             t = t1;
 
@@ -907,13 +853,9 @@ impl DiscreteModel {
             // T_prod - T_0, flux-weighted.
             let du_prod = prod_heat / (rwcw * q_prod);
             let power = rwcw * q_prod * (du_prod - du_inj);
-            cumulative += dt * power;
-            out.times.push(t);
-            out.production_temperature.push(t0 + du_prod);
-            out.thermal_power.push(power);
-            out.cumulative_heat.push(cumulative);
+            series.record(t, dt, Some(t0 + du_prod), power);
             if next_out < spec.output_times.len() && t == spec.output_times[next_out] {
-                out.snapshots.push(Snapshot {
+                snapshots.push(Snapshot {
                     time: t,
                     cell_temperature: u[..nc].iter().map(|x| t0 + x).collect(),
                     rock_temperature: u[nc..].iter().map(|x| t0 + x).collect(),
@@ -922,19 +864,111 @@ impl DiscreteModel {
             }
         }
         let stored: f64 = self.cap.iter().zip(&u).map(|(c, x)| c * x).sum();
+        let energy_balance = EnergyBalance::checked(stored, injected, produced)?;
+        let HeatSeries {
+            times,
+            production_temperature,
+            thermal_power,
+            cumulative_heat,
+            ..
+        } = series;
+        Ok(DiscreteRun {
+            times,
+            production_temperature,
+            thermal_power,
+            cumulative_heat,
+            snapshots,
+            energy_balance,
+            factorisations,
+            unknowns: n,
+        })
+    }
+}
+
+impl DiscreteModel {
+    /// The numeric LU of the matrix of a step `dt` (s), `base` plus the capacities over dt
+    /// (W/(m K)) on the diagonal, assembled in `values`, into `numeric`.
+    fn factorise(
+        &mut self,
+        values: &mut [f64],
+        numeric: &mut NumericLu<usize, f64>,
+        dt: f64,
+    ) -> Result<(), ReservoirError> {
+        values.copy_from_slice(&self.base);
+        for (i, &c) in self.cap.iter().enumerate() {
+            values[self.diag[i]] += c / dt;
+        }
+        let a = SparseColMatRef::new(self.pattern.as_ref(), values);
+        self.symbolic
+            .factorize_numeric_lu(
+                numeric,
+                a,
+                Par::Seq,
+                MemStack::new(&mut self.mem),
+                Default::default(),
+            )
+            .map_err(|e| ReservoirError::Solve {
+                what: "heat_discrete LU".into(),
+                why: format!("{e:?}"),
+            })?;
+        Ok(())
+    }
+}
+
+/// The length (s) and end (s) of step `k_step` from `t` (s): the rule's step, shortened to
+/// land on the next output time (from `next_out`) or the end time, and stretched to it
+/// rather than leave a sliver under 1e-6 of the rule's step.
+fn step_to(spec: &DiscreteSpec, k_step: i32, t: f64, next_out: usize) -> (f64, f64) {
+    let rule = match spec.time_step {
+        TimeStep::Fixed { dt } => dt,
+        TimeStep::Geometric { first, growth, max } => {
+            (first * growth.powi(k_step.min(100_000))).min(max)
+        }
+    };
+    let target = spec
+        .output_times
+        .get(next_out)
+        .copied()
+        .unwrap_or(spec.end_time)
+        .min(spec.end_time);
+    let mut dt = rule.min(target - t);
+    // Avoid a sliver step before the target.
+    if target - (t + dt) < 1e-6 * rule {
+        dt = target - t;
+    }
+    let t1 = if dt == target - t { target } else { t + dt };
+    (dt, t1)
+}
+
+/// An error naming the first unknown of `u` (K relative to T0; `nc` cells, then blocks) that
+/// is not finite at `t1` (s), if any.
+fn check_finite(u: &[f64], nc: usize, t1: f64) -> Result<(), ReservoirError> {
+    if let Some(k) = u.iter().position(|v| !v.is_finite()) {
+        return Err(ReservoirError::Solve {
+            what: "heat_discrete step".into(),
+            why: format!(
+                "non-finite temperature at t = {t1:e} s in {}",
+                if k < nc {
+                    format!("cell {k}")
+                } else {
+                    format!("block {}", k - nc)
+                }
+            ),
+        });
+    }
+    Ok(())
+}
+
+impl EnergyBalance {
+    /// The accounts of a run (J per metre: heat stored, injected and produced) with their
+    /// relative error; an error when that exceeds [`ENERGY_TOLERANCE`] (or is NaN).
+    fn checked(stored: f64, injected: f64, produced: f64) -> Result<Self, ReservoirError> {
         let scale = stored.abs().max(injected.abs()).max(produced.abs());
         let relative_error = if scale > 0.0 {
             (stored - (injected - produced)).abs() / scale
         } else {
             0.0
         };
-        out.energy_balance = EnergyBalance {
-            stored,
-            injected,
-            produced,
-            relative_error,
-        };
-        out.factorisations = factorisations;
         if relative_error.is_nan() || relative_error > ENERGY_TOLERANCE {
             return Err(ReservoirError::Solve {
                 what: "heat_discrete energy balance".into(),
@@ -943,7 +977,12 @@ impl DiscreteModel {
                 ),
             });
         }
-        Ok(out)
+        Ok(EnergyBalance {
+            stored,
+            injected,
+            produced,
+            relative_error,
+        })
     }
 }
 

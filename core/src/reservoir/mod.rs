@@ -239,3 +239,81 @@ impl ReservoirError {
         }
     }
 }
+
+/// How [`HeatSeries`] sums the step energies into the cumulative heat.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Summation {
+    /// `sum += x`.
+    Plain,
+    /// Kahan-compensated ([`crate::flow::kahan_add`]).
+    Compensated,
+}
+
+/// The time series of a heat-extraction run, recorded step by step: the time (s), the
+/// flux-weighted production temperature (K), the thermal power (W per metre) and its time
+/// integral with end-of-step values (backward Euler), the cumulative heat (J per metre). Each
+/// model computes its own temperature and power; this is where both record them.
+#[derive(Clone, Debug, PartialEq)]
+pub struct HeatSeries {
+    /// s.
+    pub times: Vec<f64>,
+    /// K (no entry for a record taken while nothing produces).
+    pub production_temperature: Vec<f64>,
+    /// W per metre.
+    pub thermal_power: Vec<f64>,
+    /// J per metre.
+    pub cumulative_heat: Vec<f64>,
+    summation: Summation,
+    /// The running cumulative heat, J per metre, and its Kahan compensation.
+    sum: f64,
+    carry: f64,
+}
+
+impl HeatSeries {
+    /// An empty series with room for `records` records.
+    pub fn new(summation: Summation, records: usize) -> Self {
+        HeatSeries {
+            times: Vec::with_capacity(records),
+            production_temperature: Vec::new(),
+            thermal_power: Vec::with_capacity(records),
+            cumulative_heat: Vec::with_capacity(records),
+            summation,
+            sum: 0.0,
+            carry: 0.0,
+        }
+    }
+
+    /// Records the initial state at `t` (s): production temperature (K, `None` when nothing
+    /// produces), thermal power (W/m) and a cumulative heat of zero.
+    pub fn start(&mut self, t: f64, production_temperature: Option<f64>, power: f64) {
+        self.times.push(t);
+        self.production_temperature.extend(production_temperature);
+        self.thermal_power.push(power);
+        self.cumulative_heat.push(0.0);
+    }
+
+    /// Records the end of a step of `dt` (s) at `t` (s): production temperature (K, `None`
+    /// when nothing produces) and thermal power (W/m); the cumulative heat grows by
+    /// `dt * power` (J/m).
+    pub fn record(&mut self, t: f64, dt: f64, production_temperature: Option<f64>, power: f64) {
+        match self.summation {
+            Summation::Plain => self.sum += dt * power,
+            Summation::Compensated => {
+                crate::flow::kahan_add(&mut self.sum, &mut self.carry, dt * power)
+            }
+        }
+        self.times.push(t);
+        self.production_temperature.extend(production_temperature);
+        self.thermal_power.push(power);
+        self.cumulative_heat.push(self.sum);
+    }
+
+    /// Whether every production temperature, power and cumulative heat is finite.
+    pub fn all_finite(&self) -> bool {
+        self.production_temperature
+            .iter()
+            .chain(&self.thermal_power)
+            .chain(&self.cumulative_heat)
+            .all(|v| v.is_finite())
+    }
+}
