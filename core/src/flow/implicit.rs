@@ -350,10 +350,11 @@ impl ImplicitSolver {
             last_residual: self.last_residual,
             factorisations: self.factorisations,
             chord_iterations: self.chord_iterations,
+            // The kept factor's values, or those a restored solver has yet to factorise.
             jacobian: if self.kept == Some(self.symbolic_count) {
                 self.values.clone()
             } else {
-                Vec::new()
+                self.pending.clone()
             },
         }
     }
