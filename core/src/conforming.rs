@@ -311,22 +311,76 @@ impl<'a> SegmentGrid<'a> {
 }
 
 /// Mesh the domain of `p` around the fracture segments `fractures` (m). Errors name the
-/// `mesh` fields; an empty list gives a quality mesh of the rectangle.
+/// `mesh` fields; an empty list gives a quality mesh of the rectangle. The steps are the
+/// module documentation's.
 pub fn conforming_mesh(
     p: &ConformingParams,
     fractures: &[([f64; 2], [f64; 2])],
 ) -> Result<(TriMesh, ConformingReport), SetupError> {
     let started = std::time::Instant::now();
     let [x0, y0] = p.origin;
-    let (x1, y1) = (x0 + p.width, y0 + p.height);
+    let bbox = [x0, y0, x0 + p.width, y0 + p.height];
     let tol = p.merge * p.h;
     let mut report = ConformingReport {
         fractures: fractures.len(),
         refinement_complete: true,
         ..Default::default()
     };
+    let segs = clip_to_domain(p, bbox, fractures);
+    let (pts, on) = fracture_points(&segs, tol, &mut report);
+    let rep = merge_points(&pts, tol, &mut report);
+    let (mut verts, mut edges) = fracture_chains(p.h, &pts, on, &rep, &mut report);
+    side_chains(p.h_far, bbox, &mut verts, &mut edges);
+    if verts.len() > p.max_vertices {
+        return Err(SetupError::invalid(
+            "mesh.h",
+            format!(
+                "the fractures alone need {} mesh nodes at h = {} m, more than the memory bound \
+                 allows ({}); use a larger h or fewer fractures",
+                verts.len(),
+                p.h,
+                p.max_vertices
+            ),
+        ));
+    }
 
-    // 1. Clip; ends within `tol` of a side go onto it.
+    // 5. Triangulate, grade and refine.
+    let mut cdt = constrained_triangulation(&verts, edges, &mut report)?;
+    // Size grading: triangles larger than h + grading * (distance to the nearest fracture)
+    // (at most h_far) get a vertex at their centroid, pass by pass; the quality refinement
+    // then restores the angles. Ruppert's refinement alone grades as fast as the angle bound
+    // allows, too fast for the stress field around a crack.
+    let lines: Vec<([f64; 2], [f64; 2])> = segs.iter().map(|&(a, b, _)| (a, b)).collect();
+    let grid = SegmentGrid::new(&lines, bbox);
+    let size_at = |q: [f64; 2]| (p.h + p.grading * grid.distance(q)).min(p.h_far);
+    if !segs.is_empty() && p.grading.is_finite() {
+        grade(&mut cdt, p, bbox, &size_at, &mut report)?;
+    }
+    refine(&mut cdt, p, &mut report);
+    let (nodes, triangles) = triangles_of(&cdt)?;
+    if !segs.is_empty() {
+        size_ratios(&nodes, &triangles, &size_at, &mut report);
+    }
+    let mut mesh = TriMesh::from_triangles(nodes, triangles);
+    mesh.h = p.h;
+    mesh.bbox = bbox;
+    report.seconds = started.elapsed().as_secs_f64();
+    Ok((mesh, report))
+}
+
+/// A fracture clipped to the domain: its ends, and whether each lies on a domain side.
+type Segment = ([f64; 2], [f64; 2], [bool; 2]);
+
+/// Step 1: each fracture clipped to `bbox` (x0, y0, x1, y1; m); ends within the merge
+/// distance of a side go onto it; a fracture along a side or shorter than that is dropped
+/// (the side's own edges are the fracture; placement reports it).
+fn clip_to_domain(
+    p: &ConformingParams,
+    bbox: [f64; 4],
+    fractures: &[([f64; 2], [f64; 2])],
+) -> Vec<Segment> {
+    let [x0, y0, x1, y1] = bbox;
+    let tol = p.merge * p.h;
     let onto_side = |q: [f64; 2]| -> ([f64; 2], bool) {
         let mut q = q;
         let mut on = false;
@@ -347,21 +401,29 @@ pub fn conforming_mesh(
             || (a[1] == y0 && b[1] == y0)
             || (a[1] == y1 && b[1] == y1)
     };
-    let mut segs: Vec<([f64; 2], [f64; 2], [bool; 2])> = Vec::new();
+    let mut segs = Vec::new();
     for &(a, b) in fractures {
         let (mut a, mut b) = (a, b);
-        if !crate::network::clip(&mut a, &mut b, [x0, y0, x1, y1]) {
+        if !crate::network::clip(&mut a, &mut b, bbox) {
             continue;
         }
         let ((a, ba), (b, bb)) = (onto_side(a), onto_side(b));
-        // Along a side: the side's own edges are the fracture (placement reports it).
         if dist(a, b) <= tol.max(1e-12 * p.h) || on_same_side(a, b) {
             continue;
         }
         segs.push((a, b, [ba, bb]));
     }
+    segs
+}
 
-    // 2. Points on each fracture: (t, point index).
+/// Step 2: the points on each fracture, as (t along it, point index): its ends, its crossings
+/// with the others and the feet of the ends of others that stop within `tol` (m) of it.
+#[allow(clippy::type_complexity)]
+fn fracture_points(
+    segs: &[Segment],
+    tol: f64,
+    report: &mut ConformingReport,
+) -> (Vec<([f64; 2], Kind)>, Vec<Vec<(f64, usize)>>) {
     let mut pts: Vec<([f64; 2], Kind)> = Vec::new();
     let mut on: Vec<Vec<(f64, usize)>> = vec![Vec::new(); segs.len()];
     for (i, &(a, b, bnd)) in segs.iter().enumerate() {
@@ -405,8 +467,12 @@ pub fn conforming_mesh(
             }
         }
     }
+    (pts, on)
+}
 
-    // 3. Merge points closer than `tol` (sweep in x; groups by union-find).
+/// Step 3: points closer than `tol` (m) merged (a sweep in x; groups by union-find); the
+/// representative of each point, the lowest (kind, index) of its group.
+fn merge_points(pts: &[([f64; 2], Kind)], tol: f64, report: &mut ConformingReport) -> Vec<usize> {
     let mut uf = UnionFind::new(pts.len());
     if tol > 0.0 {
         let mut order: Vec<usize> = (0..pts.len()).collect();
@@ -422,7 +488,6 @@ pub fn conforming_mesh(
             }
         }
     }
-    // The kept member of each group: the lowest (kind, index).
     let mut keep: Vec<usize> = (0..pts.len()).collect();
     for i in 0..pts.len() {
         let r = uf.find(i);
@@ -431,34 +496,40 @@ pub fn conforming_mesh(
             keep[r] = i;
         }
     }
-    let rep = |uf: &mut UnionFind, i: usize| keep[uf.find(i)];
-    for i in 0..pts.len() {
-        let r = rep(&mut uf, i);
+    let rep: Vec<usize> = (0..pts.len()).map(|i| keep[uf.find(i)]).collect();
+    for (i, &r) in rep.iter().enumerate() {
         if r != i {
             report.points_merged += 1;
             report.largest_merge_shift = report.largest_merge_shift.max(dist(pts[i].0, pts[r].0));
         }
     }
+    rep
+}
 
-    // 4. Vertices and constraint edges. Vertex ids: merged point representatives first come
-    // first served, then the points subdividing the chains.
+/// Step 4, the fractures: vertices and constraint edges of at most `h` (m) along each
+/// fracture's chain of merged points. Vertex ids: merged point representatives first come
+/// first served, then the points subdividing the chains.
+#[allow(clippy::type_complexity)]
+fn fracture_chains(
+    h: f64,
+    pts: &[([f64; 2], Kind)],
+    mut on: Vec<Vec<(f64, usize)>>,
+    rep: &[usize],
+    report: &mut ConformingReport,
+) -> (Vec<[f64; 2]>, Vec<[usize; 2]>) {
     let mut verts: Vec<[f64; 2]> = Vec::new();
     let mut vid: Vec<Option<usize>> = vec![None; pts.len()];
-    let mut vertex_of = |uf: &mut UnionFind, verts: &mut Vec<[f64; 2]>, i: usize| {
-        let r = rep(uf, i);
-        *vid[r].get_or_insert_with(|| {
-            verts.push(pts[r].0);
-            verts.len() - 1
-        })
-    };
     let mut edges: Vec<[usize; 2]> = Vec::new();
     let mut frac_len = 0.0;
-    let mut side_points: [Vec<usize>; 4] = Default::default();
     for list in &mut on {
         list.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
         let mut chain: Vec<usize> = Vec::new();
         for &(_, k) in list.iter() {
-            let v = vertex_of(&mut uf, &mut verts, k);
+            let r = rep[k];
+            let v = *vid[r].get_or_insert_with(|| {
+                verts.push(pts[r].0);
+                verts.len() - 1
+            });
             if chain.last() != Some(&v) {
                 chain.push(v);
             }
@@ -468,21 +539,9 @@ pub fn conforming_mesh(
         }
         report.fractures_meshed += 1;
         for w in chain.windows(2) {
-            let (a, b) = (verts[w[0]], verts[w[1]]);
-            let n = ((dist(a, b) / p.h) - 1e-9).ceil().max(1.0) as usize;
-            let mut prev = w[0];
-            for s in 1..=n {
-                let v = if s == n {
-                    w[1]
-                } else {
-                    let f = s as f64 / n as f64;
-                    verts.push([a[0] + f * (b[0] - a[0]), a[1] + f * (b[1] - a[1])]);
-                    verts.len() - 1
-                };
-                edges.push([prev.min(v), prev.max(v)]);
-                frac_len += dist(verts[prev], verts[v]);
-                prev = v;
-            }
+            subdivide(&mut verts, &mut edges, w[0], w[1], h, |a, b| {
+                frac_len += dist(a, b)
+            });
         }
     }
     edges.sort_unstable();
@@ -493,7 +552,41 @@ pub fn conforming_mesh(
     } else {
         frac_len / edges.len() as f64
     };
-    // Points on the sides (fracture ends moved there), then the sides as chains of <= h_far.
+    (verts, edges)
+}
+
+/// Constraint edges of at most `h` (m) from vertex `a` to vertex `b`, the points between
+/// added to `verts`; `each` sees every edge's ends.
+fn subdivide(
+    verts: &mut Vec<[f64; 2]>,
+    edges: &mut Vec<[usize; 2]>,
+    a: usize,
+    b: usize,
+    h: f64,
+    mut each: impl FnMut([f64; 2], [f64; 2]),
+) {
+    let (pa, pb) = (verts[a], verts[b]);
+    let n = ((dist(pa, pb) / h) - 1e-9).ceil().max(1.0) as usize;
+    let mut prev = a;
+    for k in 1..=n {
+        let v = if k == n {
+            b
+        } else {
+            let f = k as f64 / n as f64;
+            verts.push([pa[0] + f * (pb[0] - pa[0]), pa[1] + f * (pb[1] - pa[1])]);
+            verts.len() - 1
+        };
+        edges.push([prev.min(v), prev.max(v)]);
+        each(verts[prev], verts[v]);
+        prev = v;
+    }
+}
+
+/// Step 4, the domain sides: chains of at most `h_far` (m) through the corners and the
+/// fracture points that lie on the sides of `bbox`.
+fn side_chains(h_far: f64, bbox: [f64; 4], verts: &mut Vec<[f64; 2]>, edges: &mut Vec<[usize; 2]>) {
+    let [x0, y0, x1, y1] = bbox;
+    let mut side_points: [Vec<usize>; 4] = Default::default();
     for (v, q) in verts.iter().enumerate() {
         for (s, on_side) in [q[1] == y0, q[0] == x1, q[1] == y1, q[0] == x0]
             .into_iter()
@@ -517,113 +610,114 @@ pub fn conforming_mesh(
     }
     for s in 0..4 {
         let a = corners[s];
-        let along = |v: usize| dist(a, verts[v]);
         let mut list: Vec<usize> = side_points[s].clone();
         list.push(corner_v[s]);
         list.push(corner_v[(s + 1) % 4]);
-        list.sort_by(|&i, &j| along(i).total_cmp(&along(j)).then(i.cmp(&j)));
+        list.sort_by(|&i, &j| {
+            dist(a, verts[i])
+                .total_cmp(&dist(a, verts[j]))
+                .then(i.cmp(&j))
+        });
         list.dedup();
         for w in list.windows(2) {
-            let (pa, pb) = (verts[w[0]], verts[w[1]]);
-            let n = ((dist(pa, pb) / p.h_far) - 1e-9).ceil().max(1.0) as usize;
-            let mut prev = w[0];
-            for k in 1..=n {
-                let v = if k == n {
-                    w[1]
-                } else {
-                    let f = k as f64 / n as f64;
-                    verts.push([pa[0] + f * (pb[0] - pa[0]), pa[1] + f * (pb[1] - pa[1])]);
-                    verts.len() - 1
-                };
-                edges.push([prev.min(v), prev.max(v)]);
-                prev = v;
-            }
+            subdivide(verts, edges, w[0], w[1], h_far, |_, _| {});
         }
     }
-    if verts.len() > p.max_vertices {
-        return Err(SetupError::invalid(
-            "mesh.h",
-            format!(
-                "the fractures alone need {} mesh nodes at h = {} m, more than the memory bound \
-                 allows ({}); use a larger h or fewer fractures",
-                verts.len(),
-                p.h,
-                p.max_vertices
-            ),
-        ));
-    }
+}
 
-    // 5. Triangulate and refine.
-    let points: Vec<Point2<f64>> = verts.iter().map(|q| Point2::new(q[0], q[1])).collect();
-    // Points and then constraints one by one, in input order: spade's bulk loader re-inserts
-    // the vertices it skips and their constraints from a hash set, whose order (and so the
-    // mesh, where points are co-circular) changes from process to process.
-    let failed = |e| SetupError::invalid("mesh", format!("the triangulation failed: {e:?}"));
-    let mut cdt = ConstrainedDelaunayTriangulation::<Point2<f64>>::new();
-    let mut handles = Vec::with_capacity(points.len());
-    for q in points {
-        handles.push(cdt.insert(q).map_err(failed)?);
+type Cdt = ConstrainedDelaunayTriangulation<Point2<f64>>;
+
+fn triangulation_failed(e: impl std::fmt::Debug) -> SetupError {
+    SetupError::invalid("mesh", format!("the triangulation failed: {e:?}"))
+}
+
+/// Step 5: the constrained Delaunay triangulation of `verts` (m) with the constraint `edges`;
+/// edges that cross an inserted one are counted as conflicts. Points and then constraints one
+/// by one, in input order: spade's bulk loader re-inserts the vertices it skips and their
+/// constraints from a hash set, whose order (and so the mesh, where points are co-circular)
+/// changes from process to process.
+fn constrained_triangulation(
+    verts: &[[f64; 2]],
+    edges: Vec<[usize; 2]>,
+    report: &mut ConformingReport,
+) -> Result<Cdt, SetupError> {
+    let mut cdt = Cdt::new();
+    let mut handles = Vec::with_capacity(verts.len());
+    for q in verts {
+        handles.push(
+            cdt.insert(Point2::new(q[0], q[1]))
+                .map_err(triangulation_failed)?,
+        );
     }
     for [a, b] in edges {
         if cdt.try_add_constraint(handles[a], handles[b]).is_empty() {
             report.conflicts += 1;
         }
     }
+    Ok(cdt)
+}
+
+/// Step 5, grading: a vertex at the centroid of every triangle larger than 1.2 times the size
+/// asked at its centroid (`size_at`, m) and not at a side of `bbox`, pass by pass, within the
+/// vertex bound.
+fn grade(
+    cdt: &mut Cdt,
+    p: &ConformingParams,
+    bbox: [f64; 4],
+    size_at: &impl Fn([f64; 2]) -> f64,
+    report: &mut ConformingReport,
+) -> Result<(), SetupError> {
+    let [x0, y0, x1, y1] = bbox;
+    // The faces found fine enough, by face index: their vertices, in spade's order. A face
+    // whose vertices have not changed since is fine again (the same arithmetic on the same
+    // points), so a pass looks only at the faces the last one's insertions made.
+    let mut fine: Vec<[usize; 3]> = Vec::new();
+    for _pass in 0..64 {
+        let mut centroids: Vec<Point2<f64>> = Vec::new();
+        fine.resize(cdt.num_all_faces(), [usize::MAX; 3]);
+        for f in cdt.inner_faces() {
+            let ids = f.vertices().map(|v| v.fix().index());
+            let slot = &mut fine[f.fix().index()];
+            if *slot == ids {
+                continue;
+            }
+            let v = f.vertices().map(|v| {
+                let q = v.position();
+                [q.x, q.y]
+            });
+            // The side of the equilateral triangle of the same area: a thin triangle along a
+            // long fixed edge is left to the quality refinement.
+            let side = equal_area_side(v);
+            let c = centroid(v);
+            let size = size_at(c);
+            let to_side = (c[0] - x0).min(x1 - c[0]).min(c[1] - y0).min(y1 - c[1]);
+            if side > 1.2 * size && to_side > 0.5 * size {
+                centroids.push(Point2::new(c[0], c[1]));
+            } else {
+                *slot = ids;
+            }
+        }
+        if centroids.is_empty() {
+            break;
+        }
+        if cdt.num_vertices() + centroids.len() > p.max_vertices {
+            report.refinement_complete = false;
+            break;
+        }
+        for c in centroids {
+            cdt.insert(c).map_err(triangulation_failed)?;
+        }
+    }
+    Ok(())
+}
+
+/// Step 5, quality: spade's refinement to the angle `min_angle_deg` and the area of an
+/// equilateral triangle of side `h_far`, within the vertex bound.
+fn refine(cdt: &mut Cdt, p: &ConformingParams, report: &mut ConformingReport) {
     let max_area = 3f64.sqrt() / 4.0 * p.h_far * p.h_far;
     // Faces below this are left as they are: a small angle between two fractures cannot be
     // refined away and would otherwise take the whole vertex budget.
     let min_area = 3f64.sqrt() / 4.0 * (0.05 * p.h).powi(2);
-    // Size grading: triangles larger than h + grading * (distance to the nearest fracture)
-    // (at most h_far) get a vertex at their centroid, pass by pass; the quality refinement
-    // then restores the angles. Ruppert's refinement alone grades as fast as the angle bound
-    // allows, too fast for the stress field around a crack.
-    let lines: Vec<([f64; 2], [f64; 2])> = segs.iter().map(|&(a, b, _)| (a, b)).collect();
-    let grid = SegmentGrid::new(&lines, [x0, y0, x1, y1]);
-    let size_at = |q: [f64; 2]| (p.h + p.grading * grid.distance(q)).min(p.h_far);
-    if !segs.is_empty() && p.grading.is_finite() {
-        // The faces found fine enough, by face index: their vertices, in spade's order. A
-        // face whose vertices have not changed since is fine again (the same arithmetic on
-        // the same points), so a pass looks only at the faces the last one's insertions made.
-        let mut fine: Vec<[usize; 3]> = Vec::new();
-        for _pass in 0..64 {
-            let mut centroids: Vec<Point2<f64>> = Vec::new();
-            fine.resize(cdt.num_all_faces(), [usize::MAX; 3]);
-            for f in cdt.inner_faces() {
-                let ids = f.vertices().map(|v| v.fix().index());
-                let slot = &mut fine[f.fix().index()];
-                if *slot == ids {
-                    continue;
-                }
-                let v = f.vertices().map(|v| {
-                    let q = v.position();
-                    [q.x, q.y]
-                });
-                // The side of the equilateral triangle of the same area: a thin triangle
-                // along a long fixed edge is left to the quality refinement.
-                let side = equal_area_side(v);
-                let c = centroid(v);
-                let size = size_at(c);
-                let to_side = (c[0] - x0).min(x1 - c[0]).min(c[1] - y0).min(y1 - c[1]);
-                if side > 1.2 * size && to_side > 0.5 * size {
-                    centroids.push(Point2::new(c[0], c[1]));
-                } else {
-                    *slot = ids;
-                }
-            }
-            if centroids.is_empty() {
-                break;
-            }
-            if cdt.num_vertices() + centroids.len() > p.max_vertices {
-                report.refinement_complete = false;
-                break;
-            }
-            for c in centroids {
-                cdt.insert(c).map_err(|e| {
-                    SetupError::invalid("mesh", format!("the triangulation failed: {e:?}"))
-                })?;
-            }
-        }
-    }
     let params = RefinementParameters::<f64>::new()
         .with_angle_limit(AngleLimit::from_deg(p.min_angle_deg))
         .with_max_allowed_area(max_area)
@@ -631,7 +725,12 @@ pub fn conforming_mesh(
         .with_max_additional_vertices(p.max_vertices.saturating_sub(cdt.num_vertices()));
     let result = cdt.refine(params);
     report.refinement_complete &= result.refinement_complete;
+}
 
+/// The triangulation's nodes (m) and its triangles, counter-clockwise; a triangle of zero
+/// area is an error.
+#[allow(clippy::type_complexity)]
+fn triangles_of(cdt: &Cdt) -> Result<(Vec<[f64; 2]>, Vec<[u32; 3]>), SetupError> {
     let nodes: Vec<[f64; 2]> = cdt
         .vertices()
         .map(|v| {
@@ -658,24 +757,26 @@ pub fn conforming_mesh(
             ));
         }
     }
-    // How closely the mesh follows the grading: each triangle's equal-area side over the
-    // size asked at its centroid.
-    if !segs.is_empty() {
-        let (mut max, mut sum) = (0.0f64, 0.0);
-        for t in &triangles {
-            let v = t.map(|n| nodes[n as usize]);
-            let r = equal_area_side(v) / size_at(centroid(v));
-            max = max.max(r);
-            sum += r;
-        }
-        report.size_ratio_max = max;
-        report.size_ratio_mean = sum / triangles.len().max(1) as f64;
+    Ok((nodes, triangles))
+}
+
+/// How closely the mesh follows the grading: each triangle's equal-area side over the size
+/// asked at its centroid, largest and mean.
+fn size_ratios(
+    nodes: &[[f64; 2]],
+    triangles: &[[u32; 3]],
+    size_at: &impl Fn([f64; 2]) -> f64,
+    report: &mut ConformingReport,
+) {
+    let (mut max, mut sum) = (0.0f64, 0.0);
+    for t in triangles {
+        let v = t.map(|n| nodes[n as usize]);
+        let r = equal_area_side(v) / size_at(centroid(v));
+        max = max.max(r);
+        sum += r;
     }
-    let mut mesh = TriMesh::from_triangles(nodes, triangles);
-    mesh.h = p.h;
-    mesh.bbox = [x0, y0, x1, y1];
-    report.seconds = started.elapsed().as_secs_f64();
-    Ok((mesh, report))
+    report.size_ratio_max = max;
+    report.size_ratio_mean = sum / triangles.len().max(1) as f64;
 }
 
 #[cfg(test)]

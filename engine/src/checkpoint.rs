@@ -159,6 +159,7 @@ impl WorldRecords {
         for (e, a, b) in w.query::<(Entity, &StableId, &FlowBc)>().iter() {
             r.bcs.push((e, (*a, *b)));
         }
+        r.check_bundles(w)?;
         let n = r.nodes.len()
             + r.elems.len()
             + r.edges.len()
@@ -172,6 +173,39 @@ impl WorldRecords {
             ));
         }
         Ok(r)
+    }
+
+    /// Every entity carries exactly the components of one of the bundles: a component added
+    /// to an entity but not to its bundle (`hydrofrac_components`) would not be saved, and a
+    /// restart would silently lose it.
+    fn check_bundles(&self, w: &hecs::World) -> Result<(), String> {
+        fn ids<B: hecs::Bundle>() -> Vec<std::any::TypeId> {
+            B::with_static_ids(|ids| {
+                let mut v = ids.to_vec();
+                v.sort_unstable();
+                v
+            })
+        }
+        let bundles = [
+            ids::<NodeBundle>(),
+            ids::<ElemBundle>(),
+            ids::<EdgeBundle>(),
+            ids::<CellBundle>(),
+            ids::<JointBundle>(),
+            ids::<FlowBcBundle>(),
+        ];
+        for a in w.archetypes().filter(|a| a.len() > 0) {
+            let mut types: Vec<std::any::TypeId> = a.component_types().collect();
+            types.sort_unstable();
+            if !bundles.contains(&types) {
+                return Err(format!(
+                    "{} entities carry a set of {} components that is not a checkpoint bundle                      (a component added to an entity must be added to its bundle)",
+                    a.len(),
+                    types.len()
+                ));
+            }
+        }
+        Ok(())
     }
 
     /// A world with every entity respawned at its handle, in handle order (the order they were
@@ -485,5 +519,40 @@ impl Simulation {
     /// What writing checkpoints cost so far.
     pub fn checkpoint_stats(&self) -> CheckpointStats {
         self.checkpoints
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use hydrofrac_core::mesh::TriMesh;
+    use hydrofrac_core::scenario::Material;
+
+    /// A component given to an entity but missing from its bundle would not be saved: capture
+    /// refuses the world, so a new state component cannot be lost silently on restart.
+    #[test]
+    fn a_component_outside_the_bundles_is_refused() {
+        let mesh = TriMesh::regular(2.0, 2.0, 1.0, [0.0, 0.0]).unwrap();
+        let rock = Material {
+            young: 20e9,
+            poisson: 0.2,
+            density: 2700.0,
+        };
+        let mut m = Model::from_mesh(&mesh, rock).unwrap();
+        let r = WorldRecords::capture(&m).unwrap();
+        assert_eq!(r.nodes.len(), m.node_count());
+        let world = r.restore().unwrap();
+        assert_eq!(world.len(), m.world.len());
+        struct NewField(#[allow(dead_code)] f64);
+        let node = m
+            .world
+            .query::<(Entity, &NodeState)>()
+            .iter()
+            .next()
+            .unwrap()
+            .0;
+        m.world.insert_one(node, NewField(1.0)).unwrap();
+        let err = WorldRecords::capture(&m).unwrap_err();
+        assert!(err.contains("not a checkpoint bundle"), "{err}");
     }
 }
