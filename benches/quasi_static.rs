@@ -60,6 +60,7 @@ fn quasi_static(c: &mut Criterion) {
                 step: k,
                 time: 0.0,
                 lf,
+                dt: 0.0,
             },
         )
         .unwrap()
@@ -101,6 +102,7 @@ fn frictional(c: &mut Criterion) {
                         step: 1,
                         time: 1.0,
                         lf: 1.0,
+                        dt: 0.0,
                     },
                 )
                 .unwrap()

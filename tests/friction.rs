@@ -163,6 +163,37 @@ fn inclined_block_slides_with_the_coulomb_acceleration_or_sticks() {
     }
 }
 
+/// The inclined block on the quasi-static rock with implicit dynamics (`time.inertia:
+/// BackwardEuler`, h = 0.25 m, 200 steps of 0.5 ms, the full gravity from rest): past the
+/// friction angle the block slides with a = g (sin psi - cos psi tan phi) within 1 % (backward
+/// Euler conserves momentum, so the window's mean acceleration is the mean net force; the
+/// residual error is the joints' contact vibration, damped by the scheme), every joint slides;
+/// a block just below the limit (psi = 29, phi = 30 deg) stays put (slip < 1e-4 m, elastic
+/// only). The static quasi-static solve of a sliding block has no equilibrium at all.
+#[test]
+fn implicit_dynamics_slides_the_block_at_the_coulomb_acceleration() {
+    use hydrofrac::verify::fracture_cases::inclined_block_implicit;
+    for (psi, phi) in [(30.0, 20.0), (45.0, 30.0)] {
+        let r = inclined_block_implicit(psi, phi, 0.25, 5e-4, 200).unwrap();
+        let rel = (r.accel - r.expected) / r.expected;
+        println!("psi {psi} phi {phi}: error {rel:.3e}, {r:?}");
+        assert!(
+            rel.abs() < 0.01,
+            "psi {psi} phi {phi}: {r:?}, error {rel:.3e}"
+        );
+        assert_eq!(r.sliding_min, r.joints, "psi {psi} phi {phi}: {r:?}");
+    }
+    // Without inertia there is no equilibrium to find: the solve stops with a clear error.
+    let e = hydrofrac::verify::fracture_cases::inclined_block_quasi_static(30.0, 20.0, 0.25)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("slid"), "{e}");
+    let r = inclined_block_implicit(29.0, 30.0, 0.25, 5e-4, 200).unwrap();
+    println!("psi 29 phi 30: {r:?}");
+    assert!(r.slip.abs() < 1e-4, "psi 29 phi 30: {r:?}");
+    assert!(r.accel.abs() < 0.01 * 9.81 * 0.5, "psi 29 phi 30: {r:?}");
+}
+
 /// `hydrofrac verify friction --quick` passes its own checks (2 % on the sliding acceleration at
 /// h = 0.5 and 0.25 m, no sliding and < 1e-4 m displacement when sticking; with the
 /// quasi-static scheme, the sticking block's weight carried by the joints to 1e-5).

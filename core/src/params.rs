@@ -86,6 +86,8 @@ pub struct TimeParams {
     pub flow_dt: Option<f64>,
     pub flow_scheme: FlowScheme,
     pub solid_scheme: SolidScheme,
+    /// The quasi-static step's inertia (`time.inertia`).
+    pub inertia: crate::scenario::Inertia,
     pub max_steps: u64,
     pub max_substeps: u64,
     pub mass_scaling: bool,
@@ -230,6 +232,7 @@ impl RunParams {
                 flow_dt: t.flow_dt,
                 flow_scheme: t.flow_scheme,
                 solid_scheme: t.solid_scheme,
+                inertia: t.inertia,
                 max_steps: t.max_steps,
                 max_substeps: t.max_substeps,
                 mass_scaling: t.mass_scaling,

@@ -269,7 +269,8 @@ pub fn fingerprint(scenario: &Scenario, extra_disable: &[String]) -> u64 {
     let text = text
         .replace(",\"selective_mass_scaling\":null", "")
         .replace(",\"transmissibility\":\"CellMean\"", "")
-        .replace(",\"filling\":\"Dry\"", "");
+        .replace(",\"filling\":\"Dry\"", "")
+        .replace(",\"inertia\":\"Off\"", "");
     fnv1a(text.as_bytes())
 }
 

@@ -51,6 +51,7 @@ pub fn flow_scenario(
             flow_dt: None,
             flow_scheme: Default::default(),
             solid_scheme: Default::default(),
+            inertia: Default::default(),
             linear_solver: Default::default(),
             dt_max: None,
             dt_min: None,

@@ -45,6 +45,7 @@ pub fn scenario(
             flow_dt: None,
             flow_scheme: Default::default(),
             solid_scheme: Default::default(),
+            inertia: Default::default(),
             linear_solver: Default::default(),
             dt_max: None,
             dt_min: None,

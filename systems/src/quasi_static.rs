@@ -142,6 +142,8 @@ struct Structure {
     joint_len: Vec<f64>,
     /// Per joint, the free dof of each of its 8 components (`NONE`: prescribed).
     joint_dofs: Vec<[usize; 8]>,
+    /// The mass term's slots ([`mass_slots`]).
+    mass_slots: Vec<(u32, usize)>,
     symbolic: SymbolicCholesky<usize>,
     mem: MemBuffer,
 }
@@ -185,6 +187,64 @@ pub struct QuasiStatic {
     /// The full Newton matrix's pattern and LU factors ([`Linear::Lu`]).
     full: Option<FullTangent>,
     lu_rhs: Vec<f64>,
+    /// `time.inertia: BackwardEuler`: the state at the start of the step being solved.
+    pub step_start: Option<StepStart>,
+    /// The mass shift 1/dt^2 (1/s^2) of the numeric factor (0: none).
+    factored_shift: f64,
+}
+
+/// The state at the start of an implicit-dynamics step (`time.inertia: BackwardEuler`): its
+/// length (s), and per node the displacement (m) and velocity (m/s). A re-solve at the same
+/// time after a split solves the same step again; a node the split added takes the start
+/// state that gives its own end state, u_n = u - dt v, v_n = v (its origin's, less the
+/// step's acceleration).
+#[derive(Clone, Debug, Default)]
+pub struct StepStart {
+    pub dt: f64,
+    pub u: Vec<[f64; 2]>,
+    pub v: Vec<[f64; 2]>,
+}
+
+impl StepStart {
+    /// The mass shift 1/dt^2 of the tangent, 1/s^2.
+    pub fn shift(&self) -> f64 {
+        1.0 / (self.dt * self.dt)
+    }
+
+    /// The inertia force of node i at displacement `u`: -m (u - u_n - dt v_n) / dt^2, N/m.
+    fn force(&self, mass: f64, i: usize, u: [f64; 2]) -> [f64; 2] {
+        let s = mass * self.shift();
+        std::array::from_fn(|d| -s * (u[d] - self.u[i][d] - self.dt * self.v[i][d]))
+    }
+
+    /// Nodes added since the step started (a split) take the start state that gives their
+    /// current end state.
+    fn extend(&mut self, v: &SolidView) {
+        for i in self.u.len()..v.n_nodes() {
+            let (u, w) = (v.u[i], v.v[i]);
+            self.u.push([u[0] - self.dt * w[0], u[1] - self.dt * w[1]]);
+            self.v.push(w);
+        }
+    }
+}
+
+/// Per free dof, its node and its diagonal slot in a tangent's pattern, for the mass term
+/// M / dt^2 of implicit dynamics (one home for the Cholesky and the LU tangent).
+pub(crate) fn mass_slots(dof: &[usize], slot: impl Fn(usize, usize) -> usize) -> Vec<(u32, usize)> {
+    dof.iter()
+        .enumerate()
+        .filter(|(_, k)| **k != NONE)
+        .map(|(j, &k)| ((j / 2) as u32, slot(k, k)))
+        .collect()
+}
+
+/// values += shift M on the diagonal slots `slots` ([`mass_slots`]).
+pub(crate) fn add_mass(values: &mut [f64], slots: &[(u32, usize)], mass: &[f64], shift: f64) {
+    if shift > 0.0 {
+        for &(i, s) in slots {
+            values[s] += shift * mass[i as usize];
+        }
+    }
 }
 
 /// The linear algebra of the Newton direction (`time.linear_solver`).
@@ -212,6 +272,8 @@ impl QuasiStatic {
             linear: Linear::Auto,
             full: None,
             lu_rhs: Vec::new(),
+            step_start: None,
+            factored_shift: 0.0,
         }
     }
 }
@@ -265,6 +327,7 @@ impl QuasiStatic {
             }
         };
         let (k_el, joint_slots) = rock_stiffness(v, p, &dof, pattern.nnz(), slot);
+        let mass_slots = mass_slots(&dof, slot);
         let symbolic = factorize_symbolic_cholesky(
             pattern.as_ref(),
             Side::Lower,
@@ -296,6 +359,7 @@ impl QuasiStatic {
             joint_normal: Vec::new(),
             joint_len: Vec::new(),
             joint_dofs,
+            mass_slots,
             symbolic,
             mem,
         });
@@ -312,9 +376,16 @@ impl QuasiStatic {
         states: &[State],
         refresh: bool,
     ) -> Result<Option<Vec<State>>, String> {
+        let shift = self.shift();
+        if shift != self.factored_shift {
+            // The step length changed: W = K_T^-1 G is solved again, not updated.
+            self.factored = None;
+            self.rows.forget_w();
+        }
         if self.factored.as_deref() == Some(states) {
             return Ok(None);
         }
+        self.factored_shift = shift;
         let s = self.structure.as_mut().expect("structure");
         if refresh {
             s.set_joint_geometry(v);
@@ -333,6 +404,7 @@ impl QuasiStatic {
                 }
             }
         }
+        add_mass(&mut self.values, &s.mass_slots, &v.mass, shift);
         self.l_values.clear();
         self.l_values.resize(s.symbolic.len_val(), 0.0);
         let a = SparseColMatRef::new(s.pattern.as_ref(), &self.values);
@@ -512,6 +584,7 @@ impl QuasiStatic {
         } else {
             vec![JointTangent::Open; states.len()]
         };
+        let shift = self.shift();
         self.lu_rhs.clear();
         self.lu_rhs.extend_from_slice(rhs);
         if let Some(f) = flow.as_mut() {
@@ -524,6 +597,7 @@ impl QuasiStatic {
         full.factor_and_solve(
             v,
             p,
+            shift,
             &tangent,
             flow.as_ref().map(|f| (f, &self.rows)),
             &mut self.lu_rhs,
@@ -539,6 +613,11 @@ impl QuasiStatic {
 
     /// Drop the numeric factor, so the next iteration refactorises with the joints' geometry
     /// taken afresh (benchmarks; the production stage after restoring a failed solve's start).
+    /// The mass shift 1/dt^2 of the step being solved (0: equilibrium), 1/s^2.
+    fn shift(&self) -> f64 {
+        self.step_start.as_ref().map_or(0.0, StepStart::shift)
+    }
+
     pub fn forget_factor(&mut self) {
         self.factored = None;
     }
@@ -848,6 +927,8 @@ pub struct StepEnd {
     pub step: u64,
     pub time: f64,
     pub lf: f64,
+    /// The step's length, s (0: a re-solve at the same time).
+    pub dt: f64,
 }
 
 /// `solve`: equilibrium at the end of the step `at` under its load factor; with `flow`, the
@@ -863,16 +944,19 @@ pub fn solve(
     p: &RunParams,
     at: StepEnd,
 ) -> Result<StepStats, RunError> {
-    let StepEnd { step, time, lf } = at;
+    let StepEnd { step, time, lf, dt } = at;
     qs.structure(v, p).map_err(|e| fail(step, time, e))?;
     let on = qs.on;
+    start_step(qs, v, p, dt);
     for i in 0..v.n_nodes() {
         for d in 0..2 {
             if v.fixed[i] & (1 << d) != 0 {
                 v.u[i][d] = lf * v.presc[i][d];
             }
         }
-        v.v[i] = [0.0; 2];
+        if qs.step_start.is_none() {
+            v.v[i] = [0.0; 2];
+        }
     }
     let joint0 = v.joint_state.clone();
     let n = qs.structure.as_ref().expect("structure").n;
@@ -958,6 +1042,11 @@ pub fn solve(
         prev = Some(states.clone());
         iterations += 1;
     };
+    if let Some(s) = &qs.step_start {
+        for i in 0..v.n_nodes() {
+            v.v[i] = std::array::from_fn(|d| (v.u[i][d] - s.u[i][d]) / s.dt);
+        }
+    }
     qs.counts.steps += 1;
     qs.counts.newton_iterations += iterations as u64;
     qs.counts.last_iterations = iterations as u64;
@@ -971,6 +1060,24 @@ pub fn solve(
         non_finite,
         ..StepStats::default()
     })
+}
+
+/// The state at the start of the step (`time.inertia: BackwardEuler`, [`StepStart`]): taken
+/// for a step of length `dt` > 0 (s), kept for a re-solve at the same time (dt = 0); none
+/// without inertia.
+fn start_step(qs: &mut QuasiStatic, v: &SolidView, p: &RunParams, dt: f64) {
+    use hydrofrac_core::scenario::Inertia;
+    if p.time.inertia == Inertia::Off {
+        qs.step_start = None;
+    } else if dt > 0.0 {
+        qs.step_start = Some(StepStart {
+            dt,
+            u: v.u.clone(),
+            v: v.v.clone(),
+        });
+    } else if let Some(s) = qs.step_start.as_mut() {
+        s.extend(v);
+    }
 }
 
 /// Scratch arrays of a quasi-static solve, kept across its Newton iterations.
@@ -1127,6 +1234,13 @@ fn evaluate(
             true
         }
     };
+    if let Some(s) = &qs.step_start {
+        for i in 0..v.n_nodes() {
+            let f = s.force(v.mass[i], i, v.u[i]);
+            v.force[i][0] += f[0];
+            v.force[i][1] += f[1];
+        }
+    }
     let dof = &qs.structure.as_ref().expect("structure").dof;
     let (mut res2, mut ref2) = (0.0, 0.0);
     for i in 0..v.n_nodes() {

@@ -44,7 +44,7 @@
 //! rock's E / h) is small.
 
 use crate::fracture::joint_frame;
-use crate::quasi_static::{dofs_of, rock_stiffness};
+use crate::quasi_static::{add_mass, dofs_of, mass_slots, rock_stiffness};
 use crate::quasi_static_flow::{FACE, FlowRows, FlowStep};
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
 use faer::sparse::SparseColMatRef;
@@ -74,6 +74,8 @@ pub(crate) struct FullTangent {
     pattern: SparsePattern,
     k_el: Vec<f64>,
     joint_slots: Vec<[usize; 64]>,
+    /// The mass term's slots (`quasi_static::mass_slots`).
+    mass_slots: Vec<(u32, usize)>,
     /// Per cell: the slots of G's column (its joint's 8 dofs in the cell's column).
     g_slots: Vec<[usize; 8]>,
     /// Per slot of the flow pattern, its slot in the full pattern.
@@ -171,6 +173,7 @@ impl FullTangent {
             }
         };
         let (k_el, joint_slots) = rock_stiffness(v, p, dof, pattern.nnz(), slot);
+        let mass_slots = mass_slots(dof, slot);
         let mut g_slots = Vec::new();
         let mut j_slots = Vec::new();
         if let (Some(f), Some((rows, cols))) = (flow.as_deref(), flow_pattern) {
@@ -201,6 +204,7 @@ impl FullTangent {
             pattern,
             k_el,
             joint_slots,
+            mass_slots,
             g_slots,
             j_slots,
             symbolic,
@@ -211,18 +215,21 @@ impl FullTangent {
     }
 
     /// Assemble the full Newton matrix at the current iterate for the joints' tangent
-    /// `states` (and, with `flow`, the flow rows linearised by [`FlowRows::linearise`]) and
-    /// factor it; then solve it for `rhs` = [F; -r] in place (length n + cells).
+    /// `states` (and, with `flow`, the flow rows linearised by [`FlowRows::linearise`]) plus
+    /// `shift` M (implicit dynamics; 1/s^2, 0 for equilibrium), and factor it; then solve it
+    /// for `rhs` = [F; -r] in place (length n + cells).
     pub(crate) fn factor_and_solve(
         &mut self,
         v: &SolidView,
         p: &RunParams,
+        shift: f64,
         states: &[JointTangent],
         flow: Option<(&FlowStep, &FlowRows)>,
         rhs: &mut [f64],
     ) -> Result<(), String> {
         self.values.clear();
         self.values.extend_from_slice(&self.k_el);
+        add_mass(&mut self.values, &self.mass_slots, &v.mass, shift);
         for (k, st) in states.iter().enumerate() {
             let kt = joint_tangent(v, p, k, *st);
             let slots = &self.joint_slots[k];

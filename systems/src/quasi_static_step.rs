@@ -63,6 +63,7 @@ pub fn solve_at(
         step: clock.step + 1,
         time: t0 + dt,
         lf: clock.load_factor,
+        dt,
     };
     solid.stats = quasi_static::solve(&mut solid.view, qs, rows, held, p, at)?;
     Ok(())

@@ -41,7 +41,7 @@ pub use output::{CheckpointEvery, Field, MAX_NAME_LEN, OutputSpec, SystemsSpec, 
 pub use parse::parse_ron;
 pub use production::{ProductionSpec, ProductionStage};
 pub use time::{
-    DEFAULT_NEWTON_EASY, DEFAULT_NEWTON_TOL, End, FlowScheme, LinearSolver, SolidScheme,
+    DEFAULT_NEWTON_EASY, DEFAULT_NEWTON_TOL, End, FlowScheme, Inertia, LinearSolver, SolidScheme,
     TimeControl,
 };
 

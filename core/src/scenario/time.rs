@@ -46,6 +46,16 @@ pub struct TimeControl {
     /// `time.dt` steps (default: the end time in 100 steps).
     #[serde(default)]
     pub solid_scheme: SolidScheme,
+    /// Quasi-static scheme: the rock's inertia in each step's equation (default `Off`:
+    /// equilibrium at the end of the step). `BackwardEuler`: implicit dynamics with the rock's
+    /// true lumped mass, M (u - u_n - dt v_n) / dt^2 + f_int(u) = f_ext, v = (u - u_n) / dt (SI:
+    /// kg/m, m, s). Where the load is slow against the rock's own periods (ms) it gives the
+    /// equilibrium; where there is none (a block held only by joints sliding past the Coulomb
+    /// limit) the block accelerates at its true rate instead of leaving the Newton matrix
+    /// singular, and a shorter step always makes the solve easier (the mass term M / dt^2
+    /// dominates), so the adaptive step's cutbacks get through. Needs `end: Time`.
+    #[serde(default)]
+    pub inertia: Inertia,
     /// Quasi-static scheme: the linear algebra of the Newton direction (default `Auto`; see
     /// [`LinearSolver`]). The converged answers agree to the solver's tolerance.
     #[serde(default)]
@@ -152,6 +162,17 @@ pub enum LinearSolver {
     Lu,
 }
 
+/// The rock's inertia in a quasi-static step (see [`TimeControl::inertia`]).
+#[derive(Clone, Copy, Debug, Default, Serialize, Deserialize, PartialEq, Eq)]
+pub enum Inertia {
+    /// Equilibrium at the end of every step.
+    #[default]
+    Off,
+    /// Implicit dynamics with the true lumped mass, backward Euler (first order, damps the
+    /// rock's fast vibration).
+    BackwardEuler,
+}
+
 /// Time integration of the rock (see [`TimeControl::solid_scheme`]).
 #[derive(Clone, Copy, Debug, Default, Serialize, Deserialize, PartialEq, Eq)]
 pub enum SolidScheme {
@@ -224,6 +245,21 @@ impl TimeControl {
                 return Err(SetupError::invalid(
                     "time.solid_scheme",
                     format!("QuasiStatic {why}"),
+                ));
+            }
+        }
+        if self.inertia == Inertia::BackwardEuler {
+            if self.solid_scheme != SolidScheme::QuasiStatic {
+                return Err(SetupError::invalid(
+                    "time.inertia",
+                    "BackwardEuler is the quasi-static scheme's inertia; the explicit rock \
+                     has its own (set time.solid_scheme: QuasiStatic)",
+                ));
+            }
+            if !matches!(self.end, End::Time(_)) {
+                return Err(SetupError::invalid(
+                    "time.inertia",
+                    "BackwardEuler follows the rock in time: it needs end: Time(..)",
                 ));
             }
         }
