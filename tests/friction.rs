@@ -203,3 +203,16 @@ fn verify_friction_case_passes() {
     let failed = res.failures();
     assert!(failed.is_empty(), "friction failed:\n{}", failed.join("\n"));
 }
+
+/// `hydrofrac verify contact --quick` passes its own checks (the implicit-dynamics block at
+/// two step lengths: 1 % on the sliding acceleration, at most 5 Newton iterations per step,
+/// < 1e-4 m for the sticking block; the explicit scheme beside it at 2 %).
+#[test]
+fn verify_contact_case_passes() {
+    let res = hydrofrac::verify::fracture_cases::contact(true).unwrap();
+    for r in &res.rows {
+        println!("{} {:.3e} {:.3} s", r.metric, r.error, r.wall_s);
+    }
+    let failed = res.failures();
+    assert!(failed.is_empty(), "contact failed:\n{}", failed.join("\n"));
+}

@@ -194,7 +194,7 @@ impl WorldRecords {
             ids::<JointBundle>(),
             ids::<FlowBcBundle>(),
         ];
-        for a in w.archetypes().filter(|a| a.len() > 0) {
+        for a in w.archetypes().filter(|a| !a.is_empty()) {
             let mut types: Vec<std::any::TypeId> = a.component_types().collect();
             types.sort_unstable();
             if !bundles.contains(&types) {

@@ -249,6 +249,11 @@ pub fn cases() -> Vec<Case> {
             run: fracture_cases::friction,
         },
         Case {
+            name: "contact",
+            about: "frictional contact on the quasi-static rock with implicit dynamics (time.inertia: BackwardEuler): the inclined block slides at g (sin psi - cos psi tan phi) within 1 % or sticks, three step lengths beside the explicit scheme, Newton iterations per step",
+            run: fracture_cases::contact,
+        },
+        Case {
             name: "heat_continuum",
             about: "continuum heat model: 1D thermal front against Ogata-Banks, 100 to 800 blocks (1 % at 800, order 1), energy and mass balance 1e-9; doublet breakthrough and symmetry",
             run: heat_continuum_cases::heat_continuum,
