@@ -760,11 +760,12 @@ pub fn contact(quick: bool) -> anyhow::Result<CaseResult> {
         let per_step = s.newton_iterations as f64 / s.steps.max(1) as f64;
         let k = inclined_block_implicit(29.0, 30.0, H, dt, steps)?;
         let tag = format!("dt = {dt:.0e} s");
+        let key = format!("dt_{dt:.0e}");
         push(
             &mut res,
             level,
             s.unknowns,
-            &format!("implicit_slide_acceleration_{tag}"),
+            &format!("implicit_slide_acceleration_{key}"),
             rel.abs(),
             s.wall_s,
         );
@@ -772,7 +773,7 @@ pub fn contact(quick: bool) -> anyhow::Result<CaseResult> {
             &mut res,
             level,
             s.unknowns,
-            &format!("implicit_newton_per_step_{tag}"),
+            &format!("implicit_newton_per_step_{key}"),
             per_step,
             s.wall_s,
         );
@@ -780,7 +781,7 @@ pub fn contact(quick: bool) -> anyhow::Result<CaseResult> {
             &mut res,
             level,
             k.unknowns,
-            &format!("implicit_stick_displacement_m_{tag}"),
+            &format!("implicit_stick_displacement_m_{key}"),
             k.slip.abs(),
             k.wall_s,
         );
