@@ -464,65 +464,20 @@ pub fn inclined_block_implicit(
     sc.boundary_schedule = vec![(0.0, 0.0), (0.25 * dt * steps as f64, 1.0)];
     let t0 = Instant::now();
     let mut sim = Simulation::new(sc.validate()?, &[])?;
-    let v = sim.solid();
-    let mut upper = vec![false; v.n_nodes()];
-    for c in &v.conn {
-        let yc = c.iter().map(|&a| v.x0[a as usize][1]).sum::<f64>() / 3.0;
-        if yc > 1.0 {
-            c.iter().for_each(|&a| upper[a as usize] = true);
-        }
-    }
-    let mass: f64 = (0..v.n_nodes())
-        .filter(|&i| upper[i])
-        .map(|i| v.mass[i])
-        .sum();
-    let com = |sim: &Simulation| -> (f64, f64) {
-        let v = sim.solid();
-        let (mut x, mut vel) = (0.0, 0.0);
-        for i in (0..v.n_nodes()).filter(|&i| upper[i]) {
-            x += v.mass[i] * v.u[i][0];
-            vel += v.mass[i] * v.v[i][0];
-        }
-        (x / mass, vel / mass)
-    };
-    let sliding = |sim: &Simulation| sim.solid().joint_state.iter().filter(|s| s.sliding).count();
+    let block = UpperBlock::of(&sim);
+    let com = |sim: &Simulation| block.com(sim);
     let x_start = com(&sim).0;
     let mut sliding_ever = 0;
     for _ in 0..steps / 2 {
         sim.step_once()?;
         sliding_ever = sliding_ever.max(sliding(&sim));
     }
-    let (v1, t1) = (com(&sim).1, sim.time());
-    let (mut smin, mut smax) = (usize::MAX, 0);
-    let (mut sum_n, mut sum_t, mut n_steps) = (0.0, 0.0, 0usize);
+    let mut w = Window::start(&sim, com(&sim).1, x_start, sliding_ever);
     while sim.finish().is_none() {
         sim.step_once()?;
-        let s = sliding(&sim);
-        (smin, smax) = (smin.min(s), smax.max(s));
-        let js = &sim.solid().joint_state;
-        sum_n += js.iter().map(|s| s.normal_force).sum::<f64>();
-        sum_t += js.iter().map(|s| s.shear_force).sum::<f64>();
-        n_steps += 1;
+        w.record(&sim);
     }
-    sliding_ever = sliding_ever.max(smax);
-    let (mean_n, mean_t) = (sum_n / n_steps as f64, sum_t / n_steps as f64);
-    let (x_end, v2) = com(&sim);
-    let counts = sim.quasi_static_counts().unwrap_or_default();
-    Ok(InclinedBlock {
-        accel: (v2 - v1) / (sim.time() - t1),
-        expected: (G * (psi.sin() - psi.cos() * phi.tan())).max(0.0),
-        slip: x_end - x_start,
-        sliding_min: smin,
-        sliding_max: smax,
-        sliding_ever,
-        joints: sim.solid().joint_nodes.len(),
-        unknowns: 2 * sim.solid().n_nodes(),
-        normal_ratio: mean_n / (mass * G * psi.cos()),
-        shear_ratio: mean_t.abs() / (phi.tan() * mean_n),
-        steps: counts.steps,
-        newton_iterations: counts.newton_iterations,
-        wall_s: t0.elapsed().as_secs_f64(),
-    })
+    Ok(w.result(&sim, &block, psi, phi, t0))
 }
 
 /// Joint stiffness K_n = K_t of the inclined-block case, Pa: E/100. The rigid-block answer does
@@ -563,28 +518,8 @@ pub fn inclined_block(psi_deg: f64, phi_deg: f64, h: f64) -> anyhow::Result<Incl
         sim.residual()
     );
     // The upper block: nodes of elements whose centroid lies above the fracture.
-    let v = sim.solid();
-    let mut upper = vec![false; v.n_nodes()];
-    for c in &v.conn {
-        let yc = c.iter().map(|&a| v.x0[a as usize][1]).sum::<f64>() / 3.0;
-        if yc > 1.0 {
-            c.iter().for_each(|&a| upper[a as usize] = true);
-        }
-    }
-    let mass: f64 = (0..v.n_nodes())
-        .filter(|&i| upper[i])
-        .map(|i| v.mass[i])
-        .sum();
-    let com = |sim: &Simulation| -> (f64, f64) {
-        let v = sim.solid();
-        let (mut x, mut vel) = (0.0, 0.0);
-        for i in (0..v.n_nodes()).filter(|&i| upper[i]) {
-            x += v.mass[i] * v.u[i][0];
-            vel += v.mass[i] * v.v[i][0];
-        }
-        (x / mass, vel / mass)
-    };
-    let sliding = |sim: &Simulation| sim.solid().joint_state.iter().filter(|s| s.sliding).count();
+    let block = UpperBlock::of(&sim);
+    let com = |sim: &Simulation| block.com(sim);
     let base = sim.solid().load.clone();
     let gt = G * psi.sin();
     let mut sim = sim.with_damping(Damping::None)?;
@@ -601,46 +536,123 @@ pub fn inclined_block(psi_deg: f64, phi_deg: f64, h: f64) -> anyhow::Result<Incl
         sim.step_once()?;
         sliding_ever = sliding_ever.max(sliding(&sim));
     }
-    let (v1, t1) = (com(&sim).1, sim.time());
-    let (mut smin, mut smax) = (usize::MAX, 0);
-    let (mut sum_n, mut sum_t, mut n_steps) = (0.0, 0.0, 0usize);
-    while sim.time() - t1 < window {
+    let mut w = Window::start(&sim, com(&sim).1, x_start, sliding_ever);
+    while sim.time() - w.t1 < window {
         sim.step_once()?;
-        let s = sliding(&sim);
-        smin = smin.min(s);
-        smax = smax.max(s);
-        sum_n += sim
-            .solid()
-            .joint_state
-            .iter()
-            .map(|s| s.normal_force)
-            .sum::<f64>();
-        sum_t += sim
-            .solid()
-            .joint_state
-            .iter()
-            .map(|s| s.shear_force)
-            .sum::<f64>();
-        n_steps += 1;
+        w.record(&sim);
     }
-    sliding_ever = sliding_ever.max(smax);
-    let (mean_n, mean_t) = (sum_n / n_steps as f64, sum_t / n_steps as f64);
-    let (x_end, v2) = com(&sim);
-    Ok(InclinedBlock {
-        accel: (v2 - v1) / (sim.time() - t1),
-        expected: (G * (psi.sin() - psi.cos() * phi.tan())).max(0.0),
-        slip: x_end - x_start,
-        sliding_min: smin,
-        sliding_max: smax,
-        sliding_ever,
-        joints: sim.solid().joint_nodes.len(),
-        unknowns: 2 * sim.solid().n_nodes(),
-        normal_ratio: mean_n / (mass * G * psi.cos()),
-        shear_ratio: mean_t.abs() / (phi.tan() * mean_n),
-        steps: 0,
-        newton_iterations: 0,
-        wall_s: t0.elapsed().as_secs_f64(),
-    })
+    Ok(w.result(&sim, &block, psi, phi, t0))
+}
+
+/// The upper block of the inclined-block scenes: the nodes of the elements whose centroid lies
+/// above the fracture (y = 1 m), and their mass, kg/m.
+struct UpperBlock {
+    upper: Vec<bool>,
+    mass: f64,
+}
+
+impl UpperBlock {
+    fn of(sim: &Simulation) -> Self {
+        let v = sim.solid();
+        let mut upper = vec![false; v.n_nodes()];
+        for c in &v.conn {
+            let yc = c.iter().map(|&a| v.x0[a as usize][1]).sum::<f64>() / 3.0;
+            if yc > 1.0 {
+                c.iter().for_each(|&a| upper[a as usize] = true);
+            }
+        }
+        let mass = (0..v.n_nodes())
+            .filter(|&i| upper[i])
+            .map(|i| v.mass[i])
+            .sum();
+        UpperBlock { upper, mass }
+    }
+
+    /// Its centre of mass's displacement (m) and velocity (m/s) along the joint (x).
+    fn com(&self, sim: &Simulation) -> (f64, f64) {
+        let v = sim.solid();
+        let (mut x, mut vel) = (0.0, 0.0);
+        for i in (0..v.n_nodes()).filter(|&i| self.upper[i]) {
+            x += v.mass[i] * v.u[i][0];
+            vel += v.mass[i] * v.v[i][0];
+        }
+        (x / self.mass, vel / self.mass)
+    }
+}
+
+/// Joints sliding now.
+fn sliding(sim: &Simulation) -> usize {
+    sim.solid().joint_state.iter().filter(|s| s.sliding).count()
+}
+
+/// The measuring window of the inclined-block runs: from its start (time `t1`, s; the block's
+/// velocity `v1`, m/s) the fewest and most joints sliding at a step and the summed joint
+/// forces (N/m) per step.
+struct Window {
+    t1: f64,
+    v1: f64,
+    x_start: f64,
+    sliding_ever: usize,
+    smin: usize,
+    smax: usize,
+    sum_n: f64,
+    sum_t: f64,
+    steps: usize,
+}
+
+impl Window {
+    fn start(sim: &Simulation, v1: f64, x_start: f64, sliding_ever: usize) -> Self {
+        Window {
+            t1: sim.time(),
+            v1,
+            x_start,
+            sliding_ever,
+            smin: usize::MAX,
+            smax: 0,
+            sum_n: 0.0,
+            sum_t: 0.0,
+            steps: 0,
+        }
+    }
+
+    fn record(&mut self, sim: &Simulation) {
+        let s = sliding(sim);
+        (self.smin, self.smax) = (self.smin.min(s), self.smax.max(s));
+        let js = &sim.solid().joint_state;
+        self.sum_n += js.iter().map(|s| s.normal_force).sum::<f64>();
+        self.sum_t += js.iter().map(|s| s.shear_force).sum::<f64>();
+        self.steps += 1;
+    }
+
+    /// The run's figures at the window's end (angles in radians; `t0` the run's start).
+    fn result(
+        self,
+        sim: &Simulation,
+        block: &UpperBlock,
+        psi: f64,
+        phi: f64,
+        t0: Instant,
+    ) -> InclinedBlock {
+        let n = self.steps as f64;
+        let (mean_n, mean_t) = (self.sum_n / n, self.sum_t / n);
+        let (x_end, v2) = block.com(sim);
+        let counts = sim.quasi_static_counts().unwrap_or_default();
+        InclinedBlock {
+            accel: (v2 - self.v1) / (sim.time() - self.t1),
+            expected: (G * (psi.sin() - psi.cos() * phi.tan())).max(0.0),
+            slip: x_end - self.x_start,
+            sliding_min: self.smin,
+            sliding_max: self.smax,
+            sliding_ever: self.sliding_ever.max(self.smax),
+            joints: sim.solid().joint_nodes.len(),
+            unknowns: 2 * sim.solid().n_nodes(),
+            normal_ratio: mean_n / (block.mass * G * psi.cos()),
+            shear_ratio: mean_t.abs() / (phi.tan() * mean_n),
+            steps: counts.steps,
+            newton_iterations: counts.newton_iterations,
+            wall_s: t0.elapsed().as_secs_f64(),
+        }
+    }
 }
 
 /// Frictional sliding (`docs/verification.md` R8) with [`inclined_block`] at cell sizes 0.5,
