@@ -1008,7 +1008,7 @@ pub fn solve(
                     "the Newton iteration diverged: relative residual {:.1e} after {iterations} \
                      iterations{}",
                     (res2 / ref2).sqrt(),
-                    slip_hint(v, max_slip)
+                    slip_hint(v, max_slip, qs.step_start.is_some())
                 ),
             ));
         }
@@ -1262,16 +1262,21 @@ fn evaluate(
 
 /// A hint for a failed iteration when joints slide (empty when none does): the larger of the
 /// joints sliding at the iterate and `seen`, the most that slid at an iterate of the step.
-fn slip_hint(v: &SolidView, seen: usize) -> String {
+/// With inertia (`dynamic`) a block held by sliding joints has its own motion, so the hint
+/// names the contact iteration instead of a missing equilibrium.
+fn slip_hint(v: &SolidView, seen: usize, dynamic: bool) -> String {
     let slip = v.joint_state.iter().filter(|s| s.sliding).count().max(seen);
-    if slip > 0 {
-        format!(
-            "; {slip} of {} joints slide: past the friction limit there may be no static \
-             equilibrium (the explicit scheme follows the sliding)",
-            v.joint_nodes.len()
-        )
-    } else {
-        String::new()
+    let n = v.joint_nodes.len();
+    match (slip > 0, dynamic) {
+        (false, _) => String::new(),
+        (true, false) => format!(
+            "; {slip} of {n} joints slide: past the friction limit there may be no static \
+             equilibrium (the explicit scheme follows the sliding)"
+        ),
+        (true, true) => format!(
+            "; {slip} of {n} joints slide and the contact states did not settle (a shorter \
+             step, time.dt_max, eases it)"
+        ),
     }
 }
 
@@ -1285,7 +1290,7 @@ fn not_converged(
     ref2: f64,
     seen: usize,
 ) -> String {
-    let hint = slip_hint(v, seen);
+    let hint = slip_hint(v, seen, qs.step_start.is_some());
     let cell = match flow {
         Some(f) if qs.rows.worst > 1.0 => format!(
             "; {} has mass residual {:.3e} times its tolerance",
