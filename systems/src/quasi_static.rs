@@ -1273,10 +1273,9 @@ fn slip_hint(v: &SolidView, seen: usize, dynamic: bool) -> String {
             "; {slip} of {n} joints slide: past the friction limit there may be no static \
              equilibrium (the explicit scheme follows the sliding)"
         ),
-        (true, true) => format!(
-            "; {slip} of {n} joints slide and the contact states did not settle (a shorter \
-             step, time.dt_max, eases it)"
-        ),
+        (true, true) => {
+            format!("; {slip} of {n} joints slide and the contact states did not settle")
+        }
     }
 }
 
