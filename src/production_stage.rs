@@ -25,7 +25,7 @@ use crate::reservoir::NetworkFlow;
 use crate::reservoir::doublet::{
     PressureWell, doublet_flow, doublet_wells, network_of_view, reaches,
 };
-use crate::scenario::{Damping, End, ProductionStage, Scenario, SolidScheme};
+use crate::scenario::{Damping, End, Inertia, ProductionStage, Scenario, SolidScheme};
 use crate::sim::{Simulation, StopFlag};
 use crate::systems::RunError;
 use std::time::Instant;
@@ -136,6 +136,8 @@ pub fn production_scenario(sc: &Scenario) -> Scenario {
     };
     p.time.max_steps = u64::MAX;
     p.time.dt = None;
+    // Equilibria, no time: the rock's inertia (`time.inertia`) has no step to act over.
+    p.time.inertia = Inertia::Off;
     // The relaxation sets fictitious masses of its own (`fictitious_masses`).
     p.time.selective_mass_scaling = None;
     p.output.checkpoint_every = None;

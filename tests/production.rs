@@ -395,3 +395,20 @@ fn a_frozen_rock_that_does_not_settle_is_flagged() {
         assert_eq!(s.row.frozen_settled, settled, "{:?}", s.row);
     }
 }
+
+/// The production stage's equilibria take no time: a run whose rock has inertia
+/// (`time.solid_scheme: QuasiStatic`, `time.inertia: BackwardEuler`) still gets its production
+/// simulation (the stage's scenario drops the inertia, which needs `end: Time`), for the
+/// quasi-static and the relaxed production rock alike.
+#[test]
+fn a_run_with_inertia_gets_its_production_stage() {
+    for rock in ["QuasiStatic", "Explicit"] {
+        let wells = WELLS.replace("reach: 0.5)", &format!("reach: 0.5), rock: {rock}"));
+        let mut sc = scene(1.0, &wells);
+        sc.time.solid_scheme = hydrofrac::scenario::SolidScheme::QuasiStatic;
+        sc.time.inertia = hydrofrac::scenario::Inertia::BackwardEuler;
+        sc.clone().validate().expect("the run itself is valid");
+        let sim = production_sim(&sc, None, None);
+        assert!(sim.is_ok(), "{rock}: {:?}", sim.err());
+    }
+}
