@@ -1070,11 +1070,13 @@ fn start_step(qs: &mut QuasiStatic, v: &SolidView, p: &RunParams, dt: f64) {
     if p.time.inertia == Inertia::Off {
         qs.step_start = None;
     } else if dt > 0.0 {
-        qs.step_start = Some(StepStart {
-            dt,
-            u: v.u.clone(),
-            v: v.v.clone(),
-        });
+        // The last step's buffers are reused: no allocation per step.
+        let s = qs.step_start.get_or_insert_with(StepStart::default);
+        s.dt = dt;
+        s.u.clear();
+        s.u.extend_from_slice(&v.u);
+        s.v.clear();
+        s.v.extend_from_slice(&v.v);
     } else if let Some(s) = qs.step_start.as_mut() {
         s.extend(v);
     }
