@@ -5,6 +5,9 @@
 //! assembly goes to. The solvers then assemble in place, in their own (fixed) order, so the
 //! values are summed in the same order at every assembly and no allocation is needed per step.
 
+use faer::Par;
+use faer::dyn_stack::{MemBuffer, StackReq};
+use faer::sparse::linalg::lu::{SymbolicLu, factorize_symbolic_lu};
 use faer::sparse::{Pair, SymbolicSparseColMat, SymbolicSparseColMatRef};
 
 /// An `n x n` compressed-column pattern.
@@ -45,6 +48,20 @@ impl SparsePattern {
     /// Number of stored entries (value slots).
     pub fn nnz(&self) -> usize {
         self.row_idx().len()
+    }
+
+    /// The pattern's symbolic LU (faer's default ordering, COLAMD) and a workspace for one
+    /// sequential numeric factorisation and one-column solves: the set-up of every sparse LU
+    /// solver (the implicit flow, the heat models, the quasi-static full tangent).
+    pub fn symbolic_lu(&self) -> Result<(SymbolicLu<usize>, MemBuffer), String> {
+        let symbolic = factorize_symbolic_lu(self.as_ref(), Default::default())
+            .map_err(|e| format!("symbolic LU: {e:?}"))?;
+        let req = StackReq::any_of(&[
+            symbolic.factorize_numeric_lu_scratch::<f64>(Par::Seq, Default::default()),
+            symbolic.solve_in_place_scratch::<f64>(1, Par::Seq),
+        ]);
+        let mem = MemBuffer::try_new(req).map_err(|_| "out of memory for the LU workspace")?;
+        Ok((symbolic, mem))
     }
 
     /// Value slot of entry (row, col); `None` if it is not in the pattern.

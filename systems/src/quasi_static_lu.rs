@@ -46,9 +46,9 @@
 use crate::fracture::joint_frame;
 use crate::quasi_static::{add_mass, dofs_of, mass_slots, rock_stiffness};
 use crate::quasi_static_flow::{FACE, FlowRows, FlowStep};
-use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
+use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::sparse::SparseColMatRef;
-use faer::sparse::linalg::lu::{NumericLu, SymbolicLu, factorize_symbolic_lu};
+use faer::sparse::linalg::lu::{NumericLu, SymbolicLu};
 use faer::{Conj, MatMut, Par};
 use hydrofrac_core::params::RunParams;
 use hydrofrac_core::sparse::SparsePattern;
@@ -190,13 +190,7 @@ impl FullTangent {
                 .map(|(&r, &c)| slot(n + r, n + c))
                 .collect();
         }
-        let symbolic = factorize_symbolic_lu(pattern.as_ref(), Default::default())
-            .map_err(|e| format!("symbolic LU: {e:?}"))?;
-        let req = StackReq::any_of(&[
-            symbolic.factorize_numeric_lu_scratch::<f64>(Par::Seq, Default::default()),
-            symbolic.solve_in_place_scratch::<f64>(1, Par::Seq),
-        ]);
-        let mem = MemBuffer::try_new(req).map_err(|_| "out of memory for the LU workspace")?;
+        let (symbolic, mem) = pattern.symbolic_lu()?;
         Ok(FullTangent {
             key,
             n,

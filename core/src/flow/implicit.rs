@@ -55,10 +55,10 @@ use crate::flow::boundary::{FlowStats, boundary_flows};
 use crate::flow::{FlowParams, FlowView, kahan_add};
 use crate::scenario::{FlowBcKind, FlowBoundary};
 use crate::sparse::SparsePattern;
-use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
+use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::sparse::SparseColMatRef;
 use faer::sparse::linalg::LuError;
-use faer::sparse::linalg::lu::{LuRef, NumericLu, SymbolicLu, factorize_symbolic_lu};
+use faer::sparse::linalg::lu::{LuRef, NumericLu, SymbolicLu};
 use faer::{Conj, MatMut, Par};
 
 /// Default convergence tolerance on |R_i| / (rho_r V_i) (see the module documentation).
@@ -200,18 +200,9 @@ impl Pattern {
                 s
             })
             .collect();
-        let symbolic = factorize_symbolic_lu(sparse.as_ref(), Default::default()).map_err(|e| {
-            ImplicitError::Factorisation {
-                detail: format!("symbolic analysis: {e:?}"),
-            }
-        })?;
-        let req = StackReq::any_of(&[
-            symbolic.factorize_numeric_lu_scratch::<f64>(Par::Seq, Default::default()),
-            symbolic.solve_in_place_scratch::<f64>(1, Par::Seq),
-        ]);
-        let mem = MemBuffer::try_new(req).map_err(|_| ImplicitError::Factorisation {
-            detail: "out of memory allocating the workspace".into(),
-        })?;
+        let (symbolic, mem) = sparse
+            .symbolic_lu()
+            .map_err(|detail| ImplicitError::Factorisation { detail })?;
         Ok(Pattern {
             generation: v.generation,
             pairs: v.pairs.clone(),
@@ -692,8 +683,31 @@ impl ImplicitSolver {
         if !self.delta.iter().all(|d| d.is_finite()) {
             return false;
         }
+        let (w_try, phi) = self.trial(v, specs, t1, 1.0, None);
+        if w_try <= 1.0 || phi <= CHORD_CONTRACTION * CHORD_CONTRACTION * phi0 {
+            std::mem::swap(&mut self.y, &mut self.y_try);
+            self.chord_iterations += 1;
+            return true;
+        }
+        false
+    }
+
+    /// The trial iterate y + alpha delta into `y_try` (with `landing`, that cell put on the
+    /// kink it reaches, [`kink_landing`]) and its residual into `r_try`; returns the worst
+    /// scaled residual and phi = sum (r_i / scale_i)^2 there.
+    fn trial(
+        &mut self,
+        v: &mut FlowView,
+        specs: &[FlowBoundary],
+        t1: f64,
+        alpha: f64,
+        landing: Option<usize>,
+    ) -> (f64, f64) {
         for i in 0..self.y.len() {
-            self.y_try[i] = self.y[i] + self.delta[i];
+            self.y_try[i] = self.y[i] + alpha * self.delta[i];
+        }
+        if let Some(c) = landing {
+            self.y_try[c] = kink_landing(self.delta[c]);
         }
         residual(
             v,
@@ -706,12 +720,7 @@ impl ImplicitSolver {
             &mut self.r_try,
         );
         let (w_try, _, phi) = measure(&self.r_try, &self.scale);
-        if w_try <= 1.0 || phi <= CHORD_CONTRACTION * CHORD_CONTRACTION * phi0 {
-            std::mem::swap(&mut self.y, &mut self.y_try);
-            self.chord_iterations += 1;
-            return true;
-        }
-        false
+        (w_try, phi)
     }
 
     /// The Newton direction at `y`: assembles the Jacobian, factorises it (kept for the chord
@@ -752,30 +761,14 @@ impl ImplicitSolver {
         t1: f64,
         phi0: f64,
     ) -> bool {
-        let n = self.y.len();
         let (kink, kink_cell) =
             first_kink(&self.y, &self.delta).unwrap_or((f64::INFINITY, usize::MAX));
         let mut alpha = 1.0;
         let mut halving = 1.0;
         let mut tried_kink = false;
         loop {
-            for i in 0..n {
-                self.y_try[i] = self.y[i] + alpha * self.delta[i];
-            }
-            if alpha == kink {
-                self.y_try[kink_cell] = kink_landing(self.delta[kink_cell]);
-            }
-            residual(
-                v,
-                specs,
-                t1,
-                &self.y_try,
-                &self.y0,
-                &self.w,
-                &mut self.net,
-                &mut self.r_try,
-            );
-            let (w_try, _, phi) = measure(&self.r_try, &self.scale);
+            let landing = (alpha == kink).then_some(kink_cell);
+            let (w_try, phi) = self.trial(v, specs, t1, alpha, landing);
             if phi <= (1.0 - 1e-4 * alpha) * phi0 || w_try <= 1.0 {
                 break;
             }

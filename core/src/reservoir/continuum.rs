@@ -45,9 +45,9 @@ use super::{Grid2, HeatSeries, ReservoirError, Summation, ThermalProps};
 use crate::flow::kahan_add;
 use crate::flow::steady::{SteadyProblem, SteadySolver};
 use crate::sparse::SparsePattern;
-use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
+use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::sparse::SparseColMatRef;
-use faer::sparse::linalg::lu::{LuRef, NumericLu, SymbolicLu, factorize_symbolic_lu};
+use faer::sparse::linalg::lu::{LuRef, NumericLu, SymbolicLu};
 use faer::{Conj, MatMut, Par};
 use serde::{Deserialize, Serialize};
 
@@ -908,20 +908,9 @@ impl HeatSolver {
             .iter()
             .map(|&(a, b, ..)| [slot(a, b), slot(b, a)])
             .collect();
-        let symbolic =
-            factorize_symbolic_lu(pattern.as_ref(), Default::default()).map_err(|e| {
-                ReservoirError::Solve {
-                    what: "continuum heat matrix".into(),
-                    why: format!("symbolic LU: {e:?}"),
-                }
-            })?;
-        let req = StackReq::any_of(&[
-            symbolic.factorize_numeric_lu_scratch::<f64>(Par::Seq, Default::default()),
-            symbolic.solve_in_place_scratch::<f64>(1, Par::Seq),
-        ]);
-        let mem = MemBuffer::try_new(req).map_err(|_| ReservoirError::Solve {
+        let (symbolic, mem) = pattern.symbolic_lu().map_err(|why| ReservoirError::Solve {
             what: "continuum heat matrix".into(),
-            why: "out of memory for the LU workspace".into(),
+            why,
         })?;
         Ok(HeatSolver {
             values: vec![0.0; pattern.nnz()],

@@ -44,9 +44,9 @@
 
 use super::{HeatSeries, NetworkFlow, ReservoirError, Summation, ThermalProps};
 use crate::sparse::SparsePattern;
-use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
+use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::sparse::SparseColMatRef;
-use faer::sparse::linalg::lu::{LuRef, NumericLu, SymbolicLu, factorize_symbolic_lu};
+use faer::sparse::linalg::lu::{LuRef, NumericLu, SymbolicLu};
 use faer::{Conj, MatMut, Par};
 use serde::{Deserialize, Serialize};
 
@@ -742,20 +742,9 @@ impl DiscreteModel {
             base[slot(k, l)] -= gk;
             base[slot(l, k)] -= gk;
         }
-        let symbolic =
-            factorize_symbolic_lu(pattern.as_ref(), Default::default()).map_err(|e| {
-                ReservoirError::Solve {
-                    what: "heat_discrete symbolic LU".into(),
-                    why: format!("{e:?}"),
-                }
-            })?;
-        let req = StackReq::any_of(&[
-            symbolic.factorize_numeric_lu_scratch::<f64>(Par::Seq, Default::default()),
-            symbolic.solve_in_place_scratch::<f64>(1, Par::Seq),
-        ]);
-        let mem = MemBuffer::try_new(req).map_err(|_| ReservoirError::Solve {
+        let (symbolic, mem) = pattern.symbolic_lu().map_err(|why| ReservoirError::Solve {
             what: "heat_discrete".into(),
-            why: "out of memory allocating the LU workspace".into(),
+            why,
         })?;
         Ok(DiscreteModel {
             spec: spec.clone(),
