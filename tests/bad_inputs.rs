@@ -6,8 +6,7 @@
 //! (the field and the reason), and nothing created, neither in the working folder nor in the
 //! output folder.
 
-#[path = "support/cli.rs"]
-mod cli;
+use crate::support_cli as cli;
 
 use cli::{bin, root, tmp_dir};
 use std::path::{Path, PathBuf};

@@ -8,10 +8,8 @@ use hydrofrac::checkpoint;
 use hydrofrac::scenario::Scenario;
 use hydrofrac::sim::{Finish, Simulation};
 
-#[path = "support/cli.rs"]
-mod cli;
-#[path = "support/scenes.rs"]
-mod scenes;
+use crate::support_cli as cli;
+use crate::support_scenes as scenes;
 
 /// Everything a restart must reproduce, as bits: node displacements and velocities, joint
 /// contact state, element stresses, cell pressures, apertures, excess masses and their Kahan

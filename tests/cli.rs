@@ -1,10 +1,8 @@
 //! The `hydrofrac` binary as a user meets it: outputs of a run, ablation, overrides, and clear
 //! one-line errors (with a non-zero exit and no panic) for bad input.
 
-#[path = "support/cli.rs"]
-mod cli;
-#[path = "support/vtu.rs"]
-mod vtu;
+use crate::support_cli as cli;
+use crate::support_vtu as vtu;
 
 use cli::{assert_refused, run, stderr, summary, tmp};
 use std::path::PathBuf;

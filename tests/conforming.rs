@@ -6,10 +6,8 @@
 //! conforming mesh by changing the `mesh` field alone; the 100-fracture mesh and the patch test
 //! on conforming meshes (`verify conforming_mesh --quick`).
 
-#[path = "support/cli.rs"]
-mod cli;
-#[path = "support/geometry.rs"]
-mod geometry;
+use crate::support_cli as cli;
+use crate::support_geometry as geometry;
 
 use geometry::{cell_components, clean_random_network, geometric_components};
 use hydrofrac::driver::{RunOptions, run_scenario};

@@ -11,10 +11,8 @@ use hydrofrac::sim::{Finish, Simulation};
 use hydrofrac::systems::RunError;
 use hydrofrac::systems::SystemId;
 
-#[path = "support/bits.rs"]
-mod bits;
-#[path = "support/scenes.rs"]
-mod scenes;
+use crate::support_bits as bits;
+use crate::support_scenes as scenes;
 
 fn scene(end: f64, extra: &str) -> Scenario {
     Scenario::parse(&scenes::pumped_fracture(end, extra), "coupled.ron").unwrap()

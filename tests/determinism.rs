@@ -4,10 +4,8 @@
 use hydrofrac::scenario::Scenario;
 use hydrofrac::sim::Simulation;
 
-#[path = "support/cli.rs"]
-mod cli;
-#[path = "support/scenes.rs"]
-mod scenes;
+use crate::support_cli as cli;
+use crate::support_scenes as scenes;
 
 fn run(threads: usize) -> (Vec<[f64; 2]>, Vec<[f64; 3]>, f64) {
     let text = std::fs::read_to_string("scenarios/insitu_stress.ron").unwrap();

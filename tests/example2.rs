@@ -5,8 +5,7 @@
 //! horizontal fractures, so each state is one iteration) keeps the test under a minute; the
 //! coupling's effect at higher drops is `tests/production.rs`'s.
 
-#[path = "support/cli.rs"]
-mod cli;
+use crate::support_cli as cli;
 
 use cli::root;
 use hydrofrac::driver::{RunOptions, run_file};

@@ -2,8 +2,7 @@
 //! `docs/verification.md` R10-R13. Tolerances and their reasons are stated at each check (the
 //! verification cases' own are in `src/verify/flow_cases.rs`).
 
-#[path = "support/cli.rs"]
-mod cli;
+use crate::support_cli as cli;
 
 use hydrofrac::flow::implicit::{
     ImplicitError, ImplicitSolver, Pattern, assemble, implicit_step, residual,

@@ -2,10 +2,8 @@
 //! are scheduled, the network frames and network.csv read back, the figures exist, and the
 //! physics in summary.json is right (cubic law, splitting at the junction, mass balance).
 
-#[path = "support/cli.rs"]
-mod cli;
-#[path = "support/vtu.rs"]
-mod vtu;
+use crate::support_cli as cli;
+use crate::support_vtu as vtu;
 
 use std::path::{Path, PathBuf};
 use vtu::{read_pvd, read_vtu};

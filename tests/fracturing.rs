@@ -4,12 +4,9 @@
 //! below it, the crack starts at the notch tip and runs straight along y = 5 (mode I), every new
 //! cell within one cell of the notch line, and the topology stays valid.
 
-#[path = "support/cli.rs"]
-mod cli;
-#[path = "support/scenes.rs"]
-mod scenes;
-#[path = "support/vtu.rs"]
-mod vtu;
+use crate::support_cli as cli;
+use crate::support_scenes as scenes;
+use crate::support_vtu as vtu;
 
 use hydrofrac::components::{CellKind, CellNodes, CellOrigin, NodeRef};
 use hydrofrac::scenario::Scenario;

@@ -8,8 +8,7 @@
 use hydrofrac::scenario::Scenario;
 use hydrofrac::sim::{Finish, Simulation};
 
-#[path = "support/scenes.rs"]
-mod scenes;
+use crate::support_scenes as scenes;
 
 fn block(tau: f64, end: &str) -> Simulation {
     let sc = Scenario::parse(&scenes::friction_block(tau, end), "friction.ron").unwrap();
@@ -215,4 +214,40 @@ fn verify_contact_case_passes() {
     }
     let failed = res.failures();
     assert!(failed.is_empty(), "contact failed:\n{}", failed.join("\n"));
+}
+
+/// The stick-slip load cycle of `verify contact` (docs/verification.md R8c): two blocks on a
+/// joint, one pushed against the other, loaded and unloaded twice on the quasi-static rock.
+/// The work of the loads equals the stored energy's change plus the friction dissipation to
+/// 1e-6 of the dissipation at a tenth of the blocks' weight (exact for the trapezoid rule at
+/// exact equilibria; left over: the joint force's O(delta_t / L) couple); at the full weight
+/// the imbalance is ten times larger (5-20 x: it is that couple, proportional to the load,
+/// and not the Newton tolerance); no joint gives energy back in any step; the joints pass
+/// from stick to slip and back to stick; at most 5 Newton iterations per step on average.
+#[test]
+fn load_cycle_balances_work_stored_energy_and_friction() {
+    let c = hydrofrac::verify::contact_cases::load_cycle(0.25, 20, 0.1).unwrap();
+    let full = hydrofrac::verify::contact_cases::load_cycle(0.25, 20, 1.0).unwrap();
+    println!(
+        "{c:#?}\nimbalance {:.3e}, at the full weight {:.3e}",
+        c.imbalance(),
+        full.imbalance()
+    );
+    assert!(c.imbalance() < 1e-6, "imbalance {:.3e}", c.imbalance());
+    let ratio = full.imbalance() / c.imbalance();
+    assert!((5.0..20.0).contains(&ratio), "imbalance ratio {ratio:.2}");
+    assert!(c.dissipated > 0.0 && c.dissipated < c.work);
+    assert!(
+        c.min_joint_step >= -1e-9 * c.dissipated,
+        "{}",
+        c.min_joint_step
+    );
+    assert_eq!(c.opened, 0);
+    assert!(
+        c.sliding_max > 0 && c.sliding_max < c.joints,
+        "{}",
+        c.sliding_max
+    );
+    assert!(c.slipping_steps > 0 && c.restick > 0);
+    assert!(c.newton_iterations as f64 <= 5.0 * c.steps as f64);
 }

@@ -2,8 +2,7 @@
 //! the patch test: u = c0 + G x on the boundary is reproduced inside to round-off (1e-9), and a
 //! scenario names it relative to its own folder.
 
-#[path = "support/cli.rs"]
-mod cli;
+use crate::support_cli as cli;
 
 use hydrofrac::scenario::Scenario;
 use hydrofrac::sim::{Finish, Simulation};

@@ -10,10 +10,8 @@ use hydrofrac::output::Outputs;
 use hydrofrac::scenario::Scenario;
 use hydrofrac::sim::Simulation;
 
-#[path = "support/cli.rs"]
-mod cli;
-#[path = "support/scenes.rs"]
-mod scenes;
+use crate::support_cli as cli;
+use crate::support_scenes as scenes;
 
 /// Steps, displacement and velocity bits, fluid excess-mass bits and the split count of a run.
 type Fingerprint = (u64, Vec<u64>, Vec<u64>, Vec<u64>, usize);

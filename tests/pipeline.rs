@@ -3,12 +3,9 @@
 //! of heat: before/after table, physics consistency between the models, outputs finite, the
 //! output folder's rules.
 
-#[path = "support/cli.rs"]
-mod cli;
-#[path = "support/finite.rs"]
-mod finite;
-#[path = "support/vtu.rs"]
-mod vtu;
+use crate::support_cli as cli;
+use crate::support_finite as finite;
+use crate::support_vtu as vtu;
 
 use cli::root;
 use hydrofrac::pipeline::{PipelineOptions, State, run_pipeline};

@@ -11,8 +11,7 @@ use hydrofrac::scenario::Scenario;
 use hydrofrac::sim::{Finish, Simulation};
 use hydrofrac::systems::SystemId;
 
-#[path = "support/scenes.rs"]
-mod scenes;
+use crate::support_scenes as scenes;
 
 fn load(path: &str, sets: &[&str]) -> Scenario {
     let sets: Vec<String> = sets.iter().map(|s| s.to_string()).collect();

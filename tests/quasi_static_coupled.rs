@@ -7,10 +7,8 @@
 use hydrofrac::scenario::Scenario;
 use hydrofrac::sim::{Finish, Simulation};
 
-#[path = "support/bits.rs"]
-mod bits;
-#[path = "support/scenes.rs"]
-mod scenes;
+use crate::support_bits as bits;
+use crate::support_scenes as scenes;
 
 fn scene(end: f64, extra: &str) -> Scenario {
     let time = format!(", solid_scheme: QuasiStatic{extra}");

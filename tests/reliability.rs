@@ -3,12 +3,9 @@
 //! names and bad `--trace` paths, and a scan of every text output of successful runs for
 //! `inf`, `NaN` and `null`.
 
-#[path = "support/cli.rs"]
-mod cli;
-#[path = "support/finite.rs"]
-mod finite;
-#[path = "support/vtu.rs"]
-mod vtu;
+use crate::support_cli as cli;
+use crate::support_finite as finite;
+use crate::support_vtu as vtu;
 
 use cli::{assert_refused, bin, run, scenario, stderr, tmp};
 use std::collections::BTreeMap;

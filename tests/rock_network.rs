@@ -2,10 +2,8 @@
 //! `fracture.file`): snapped to mesh edges, opened as joints with flow cells, and connected
 //! where they cross: the cell network's connected components are the geometric network's.
 
-#[path = "support/cli.rs"]
-mod cli;
-#[path = "support/geometry.rs"]
-mod geometry;
+use crate::support_cli as cli;
+use crate::support_geometry as geometry;
 
 use geometry::{cell_components, clean_random_network, geometric_components};
 use hydrofrac::scenario::Scenario;

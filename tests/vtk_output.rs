@@ -2,10 +2,8 @@
 //! (`support/vtu.rs`, on roxmltree): bit-exact floats, escaped names, the `.pvd` index, and
 //! files the reader must refuse (truncated, garbled, or with sizes that do not agree).
 
-#[path = "support/cli.rs"]
-mod cli;
-#[path = "support/vtu.rs"]
-mod vtu;
+use crate::support_cli as cli;
+use crate::support_vtu as vtu;
 
 use hydrofrac::output::vtk::{CellKind, DataArray, PvdWriter, VtuPiece, write_vtu};
 use std::fs;

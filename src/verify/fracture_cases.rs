@@ -359,7 +359,7 @@ pub const G: f64 = 9.81;
 /// The rock of [`inclined_block`]: 4 m x 2 m, cell size `h`, base fixed, cut along y = 1 m,
 /// friction `phi_deg`, joints at [`BLOCK_JOINT_STIFFNESS`], body force `gravity` (m/s^2),
 /// relaxed to a static residual of 1e-9 with local damping.
-fn block_scenario(phi_deg: f64, h: f64, gravity: [f64; 2]) -> crate::scenario::Scenario {
+pub(super) fn block_scenario(phi_deg: f64, h: f64, gravity: [f64; 2]) -> crate::scenario::Scenario {
     let mut sc = scenario(
         "inclined_block",
         MeshSpec::Regular {
@@ -817,6 +817,63 @@ pub fn contact(quick: bool) -> anyhow::Result<CaseResult> {
             k.slip.abs(),
             1e-4,
         );
+    }
+    // The stick-slip load cycle on a joint network (R8c): two step counts per cycle at a
+    // tenth of the block's weight (target 1e-6), and the full weight (the joint force's
+    // O(delta_t / L) couple: 1e-5).
+    let cycles: &[(u64, f64, f64)] = if quick {
+        &[(20, 0.1, 1e-6), (20, 1.0, 1e-5)]
+    } else {
+        &[(20, 0.1, 1e-6), (40, 0.1, 1e-6), (20, 1.0, 1e-5)]
+    };
+    for (level, &(steps, scale, bound)) in cycles.iter().enumerate() {
+        let c = crate::verify::contact_cases::load_cycle(H, steps, scale)?;
+        let per_step = c.newton_iterations as f64 / c.steps.max(1) as f64;
+        let tag = format!("{steps} steps per cycle, load x {scale}");
+        let key = format!("{steps}_x{scale}");
+        for (metric, err) in [
+            ("load_cycle_energy_imbalance", c.imbalance()),
+            ("load_cycle_newton_per_step", per_step),
+        ] {
+            push(
+                &mut res,
+                level,
+                c.unknowns,
+                &format!("{metric}_{key}"),
+                err,
+                c.wall_s,
+            );
+        }
+        res.check_max(
+            format!("load cycle energy imbalance, {tag}"),
+            c.imbalance(),
+            bound,
+        );
+        res.check_max(
+            format!("load cycle: most negative dissipation of a joint in a step (J/m), {tag}"),
+            -c.min_joint_step,
+            1e-9 * c.dissipated,
+        );
+        res.check_max(
+            format!("load cycle: joints opened, {tag}"),
+            c.opened as f64,
+            0.0,
+        );
+        res.check_max(
+            format!("load cycle Newton iterations per step, {tag}"),
+            per_step,
+            5.0,
+        );
+        for (what, n) in [
+            ("steps with slip", c.slipping_steps),
+            ("steps that stick again after slip", c.restick),
+        ] {
+            res.check_max(
+                format!("load cycle: no {what}, {tag}"),
+                (n == 0) as u8 as f64,
+                0.0,
+            );
+        }
     }
     // The explicit scheme on the same mesh, side by side.
     let e = inclined_block(30.0, 20.0, H)?;

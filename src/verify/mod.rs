@@ -11,6 +11,7 @@
 //! or refused naming the parameter).
 
 pub mod conforming_cases;
+pub mod contact_cases;
 pub mod coupled_cases;
 pub mod example_cases;
 pub mod extreme_cases;

@@ -34,7 +34,7 @@
 use crate::RunError;
 use crate::fracture::{contact, fluid_pressure, joint_frame};
 use crate::quasi_static_flow::{FlowRows, FlowStep};
-use crate::quasi_static_lu::{FullTangent, JointTangent};
+use crate::quasi_static_lu::{Direction, FullTangent, JointTangent};
 use crate::solid::{StepStats, external_load, internal_force, strain_energy};
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
 use faer::linalg::cholesky::llt::factor::LltRegularization;
@@ -112,6 +112,11 @@ pub struct QsCounts {
     /// ([`Linear::Lu`]), and the symbolic analyses of its pattern.
     pub lu_factorisations: u64,
     pub lu_symbolic: u64,
+    /// Newton iterations whose direction came from BiCGSTAB preconditioned by an earlier
+    /// iteration's LU factor of the same pattern instead of a new factorisation
+    /// (`systems::quasi_static_lu`), and their BiCGSTAB iterations.
+    pub lu_reused: u64,
+    pub krylov_iterations: u64,
     /// Steps retried with half the step after Newton failed.
     pub cutbacks: u64,
     /// Re-solves at the same time after a split opened faces, their most in one step, and
@@ -186,6 +191,9 @@ pub struct QuasiStatic {
     pub linear: Linear,
     /// The full Newton matrix's pattern and LU factors ([`Linear::Lu`]).
     full: Option<FullTangent>,
+    /// Whether a Newton direction on the LU path may come from BiCGSTAB preconditioned by
+    /// an earlier factor of the same pattern (default on; off for comparison).
+    pub reuse_lu: bool,
     lu_rhs: Vec<f64>,
     /// `time.inertia: BackwardEuler`: the state at the start of the step being solved.
     pub step_start: Option<StepStart>,
@@ -271,6 +279,7 @@ impl QuasiStatic {
             rows: FlowRows::default(),
             linear: Linear::Auto,
             full: None,
+            reuse_lu: true,
             lu_rhs: Vec::new(),
             step_start: None,
             factored_shift: 0.0,
@@ -594,15 +603,22 @@ impl QuasiStatic {
             self.lu_rhs.extend_from_slice(&self.rows.b[..nc]);
         }
         let full = self.full.as_mut().expect("built above");
-        full.factor_and_solve(
+        let direction = full.factor_and_solve(
             v,
             p,
             shift,
             &tangent,
             flow.as_ref().map(|f| (f, &self.rows)),
             &mut self.lu_rhs,
+            self.reuse_lu,
         )?;
-        self.counts.lu_factorisations += 1;
+        match direction {
+            Direction::Factored => self.counts.lu_factorisations += 1,
+            Direction::Reused { iterations } => {
+                self.counts.lu_reused += 1;
+                self.counts.krylov_iterations += iterations as u64;
+            }
+        }
         rhs.copy_from_slice(&self.lu_rhs[..n]);
         if flow.is_some() {
             let dy = self.lu_rhs[n..].to_vec();

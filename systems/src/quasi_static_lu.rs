@@ -46,10 +46,13 @@
 use crate::fracture::joint_frame;
 use crate::quasi_static::{add_mass, dofs_of, mass_slots, rock_stiffness};
 use crate::quasi_static_flow::{FACE, FlowRows, FlowStep};
+use faer::dyn_stack::StackReq;
 use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::matrix_free::bicgstab::{BicgParams, bicgstab, bicgstab_scratch};
+use faer::matrix_free::{IdentityPrecond, InitialGuessStatus, LinOp, Precond};
 use faer::sparse::SparseColMatRef;
-use faer::sparse::linalg::lu::{NumericLu, SymbolicLu};
-use faer::{Conj, MatMut, Par};
+use faer::sparse::linalg::lu::{LuRef, NumericLu, SymbolicLu};
+use faer::{Conj, MatMut, MatRef, Par};
 use hydrofrac_core::params::RunParams;
 use hydrofrac_core::sparse::SparsePattern;
 use hydrofrac_core::view::SolidView;
@@ -82,9 +85,87 @@ pub(crate) struct FullTangent {
     j_slots: Vec<usize>,
     symbolic: SymbolicLu<usize>,
     numeric: NumericLu<usize, f64>,
+    /// Whether `numeric` holds a factor of this pattern (of an earlier iterate).
+    factored: bool,
+    /// Whether the last reuse of the factor took more than [`REUSE_REFACTOR_AFTER`]
+    /// iterations or failed: the next iteration factors afresh.
+    stale: bool,
     values: Vec<f64>,
     mem: MemBuffer,
+    /// BiCGSTAB's workspace (allocated at the first reuse).
+    krylov_mem: Option<MemBuffer>,
 }
+
+/// How a Newton direction was found: a fresh factor, or BiCGSTAB preconditioned by an older
+/// factor in that many iterations.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Direction {
+    Factored,
+    Reused { iterations: usize },
+}
+
+/// The most BiCGSTAB iterations on an older factor before the matrix is factored afresh
+/// (each costs two solves with the factor and two products with the matrix; a factorisation
+/// of Example II's 40,000 unknowns costs about 20 solves).
+pub const REUSE_MAX_ITERS: usize = 12;
+
+/// A reuse that needed more iterations than this marks the factor stale: the next Newton
+/// iteration factors afresh.
+pub const REUSE_REFACTOR_AFTER: usize = 4;
+
+/// Relative residual |b - A x| / |b| of a direction from the older factor. The Newton
+/// iteration stops at a relative residual of 1e-10 of the forces' scale and each of its
+/// updates reduces the residual by about this factor, so an inexact direction costs at most
+/// one more iteration.
+pub const REUSE_TOL: f64 = 1e-9;
+
+/// An LU factor of an earlier Newton matrix of the same pattern as a preconditioner
+/// (faer's `Precond`: x = (L U)^-1 b).
+struct OldFactor<'a> {
+    lu: LuRef<'a, usize, f64>,
+    n: usize,
+}
+
+impl std::fmt::Debug for OldFactor<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "OldFactor({})", self.n)
+    }
+}
+
+impl LinOp<f64> for OldFactor<'_> {
+    fn apply_scratch(&self, rhs_ncols: usize, par: Par) -> StackReq {
+        self.lu
+            .symbolic()
+            .solve_in_place_scratch::<f64>(rhs_ncols, par)
+    }
+    fn nrows(&self) -> usize {
+        self.n
+    }
+    fn ncols(&self) -> usize {
+        self.n
+    }
+    fn apply(
+        &self,
+        mut out: MatMut<'_, f64>,
+        rhs: MatRef<'_, f64>,
+        par: Par,
+        stack: &mut MemStack,
+    ) {
+        out.copy_from(rhs);
+        self.lu.solve_in_place_with_conj(Conj::No, out, par, stack);
+    }
+    fn conj_apply(
+        &self,
+        out: MatMut<'_, f64>,
+        rhs: MatRef<'_, f64>,
+        par: Par,
+        stack: &mut MemStack,
+    ) {
+        self.apply(out, rhs, par, stack);
+    }
+}
+
+impl Precond<f64> for OldFactor<'_> {}
 
 fn joint_dofs(dof: &[usize], nodes: &[u32; 4]) -> [usize; 8] {
     std::array::from_fn(|i| dof[2 * nodes[i / 2] as usize + i % 2])
@@ -203,8 +284,11 @@ impl FullTangent {
             j_slots,
             symbolic,
             numeric: NumericLu::new(),
+            factored: false,
+            stale: false,
             values: Vec::new(),
             mem,
+            krylov_mem: None,
         })
     }
 
@@ -212,6 +296,12 @@ impl FullTangent {
     /// `states` (and, with `flow`, the flow rows linearised by [`FlowRows::linearise`]) plus
     /// `shift` M (implicit dynamics; 1/s^2, 0 for equilibrium), and factor it; then solve it
     /// for `rhs` = [F; -r] in place (length n + cells).
+    ///
+    /// With `reuse`, a factor of an earlier iterate of the same pattern is tried first as the
+    /// preconditioner of BiCGSTAB on the new matrix (at most [`REUSE_MAX_ITERS`] iterations
+    /// to a relative residual of [`REUSE_TOL`]); the matrix is factored when that fails, when
+    /// the last reuse was slow, or when there is no factor yet.
+    #[allow(clippy::too_many_arguments)]
     pub(crate) fn factor_and_solve(
         &mut self,
         v: &SolidView,
@@ -220,7 +310,129 @@ impl FullTangent {
         states: &[JointTangent],
         flow: Option<(&FlowStep, &FlowRows)>,
         rhs: &mut [f64],
-    ) -> Result<(), String> {
+        reuse: bool,
+    ) -> Result<Direction, String> {
+        self.assemble(v, p, shift, states, flow);
+        if reuse
+            && self.factored
+            && !self.stale
+            && let Some(iterations) = self.reuse_solve(rhs)
+        {
+            self.stale = iterations > REUSE_REFACTOR_AFTER;
+            return Ok(Direction::Reused { iterations });
+        }
+        self.factor_solve(states, rhs)?;
+        Ok(Direction::Factored)
+    }
+
+    /// BiCGSTAB on the assembled matrix with the older factor as right preconditioner:
+    /// `rhs` replaced by the solution and its iterations returned, or `None` (and `rhs`
+    /// unchanged) when it does not reach [`REUSE_TOL`] in [`REUSE_MAX_ITERS`] iterations.
+    fn reuse_solve(&mut self, rhs: &mut [f64]) -> Option<usize> {
+        let len = rhs.len();
+        let a = SparseColMatRef::new(self.pattern.as_ref(), &self.values);
+        let pre = OldFactor {
+            lu: LuRef::new_unchecked(&self.symbolic, &self.numeric),
+            n: len,
+        };
+        let ident = IdentityPrecond { dim: len };
+        let mem = match &mut self.krylov_mem {
+            Some(m) => m,
+            None => {
+                let req = bicgstab_scratch(ident, &pre, a, 1, Par::Seq);
+                self.krylov_mem.insert(MemBuffer::try_new(req).ok()?)
+            }
+        };
+        let mut x = vec![0.0; len];
+        let params = BicgParams {
+            initial_guess: InitialGuessStatus::MaybeNonZero,
+            abs_tolerance: 0.0,
+            rel_tolerance: REUSE_TOL,
+            max_iters: REUSE_MAX_ITERS,
+            ..Default::default()
+        };
+        let info = bicgstab(
+            MatMut::from_column_major_slice_mut(&mut x, len, 1),
+            ident,
+            &pre,
+            a,
+            MatRef::from_column_major_slice(rhs, len, 1),
+            params,
+            |_| {},
+            Par::Seq,
+            MemStack::new(mem),
+        )
+        .ok()?;
+        if !x.iter().all(|v| v.is_finite()) {
+            return None;
+        }
+        // The true residual, checked (faer 0.24's BiCGSTAB leaves its residual
+        // uninitialised when told the initial guess is zero, so the guess is passed as
+        // "maybe non-zero"; this check keeps any such surprise out of the Newton direction).
+        let mut r2 = 0.0;
+        let mut ax = vec![0.0; len];
+        let (cp, ri) = (
+            self.pattern.as_ref().col_ptr(),
+            self.pattern.as_ref().row_idx(),
+        );
+        for c in 0..len {
+            for k in cp[c]..cp[c + 1] {
+                ax[ri[k]] += self.values[k] * x[c];
+            }
+        }
+        let mut b2 = 0.0;
+        for (a, b) in ax.iter().zip(rhs.iter()) {
+            r2 += (a - b) * (a - b);
+            b2 += b * b;
+        }
+        if r2.is_nan() || r2 > 100.0 * REUSE_TOL * REUSE_TOL * b2 {
+            return None;
+        }
+        rhs.copy_from_slice(&x);
+        Some(info.iter_count)
+    }
+
+    /// Factor the assembled matrix and solve it for `rhs` in place.
+    fn factor_solve(&mut self, states: &[JointTangent], rhs: &mut [f64]) -> Result<(), String> {
+        self.factored = false;
+        self.stale = false;
+        let a = SparseColMatRef::new(self.pattern.as_ref(), &self.values);
+        let lu = self
+            .symbolic
+            .factorize_numeric_lu::<f64>(
+                &mut self.numeric,
+                a,
+                Par::Seq,
+                MemStack::new(&mut self.mem),
+                Default::default(),
+            )
+            .map_err(|e| singular(&format!("{e:?}"), states))?;
+        let len = rhs.len();
+        lu.solve_in_place_with_conj(
+            Conj::No,
+            MatMut::from_column_major_slice_mut(rhs, len, 1),
+            Par::Seq,
+            MemStack::new(&mut self.mem),
+        );
+        if let Some(i) = rhs.iter().position(|x| !x.is_finite()) {
+            return Err(singular(
+                &format!("the update of unknown {i} of {len} is not finite"),
+                states,
+            ));
+        }
+        self.factored = true;
+        Ok(())
+    }
+
+    /// The full Newton matrix's values at the current iterate (`factor_and_solve`).
+    fn assemble(
+        &mut self,
+        v: &SolidView,
+        p: &RunParams,
+        shift: f64,
+        states: &[JointTangent],
+        flow: Option<(&FlowStep, &FlowRows)>,
+    ) {
         self.values.clear();
         self.values.extend_from_slice(&self.k_el);
         add_mass(&mut self.values, &self.mass_slots, &v.mass, shift);
@@ -258,31 +470,6 @@ impl FullTangent {
                 }
             }
         }
-        let a = SparseColMatRef::new(self.pattern.as_ref(), &self.values);
-        let lu = self
-            .symbolic
-            .factorize_numeric_lu::<f64>(
-                &mut self.numeric,
-                a,
-                Par::Seq,
-                MemStack::new(&mut self.mem),
-                Default::default(),
-            )
-            .map_err(|e| singular(&format!("{e:?}"), states))?;
-        let len = rhs.len();
-        lu.solve_in_place_with_conj(
-            Conj::No,
-            MatMut::from_column_major_slice_mut(rhs, len, 1),
-            Par::Seq,
-            MemStack::new(&mut self.mem),
-        );
-        if let Some(i) = rhs.iter().position(|x| !x.is_finite()) {
-            return Err(singular(
-                &format!("the update of unknown {i} of {len} is not finite"),
-                states,
-            ));
-        }
-        Ok(())
     }
 }
 

@@ -1,6 +1,6 @@
 //! Test support: the `hydrofrac` binary as a user runs it, what a run leaves in its folder, and
-//! temporary folders. Each test file pulls it in with `#[path = "support/cli.rs"] mod cli;`
-//! and uses what it needs. A temporary folder is named after the test binary, this process and
+//! temporary folders. `tests/integration.rs` pulls it in once (a test file in its own binary
+//! with `#[path = "support/cli.rs"] mod cli;`) and each test file uses what it needs. A temporary folder is named after the test binary, this process and
 //! the name asked for, so two tests (or two test binaries) never share one.
 #![allow(dead_code)]
 
@@ -67,10 +67,18 @@ pub fn scenario(name: &str) -> String {
 }
 
 /// A temporary path for `name` (a folder or a file), removed if it is there (not created):
-/// `hydrofrac-<test binary>-<process>-<name>` in the system's temporary folder.
+/// `hydrofrac-<test binary>-<process>-<test>-<name>` in the system's temporary folder, the
+/// test named by its thread (libtest names each test's thread after it), so tests of
+/// different files in the one integration binary never share a path.
 pub fn tmp(name: &str) -> PathBuf {
+    let test: String = std::thread::current()
+        .name()
+        .unwrap_or("main")
+        .chars()
+        .map(|c| if c.is_ascii_alphanumeric() { c } else { '_' })
+        .collect();
     let d = std::env::temp_dir().join(format!(
-        "hydrofrac-{}-{}-{name}",
+        "hydrofrac-{}-{}-{test}-{name}",
         env!("CARGO_CRATE_NAME"),
         std::process::id()
     ));
