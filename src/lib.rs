@@ -9,7 +9,8 @@
 //! - `hydrofrac-systems` (`systems/`): the step's systems and their order;
 //! - `hydrofrac-engine` (`engine/`): setup, the schedule, the step loop, checkpoints;
 //! - this crate (`src/`): the driver of `hydrofrac run` and its production stage, the
-//!   reservoir pipeline, verification, reference kernels and the CLI.
+//!   reservoir pipeline, ensembles (`hydrofrac sweep`), verification, reference kernels and
+//!   the CLI.
 //!
 //! This crate re-exports the modules of the crates below under one name, so a user (and the
 //! tests) write `hydrofrac::scenario::Scenario` whatever crate holds it.
@@ -29,4 +30,5 @@ pub mod driver;
 pub mod pipeline;
 pub mod production_stage;
 pub mod reference;
+pub mod sweep;
 pub mod verify;

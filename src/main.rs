@@ -98,6 +98,88 @@ enum Command {
     },
     /// List the systems of a step in order.
     Systems,
+    /// Ensembles: plan a sweep of a scenario over varied values, run its members (here or as
+    /// a Slurm job array) and collect their results (docs/sweep.md).
+    Sweep {
+        #[command(subcommand)]
+        command: SweepCommand,
+    },
+}
+
+#[derive(Subcommand)]
+enum SweepCommand {
+    /// Resolve and validate every member of a sweep file and write them into DIR (nothing
+    /// runs): DIR/plan.json and DIR/members/NNNN/scenario.ron.
+    Plan {
+        /// Sweep file (RON), e.g. scenarios/sweep_example.ron
+        file: PathBuf,
+        /// The sweep folder (new, empty, or planned before; a folder of other files is
+        /// refused)
+        #[arg(long)]
+        out: PathBuf,
+    },
+    /// Run the members of a planned sweep on this machine, each as its own process; finished
+    /// members are skipped, an interrupted one continues from its checkpoint.
+    Run {
+        /// The sweep folder
+        dir: PathBuf,
+        /// Members run at a time [default: the number of CPUs]
+        #[arg(long)]
+        jobs: Option<usize>,
+        /// Run the members that failed before again (else they are skipped)
+        #[arg(long)]
+        retry_failed: bool,
+        /// No progress bar
+        #[arg(long)]
+        quiet: bool,
+    },
+    /// Run one member (what `sweep run` and the Slurm array tasks run).
+    Member {
+        /// The sweep folder
+        dir: PathBuf,
+        /// Member id (0 to members - 1)
+        id: usize,
+        /// No message unless it fails
+        #[arg(long)]
+        quiet: bool,
+    },
+    /// Write a Slurm job array (DIR/slurm/sweep.sbatch) running every member, and with
+    /// --submit submit it.
+    Slurm {
+        /// The sweep folder
+        dir: PathBuf,
+        /// #SBATCH --partition
+        #[arg(long)]
+        partition: Option<String>,
+        /// #SBATCH --time (e.g. 00:30:00)
+        #[arg(long)]
+        time: Option<String>,
+        /// At most M members at once (--array=0-(N-1)%M)
+        #[arg(long, value_name = "M")]
+        max_parallel: Option<usize>,
+        /// Members per array: Slurm's MaxArraySize less one; a larger sweep gets one script
+        /// per block
+        #[arg(long, default_value_t = 1000)]
+        max_array_size: usize,
+        /// The hydrofrac executable the tasks run [default: this one]
+        #[arg(long)]
+        exe: Option<PathBuf>,
+        /// Submit the script(s) with sbatch
+        #[arg(long)]
+        submit: bool,
+        /// With --submit: sbatch --wait (return when every member has run)
+        #[arg(long)]
+        wait: bool,
+    },
+    /// One table (DIR/collect/table.csv and .json) of every member's inputs and quantities of
+    /// interest, failed members with their errors, and figures.
+    Collect {
+        /// The sweep folder
+        dir: PathBuf,
+        /// Leave out the figures
+        #[arg(long)]
+        no_figures: bool,
+    },
 }
 
 fn main() -> ExitCode {
@@ -230,6 +312,105 @@ fn real_main() -> Result<ExitCode> {
             pipeline_command(&file, &opts)
         }
         Command::Systems => systems_command(),
+        Command::Sweep { command } => sweep_command(command),
+    }
+}
+
+/// `hydrofrac sweep ...`.
+fn sweep_command(command: SweepCommand) -> Result<ExitCode> {
+    use hydrofrac::sweep;
+    let mut out = std::io::stdout().lock();
+    match command {
+        SweepCommand::Plan { file, out: dir } => {
+            let plan = sweep::plan_sweep(&file, &dir)?;
+            let _ = writeln!(
+                out,
+                "planned {} members of {} in {}",
+                plan.members.len(),
+                file.display(),
+                dir.display()
+            );
+            Ok(ExitCode::SUCCESS)
+        }
+        SweepCommand::Run {
+            dir,
+            jobs,
+            retry_failed,
+            quiet,
+        } => sweep_run_command(&dir, jobs, retry_failed, quiet),
+        SweepCommand::Member { dir, id, quiet } => {
+            let stop = install_stop_handlers()?;
+            match sweep::run_member(&dir, id, Some(stop))? {
+                sweep::MemberOutcome::Ok => {
+                    if !quiet {
+                        let _ = writeln!(out, "member {id}: ok");
+                    }
+                    Ok(ExitCode::SUCCESS)
+                }
+                sweep::MemberOutcome::AlreadyDone => {
+                    if !quiet {
+                        let _ = writeln!(out, "member {id}: finished before");
+                    }
+                    Ok(ExitCode::SUCCESS)
+                }
+                sweep::MemberOutcome::Failed(e) => anyhow::bail!("member {id}: {e}"),
+                sweep::MemberOutcome::Interrupted(sig) => Ok(signal_exit(sig)),
+            }
+        }
+        SweepCommand::Slurm {
+            dir,
+            partition,
+            time,
+            max_parallel,
+            max_array_size,
+            exe,
+            submit,
+            wait,
+        } => {
+            let exe = match exe {
+                Some(e) => e,
+                None => std::env::current_exe()?,
+            };
+            let opts = sweep::SlurmOptions {
+                partition,
+                time,
+                max_parallel,
+                max_array_size,
+                exe,
+                submit,
+                wait,
+            };
+            let r = sweep::write_slurm(&dir, &opts)?;
+            for s in &r.scripts {
+                let _ = writeln!(out, "wrote {}", s.display());
+            }
+            for s in &r.submitted {
+                let _ = writeln!(out, "{s}");
+            }
+            Ok(ExitCode::SUCCESS)
+        }
+        SweepCommand::Collect { dir, no_figures } => {
+            let opts = sweep::CollectOptions {
+                figures: !no_figures,
+            };
+            let r = sweep::collect(&dir, &opts)?;
+            for w in &r.warnings {
+                let _ = writeln!(std::io::stderr(), "warning: {w}");
+            }
+            let _ = writeln!(
+                out,
+                "{} members: {} ok, {} failed, {} not run; table in {}",
+                r.total,
+                r.ok,
+                r.failed.len(),
+                r.not_run.len(),
+                r.out.join("table.csv").display()
+            );
+            for (id, e) in &r.failed {
+                let _ = writeln!(out, "member {id} failed: {e}");
+            }
+            Ok(ExitCode::SUCCESS)
+        }
     }
 }
 
@@ -340,6 +521,64 @@ fn systems_command() -> Result<ExitCode> {
             Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => break,
             r => r?,
         }
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// `hydrofrac sweep run`: the local runner, its counts on stdout; failure when a member
+/// failed, 128 + the signal number when a signal stopped it.
+fn sweep_run_command(
+    dir: &std::path::Path,
+    jobs: Option<usize>,
+    retry_failed: bool,
+    quiet: bool,
+) -> Result<ExitCode> {
+    use hydrofrac::sweep;
+    let mut out = std::io::stdout().lock();
+    let jobs = jobs.unwrap_or_else(|| {
+        std::thread::available_parallelism().map_or(1, std::num::NonZeroUsize::get)
+    });
+    if jobs == 0 {
+        anyhow::bail!("--jobs 0: at least 1");
+    }
+    let opts = sweep::LocalOptions {
+        jobs,
+        retry_failed,
+        quiet,
+        stop: Some(install_stop_handlers()?),
+        exe: std::env::current_exe()?,
+    };
+    let s = sweep::run_local(dir, &opts)?;
+    let _ = writeln!(
+        out,
+        "{} members: {} run now, {} finished before, {} failed now, {} failed before \
+         (not retried), {} not run",
+        s.total,
+        s.ok,
+        s.skipped,
+        s.failed.len(),
+        s.skipped_failed,
+        s.not_run
+    );
+    if let Some(sig) = s.interrupted_by {
+        let _ = writeln!(
+            std::io::stderr(),
+            "interrupted by {}: `hydrofrac sweep run {}` continues",
+            hydrofrac::driver::signal_name(sig),
+            dir.display()
+        );
+        return Ok(signal_exit(sig));
+    }
+    if !s.failed.is_empty() {
+        let ids: Vec<String> = s.failed.iter().map(|f| f.0.to_string()).collect();
+        anyhow::bail!(
+            "{} of {} members failed (members {}; their errors are in their status.json \
+             and in `hydrofrac sweep collect {}`)",
+            s.failed.len(),
+            s.total,
+            ids.join(", "),
+            dir.display()
+        );
     }
     Ok(ExitCode::SUCCESS)
 }

@@ -48,6 +48,21 @@ pub fn lines(
     })
 }
 
+/// Scatter plot on linear axes, same style as [`lines`]: every point marked,
+/// no connecting lines (e.g. a quantity of a sweep against one of its
+/// inputs). Non-finite points are dropped.
+pub fn scatter(
+    path: &Path,
+    title: &str,
+    xlabel: &str,
+    ylabel: &str,
+    s: &[Series],
+) -> Result<(), PlotError> {
+    write_png(path, SIZE, |root| {
+        draw_plot(root, (title, xlabel, ylabel), s, false, true)
+    })
+}
+
 /// Colour of series `i` (cycling), and its marker: circle, square, triangle
 /// or diamond, changing after each cycle of colours.
 fn series_style(i: usize) -> (RGBColor, usize) {
@@ -101,6 +116,18 @@ fn legend_origin(curves: &[Vec<(i32, i32)>], (px, py): &PixelBox, w: i32, h: i32
 
 /// Draw a line plot on `root`; returns where data coordinates land.
 pub(super) fn draw_lines(root: &Area, texts: Texts, series: &[Series], log: bool) -> Drawn<Coords> {
+    draw_plot(root, texts, series, log, false)
+}
+
+/// Draw a line plot, or with `points` a scatter plot (markers only, every point), on `root`;
+/// returns where data coordinates land.
+fn draw_plot(
+    root: &Area,
+    texts: Texts,
+    series: &[Series],
+    log: bool,
+    points: bool,
+) -> Drawn<Coords> {
     // Filter and (for log plots) transform the data.
     let keep =
         |&&(x, y): &&(f64, f64)| x.is_finite() && y.is_finite() && (!log || x > 0.0 && y > 0.0);
@@ -115,7 +142,7 @@ pub(super) fn draw_lines(root: &Area, texts: Texts, series: &[Series], log: bool
     let axis = if log { Axis::log } else { Axis::linear };
     let layout = Layout::new(texts, axis(xmin, xmax), axis(ymin, ymax), None, 0);
     let mut chart = layout.chart(root, Some((0.16, 0.05)))?;
-    for (i, pts) in data.iter().enumerate() {
+    for (i, pts) in data.iter().enumerate().filter(|_| !points) {
         let line = LineSeries::new(pts.iter().copied(), series_style(i).0.stroke_width(2));
         chart.draw_series(line)?;
     }
@@ -123,7 +150,10 @@ pub(super) fn draw_lines(root: &Area, texts: Texts, series: &[Series], log: bool
     let curves: Vec<Vec<(i32, i32)>> = data.iter().map(to_px).collect();
     let area = layout.frame(root, &mut chart)?;
     for (i, pix) in curves.iter().enumerate() {
-        for &p in pix.iter().filter(|_| pix.len() <= MAX_MARKED_POINTS) {
+        for &p in pix
+            .iter()
+            .filter(|_| points || pix.len() <= MAX_MARKED_POINTS)
+        {
             draw_marker(root, p, series_style(i))?;
         }
     }
@@ -143,8 +173,10 @@ pub(super) fn draw_lines(root: &Area, texts: Texts, series: &[Series], log: bool
             let (x0, y) = (lx + pad, ly + pad + LABEL.cap() / 2 + row as i32 * row_h);
             let style = series_style(i);
             let sample = vec![(x0, y), (x0 + sample_w, y)];
-            root.draw(&PathElement::new(sample, style.0.stroke_width(2)))?;
-            if data[i].len() <= MAX_MARKED_POINTS {
+            if !points {
+                root.draw(&PathElement::new(sample, style.0.stroke_width(2)))?;
+            }
+            if points || data[i].len() <= MAX_MARKED_POINTS {
                 draw_marker(root, (x0 + sample_w / 2, y), style)?;
             }
             LABEL.draw(root, &series[i].label, (x0 + sample_w + 10, y), RIGHT_OF)?;

@@ -26,7 +26,7 @@ use plotters::style::text_anchor::{HPos, VPos};
 use plotters::style::{FontStyle, RGBColor};
 
 use axis::Axis;
-pub use lines::{lines, loglog};
+pub use lines::{lines, loglog, scatter};
 pub use map::{fracture_map, network};
 
 /// One named polyline (drawn in the given order).
