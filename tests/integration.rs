@@ -42,6 +42,7 @@ mod rock_network;
 mod sneddon;
 mod solid_verification;
 mod split;
+mod sweep;
 mod toughness;
 mod vtk_output;
 

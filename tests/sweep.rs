@@ -5,8 +5,7 @@
 //! array gives the same table as the local runner; bad sweep files and folders are refused in
 //! one line. The members are `scenarios/flow_single_fracture.ron` (0.05 s each).
 
-#[path = "support/cli.rs"]
-mod cli;
+use crate::support_cli as cli;
 
 use cli::{assert_refused, bin, root, stderr, tmp, tmp_dir};
 use std::path::{Path, PathBuf};
