@@ -26,9 +26,6 @@ pub struct LoadCycle {
     pub slipping_steps: usize,
     /// Steps at which no joint slides after one at which some did (stick again).
     pub restick: usize,
-    /// Joint-steps sliding against the loading direction (reverse slip on unloading; none
-    /// in this cycle, whose push stays between 0.1 and 0.55 of the capacity).
-    pub reverse_slip: usize,
     /// Joints that were open (delta_n > 0) at some step (the balance assumes none).
     pub opened: usize,
     pub joints: usize,
@@ -156,7 +153,6 @@ pub fn load_cycle(h: f64, steps: u64, load_scale: f64) -> anyhow::Result<LoadCyc
         sliding_max: 0,
         slipping_steps: 0,
         restick: 0,
-        reverse_slip: 0,
         opened: 0,
         joints: sim.solid().joint_nodes.len(),
         unknowns: 2 * sim.solid().n_nodes(),
@@ -178,7 +174,6 @@ pub fn load_cycle(h: f64, steps: u64, load_scale: f64) -> anyhow::Result<LoadCyc
                 out.work += 0.5 * (prev.load[i][d] + next.load[i][d]) * (b[d] - a[d]);
             }
         }
-        let loading = push(k, steps, f0, amp) >= push(k - 1, steps, f0, amp);
         let mut sliding = 0;
         for (j, s) in v.joint_state.iter().enumerate() {
             let (fa, fb) = (prev.shear[j], s.shear_force);
@@ -189,23 +184,7 @@ pub fn load_cycle(h: f64, steps: u64, load_scale: f64) -> anyhow::Result<LoadCyc
             out.dissipated += d;
             out.min_joint_step = out.min_joint_step.min(d);
             opened[j] |= s.opening > 0.0;
-            if s.sliding {
-                sliding += 1;
-                // On the horizontal joints: the upper face's motion along x relative to the
-                // lower one (face q lies on the side n points to). The push drives the upper
-                // blocks to +x; slip against the step's load change is reverse slip.
-                let f = joint_frame(v, j);
-                if f.n[1].abs() > 0.5 {
-                    let dx = if f.n[1] > 0.0 {
-                        slip * f.t[0]
-                    } else {
-                        -slip * f.t[0]
-                    };
-                    if dx != 0.0 && (dx > 0.0) != loading {
-                        out.reverse_slip += 1;
-                    }
-                }
-            }
+            sliding += s.sliding as usize;
         }
         out.sliding_max = out.sliding_max.max(sliding);
         if sliding > 0 {

@@ -46,8 +46,7 @@
 use crate::fracture::joint_frame;
 use crate::quasi_static::{add_mass, dofs_of, mass_slots, rock_stiffness};
 use crate::quasi_static_flow::{FACE, FlowRows, FlowStep};
-use faer::dyn_stack::StackReq;
-use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
 use faer::matrix_free::bicgstab::{BicgParams, bicgstab, bicgstab_scratch};
 use faer::matrix_free::{IdentityPrecond, InitialGuessStatus, LinOp, Precond};
 use faer::sparse::SparseColMatRef;
@@ -92,8 +91,11 @@ pub(crate) struct FullTangent {
     stale: bool,
     values: Vec<f64>,
     mem: MemBuffer,
-    /// BiCGSTAB's workspace (allocated at the first reuse).
+    /// BiCGSTAB's workspace (allocated at the first reuse), its solution and A x for the
+    /// residual check (kept, so a reuse allocates nothing).
     krylov_mem: Option<MemBuffer>,
+    krylov_x: Vec<f64>,
+    krylov_ax: Vec<f64>,
 }
 
 /// How a Newton direction was found: a fresh factor, or BiCGSTAB preconditioned by an older
@@ -105,8 +107,9 @@ pub(crate) enum Direction {
 }
 
 /// The most BiCGSTAB iterations on an older factor before the matrix is factored afresh
-/// (each costs two solves with the factor and two products with the matrix; a factorisation
-/// of Example II's 40,000 unknowns costs about 20 solves).
+/// (each costs two solves with the factor and two products with the matrix; on Example II
+/// a reuse of about 5 iterations costs about two thirds of a factorisation,
+/// `benches/quasi_static.rs`).
 pub const REUSE_MAX_ITERS: usize = 12;
 
 /// A reuse that needed more iterations than this marks the factor stale: the next Newton
@@ -289,6 +292,8 @@ impl FullTangent {
             values: Vec::new(),
             mem,
             krylov_mem: None,
+            krylov_x: Vec::new(),
+            krylov_ax: Vec::new(),
         })
     }
 
@@ -343,7 +348,9 @@ impl FullTangent {
                 self.krylov_mem.insert(MemBuffer::try_new(req).ok()?)
             }
         };
-        let mut x = vec![0.0; len];
+        let x = &mut self.krylov_x;
+        x.clear();
+        x.resize(len, 0.0);
         let params = BicgParams {
             initial_guess: InitialGuessStatus::MaybeNonZero,
             abs_tolerance: 0.0,
@@ -352,7 +359,7 @@ impl FullTangent {
             ..Default::default()
         };
         let info = bicgstab(
-            MatMut::from_column_major_slice_mut(&mut x, len, 1),
+            MatMut::from_column_major_slice_mut(x, len, 1),
             ident,
             &pre,
             a,
@@ -370,7 +377,9 @@ impl FullTangent {
         // uninitialised when told the initial guess is zero, so the guess is passed as
         // "maybe non-zero"; this check keeps any such surprise out of the Newton direction).
         let mut r2 = 0.0;
-        let mut ax = vec![0.0; len];
+        let ax = &mut self.krylov_ax;
+        ax.clear();
+        ax.resize(len, 0.0);
         let (cp, ri) = (
             self.pattern.as_ref().col_ptr(),
             self.pattern.as_ref().row_idx(),
@@ -388,7 +397,7 @@ impl FullTangent {
         if r2.is_nan() || r2 > 100.0 * REUSE_TOL * REUSE_TOL * b2 {
             return None;
         }
-        rhs.copy_from_slice(&x);
+        rhs.copy_from_slice(x);
         Some(info.iter_count)
     }
 
