@@ -301,6 +301,16 @@ fn equilibrate(
         }
         hold(sim, &trial);
         let saved = (sim.solid().u.clone(), sim.solid().joint_state.clone());
+        // A step that splits faces and then fails has changed the topology (the trial split's
+        // nodes): only a whole state brings it back. Taken only where faces can open.
+        let whole = match sim.params().criterion {
+            Some(_) => Some(sim.checkpoint_state().map_err(|why| RunError::QuasiStatic {
+                step: sim.step(),
+                time: sim.time(),
+                why: format!("production stage: the state before a load increment: {why}"),
+            })?),
+            None => None,
+        };
         match sim.step_once() {
             Ok(()) => {
                 solves += 1;
@@ -316,9 +326,20 @@ fn equilibrate(
                 streak += 1;
             }
             Err(e @ RunError::QuasiStatic { .. }) => {
-                let v = sim.solid_mut();
-                v.u.copy_from_slice(&saved.0);
-                v.joint_state.copy_from_slice(&saved.1);
+                if sim.model().topology_generation != generation {
+                    let Some((_, state)) = whole else {
+                        return Err(e);
+                    };
+                    sim.adopt(state).map_err(|why| RunError::QuasiStatic {
+                        step: sim.step(),
+                        time: sim.time(),
+                        why: format!("production stage: rolling back a failed split: {why}"),
+                    })?;
+                } else {
+                    let v = sim.solid_mut();
+                    v.u.copy_from_slice(&saved.0);
+                    v.joint_state.copy_from_slice(&saved.1);
+                }
                 // The kept factor's joint axes are the failed iterate's.
                 if let Some(qs) = sim.quasi_static_mut() {
                     qs.forget_factor();
@@ -837,10 +858,16 @@ pub fn stage_warnings(rows: &[ProductionRow], failed: &[FailedState]) -> Vec<Str
     for r in rows {
         let (state, dp) = (r.state.name(), r.dp / 1e6);
         if !r.converged {
+            // The change is measured from the second iteration on.
+            let change = if r.change.is_finite() {
+                format!("last change {:.1e}", r.change)
+            } else {
+                "no change measured".to_string()
+            };
             warnings.push(format!(
                 "production {state} dp = {dp:.1} MPa did not converge in {} iterations \
-                 (last change {:.1e})",
-                r.iterations, r.change
+                 ({change})",
+                r.iterations
             ));
         }
         if !r.frozen_settled {

@@ -38,6 +38,7 @@ mod quasi_static_lu;
 mod reference_kernel;
 mod reliability;
 mod reservoir_verification;
+mod residuals;
 mod rock_network;
 mod sneddon;
 mod solid_verification;

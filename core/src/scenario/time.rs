@@ -291,6 +291,34 @@ impl TimeControl {
                 ));
             }
         }
+        // The defaults of the adaptive step's bounds follow the end time (`RunParams`): a
+        // `dt_max` alone must not fall below the default `dt_min`.
+        if let (Some(m), None, End::Time(te)) = (self.dt_max, self.dt_min, &self.end) {
+            let default_min = te * 1e-9;
+            if m < default_min {
+                return Err(SetupError::invalid(
+                    "time.dt_max",
+                    format!(
+                        "{m:e} s is below the shortest adaptive step, {default_min:e} s \
+                         (the end time x 1e-9, the default of time.dt_min); raise it or set \
+                         time.dt_min below it"
+                    ),
+                ));
+            }
+        }
+        if let (None, Some(m), End::Time(te)) = (self.dt_max, self.dt_min, &self.end) {
+            let default_max = te / 100.0;
+            if m > default_max {
+                return Err(SetupError::invalid(
+                    "time.dt_min",
+                    format!(
+                        "{m:e} s is above the longest adaptive step, {default_max:e} s \
+                         (the end time / 100, the default of time.dt_max); lower it or set \
+                         time.dt_max above it"
+                    ),
+                ));
+            }
+        }
         Ok(())
     }
 
