@@ -181,6 +181,12 @@ fn set_up(mut sim: Simulation, opts: &RunOptions, out: &Path) -> Result<Run, Dri
     if let Some(stop) = &opts.stop {
         sim.set_stop(stop.clone());
     }
+    crate::resources::check_output_place(out).map_err(|why| {
+        DriverError::Output(std::io::Error::other(format!(
+            "cannot create output folder {}: {why}",
+            out.display()
+        )))
+    })?;
     let (disk_limit, disk_source) = match opts.max_disk {
         Some(b) => (b, "set by --max-disk".to_string()),
         None => crate::resources::default_disk_limit(out),
@@ -264,10 +270,9 @@ fn setup_outputs(sim: &Simulation, outputs: &Outputs) -> Result<Vec<String>, Dri
     {
         warnings.push(format!("network_generated.csv {NOT_FINITE}"));
     }
-    if let Some(w) = zigzag_warning(sim.placed()) {
-        tracing::warn!("{w}");
-        warnings.push(w);
-    }
+    // (Printed on stderr with the summary's other warnings at the end of the run.)
+    warnings.extend(zigzag_warning(sim.placed()));
+    warnings.extend(clipped_warning(sim.placed(), sim.model().bbox));
     if !sim.placed().is_empty()
         && !outputs
             .write_preexisting_csv(sim.placed())
@@ -613,6 +618,7 @@ fn write_results(
     if !warnings.is_empty() {
         summary["warnings"] = json!(warnings);
     }
+    crate::output::json::finite_summary(&mut summary);
     let summary_path = match sim.output() {
         Some(o) => o.claim("summary.json").map_err(DriverError::Output)?,
         None => out.join("summary.json"),
@@ -961,6 +967,27 @@ pub fn zigzag_warning(placed: &[crate::fractures::Placed]) -> Option<String> {
         worst.snap_error_h,
         worst.from,
         worst.to
+    ))
+}
+
+/// The warning for listed pre-existing fractures that reach outside the domain (`bbox`, m:
+/// x0, y0, x1, y1): only their part inside is placed.
+pub fn clipped_warning(placed: &[crate::fractures::Placed], bbox: [f64; 4]) -> Option<String> {
+    let bad: Vec<String> = placed
+        .iter()
+        .filter(|p| p.clipped)
+        .map(|p| format!("from {:?} to {:?} m", p.from, p.to))
+        .collect();
+    if bad.is_empty() {
+        return None;
+    }
+    let [x0, y0, x1, y1] = bbox;
+    Some(format!(
+        "{} of {} pre-existing fractures reach outside the domain [{x0}, {x1}] x [{y0}, {y1}] \
+         m and are cut at its boundary (only the part inside is a fracture): {}",
+        bad.len(),
+        placed.len(),
+        bad.join("; ")
     ))
 }
 

@@ -259,6 +259,13 @@ fn print_report(report: &hydrofrac::driver::RunReport) -> std::io::Result<()> {
             "warning: stopped at time.max_steps before the end condition was met"
         );
     }
+    // The summary's warnings (fractures that zigzag or reach outside the domain, tables not
+    // written, production states that did not converge), also on stderr.
+    for w in s["warnings"].as_array().into_iter().flatten() {
+        if let Some(w) = w.as_str() {
+            let _ = writeln!(std::io::stderr(), "warning: {w}");
+        }
+    }
     writeln!(out, "{}", report.timing_table)?;
     writeln!(out, "outputs in {}", report.out.display())
 }

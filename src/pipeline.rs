@@ -674,7 +674,7 @@ fn write_summary(
     heat: &HeatResult,
 ) -> Result<serde_json::Value, PipelineError> {
     use serde_json::json;
-    let summary = json!({
+    let mut summary = json!({
         "pipeline": spec.name,
         "apertures": format!("{:?}", spec.apertures),
         "stimulation": stimulation,
@@ -683,6 +683,7 @@ fn write_summary(
         "reservoir": heat.rows.iter().map(|r| r.json()).collect::<Vec<_>>(),
         "energy_balance": heat.energy_balance,
     });
+    crate::output::json::finite_summary(&mut summary);
     crate::output::write_atomic(
         &folder
             .claim("summary.json")

@@ -304,11 +304,14 @@ fn equilibrate(
         // A step that splits faces and then fails has changed the topology (the trial split's
         // nodes): only a whole state brings it back. Taken only where faces can open.
         let whole = match sim.params().criterion {
-            Some(_) => Some(sim.checkpoint_state().map_err(|why| RunError::QuasiStatic {
-                step: sim.step(),
-                time: sim.time(),
-                why: format!("production stage: the state before a load increment: {why}"),
-            })?),
+            Some(_) => Some(
+                sim.checkpoint_state()
+                    .map_err(|why| RunError::QuasiStatic {
+                        step: sim.step(),
+                        time: sim.time(),
+                        why: format!("production stage: the state before a load increment: {why}"),
+                    })?,
+            ),
             None => None,
         };
         match sim.step_once() {

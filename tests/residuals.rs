@@ -43,8 +43,16 @@ fn a_failed_production_increment_after_a_split_rolls_back() {
 #[test]
 fn adaptive_step_bounds_on_the_wrong_side_of_a_default_are_refused() {
     for (set, field, words) in [
-        ("time.dt_max=1e-308", "time.dt_max", "below the shortest adaptive step"),
-        ("time.dt_min=100.0", "time.dt_min", "above the longest adaptive step"),
+        (
+            "time.dt_max=1e-308",
+            "time.dt_max",
+            "below the shortest adaptive step",
+        ),
+        (
+            "time.dt_min=100.0",
+            "time.dt_min",
+            "above the longest adaptive step",
+        ),
     ] {
         let out = tmp("bounds");
         let o = run(&[
@@ -59,4 +67,187 @@ fn adaptive_step_bounds_on_the_wrong_side_of_a_default_are_refused() {
         assert_refused(&o, &[field, words]);
         assert!(!out.exists(), "{set}: created {}", out.display());
     }
+}
+
+/// `flow_single_fracture.ron` with its inlet's `Pressure(2e6)` replaced by `kind`, written to
+/// a temporary file.
+fn single_fracture_with(kind: &str, name: &str) -> std::path::PathBuf {
+    let text = std::fs::read_to_string(scenario("flow_single_fracture.ron")).unwrap();
+    assert!(text.contains("kind: Pressure(2e6)"));
+    let p = tmp(name);
+    std::fs::write(
+        &p,
+        text.replace("kind: Pressure(2e6)", &format!("kind: {kind}")),
+    )
+    .unwrap();
+    p
+}
+
+/// A run that blows up (a `Rate(1e300)` inlet) writes a `summary.json` without `null`: the
+/// last state's non-finite quantities are left out and listed under `non_finite` (8 nulls
+/// before), and its message names no `inf`. No written file holds a non-finite token.
+#[test]
+fn a_failed_run_writes_no_null_and_names_what_was_not_finite() {
+    let file = single_fracture_with("Rate(1e300)", "rate.ron");
+    let out = tmp("rate-out");
+    let o = run(&[
+        "run",
+        file.to_str().unwrap(),
+        "--quiet",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    let e = cli::stderr(&o);
+    assert!(e.contains("blow-up at step 1"), "{e}");
+    let s = cli::summary(&out);
+    assert_eq!(s["status"], "failed", "{s}");
+    let listed = s["non_finite"].as_array().expect("non_finite listed");
+    assert!(
+        listed.iter().any(|p| p == "flow.injected_volume"),
+        "{listed:?}"
+    );
+    let bad = finite::non_finite_tokens(&out);
+    assert!(bad.is_empty(), "{bad:?}");
+}
+
+/// A pressure boundary out of [0, 1e10] Pa, a negative factor in a pressure boundary's
+/// schedule and a negative schedule time are refused naming the entry (a negative
+/// `Pressure` ran and then failed blaming the flow step's stability; `Pressure(1e308)` ran to
+/// `status: ok` with `residual = inf`); so are a subnormal Young's modulus (5e-324 ran into a
+/// 1e162 s step) and `max_steps: 1.5` (it read "Expected comma (field `time.?`)").
+#[test]
+fn non_physical_flow_boundaries_and_moduli_are_refused_by_name() {
+    let cases: [(&str, &[&str]); 4] = [
+        ("Pressure(-1e6)", &["flow_boundaries[0].kind", "not in [0"]),
+        ("Pressure(1e308)", &["flow_boundaries[0].kind", "not in [0"]),
+        (
+            "Pressure(2e6), schedule: [(0.0, 1.0), (1.0, -0.5)]",
+            &["flow_boundaries[0].schedule[1]", "negative"],
+        ),
+        (
+            "Rate(1e-6), schedule: [(-1.0, 1.0), (1.0, 0.5)]",
+            &["flow_boundaries[0].schedule[0]", "a run starts at t = 0 s"],
+        ),
+    ];
+    for (k, (kind, needles)) in cases.iter().enumerate() {
+        let file = single_fracture_with(kind, &format!("bc{k}.ron"));
+        let out = tmp(&format!("bc{k}-out"));
+        let o = run(&[
+            "run",
+            file.to_str().unwrap(),
+            "--quiet",
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert_refused(&o, needles);
+        assert!(!out.exists(), "{kind}: created the folder");
+    }
+    let out = tmp("young");
+    let o = run(&[
+        "run",
+        &scenario("sneddon.ron"),
+        "--quiet",
+        "--out",
+        out.to_str().unwrap(),
+        "--set",
+        "material.young=5e-324",
+    ]);
+    assert_refused(&o, &["material.young", "below"]);
+    let text = std::fs::read_to_string(scenario("flow_single_fracture.ron")).unwrap();
+    let p = tmp("steps.ron");
+    std::fs::write(&p, text.replace("max_steps: 1000000", "max_steps: 1.5")).unwrap();
+    let o = run(&[
+        "run",
+        p.to_str().unwrap(),
+        "--quiet",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_refused(&o, &["field `time.max_steps`", "whole number"]);
+}
+
+/// With the rock's internal force switched off (an ablation run of a coupled block) the
+/// static residual has no reaction to be measured against: it is 1, not `inf` in
+/// `timeseries.csv`.
+#[test]
+fn an_ablation_without_internal_force_writes_finite_rows() {
+    let out = tmp("ablation");
+    run_ok(
+        scenario("example1_cross.ron"),
+        &out,
+        &[
+            "--disable",
+            "internal_force",
+            "--set",
+            "time.end=Time(0.004)",
+        ],
+    );
+    let bad = finite::non_finite_tokens(&out);
+    assert!(bad.is_empty(), "{bad:?}");
+}
+
+/// An output folder that cannot be made is refused as such (`--out /proc/x` read "the
+/// outputs need an estimated 2.4 MiB ... more than the limit of 0.0 MiB").
+#[test]
+fn an_output_folder_on_a_virtual_filesystem_is_refused_as_such() {
+    if !std::path::Path::new("/proc/self").exists() {
+        return;
+    }
+    let o = run(&[
+        "run",
+        &scenario("flow_single_fracture.ron"),
+        "--quiet",
+        "--out",
+        "/proc/hydrofrac-x",
+    ]);
+    assert_refused(
+        &o,
+        &["cannot create output folder /proc/hydrofrac-x", "virtual"],
+    );
+}
+
+/// A listed pre-existing fracture that reaches outside the domain is cut at its boundary with
+/// a warning in `summary.json` and on stderr (it was clipped without a word).
+#[test]
+fn a_fracture_reaching_outside_the_domain_is_warned_about() {
+    let text = std::fs::read_to_string(scenario("sneddon.ron")).unwrap();
+    let old = "preexisting: [(from: (-1.0, 0.0), to: (1.0, 0.0))]";
+    assert!(text.contains(old));
+    let p = tmp("outside.ron");
+    std::fs::write(
+        &p,
+        text.replace(
+            old,
+            "preexisting: [(from: (-1.0, 0.0), to: (1.0, 0.0)), (from: (-300.0, 5.0), to: (0.0, 5.0))]",
+        ),
+    )
+    .unwrap();
+    let out = tmp("outside-out");
+    let o = cli::bin()
+        .args(["run", p.to_str().unwrap(), "--out", out.to_str().unwrap()])
+        .args([
+            "--set",
+            "time.end=Static(tol: 1e-3)",
+            "--set",
+            "time.max_steps=20",
+        ])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", cli::stderr(&o));
+    let s = cli::summary(&out);
+    let w: Vec<&str> = s["warnings"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter_map(|w| w.as_str())
+        .filter(|w| w.contains("reach outside the domain"))
+        .collect();
+    assert_eq!(w.len(), 1, "{s}");
+    assert!(
+        w[0].contains("1 of 2") && w[0].contains("[-300.0, 5.0]"),
+        "{}",
+        w[0]
+    );
+    assert!(cli::stderr(&o).contains("reach outside the domain"));
 }

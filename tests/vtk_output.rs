@@ -101,33 +101,54 @@ fn line_piece_round_trip() {
     fs::remove_dir_all(&dir).unwrap();
 }
 
+/// A frame holds finite values only (README "Reliability"): a non-finite value or coordinate
+/// is refused with `InvalidInput` naming the array and the value's index, and no file is
+/// written (it wrote `nan inf -inf`, and a run with a subnormal Young's modulus wrote
+/// infinite displacements into its frames).
 #[test]
-fn non_finite_values_are_written_as_tokens() {
+fn non_finite_values_are_refused() {
     let dir = cli::tmp_dir("nonfinite");
     let path = dir.join("nf.vtu");
-    let vals = [f64::NAN, f64::INFINITY, f64::NEG_INFINITY];
-    write_vtu(
-        &path,
-        &VtuPiece {
-            points: &[[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
-            kind: CellKind::Triangle,
-            connectivity: &[0, 1, 2],
-            point_data: vec![DataArray {
-                name: "f",
-                components: 1,
-                values: &vals,
-            }],
-            cell_data: vec![],
-        },
-    )
-    .unwrap();
-    let text = fs::read_to_string(&path).unwrap();
-    assert!(text.contains("nan inf -inf"));
-    let d = read_vtu(&path).unwrap();
-    let f = d.point_array("f").unwrap();
-    assert!(f[0].is_nan());
-    assert_eq!(f[1], f64::INFINITY);
-    assert_eq!(f[2], f64::NEG_INFINITY);
+    for (k, bad) in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY]
+        .into_iter()
+        .enumerate()
+    {
+        let mut vals = [1.0, 2.0, 3.0];
+        vals[k] = bad;
+        let e = write_vtu(
+            &path,
+            &VtuPiece {
+                points: &[[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
+                kind: CellKind::Triangle,
+                connectivity: &[0, 1, 2],
+                point_data: vec![DataArray {
+                    name: "f",
+                    components: 1,
+                    values: &vals,
+                }],
+                cell_data: vec![],
+            },
+        )
+        .unwrap_err();
+        assert_eq!(e.kind(), std::io::ErrorKind::InvalidInput);
+        assert!(
+            e.to_string().contains(&format!("'f': value {k} of 3")),
+            "{e}"
+        );
+        let e = write_vtu(
+            &path,
+            &VtuPiece {
+                points: &[[0.0; 3], [bad, 0.0, 0.0], [0.0, 1.0, 0.0]],
+                kind: CellKind::Triangle,
+                connectivity: &[0, 1, 2],
+                point_data: vec![],
+                cell_data: vec![],
+            },
+        )
+        .unwrap_err();
+        assert!(e.to_string().contains("point 1"), "{e}");
+        assert!(!path.exists());
+    }
     fs::remove_dir_all(&dir).unwrap();
 }
 

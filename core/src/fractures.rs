@@ -25,6 +25,9 @@ pub struct Placed {
     /// The largest angle between a path edge and the requested segment, degrees (0 when the
     /// mesh follows the fracture; 15-45 for a zigzag).
     pub zigzag_deg: f64,
+    /// A listed fracture (not a generated one) with an end outside the domain: only the part
+    /// inside is placed, and the run warns.
+    pub clipped: bool,
 }
 
 /// Angles above this (degrees) between a snapped path's edges and its fracture make the
@@ -152,6 +155,7 @@ pub fn open_preexisting(
             edges: edges.len(),
             snap_error_h: path.max_error / mean_edge,
             zigzag_deg,
+            clipped: !generated && !(inside(pf.from) && inside(pf.to)),
         });
         ready.extend(edges);
     }

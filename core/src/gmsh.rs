@@ -58,6 +58,16 @@ pub enum GmshError {
         tag: u64,
         area: f64,
     },
+    /// Two triangles that cover the same ground (a surface meshed twice, a fold).
+    #[error("{path}:{line}: element {tag} overlaps element {other} (line {other_line}): {why}")]
+    Overlap {
+        path: String,
+        line: usize,
+        tag: u64,
+        other: u64,
+        other_line: usize,
+        why: &'static str,
+    },
     #[error("{path}:{line}: node {tag}: z = {z:e}, but the mesh must lie in the plane z = 0")]
     NotPlanar {
         path: String,
@@ -503,6 +513,7 @@ fn build(raw: Raw, path: &str) -> Result<GmshMesh, GmshError> {
         triangles: Vec::new(),
         physical: Vec::new(),
     };
+    let lines: Vec<(u64, usize)> = raw.tris.iter().map(|t| (t.tag, t.line)).collect();
     for (t, idx) in raw.tris.into_iter().zip(tris) {
         let [a, b, c] = idx.map(|i| new_index[i]);
         let area = triangle_area(&mesh.nodes, [a, b, c]);
@@ -519,7 +530,116 @@ fn build(raw: Raw, path: &str) -> Result<GmshMesh, GmshError> {
         mesh.triangles.push(ccw);
         mesh.physical.push(t.physical);
     }
+    if let Some((i, j, why)) = overlap(&mesh) {
+        let ((tag, line), (other, other_line)) = (lines[i], lines[j]);
+        return Err(GmshError::Overlap {
+            path: path.to_string(),
+            line,
+            tag,
+            other,
+            other_line,
+            why,
+        });
+    }
     Ok(mesh)
+}
+
+/// Two triangles of `mesh` (counter-clockwise) that overlap, and how: an edge shared by more
+/// than two triangles or by two on the same side of it, or a triangle whose centroid lies
+/// inside another (a surface meshed twice over its own nodes). `None` for a conforming mesh.
+/// A bucket grid of the triangles' boxes (cells of the mean box size) keeps it near linear.
+fn overlap(mesh: &GmshMesh) -> Option<(usize, usize, &'static str)> {
+    let mut edges: HashMap<(u32, u32), (usize, bool)> = HashMap::new();
+    for (k, t) in mesh.triangles.iter().enumerate() {
+        for e in 0..3 {
+            let (a, b) = (t[e], t[(e + 1) % 3]);
+            let key = (a.min(b), a.max(b));
+            match edges.insert(key, (k, a < b)) {
+                None => {}
+                Some((usize::MAX, _)) => {
+                    let j = edges_owner(mesh, key, k);
+                    return Some((k, j, "an edge shared by three triangles"));
+                }
+                Some((_, forward)) if forward != (a < b) => {
+                    // The second use, from the other side: the key now marks the edge full.
+                    edges.insert(key, (usize::MAX, forward));
+                }
+                Some((j, _)) => {
+                    return Some((k, j, "both lie on the same side of a shared edge"));
+                }
+            }
+        }
+    }
+    let boxes: Vec<[f64; 4]> = mesh
+        .triangles
+        .iter()
+        .map(|t| {
+            let p = t.map(|i| mesh.nodes[i as usize]);
+            [
+                p[0][0].min(p[1][0]).min(p[2][0]),
+                p[0][1].min(p[1][1]).min(p[2][1]),
+                p[0][0].max(p[1][0]).max(p[2][0]),
+                p[0][1].max(p[1][1]).max(p[2][1]),
+            ]
+        })
+        .collect();
+    let n = boxes.len() as f64;
+    let size = boxes
+        .iter()
+        .map(|b| (b[2] - b[0]).max(b[3] - b[1]))
+        .sum::<f64>()
+        / n;
+    let cell = |x: f64, y: f64| ((x / size).floor() as i64, (y / size).floor() as i64);
+    let mut grid: HashMap<(i64, i64), Vec<usize>> = HashMap::new();
+    for (k, b) in boxes.iter().enumerate() {
+        let (lo, hi) = (cell(b[0], b[1]), cell(b[2], b[3]));
+        for i in lo.0..=hi.0 {
+            for j in lo.1..=hi.1 {
+                grid.entry((i, j)).or_default().push(k);
+            }
+        }
+    }
+    for (k, t) in mesh.triangles.iter().enumerate() {
+        let p = t.map(|i| mesh.nodes[i as usize]);
+        let c = [
+            (p[0][0] + p[1][0] + p[2][0]) / 3.0,
+            (p[0][1] + p[1][1] + p[2][1]) / 3.0,
+        ];
+        for &j in &grid[&cell(c[0], c[1])] {
+            if j != k && strictly_inside(mesh, mesh.triangles[j], c) {
+                return Some((
+                    k.max(j),
+                    k.min(j),
+                    "the centroid of one lies inside the other",
+                ));
+            }
+        }
+    }
+    None
+}
+
+/// A triangle that uses the edge `key`, other than `k` (for the message).
+fn edges_owner(mesh: &GmshMesh, key: (u32, u32), k: usize) -> usize {
+    mesh.triangles
+        .iter()
+        .enumerate()
+        .find(|(j, t)| {
+            *j != k
+                && (0..3).any(|e| {
+                    let (a, b) = (t[e], t[(e + 1) % 3]);
+                    (a.min(b), a.max(b)) == key
+                })
+        })
+        .map_or(k, |(j, _)| j)
+}
+
+/// Whether `c` lies inside the counter-clockwise triangle `t`, away from its edges by more
+/// than 1e-9 of its area (a centroid on a shared edge is not an overlap).
+fn strictly_inside(mesh: &GmshMesh, t: [u32; 3], c: [f64; 2]) -> bool {
+    let p = t.map(|i| mesh.nodes[i as usize]);
+    let area = signed_area(p[0], p[1], p[2]);
+    let tol = 1e-9 * area.abs();
+    (0..3).all(|e| signed_area(p[e], p[(e + 1) % 3], c) > tol)
 }
 
 /// Signed area of triangle `t` of `nodes` ([`signed_area`]), m^2.
@@ -803,6 +923,53 @@ $EndElements
             &SQUARE_22.replace("3 2 2 1 1 1 2 5", "3 3 2 1 1 1 2 3 4"),
             "t.msh:21: element type 3: quadrilaterals: use triangles",
         );
+    }
+
+    /// A square meshed twice (issue 41: it ran): as a second copy over the same nodes (an
+    /// edge shared by three or more triangles, or from the same side), and as a copy over
+    /// its own nodes (centroids inside the other copy's triangles). A fold of one triangle
+    /// over its neighbour is refused too.
+    #[test]
+    fn overlapping_triangles_are_refused() {
+        let twice = SQUARE_22
+            .replace("$Elements\n6\n", "$Elements\n10\n")
+            .replace(
+                "6 2 2 7 1 4 1 5\n",
+                "6 2 2 7 1 4 1 5\n7 2 2 1 1 1 2 5\n8 2 2 1 1 2 3 5\n9 2 2 1 1 3 4 5\n\
+                 10 2 2 1 1 4 1 5\n",
+            );
+        let e = fails(&twice, "t.msh:");
+        assert!(
+            matches!(
+                e,
+                GmshError::Overlap {
+                    tag: 7,
+                    other: 3,
+                    ..
+                }
+            ),
+            "{e}"
+        );
+        let copy = SQUARE_22
+            .replace("$Nodes\n5\n", "$Nodes\n10\n")
+            .replace(
+                "5 0.5 0.5 0\n",
+                "5 0.5 0.5 0\n6 0 0 0\n7 1 0 0\n8 1 1 0\n9 0 1 0\n10 0.5 0.5 0\n",
+            )
+            .replace("$Elements\n6\n", "$Elements\n10\n")
+            .replace(
+                "6 2 2 7 1 4 1 5\n",
+                "6 2 2 7 1 4 1 5\n7 2 2 1 1 6 7 10\n8 2 2 1 1 7 8 10\n9 2 2 1 1 8 9 10\n\
+                 10 2 2 1 1 9 6 10\n",
+            );
+        let e = fails(&copy, "the centroid of one lies inside the other");
+        assert!(matches!(e, GmshError::Overlap { .. }), "{e}");
+        // Node 5 moved outside the square past the edge 2-3: triangle 4 (2 3 5) flips and
+        // folds over triangle 3 (1 2 5).
+        let fold = SQUARE_22.replace("5 0.5 0.5 0", "5 1.5 0.5 0");
+        let e = fails(&fold, "t.msh:");
+        assert!(matches!(e, GmshError::Overlap { .. }), "{e}");
+        check_square(&parse_msh(SQUARE_22, "t.msh").unwrap());
     }
 
     #[test]

@@ -323,6 +323,53 @@ pub fn free_space(dir: &std::path::Path) -> Option<u64> {
     }
 }
 
+/// Whether an output folder can be made at `dir` at all, checked before any estimate (whose
+/// "free space" would otherwise read 0 on a virtual filesystem such as `/proc`): its nearest
+/// existing ancestor must be a folder on a writable filesystem with disk blocks. `Err`: why
+/// not, in words. Where the filesystem cannot be read, the creation itself will tell.
+pub fn check_output_place(dir: &std::path::Path) -> Result<(), String> {
+    let abs = if dir.is_absolute() {
+        dir.to_path_buf()
+    } else {
+        std::env::current_dir()
+            .map_err(|e| format!("the working folder cannot be read: {e}"))?
+            .join(dir)
+    };
+    let Some(existing) = abs.ancestors().find(|a| a.exists()) else {
+        return Ok(());
+    };
+    if !existing.is_dir() {
+        return Err(format!("{} is not a folder", existing.display()));
+    }
+    #[cfg(unix)]
+    {
+        use std::os::unix::ffi::OsStrExt;
+        let Ok(c) = std::ffi::CString::new(existing.as_os_str().as_bytes()) else {
+            return Ok(());
+        };
+        let mut st = std::mem::MaybeUninit::<libc::statvfs>::uninit();
+        // SAFETY: `c` is a NUL-terminated path and `st` a buffer statvfs(3) fills on success.
+        if unsafe { libc::statvfs(c.as_ptr(), st.as_mut_ptr()) } != 0 {
+            return Ok(());
+        }
+        // SAFETY: statvfs returned 0, so it filled `st`.
+        let st = unsafe { st.assume_init() };
+        if st.f_flag & libc::ST_RDONLY != 0 {
+            return Err(format!(
+                "{} is on a read-only filesystem",
+                existing.display()
+            ));
+        }
+        if st.f_blocks == 0 {
+            return Err(format!(
+                "{} is on a virtual filesystem with no disk to write to",
+                existing.display()
+            ));
+        }
+    }
+    Ok(())
+}
+
 /// The default disk limit for outputs into `out`, bytes, and where it comes from (for
 /// messages): the free space of its disk, else no limit (`u64::MAX`).
 pub fn default_disk_limit(out: &std::path::Path) -> (u64, String) {

@@ -108,13 +108,31 @@ impl SystemId {
     }
 }
 
+/// A blow-up's value in words where it is not a number (messages are results too: no `inf` or
+/// `NaN` token in them).
+fn show_value(v: f64) -> String {
+    if v.is_nan() {
+        "not a number".into()
+    } else if v.is_infinite() {
+        if v > 0.0 {
+            "infinite"
+        } else {
+            "minus infinite"
+        }
+        .into()
+    } else {
+        format!("{v:.6e}")
+    }
+}
+
 /// A run that had to stop.
 #[derive(Debug, thiserror::Error)]
 pub enum RunError {
     /// Numerical blow-up: the step, the entity and the quantity that went wrong.
     #[error(
-        "blow-up at step {step} (t = {time:.6e} s): {entity} has {quantity} = {value:.6e}, {why}; \
-         stopped before writing non-finite output (dt = {dt:.3e} s)"
+        "blow-up at step {step} (t = {time:.6e} s): {entity} has {quantity} = {shown}, {why}; \
+         stopped before writing non-finite output (dt = {dt:.3e} s)",
+        shown = show_value(*.value)
     )]
     BlowUp {
         step: u64,

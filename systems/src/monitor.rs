@@ -170,7 +170,27 @@ pub fn monitor(
                 f.dt,
             ));
         }
+        if !f.residual.is_finite() {
+            return Err(blow(
+                "the fracture flow".into(),
+                "steady residual",
+                f.residual,
+                "the cells' net inflow overflows: the flow boundaries' values are not \
+                 physical"
+                    .into(),
+                f.dt,
+            ));
+        }
         residual = residual.max(f.residual);
+    }
+    if !residual.is_finite() {
+        return Err(blow(
+            "the rock".into(),
+            "static residual",
+            residual,
+            "the nodal forces overflow: the loads or the material are not physical".into(),
+            clock.dt,
+        ));
     }
     clock.residual = residual;
     // A quasi-static step is an equilibrium: a static run is one step.

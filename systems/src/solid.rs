@@ -240,14 +240,17 @@ impl StepStats {
         self
     }
 
-    /// Static residual: ||unbalanced force on free dofs|| / ||reactions and loads||.
+    /// Static residual: ||unbalanced force on free dofs|| / ||reactions and loads||; 1 when
+    /// there is an unbalanced force but no reaction or load to measure it against (a rock
+    /// without internal force, `--disable internal_force`), as the flow's steady residual.
+    /// Non-finite only when the forces themselves overflow (a blow-up, `monitor`).
     pub fn residual(&self) -> f64 {
         if self.ref2 > 0.0 {
             (self.res2 / self.ref2).sqrt()
         } else if self.res2 == 0.0 {
             0.0
         } else {
-            f64::INFINITY
+            1.0
         }
     }
 }

@@ -6,6 +6,7 @@
 //! removes exactly those, never a file it did not write.
 
 pub mod folder;
+pub mod json;
 pub mod plots;
 pub mod vtk;
 
@@ -25,6 +26,8 @@ pub struct Outputs {
     pvd: vtk::PvdWriter,
     network_pvd: vtk::PvdWriter,
     series: BufWriter<File>,
+    /// `timeseries.csv`'s columns.
+    columns: Vec<String>,
     /// Solid frames written.
     pub frames: usize,
     /// Network frames written.
@@ -65,6 +68,7 @@ impl Outputs {
             pvd: vtk::PvdWriter::new(&dir.join("solid.pvd")),
             network_pvd: vtk::PvdWriter::new(&dir.join("network.pvd")),
             series,
+            columns: columns.to_vec(),
             frames: 0,
             network_frames: 0,
             fields: fields.to_vec(),
@@ -83,7 +87,19 @@ impl Outputs {
     }
 
     /// Append one `timeseries.csv` row (the values of the columns given at creation).
+    /// A non-finite value is refused (`InvalidInput`, naming its column): a row holds a
+    /// physical state or is not written.
     pub fn write_series(&mut self, values: &[f64]) -> std::io::Result<()> {
+        if let Some(k) = values.iter().position(|v| !v.is_finite()) {
+            return Err(std::io::Error::new(
+                std::io::ErrorKind::InvalidInput,
+                format!(
+                    "timeseries.csv: {} = {} (a row holds finite values only)",
+                    self.columns.get(k).map_or("a column", String::as_str),
+                    values[k]
+                ),
+            ));
+        }
         let mut line = String::with_capacity(24 * values.len());
         for (k, v) in values.iter().enumerate() {
             if k > 0 {

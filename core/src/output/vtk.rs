@@ -121,6 +121,15 @@ fn check_array(a: &DataArray, n: usize, what: &str) -> io::Result<()> {
             a.components
         )));
     }
+    if let Some(k) = a.values.iter().position(|v| !v.is_finite()) {
+        return Err(invalid(format!(
+            "{what} array '{}': value {} of {} is {} (a frame holds finite values only)",
+            a.name,
+            k,
+            a.values.len(),
+            a.values[k]
+        )));
+    }
     Ok(())
 }
 
@@ -188,6 +197,15 @@ pub fn write_vtu(path: &Path, piece: &VtuPiece) -> io::Result<()> {
     if let Some(&bad) = piece.connectivity.iter().find(|&&i| i as usize >= np) {
         return Err(invalid(format!(
             "connectivity index {bad} out of range ({np} points)"
+        )));
+    }
+    if let Some(k) = piece
+        .points
+        .iter()
+        .position(|x| x.iter().any(|v| !v.is_finite()))
+    {
+        return Err(invalid(format!(
+            "point {k} has a non-finite coordinate (a frame holds finite values only)"
         )));
     }
     for a in &piece.point_data {

@@ -202,7 +202,20 @@ impl FlowBoundary {
         finite(&format!("{field}.at"), p[0])?;
         finite(&format!("{field}.at"), p[1])?;
         match self.kind {
-            FlowBcKind::Pressure(v) | FlowBcKind::Rate(v) => finite(&format!("{field}.kind"), v)?,
+            FlowBcKind::Rate(v) => finite(&format!("{field}.kind"), v)?,
+            FlowBcKind::Pressure(v) => {
+                finite(&format!("{field}.kind"), v)?;
+                if !(0.0..=MAX_BOUNDARY_PRESSURE).contains(&v) {
+                    return Err(SetupError::invalid(
+                        &format!("{field}.kind"),
+                        format!(
+                            "a boundary pressure of {v:e} Pa is not in [0, \
+                             {MAX_BOUNDARY_PRESSURE:e}] Pa (the fluid's pressure is absolute \
+                             and a liquid holds no tension; above 10 GPa no rock holds it)"
+                        ),
+                    ));
+                }
+            }
             FlowBcKind::Pump { p_max, q_half } => {
                 positive(
                     &format!("{field}.kind.p_max"),
@@ -216,7 +229,20 @@ impl FlowBoundary {
                 )?;
             }
         }
-        validate_schedule(&format!("{field}.schedule"), &self.schedule)
+        validate_schedule(&format!("{field}.schedule"), &self.schedule)?;
+        if !matches!(self.kind, FlowBcKind::Rate(_))
+            && let Some(k) = self.schedule.iter().position(|s| s.1 < 0.0)
+        {
+            return Err(SetupError::invalid(
+                &format!("{field}.schedule[{k}]"),
+                format!(
+                    "factor {} is negative: it multiplies a pressure, which must stay >= 0 \
+                     (only a Rate boundary's factor may change sign: injection to withdrawal)",
+                    self.schedule[k].1
+                ),
+            ));
+        }
+        Ok(())
     }
 }
 
@@ -247,9 +273,18 @@ pub(super) fn validate_flow_boundaries(boundaries: &[FlowBoundary]) -> Result<()
     Ok(())
 }
 
-/// A schedule [(t s, factor)]: times that do not decrease (the first offending entry is named
-/// `field[k]`), then every number finite (named `field`).
+/// Largest pressure a `Pressure` boundary may hold, Pa.
+pub const MAX_BOUNDARY_PRESSURE: f64 = 1e10;
+
+/// A schedule [(t s, factor)]: times that do not decrease and start at or after 0 (the first
+/// offending entry is named `field[k]`), then every number finite (named `field`).
 pub(super) fn validate_schedule(field: &str, s: &[(f64, f64)]) -> Result<(), SetupError> {
+    if let Some(k) = s.iter().position(|p| p.0 < 0.0) {
+        return Err(SetupError::invalid(
+            &format!("{field}[{k}]"),
+            format!("time {} s is negative: a run starts at t = 0 s", s[k].0),
+        ));
+    }
     for (k, w) in s.windows(2).enumerate() {
         if w[1].0 < w[0].0 || w[1].0.is_nan() {
             return Err(SetupError::invalid(

@@ -104,6 +104,10 @@ pub enum SideBc {
 
 /// Largest Young's modulus accepted, Pa, and largest density, kg/m^3 (see `validate`).
 pub const MAX_YOUNG: f64 = 1e14;
+/// Smallest Young's modulus accepted, Pa: far below any rock (soft sediment is about 1e7 Pa,
+/// a hydrogel 1e3); a subnormal modulus (5e-324) made the critical step 1e162 s and the first
+/// step's speeds 1e166 m/s.
+pub const MIN_YOUNG: f64 = 1e3;
 pub const MAX_DENSITY: f64 = 1e9;
 
 /// A prescribed displacement on the node nearest to `at` (within half a cell diagonal).
@@ -151,6 +155,16 @@ impl Material {
         // so the energies and stresses (E u, rho v^2 A) stay finite: a density of 1e308
         // made the kinetic energy inf * 0 = NaN (the fuzzer's finding, kept in
         // tests/fuzz_regressions/).
+        if self.young < MIN_YOUNG {
+            return Err(SetupError::invalid(
+                "material.young",
+                format!(
+                    "{:e} Pa is below {MIN_YOUNG:e} Pa (rock is 1e9 to 1e11 Pa): the \
+                     critical step and the displacements would not be physical",
+                    self.young
+                ),
+            ));
+        }
         if self.young > MAX_YOUNG {
             return Err(SetupError::invalid(
                 "material.young",

@@ -29,9 +29,28 @@ pub fn parse_ron<T: serde::de::DeserializeOwned>(
     let doc: T = match serde_path_to_error::deserialize(&mut de) {
         Ok(doc) => doc,
         Err(e) => {
-            let field = e.path().to_string();
+            let mut field = e.path().to_string();
             let spanned = de.span_error(e.into_inner());
-            return Err(syntax(spanned, field));
+            let mut err = syntax(spanned, field.clone());
+            // A value that ends early ("Expected comma" after `max_steps: 1` of `1.5`) leaves
+            // the path at the next, unknown field (`time.?`): name the field whose value it
+            // was, and say what the parser stopped at.
+            if let SetupError::Syntax { line, col, msg, .. } = &mut err
+                && (field == "?" || field.ends_with(".?"))
+                && let Some((key, at)) = value_before(text, *line, *col)
+            {
+                field.truncate(field.len() - 1);
+                field.push_str(&key);
+                if at.starts_with('.') && msg.contains("comma") {
+                    *msg = format!("{msg}: `{key}` takes a whole number here, not a fraction");
+                } else {
+                    *msg = format!("{msg}: the value of `{key}` ends early, before `{at}`");
+                }
+            }
+            if let SetupError::Syntax { field: f, .. } = &mut err {
+                *f = field;
+            }
+            return Err(err);
         }
     };
     // Trailing garbage after the document.
@@ -49,6 +68,31 @@ pub fn parse_ron<T: serde::de::DeserializeOwned>(
         });
     }
     Ok(doc)
+}
+
+/// The field whose value the text at 1-based `line`, `col` (characters) interrupts: the last
+/// `name:` before it on that line, and up to 12 characters of the text from there on.
+fn value_before(text: &str, line: usize, col: usize) -> Option<(String, String)> {
+    let l = text.lines().nth(line.checked_sub(1)?)?;
+    let split = l
+        .char_indices()
+        .nth(col.checked_sub(1)?)
+        .map_or(l.len(), |c| c.0);
+    let (before, after) = l.split_at(split);
+    let colon = before.rfind(':')?;
+    let key: String = before[..colon]
+        .trim_end()
+        .chars()
+        .rev()
+        .take_while(|c| c.is_ascii_alphanumeric() || *c == '_')
+        .collect::<Vec<_>>()
+        .into_iter()
+        .rev()
+        .collect();
+    if key.is_empty() {
+        return None;
+    }
+    Some((key, after.chars().take(12).collect()))
 }
 
 impl Scenario {
