@@ -160,10 +160,10 @@ enum StageEnd {
 /// `--max-memory` (default: the machine's), estimated before anything is allocated.
 fn check_resources(scenario: &ValidScenario, opts: &RunOptions) -> Result<(), DriverError> {
     let (limit, source) = match opts.max_memory {
-        Some(b) => (b, "set by --max-memory"),
+        Some(b) => (b, "set by --max-memory".to_string()),
         None => crate::resources::default_limit(),
     };
-    crate::resources::check(scenario, limit, source)?;
+    crate::resources::check(scenario, limit, &source)?;
     Ok(())
 }
 

@@ -118,7 +118,7 @@ fn check_input(input: &Input) -> Result<Outcome, String> {
             }
         };
         let (limit, source) = hydrofrac::resources::default_limit();
-        if let Err(e) = hydrofrac::resources::check(&sc, limit, source) {
+        if let Err(e) = hydrofrac::resources::check(&sc, limit, &source) {
             one_line("memory", e.to_string())?;
             return Ok(Outcome::TooLarge);
         }

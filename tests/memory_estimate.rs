@@ -25,14 +25,20 @@ fn children_peak() -> f64 {
 #[cfg(target_os = "linux")]
 #[test]
 fn the_estimate_bounds_the_peak_memory_of_real_runs() {
-    let cases: [(&str, &[&str]); 3] = [
+    // (file, overrides, the most the estimate may exceed the peak by: where it is meant to
+    // be close, 3 for the explicit mesh and 2 for the conforming one of issue 41).
+    let conforming = "mesh=Conforming(width: 60.0, height: 60.0, origin: (-30.0, -30.0), \
+                      h: 0.025, h_far: 2.0)";
+    let cases: [(&str, &[&str], f64); 4] = [
         (
             "insitu_stress.ron",
             &["mesh.h=0.5", "time.max_steps=2", "time.end.min_steps=1"],
+            3.0,
         ),
         (
             "insitu_stress.ron",
             &["mesh.h=0.5", "time.solid_scheme=\"QuasiStatic\""],
+            f64::INFINITY,
         ),
         (
             "flow_network.ron",
@@ -42,43 +48,50 @@ fn the_estimate_bounds_the_peak_memory_of_real_runs() {
                 "time.flow_scheme=\"Implicit\"",
                 "time.end.min_steps=1",
             ],
+            f64::INFINITY,
+        ),
+        (
+            "sneddon.ron",
+            &[conforming, "time.max_steps=2", "time.end.min_steps=1"],
+            2.0,
         ),
     ];
-    let mut last = 0.0;
-    for (k, (file, sets)) in cases.iter().enumerate() {
-        let path = root().join("scenarios").join(file);
-        let sets: Vec<String> = sets.iter().map(|s| s.to_string()).collect();
-        let sc = Scenario::load(&path, &sets).unwrap();
-        let (mesh, network) = hydrofrac::resources::estimate(&sc);
-        let est = mesh + network;
-        assert!(
-            est > last,
-            "case {k}: estimates must increase ({est} after {last})"
-        );
-        last = est;
+    // Run in increasing order of the estimates: the peak read is the largest of all the
+    // children so far, so it is then at most the latest estimate when each bounds its own.
+    let mut runs: Vec<(f64, &str, Vec<String>, f64)> = cases
+        .iter()
+        .map(|(file, sets, factor)| {
+            let path = root().join("scenarios").join(file);
+            let sets: Vec<String> = sets.iter().map(|s| s.to_string()).collect();
+            let sc = Scenario::load(&path, &sets).unwrap();
+            let (mesh, network) = hydrofrac::resources::estimate(&sc);
+            (mesh + network, *file, sets, *factor)
+        })
+        .collect();
+    runs.sort_by(|a, b| a.0.total_cmp(&b.0));
+    for (k, (est, file, sets, factor)) in runs.iter().enumerate() {
         let out = cli::tmp(&k.to_string());
         let mut cmd = bin();
         cmd.arg("run")
-            .arg(&path)
+            .arg(root().join("scenarios").join(file))
             .arg("--out")
             .arg(&out)
             .arg("--quiet");
-        for s in &sets {
+        for s in sets {
             cmd.arg("--set").arg(s);
         }
         let o = cmd.output().unwrap();
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
         let peak = children_peak();
+        eprintln!("{file} {sets:?}: estimate {est:.3e} B, peak {peak:.3e} B");
         assert!(
-            est >= peak,
-            "case {k} {file} {sets:?}: estimate {est:.3e} B < peak {peak:.3e} B"
+            *est >= peak,
+            "{file} {sets:?}: estimate {est:.3e} B < peak {peak:.3e} B"
         );
-        if k == 0 {
-            assert!(
-                est <= 3.0 * peak,
-                "case 0: estimate {est:.3e} B > 3 x peak {peak:.3e} B"
-            );
-        }
+        assert!(
+            *est <= factor * peak,
+            "{file} {sets:?}: estimate {est:.3e} B > {factor} x peak {peak:.3e} B"
+        );
         let _ = std::fs::remove_dir_all(&out);
     }
 }
@@ -119,4 +132,49 @@ fn graded_mesh_counts_bound_the_mesh() {
         "{} vs {t}",
         c.triangles
     );
+}
+
+/// A conforming mesh's count follows its sizing field around the fractures (issue 41: a 60 m
+/// box with h = 0.025 m near a 2 m crack and h_far = 2 m, 18,395 triangles, was refused as
+/// "66.28 GiB": the estimate applied h to the whole domain). On meshes from one crack to a
+/// 30-fracture network, graded and uniform, the estimate bounds the built mesh's triangles and
+/// is within 4 times them (it charges half an equilateral triangle per size^2).
+#[test]
+fn conforming_mesh_counts_follow_the_sizing_field() {
+    use hydrofrac::setup::build_mesh_around;
+    let crack = vec![([-1.0, 0.0], [1.0, 0.0])];
+    let mut network = Vec::new();
+    for k in 0..30 {
+        let (x, y) = ((k * 37 % 50) as f64 - 25.0, (k * 23 % 50) as f64 - 25.0);
+        let a = k as f64 * 0.7;
+        network.push(([x, y], [x + 6.0 * a.cos(), y + 6.0 * a.sin()]));
+    }
+    let conforming = |w: f64, h: f64, h_far: f64, grading: f64| MeshSpec::Conforming {
+        width: w,
+        height: w,
+        origin: [-w / 2.0, -w / 2.0],
+        h,
+        h_far: Some(h_far),
+        min_angle_deg: 25.0,
+        merge: 0.25,
+        grading,
+        follow: Vec::new(),
+    };
+    let cases = [
+        (conforming(60.0, 0.025, 2.0, 0.1), &crack),
+        (conforming(20.0, 0.1, 1.0, 0.1), &crack),
+        (conforming(60.0, 0.5, 4.0, 0.3), &network),
+        (conforming(60.0, 1.0, 1.0, 0.1), &network),
+    ];
+    for (k, (spec, fr)) in cases.iter().enumerate() {
+        let c = spec.counts_around(fr);
+        let (m, _) = build_mesh_around(spec, fr).unwrap();
+        let t = m.triangles.len() as f64;
+        eprintln!("case {k}: estimate {} triangles, built {t}", c.triangles);
+        assert!(
+            c.triangles >= t && c.triangles <= 4.0 * t,
+            "case {k}: estimate {} vs {t} triangles",
+            c.triangles
+        );
+    }
 }

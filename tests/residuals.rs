@@ -251,3 +251,40 @@ fn a_fracture_reaching_outside_the_domain_is_warned_about() {
     );
     assert!(cli::stderr(&o).contains("reach outside the domain"));
 }
+
+/// Under an address-space limit below the machine's memory (`ulimit -v` 4 GiB, as on a cluster
+/// node or in a container), a scene estimated at 6.3 GiB is refused by the memory check,
+/// naming the limit (it passed the check against the machine's 23.5 GiB and was aborted by a
+/// failed allocation, SIGABRT).
+#[cfg(target_os = "linux")]
+#[test]
+fn the_memory_check_honours_the_process_limit() {
+    use std::os::unix::process::CommandExt;
+    let out = tmp("ulimit");
+    let mut cmd = cli::bin();
+    cmd.args([
+        "run",
+        &scenario("insitu_stress.ron"),
+        "--quiet",
+        "--out",
+        out.to_str().unwrap(),
+        "--set",
+        "mesh.h=0.065",
+    ]);
+    // SAFETY: setrlimit is async-signal-safe; the closure allocates nothing.
+    unsafe {
+        cmd.pre_exec(|| {
+            let r = libc::rlimit {
+                rlim_cur: 4 << 30,
+                rlim_max: 4 << 30,
+            };
+            if libc::setrlimit(libc::RLIMIT_AS, &r) != 0 {
+                return Err(std::io::Error::last_os_error());
+            }
+            Ok(())
+        });
+    }
+    let o = cmd.output().unwrap();
+    assert_refused(&o, &["invalid mesh.h", "ulimit -v"]);
+    assert!(!out.exists());
+}

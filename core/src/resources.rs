@@ -50,15 +50,90 @@ pub fn machine_memory() -> Option<u64> {
 }
 
 /// The default memory limit, bytes, and where it comes from and how to change it (for
-/// messages).
-pub fn default_limit() -> (u64, &'static str) {
-    match machine_memory() {
-        Some(b) => (b, "the machine's memory; set another with --max-memory"),
+/// messages): the smallest of the machine's memory, the process's address-space limit
+/// (`ulimit -v`) less what the process maps already, and its control group's memory limit
+/// (`memory.max` of cgroup v2, `memory.limit_in_bytes` of v1), so that a run under a cluster's
+/// or a container's limit is refused with a message instead of being aborted by a failed
+/// allocation.
+pub fn default_limit() -> (u64, String) {
+    let how = "set another with --max-memory";
+    let mut best = match machine_memory() {
+        Some(b) => (b, format!("the machine's memory; {how}")),
         None => (
             FALLBACK_LIMIT,
-            "the default where the machine's memory is unknown; set another with --max-memory",
+            format!("the default where the machine's memory is unknown; {how}"),
         ),
+    };
+    if let Some(b) = address_space_left()
+        && b < best.0
+    {
+        best = (
+            b,
+            format!(
+                "the process's address-space limit (ulimit -v) less what it maps already; {how}"
+            ),
+        );
     }
+    if let Some(b) = cgroup_limit()
+        && b < best.0
+    {
+        best = (b, format!("the control group's memory limit; {how}"));
+    }
+    best
+}
+
+/// The soft `RLIMIT_AS` less the process's virtual size now (`/proc/self/statm`), bytes;
+/// `None` without a limit.
+fn address_space_left() -> Option<u64> {
+    #[cfg(target_os = "linux")]
+    {
+        let mut r = libc::rlimit {
+            rlim_cur: 0,
+            rlim_max: 0,
+        };
+        // SAFETY: getrlimit fills the struct it is given.
+        if unsafe { libc::getrlimit(libc::RLIMIT_AS, &mut r) } != 0
+            || r.rlim_cur == libc::RLIM_INFINITY
+        {
+            return None;
+        }
+        let pages: u64 = std::fs::read_to_string("/proc/self/statm")
+            .ok()?
+            .split_whitespace()
+            .next()?
+            .parse()
+            .ok()?;
+        // SAFETY: sysconf has no preconditions.
+        let page = unsafe { libc::sysconf(libc::_SC_PAGESIZE) }.max(4096) as u64;
+        Some((r.rlim_cur as u64).saturating_sub(pages * page))
+    }
+    #[cfg(not(target_os = "linux"))]
+    None
+}
+
+/// The memory limit of the process's control group, bytes: `memory.max` (cgroup v2) or
+/// `memory.limit_in_bytes` (v1) of the group `/proc/self/cgroup` names; `None` without one.
+fn cgroup_limit() -> Option<u64> {
+    let groups = std::fs::read_to_string("/proc/self/cgroup").ok()?;
+    for line in groups.lines() {
+        let mut parts = line.splitn(3, ':');
+        let (_, controllers, path) = (parts.next()?, parts.next()?, parts.next()?);
+        let file = if controllers.is_empty() {
+            format!("/sys/fs/cgroup{path}/memory.max")
+        } else if controllers.split(',').any(|c| c == "memory") {
+            format!("/sys/fs/cgroup/memory{path}/memory.limit_in_bytes")
+        } else {
+            continue;
+        };
+        if let Ok(text) = std::fs::read_to_string(&file)
+            && let Ok(b) = text.trim().parse::<u64>()
+            // v1 writes "no limit" as a number near 2^63.
+            && b < (1u64 << 60)
+        {
+            return Some(b);
+        }
+    }
+    None
 }
 
 /// A size in bytes: a number (`2e9`, `17179869184`) optionally followed by `KiB`, `MiB`,
@@ -114,9 +189,7 @@ pub fn mesh_bytes(c: &MeshCounts, scheme: SolidScheme) -> f64 {
 /// a Gmsh file that cannot be read).
 pub fn estimate(sc: &Scenario) -> (f64, f64) {
     let mesh = sc
-        .mesh
-        .as_ref()
-        .and_then(MeshSpec::counts)
+        .mesh_counts()
         .map_or(0.0, |c| mesh_bytes(&c, sc.time.solid_scheme));
     let network = sc
         .network
@@ -140,7 +213,7 @@ pub fn check(sc: &ValidScenario, limit: u64, source: &str) -> Result<(), SetupEr
         )
     };
     if let Some(mesh) = &sc.mesh
-        && let Some(c) = mesh.counts()
+        && let Some(c) = sc.mesh_counts()
     {
         let bytes = mesh_bytes(&c, sc.time.solid_scheme);
         if bytes.is_nan() || bytes > limit as f64 {

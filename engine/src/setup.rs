@@ -57,11 +57,9 @@ pub fn build_mesh_around(
         ref follow,
     } = *spec
     {
-        // The node bound of `MeshSpec::counts` caps the refinement: memory was checked
-        // against it.
-        let max_vertices = spec
-            .counts()
-            .map_or(usize::MAX, |c| c.nodes.ceil() as usize);
+        // The node count of `MeshSpec::counts_around` the fractures caps the refinement:
+        // memory was checked against it (`Scenario::mesh_counts`).
+        let max_vertices = spec.counts_around(fractures).nodes.ceil() as usize;
         let p = hydrofrac_core::conforming::ConformingParams {
             width,
             height,

@@ -598,7 +598,7 @@ fn execute(r: &Run) -> Outcome {
         let sc = match base.with_overrides(&sets).and_then(|sc| {
             let sc = sc.validate()?;
             let (limit, source) = crate::resources::default_limit();
-            crate::resources::check(&sc, limit, source)?;
+            crate::resources::check(&sc, limit, &source)?;
             Ok(sc)
         }) {
             Ok(sc) => sc,

@@ -125,18 +125,67 @@ impl MeshSpec {
                 let len = std::fs::metadata(file).ok()?.len() as f64;
                 Some(MeshCounts::from_triangles(len / GMSH_BYTES_PER_TRIANGLE))
             }
-            MeshSpec::Conforming {
-                width, height, h, ..
-            } => {
-                // A bound: the whole domain at h / sqrt(2) in equilateral triangles (area
-                // sqrt(3)/8 h^2; edges shorter than h appear only near crossings and merged
-                // points, and the mesh coarsens away from the fractures), and the refinement
-                // is capped at this many nodes.
-                Some(MeshCounts::from_triangles(
-                    (width * height / (3f64.sqrt() / 8.0 * h * h)).ceil() + 4.0,
-                ))
-            }
+            MeshSpec::Conforming { .. } => Some(self.counts_around(&[])),
         }
+    }
+
+    /// [`MeshSpec::counts`] of a mesh that follows the fracture segments `fractures` (m) as
+    /// well as its own `follow` lines: for a conforming mesh, the triangles its sizing field
+    /// asks for, h + grading d capped at h_far at a distance d from the nearest segment, each
+    /// of area sqrt(3)/8 s^2 at size s (half an equilateral triangle's: the quality
+    /// refinement and the short edges near crossings add triangles, so the count is meant to
+    /// be on the high side), times 1.5. The area within d of the segments is bounded by
+    /// sum (2 L_i d + pi d^2) and by the domain's. The refinement is capped at this many nodes.
+    /// Other kinds: their counts.
+    pub fn counts_around(&self, fractures: &[([f64; 2], [f64; 2])]) -> MeshCounts {
+        let MeshSpec::Conforming {
+            width,
+            height,
+            h,
+            h_far,
+            grading,
+            ref follow,
+            ..
+        } = *self
+        else {
+            return self.counts().unwrap_or(MeshCounts::from_triangles(0.0));
+        };
+        let h_far = h_far.unwrap_or(4.0 * h).min(width.max(height)).max(h);
+        let lengths = fractures
+            .iter()
+            .copied()
+            .chain(follow.iter().map(|f| (f.from, f.to)))
+            .map(|(a, b)| (b[0] - a[0]).hypot(b[1] - a[1]));
+        let (n, total): (f64, f64) = lengths.fold((0.0, 0.0), |(n, l), x| (n + 1.0, l + x));
+        let per = |s: f64| 3f64.sqrt() / 8.0 * s * s;
+        let domain = width * height;
+        let near = |d: f64| (2.0 * total * d + n * std::f64::consts::PI * d * d).min(domain);
+        // Over the size s = h + grading d from h to h_far, in equal steps of ln s:
+        // dN = (dA/dd) dd / per(s), with dA/dd from the bound above.
+        let mut triangles = 0.0;
+        let mut covered = 0.0;
+        if n > 0.0 && grading > 0.0 && h_far > h {
+            const STEPS: usize = 400;
+            let ratio = (h_far / h).ln() / STEPS as f64;
+            let mut d0 = 0.0;
+            for k in 1..=STEPS {
+                let s1 = h * (ratio * k as f64).exp();
+                let d1 = (s1 - h) / grading;
+                let s_mid = h + grading * 0.5 * (d0 + d1);
+                let a1 = near(d1);
+                triangles += (a1 - covered) / per(s_mid);
+                covered = a1;
+                d0 = d1;
+            }
+        } else if n > 0.0 {
+            covered = domain;
+            triangles = domain / per(h);
+        }
+        triangles += (domain - covered).max(0.0) / per(h_far);
+        // Measured on one crack to a 30-fracture network (tests/memory_estimate.rs): the
+        // meshes have 0.71 to 0.93 of the triangles above; half as many again keeps the
+        // refinement clear of the cap.
+        MeshCounts::from_triangles((1.5 * triangles).ceil() + 4.0)
     }
 
     /// The mesh kind's name as the scenario writes it (`Regular`, ..., `Conforming`).
@@ -202,7 +251,7 @@ impl MeshCounts {
 pub const GMSH_BYTES_PER_TRIANGLE: f64 = 20.0;
 
 /// Most triangles a mesh may have.
-const MAX_TRIANGLES: f64 = 5.0e7;
+pub(super) const MAX_TRIANGLES: f64 = 5.0e7;
 
 impl MeshSpec {
     /// The sizes, the origin, the kind's own parameters and the size limit; errors name

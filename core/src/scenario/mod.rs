@@ -173,6 +173,7 @@ impl Scenario {
             f.validate()?;
             self.check_fracture_has_mesh()?;
         }
+        self.check_conforming_size()?;
         if let Some(n) = &self.network {
             n.validate()?;
         }
@@ -189,6 +190,44 @@ impl Scenario {
         flow::validate_flow_boundaries(&self.flow_boundaries)?;
         self.output.validate()?;
         Ok(ValidScenario(self))
+    }
+
+    /// The counts of the scenario's mesh ([`MeshSpec::counts_around`] its pre-existing
+    /// fractures: a conforming mesh is fine only near them); `None` without a mesh or for a
+    /// Gmsh file that cannot be read. Fractures that cannot be read count as none (setup
+    /// reports them).
+    pub fn mesh_counts(&self) -> Option<MeshCounts> {
+        let mesh = self.mesh.as_ref()?;
+        if !matches!(mesh, MeshSpec::Conforming { .. }) {
+            return mesh.counts();
+        }
+        let segments: Vec<([f64; 2], [f64; 2])> = self
+            .fracture
+            .as_ref()
+            .and_then(|f| f.all_preexisting().ok())
+            .unwrap_or_default()
+            .iter()
+            .map(|(p, _)| (p.from, p.to))
+            .collect();
+        Some(mesh.counts_around(&segments))
+    }
+
+    /// A conforming mesh's triangles around its fractures within the engine's limit.
+    fn check_conforming_size(&self) -> Result<(), SetupError> {
+        if !matches!(self.mesh, Some(MeshSpec::Conforming { .. })) {
+            return Ok(());
+        }
+        let cells = self.mesh_counts().map_or(0.0, |c| c.triangles);
+        if cells > mesh::MAX_TRIANGLES {
+            return Err(SetupError::invalid(
+                "mesh.h",
+                format!(
+                    "{cells:.3e} triangles around the fractures is more than this engine's \
+                     5e7 limit"
+                ),
+            ));
+        }
+        Ok(())
     }
 
     /// A mesh comes with a material, and a scene has a mesh or a network.
