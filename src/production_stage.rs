@@ -168,6 +168,9 @@ pub fn production_sim(
     if let (Some(qs), Some(stage)) = (sim.quasi_static_mut(), sc.production.as_ref()) {
         // The Newton solve's relative residual, as the relaxation's.
         qs.tol = stage.static_tol;
+        // A signal ends a long solve between two Newton iterations: `equilibrate` rolls the
+        // failed solve back and then stops.
+        qs.interrupt = stop.cloned();
         // No time passes for the rock here (the fluid's pressure is a load), so halving a
         // step that found no equilibrium would retry the same problem: a failure is final
         // (and the state goes to relaxation, `run_production`): the step is held
@@ -346,6 +349,10 @@ fn equilibrate(
                 // The kept factor's joint axes are the failed iterate's.
                 if let Some(qs) = sim.quasi_static_mut() {
                     qs.forget_factor();
+                }
+                // A stop request interrupted the solve: end at the last equilibrium.
+                if sim.stop_signal().is_some() {
+                    break;
                 }
                 if inc <= MIN_LOAD_INCREMENT {
                     return Err(e);

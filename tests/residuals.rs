@@ -288,3 +288,42 @@ fn the_memory_check_honours_the_process_limit() {
     assert_refused(&o, &["invalid mesh.h", "ulimit -v"]);
     assert!(!out.exists());
 }
+
+/// The rows of `timeseries.csv` written after a step's splits (the zero-time re-solve's
+/// state, off the smooth history) are marked `resolves` > 0, and the unmarked rows are the
+/// smooth history: on `kgd_toughness.ron` (quasi-static, toughness criterion, a row every
+/// step) the column sums to the run's re-solves in `summary.json`, and every unmarked row's
+/// net well pressure is within 25 % of the mean of its unmarked neighbours' once the crack
+/// grows (the marked ones are at 0.6 to 2 times theirs, so the check fails on them).
+#[test]
+fn rows_after_splits_are_marked_and_the_rest_is_smooth() {
+    let out = tmp("kgd-rows");
+    let s = run_ok(scenario("kgd_toughness.ron"), &out, &[]);
+    let text = std::fs::read_to_string(out.join("timeseries.csv")).unwrap();
+    let mut lines = text.lines();
+    let head: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let col = |n: &str| head.iter().position(|h| *h == n).unwrap();
+    let (t, res, p) = (col("time"), col("resolves"), col("well_pressure"));
+    let rows: Vec<Vec<f64>> = lines
+        .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
+        .collect();
+    let total: f64 = rows.iter().map(|r| r[res]).sum();
+    let resolves = s["quasi_static"]["resolves"].as_f64().unwrap();
+    assert!(total == resolves && total >= 5.0, "{total} marked, {s}");
+    let confining = 10e6;
+    let smooth: Vec<(f64, f64)> = rows
+        .iter()
+        .filter(|r| r[res] == 0.0 && r[t] > 5.0)
+        .map(|r| (r[t], r[p] - confining))
+        .collect();
+    for w in smooth.windows(3) {
+        let mean = 0.5 * (w[0].1 + w[2].1);
+        assert!(
+            (w[1].1 / mean - 1.0).abs() < 0.25,
+            "t = {} s: net pressure {:.3e} Pa against its neighbours' {mean:.3e}",
+            w[1].0,
+            w[1].1
+        );
+    }
+    assert!(smooth.len() > 50, "{} smooth rows", smooth.len());
+}

@@ -155,7 +155,7 @@ pub fn open_preexisting(
             edges: edges.len(),
             snap_error_h: path.max_error / mean_edge,
             zigzag_deg,
-            clipped: !generated && !(inside(pf.from) && inside(pf.to)),
+            clipped: !(generated || inside(pf.from) && inside(pf.to)),
         });
         ready.extend(edges);
     }

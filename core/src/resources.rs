@@ -105,7 +105,10 @@ fn address_space_left() -> Option<u64> {
             .ok()?;
         // SAFETY: sysconf has no preconditions.
         let page = unsafe { libc::sysconf(libc::_SC_PAGESIZE) }.max(4096) as u64;
-        Some((r.rlim_cur as u64).saturating_sub(pages * page))
+        // rlim_t is u64 on Linux targets; the cast widens where it is not.
+        #[allow(clippy::unnecessary_cast)]
+        let cur = r.rlim_cur as u64;
+        Some(cur.saturating_sub(pages * page))
     }
     #[cfg(not(target_os = "linux"))]
     None

@@ -290,6 +290,9 @@ impl Simulation {
             }
             (SystemId::Solve, Pass::Step { t0 }) => {
                 self.cells_at_start = self.flow.as_ref().map_or(0, |f| f.view.n_cells());
+                if let Some(qs) = self.solid.quasi_static.as_mut() {
+                    qs.step_resolves = 0;
+                }
                 let (s, f, e) = (&mut self.solid, self.flow.as_mut(), &mut self.effort);
                 quasi_static_step::solve_step(s, f, flow_on, clock, p, e, t0)?;
             }
@@ -417,6 +420,9 @@ impl Simulation {
             if !opened {
                 break;
             }
+        }
+        if let Some(qs) = self.solid.quasi_static.as_mut() {
+            qs.step_resolves = rounds;
         }
         let counts = self.qs_counts_mut();
         counts.resolves += rounds;

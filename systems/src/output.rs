@@ -179,6 +179,17 @@ pub fn well_opening(v: &SolidView, f: &FlowPart, c: &crate::coupling::Coupling) 
         .map_or(0.0, |k| v.joint_state[k as usize].opening)
 }
 
+/// Whether the time series has the `resolves` column: quasi-static runs whose fractures can
+/// grow. A row with `resolves` > 0 holds the state right after the step's splits, solved again
+/// at the same time with no flow time passed (`Simulation::propagate`): the new cells are
+/// still empty and closed, and the state is off the smooth history (on `kgd_toughness.ron`
+/// the net well pressure is 0.6 to 2 times its neighbours'). The history to sample at fixed
+/// times is the rows with `resolves` = 0 (docs/outputs.md).
+fn resolves_column(p: &RunParams) -> bool {
+    p.criterion.is_some()
+        && p.time.solid_scheme == hydrofrac_core::scenario::SolidScheme::QuasiStatic
+}
+
 /// Names of the time-series columns of a scene.
 pub fn series_columns(solid: &SolidView, flow: Option<&FlowPart>, p: &RunParams) -> Vec<String> {
     let mut c: Vec<String> = vec!["step".into(), "time".into()];
@@ -191,6 +202,9 @@ pub fn series_columns(solid: &SolidView, flow: Option<&FlowPart>, p: &RunParams)
         c.push("fracture_ready_edges".into());
         c.push("fracture_length".into());
         c.push("max_opening".into());
+    }
+    if resolves_column(p) {
+        c.push("resolves".into());
     }
     if flow.is_some_and(|f| f.coupling.is_some()) {
         c.push("well_opening".into());
@@ -225,6 +239,10 @@ pub fn series_values(scene: &Scene, flow: Option<&FlowPart>) -> Vec<f64> {
     if scene.params.has_fractures {
         let (length, max_opening) = opened_length(view);
         v.extend([scene.fracture.ready_edges as f64, length, max_opening]);
+    }
+    if resolves_column(scene.params) {
+        let qs = scene.solid.quasi_static.as_ref();
+        v.push(qs.map_or(0, |q| q.step_resolves) as f64);
     }
     if let Some(c) = flow.and_then(|f| f.coupling.as_ref().map(|c| (f, c))) {
         v.push(well_opening(view, c.0, c.1));

@@ -199,6 +199,14 @@ pub struct QuasiStatic {
     pub step_start: Option<StepStart>,
     /// The mass shift 1/dt^2 (1/s^2) of the numeric factor (0: none).
     factored_shift: f64,
+    /// Re-solves after splits in the step being taken (0 until it splits; the time series'
+    /// `resolves` column). Not in checkpoints: a restart starts between steps, where it is 0.
+    pub step_resolves: u64,
+    /// A stop request checked between Newton iterations (non-zero: stop): a solve it
+    /// interrupts fails with "interrupted". Set by the production stage, whose failed solve is
+    /// rolled back and which then ends between two solves (a solve of Example II's network
+    /// from scratch takes tens of iterations); the step loop of a run stops between steps.
+    pub interrupt: Option<std::sync::Arc<std::sync::atomic::AtomicUsize>>,
 }
 
 /// The state at the start of an implicit-dynamics step (`time.inertia: BackwardEuler`): its
@@ -283,6 +291,8 @@ impl QuasiStatic {
             lu_rhs: Vec::new(),
             step_start: None,
             factored_shift: 0.0,
+            step_resolves: 0,
+            interrupt: None,
         }
     }
 }
@@ -1038,6 +1048,13 @@ pub fn solve(
                 time,
                 not_converged(v, qs, &flow, res2, ref2, max_slip),
             ));
+        }
+        if qs
+            .interrupt
+            .as_ref()
+            .is_some_and(|s| s.load(std::sync::atomic::Ordering::Relaxed) != 0)
+        {
+            return Err(fail(step, time, "interrupted by a stop request".into()));
         }
         if qs.use_lu(&states, flow.as_ref()) {
             qs.lu_direction(v, p, &states, &mut flow, &mut rhs)
