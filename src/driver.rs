@@ -363,7 +363,9 @@ fn run_summary(run: &mut Run, stepped: &Stepped) -> serde_json::Value {
         summary["quasi_static"] = json!(c);
     }
     if stepped.result.is_ok() && sim.interrupted_by().is_none() && sim.params().has_fractures {
-        summary["tips"] = tips_summary(sim);
+        let (tips, warning) = tips_summary(sim);
+        summary["tips"] = tips;
+        run.warnings.extend(warning);
     }
     summary["output_estimate_bytes"] = json!(run.output_estimate);
     if sim.params().output.checkpoint_every.is_some() {
@@ -993,25 +995,75 @@ pub fn clipped_warning(placed: &[crate::fractures::Placed], bbox: [f64; 4]) -> O
 
 /// The fracture tips at the end of a run in `summary.json` (`tips`), whatever the criterion:
 /// their number and the largest K_eq (Pa sqrt(m), the interaction integral and the maximum
-/// hoop stress, `systems::toughness`) with its K_I, K_II and tip position (m). It tells how far
-/// the tips are from growing: under the strength criterion compare K_eq with the toughness
-/// the strength test acts like, about 3.5 (s0 + lambda T0) sqrt(h) (README, "Example II").
-fn tips_summary(sim: &mut Simulation) -> serde_json::Value {
-    let tips = sim.measure_tips();
-    let count = tips.len();
-    let best = tips
+/// hoop stress, `systems::toughness`) with its K_I, K_II and tip position (m), over the tips
+/// whose integrals are trusted (no other fracture within
+/// `toughness::TRUSTED_RADIUS_EDGES` edges); the others as `untrusted`, the same fields. It
+/// tells how far the tips are from growing: under the strength criterion compare K_eq with
+/// the toughness the strength test acts like, about 3.5 (s0 + lambda T0) sqrt(h) (README,
+/// "Example II"). Under `Toughness` without an `initiation` strength nothing decides at an
+/// untrusted tip (the strength test would): the warning says so when one is past K_Ic.
+fn tips_summary(sim: &mut Simulation) -> (serde_json::Value, Option<String>) {
+    use crate::systems::toughness::TRUSTED_RADIUS_EDGES;
+    let states = sim.measure_tips().to_vec();
+    let trusted: Vec<bool> = sim
+        .fracture()
+        .tips
+        .geometry
         .iter()
-        .filter(|t| t.k_eq.is_finite() && t.k1.is_finite() && t.k2.is_finite())
-        .max_by(|a, b| a.k_eq.total_cmp(&b.k_eq).then(b.node.cmp(&a.node)))
-        .copied();
-    let mut v = json!({ "count": count });
-    if let Some(t) = best {
+        .map(|g| g.trusted)
+        .collect();
+    let x0 = &sim.solid().x0;
+    let best = |want: bool| {
+        states
+            .iter()
+            .zip(&trusted)
+            .filter(|(t, tr)| {
+                **tr == want && t.k_eq.is_finite() && t.k1.is_finite() && t.k2.is_finite()
+            })
+            .map(|(t, _)| *t)
+            .max_by(|a, b| a.k_eq.total_cmp(&b.k_eq).then(b.node.cmp(&a.node)))
+    };
+    let fields = |v: &mut serde_json::Value, t: &crate::systems::toughness::TipState| {
         v["k_eq_max"] = json!(t.k_eq);
         v["k1"] = json!(t.k1);
         v["k2"] = json!(t.k2);
-        v["at"] = json!(sim.solid().x0[t.node as usize]);
+        v["at"] = json!(x0[t.node as usize]);
+    };
+    let untrusted_count = trusted.iter().filter(|t| !**t).count();
+    let mut v = json!({ "count": states.len() });
+    if let Some(t) = best(true) {
+        fields(&mut v, &t);
     }
-    v
+    let mut warning = None;
+    if untrusted_count > 0 {
+        let mut u = json!({ "count": untrusted_count });
+        if let Some(t) = best(false) {
+            fields(&mut u, &t);
+            if let Some(Criterion::Toughness {
+                k_ic,
+                initiation: None,
+            }) = sim.params().criterion.map(|c| c.kind)
+                && t.k_eq >= k_ic
+            {
+                let past = states
+                    .iter()
+                    .zip(&trusted)
+                    .filter(|(s, tr)| !**tr && s.k_eq >= k_ic)
+                    .count();
+                let at = x0[t.node as usize];
+                warning = Some(format!(
+                    "{past} fracture tips have K_eq >= K_Ic = {:.2e} Pa m^0.5 (up to {:.2e} at \
+                     ({:.1}, {:.1}) m) but lie within {TRUSTED_RADIUS_EDGES} edges of another \
+                     fracture, where the toughness criterion does not decide growth and the \
+                     strength test would; give fracture.criterion's initiation strength so \
+                     those tips can grow (summary.json tips.untrusted)",
+                    k_ic, t.k_eq, at[0], at[1]
+                ));
+            }
+        }
+        v["untrusted"] = u;
+    }
+    (v, warning)
 }
 
 /// The fracture criterion's work in `summary.json` (`null`, omitted, without a criterion):

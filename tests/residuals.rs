@@ -327,3 +327,43 @@ fn rows_after_splits_are_marked_and_the_rest_is_smooth() {
     }
     assert!(smooth.len() > 50, "{} smooth rows", smooth.len());
 }
+
+/// Why a tip past K_Ic may stay (issue 41 item 10, in part): a tip with another fracture
+/// within `TRUSTED_RADIUS_EDGES` edges is not trusted to decide growth, and under
+/// `Toughness` without an `initiation` strength nothing decides there. `summary.json` `tips`
+/// reports those apart (`untrusted`: count, largest K_eq, K_I, K_II, where) and warns when
+/// one is past K_Ic: on `example2_small.ron` with `Toughness(k_ic: 1.5e6)` 4 of 7 tips are
+/// untrusted, the largest at 3.07e6 Pa m^0.5 (it had been reported as the run's largest K).
+#[test]
+fn tips_past_k_ic_that_cannot_grow_are_reported_apart() {
+    let out = tmp("tips");
+    let s = run_ok(
+        scenario("example2_small.ron"),
+        &out,
+        &[
+            "--set",
+            "fracture.strength=None",
+            "--set",
+            "fracture.criterion=Some(Toughness(k_ic: 1.5e6))",
+            "--set",
+            "time.end=Time(0.05)",
+            "--set",
+            "production=None",
+        ],
+    );
+    let tips = &s["tips"];
+    let untrusted = &tips["untrusted"];
+    assert!(untrusted["count"].as_u64().unwrap() >= 1, "{tips}");
+    let k = untrusted["k_eq_max"].as_f64().unwrap();
+    assert!(k >= 1.5e6, "{tips}");
+    if let Some(trusted) = tips["k_eq_max"].as_f64() {
+        assert!(trusted < 1.5e6, "a trusted tip past K_Ic stayed: {tips}");
+    }
+    let warned = s["warnings"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter_map(|w| w.as_str())
+        .any(|w| w.contains("within 3 edges of another fracture") && w.contains("initiation"));
+    assert!(warned, "{s}");
+}
