@@ -436,7 +436,7 @@ pub fn check_output_place(dir: &std::path::Path) -> Result<(), String> {
                 existing.display()
             ));
         }
-        if st.f_blocks == 0 {
+        if pseudo_filesystem(&c) {
             return Err(format!(
                 "{} is on a virtual filesystem with no disk to write to",
                 existing.display()
@@ -444,6 +444,45 @@ pub fn check_output_place(dir: &std::path::Path) -> Result<(), String> {
         }
     }
     Ok(())
+}
+
+/// Whether the path `c` lies on one of the kernel's pseudo filesystems (proc, sysfs, cgroup,
+/// debugfs, ...; `statfs`'s magic numbers), where nothing can be stored. Only these: a
+/// filesystem that reports no blocks (some FUSE mounts) may still take files.
+#[cfg(unix)]
+fn pseudo_filesystem(c: &std::ffi::CStr) -> bool {
+    #[cfg(target_os = "linux")]
+    {
+        const PSEUDO: [i64; 12] = [
+            0x9fa0,     // proc
+            0x62656572, // sysfs
+            0x0027e0eb, // cgroup
+            0x63677270, // cgroup2
+            0x64626720, // debugfs
+            0x73636673, // securityfs
+            0x74726163, // tracefs
+            0x1cd1,     // devpts
+            0xcafe4a11, // bpf
+            0x6165676c, // pstore
+            0x62656570, // configfs
+            0x19800202, // mqueue
+        ];
+        let mut st = std::mem::MaybeUninit::<libc::statfs>::uninit();
+        // SAFETY: `c` is a NUL-terminated path and `st` a buffer statfs(2) fills on success.
+        if unsafe { libc::statfs(c.as_ptr(), st.as_mut_ptr()) } != 0 {
+            return false;
+        }
+        // SAFETY: statfs returned 0, so it filled `st`.
+        let kind = unsafe { st.assume_init() }.f_type;
+        // The field's type differs between architectures: the cast widens.
+        #[allow(clippy::unnecessary_cast)]
+        PSEUDO.contains(&(kind as i64))
+    }
+    #[cfg(not(target_os = "linux"))]
+    {
+        let _ = c;
+        false
+    }
 }
 
 /// The default disk limit for outputs into `out`, bytes, and where it comes from (for
