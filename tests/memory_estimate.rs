@@ -138,7 +138,8 @@ fn graded_mesh_counts_bound_the_mesh() {
 /// box with h = 0.025 m near a 2 m crack and h_far = 2 m, 18,395 triangles, was refused as
 /// "66.28 GiB": the estimate applied h to the whole domain). On meshes from one crack to a
 /// 30-fracture network, graded and uniform, the estimate bounds the built mesh's triangles and
-/// is within 4 times them (it charges half an equilateral triangle per size^2).
+/// is within 2.5 times them (measured 1.6 to 2.1: half an equilateral triangle per size^2 is
+/// up to 1.4 times the count, and the estimate adds half as much again).
 #[test]
 fn conforming_mesh_counts_follow_the_sizing_field() {
     use hydrofrac::setup::build_mesh_around;
@@ -172,7 +173,7 @@ fn conforming_mesh_counts_follow_the_sizing_field() {
         let t = m.triangles.len() as f64;
         eprintln!("case {k}: estimate {} triangles, built {t}", c.triangles);
         assert!(
-            c.triangles >= t && c.triangles <= 4.0 * t,
+            c.triangles >= t && c.triangles <= 2.5 * t,
             "case {k}: estimate {} vs {t} triangles",
             c.triangles
         );

@@ -372,22 +372,7 @@ pub fn output_estimate(p: &OutputPlan) -> OutputEstimate {
 pub fn free_space(dir: &std::path::Path) -> Option<u64> {
     #[cfg(unix)]
     {
-        use std::os::unix::ffi::OsStrExt;
-        let abs = if dir.is_absolute() {
-            dir.to_path_buf()
-        } else {
-            std::env::current_dir().ok()?.join(dir)
-        };
-        let existing = abs.ancestors().find(|a| a.exists())?;
-        let c = std::ffi::CString::new(existing.as_os_str().as_bytes()).ok()?;
-        let mut st = std::mem::MaybeUninit::<libc::statvfs>::uninit();
-        // SAFETY: `c` is a NUL-terminated path and `st` a buffer statvfs(3) fills on success.
-        let rc = unsafe { libc::statvfs(c.as_ptr(), st.as_mut_ptr()) };
-        if rc != 0 {
-            return None;
-        }
-        // SAFETY: statvfs returned 0, so it filled `st`.
-        let st = unsafe { st.assume_init() };
+        let st = statvfs(&existing_ancestor(dir).ok()??)?;
         // The fields' widths differ between platforms (u32 on some): the casts widen.
         #[allow(clippy::unnecessary_cast)]
         (st.f_bavail as u64).checked_mul(st.f_frsize as u64)
@@ -399,19 +384,43 @@ pub fn free_space(dir: &std::path::Path) -> Option<u64> {
     }
 }
 
-/// Whether an output folder can be made at `dir` at all, checked before any estimate (whose
-/// "free space" would otherwise read 0 on a virtual filesystem such as `/proc`): its nearest
-/// existing ancestor must be a folder on a writable filesystem with disk blocks. `Err`: why
-/// not, in words. Where the filesystem cannot be read, the creation itself will tell.
-pub fn check_output_place(dir: &std::path::Path) -> Result<(), String> {
+/// The nearest existing ancestor of `dir` (itself included), made absolute against the
+/// working folder; `Ok(None)` when none exists, `Err` when the working folder cannot be read.
+fn existing_ancestor(dir: &std::path::Path) -> std::io::Result<Option<std::path::PathBuf>> {
     let abs = if dir.is_absolute() {
         dir.to_path_buf()
     } else {
-        std::env::current_dir()
-            .map_err(|e| format!("the working folder cannot be read: {e}"))?
-            .join(dir)
+        std::env::current_dir()?.join(dir)
     };
-    let Some(existing) = abs.ancestors().find(|a| a.exists()) else {
+    Ok(abs
+        .ancestors()
+        .find(|a| a.exists())
+        .map(|a| a.to_path_buf()))
+}
+
+/// `statvfs(3)` of an existing `path`; `None` where it cannot be read.
+#[cfg(unix)]
+fn statvfs(path: &std::path::Path) -> Option<libc::statvfs> {
+    use std::os::unix::ffi::OsStrExt;
+    let c = std::ffi::CString::new(path.as_os_str().as_bytes()).ok()?;
+    let mut st = std::mem::MaybeUninit::<libc::statvfs>::uninit();
+    // SAFETY: `c` is a NUL-terminated path and `st` a buffer statvfs(3) fills on success.
+    if unsafe { libc::statvfs(c.as_ptr(), st.as_mut_ptr()) } != 0 {
+        return None;
+    }
+    // SAFETY: statvfs returned 0, so it filled `st`.
+    Some(unsafe { st.assume_init() })
+}
+
+/// Whether an output folder can be made at `dir` at all, checked before any estimate (whose
+/// "free space" would otherwise read 0 on a virtual filesystem such as `/proc`): its nearest
+/// existing ancestor must be a folder on a writable filesystem that is not one of the kernel's
+/// pseudo filesystems. `Err`: why not, in words. Where the filesystem cannot be read, the
+/// creation itself will tell.
+pub fn check_output_place(dir: &std::path::Path) -> Result<(), String> {
+    let existing =
+        existing_ancestor(dir).map_err(|e| format!("the working folder cannot be read: {e}"))?;
+    let Some(existing) = existing else {
         return Ok(());
     };
     if !existing.is_dir() {
@@ -419,24 +428,13 @@ pub fn check_output_place(dir: &std::path::Path) -> Result<(), String> {
     }
     #[cfg(unix)]
     {
-        use std::os::unix::ffi::OsStrExt;
-        let Ok(c) = std::ffi::CString::new(existing.as_os_str().as_bytes()) else {
-            return Ok(());
-        };
-        let mut st = std::mem::MaybeUninit::<libc::statvfs>::uninit();
-        // SAFETY: `c` is a NUL-terminated path and `st` a buffer statvfs(3) fills on success.
-        if unsafe { libc::statvfs(c.as_ptr(), st.as_mut_ptr()) } != 0 {
-            return Ok(());
-        }
-        // SAFETY: statvfs returned 0, so it filled `st`.
-        let st = unsafe { st.assume_init() };
-        if st.f_flag & libc::ST_RDONLY != 0 {
+        if statvfs(&existing).is_some_and(|st| st.f_flag & libc::ST_RDONLY != 0) {
             return Err(format!(
                 "{} is on a read-only filesystem",
                 existing.display()
             ));
         }
-        if pseudo_filesystem(&c) {
+        if pseudo_filesystem(&existing) {
             return Err(format!(
                 "{} is on a virtual filesystem with no disk to write to",
                 existing.display()
@@ -446,11 +444,11 @@ pub fn check_output_place(dir: &std::path::Path) -> Result<(), String> {
     Ok(())
 }
 
-/// Whether the path `c` lies on one of the kernel's pseudo filesystems (proc, sysfs, cgroup,
+/// Whether `path` lies on one of the kernel's pseudo filesystems (proc, sysfs, cgroup,
 /// debugfs, ...; `statfs`'s magic numbers), where nothing can be stored. Only these: a
 /// filesystem that reports no blocks (some FUSE mounts) may still take files.
 #[cfg(unix)]
-fn pseudo_filesystem(c: &std::ffi::CStr) -> bool {
+fn pseudo_filesystem(path: &std::path::Path) -> bool {
     #[cfg(target_os = "linux")]
     {
         const PSEUDO: [i64; 12] = [
@@ -467,6 +465,10 @@ fn pseudo_filesystem(c: &std::ffi::CStr) -> bool {
             0x62656570, // configfs
             0x19800202, // mqueue
         ];
+        use std::os::unix::ffi::OsStrExt;
+        let Ok(c) = std::ffi::CString::new(path.as_os_str().as_bytes()) else {
+            return false;
+        };
         let mut st = std::mem::MaybeUninit::<libc::statfs>::uninit();
         // SAFETY: `c` is a NUL-terminated path and `st` a buffer statfs(2) fills on success.
         if unsafe { libc::statfs(c.as_ptr(), st.as_mut_ptr()) } != 0 {
@@ -480,7 +482,7 @@ fn pseudo_filesystem(c: &std::ffi::CStr) -> bool {
     }
     #[cfg(not(target_os = "linux"))]
     {
-        let _ = c;
+        let _ = path;
         false
     }
 }

@@ -31,10 +31,9 @@ pub use hydrofrac_systems::monitor::{Clock, Finish, SPEED_LIMIT_FRACTION};
 
 pub use crate::setup::FLOW_ONLY_SUBSTEPS;
 
-/// A request to stop a run between steps: 0 while none, else the number of the signal that
-/// asked (the binary's SIGINT and SIGTERM handlers store 2 or 15 here). Checked by
-/// [`Simulation::run`] before every step.
-pub type StopFlag = std::sync::Arc<std::sync::atomic::AtomicUsize>;
+/// The stop request ([`hydrofrac_systems::StopFlag`]), checked by [`Simulation::run`] before
+/// every step.
+pub use hydrofrac_systems::StopFlag;
 
 pub struct Simulation {
     /// The scenario as given (read by reports only; the step reads `params`).

@@ -108,6 +108,12 @@ impl SystemId {
     }
 }
 
+/// A request to stop a run: 0 while none, else the number of the signal that asked (the
+/// binary's SIGINT and SIGTERM handlers store 2 or 15 here). The step loop checks it between
+/// steps (`Simulation::run`), the production stage's quasi-static solve between Newton
+/// iterations (`quasi_static::QuasiStatic::interrupt`).
+pub type StopFlag = std::sync::Arc<std::sync::atomic::AtomicUsize>;
+
 /// A blow-up's value in words where it is not a number (messages are results too: no `inf` or
 /// `NaN` token in them).
 fn show_value(v: f64) -> String {

@@ -21,7 +21,7 @@ pub enum Finish {
     Converged,
     /// Hit `time.max_steps` first.
     MaxSteps,
-    /// Stopped between steps on request (SIGINT or SIGTERM, see [`crate::sim::StopFlag`]).
+    /// Stopped between steps on request (SIGINT or SIGTERM, see [`crate::StopFlag`]).
     Interrupted,
 }
 

@@ -206,7 +206,7 @@ pub struct QuasiStatic {
     /// interrupts fails with "interrupted". Set by the production stage, whose failed solve is
     /// rolled back and which then ends between two solves (a solve of Example II's network
     /// from scratch takes tens of iterations); the step loop of a run stops between steps.
-    pub interrupt: Option<std::sync::Arc<std::sync::atomic::AtomicUsize>>,
+    pub interrupt: Option<crate::StopFlag>,
 }
 
 /// The state at the start of an implicit-dynamics step (`time.inertia: BackwardEuler`): its
