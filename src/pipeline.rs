@@ -15,7 +15,7 @@
 //!
 //! SI units: m, Pa, s, K, W, J; rates and powers per metre of thickness.
 
-use crate::driver::{DriverError, RunOptions, RunReport, run_file};
+use crate::driver::{DriverError, RunOptions, RunReport, run_scenario};
 use crate::flow::FlowView;
 use crate::output::folder::{Folder, FolderError, Plan};
 use crate::reservoir::continuum::{
@@ -41,23 +41,32 @@ pub struct PipelineSpec {
     pub stimulation_set: Vec<String>,
     /// The doublet stage's wells and pressure drops (the heat stage's wells too).
     pub production: ProductionSpec,
-    /// Apertures of the networks in the doublet, upscaling and heat stages.
+    /// Apertures of the networks in the doublet, upscaling and heat stages (default:
+    /// `Residual` after a stimulation; the given apertures for a flow-only scene).
     #[serde(default)]
-    pub apertures: Apertures,
+    pub apertures: Option<Apertures>,
+    /// The rock block `[x_min, x_max, y_min, y_max]` (m) that the upscaling grid and the
+    /// discrete heat model's rock grid cover (default: the stimulation's mesh box). Needed
+    /// when the stimulation scene has no rock mesh (a flow-only scene: the heat-only path).
+    #[serde(default)]
+    pub domain: Option<[f64; 4]>,
     pub upscaling: UpscalingSpec,
     pub heat: HeatSpec,
 }
 
 /// Which apertures the doublet, upscaling and heat stages give the fracture cells.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize, Serialize)]
 pub enum Apertures {
     /// Every cell at the joints' residual aperture: the fractures closed after the pump
-    /// stopped (the default; the stimulation adds connected length, not width).
-    #[default]
+    /// stopped (the default after a stimulation; the stimulation adds connected length, not
+    /// width).
     Residual,
     /// The hydraulic apertures at the end of the stimulation, with the pump still on (an
     /// upper bound: the fractures are held open by the injection pressure).
     EndOfStimulation,
+    /// The apertures the flow-only scene gives its fractures (the default of the heat-only
+    /// path; refused after a stimulation, whose apertures are not given).
+    Given,
 }
 
 /// The heat-extraction stage: the same wells as the doublet stage, at one pressure drop.
@@ -217,9 +226,64 @@ impl PipelineSpec {
     /// heat models, the viscosity); the error names the first field out of range.
     pub fn validate(&self) -> Result<(), PipelineError> {
         self.production.validate("production")?;
+        if let Some(d) = self.domain {
+            let p = &self.production;
+            let inside = |q: [f64; 2]| q[0] >= d[0] && q[0] <= d[1] && q[1] >= d[2] && q[1] <= d[3];
+            if !(d.iter().all(|x| x.is_finite()) && d[0] < d[1] && d[2] < d[3]) {
+                return Err(invalid(
+                    "domain",
+                    format!("{d:?} is not a finite box [x_min, x_max, y_min, y_max] (m)"),
+                ));
+            }
+            if !(inside(p.injection) && inside(p.production)) {
+                return Err(invalid(
+                    "domain",
+                    format!(
+                        "{d:?} does not contain both wells, {:?} and {:?}",
+                        p.injection, p.production
+                    ),
+                ));
+            }
+        }
         self.upscaling.validate_grid()?;
         self.heat.validate()?;
         self.upscaling.validate_viscosity()
+    }
+}
+
+impl PipelineSpec {
+    /// The apertures the later stages take, checked against the stimulation scene: after a
+    /// stimulation (`has_rock`) `Residual` (the default) or `EndOfStimulation`; for a flow-only
+    /// scene `Given` (the default), and a `domain`, which a scene without a mesh lacks.
+    pub fn apertures_for(&self, has_rock: bool) -> Result<Apertures, PipelineError> {
+        let scene = self.stimulation.display();
+        match (self.apertures, has_rock) {
+            (None, true) => Ok(Apertures::Residual),
+            (Some(Apertures::Given), true) => Err(invalid(
+                "apertures",
+                format!(
+                    "Given: {scene} stimulates the rock, so its apertures are computed, not \
+                     given; choose Residual or EndOfStimulation"
+                ),
+            )),
+            (Some(a), true) => Ok(a),
+            (_, false) if self.domain.is_none() => Err(invalid(
+                "domain",
+                format!(
+                    "{scene} has no rock mesh (a flow-only scene): give the rock block the \
+                     heat models cover, domain: (x_min, x_max, y_min, y_max) in m"
+                ),
+            )),
+            (None | Some(Apertures::Given), false) => Ok(Apertures::Given),
+            (Some(Apertures::EndOfStimulation), false) => Err(invalid(
+                "apertures",
+                format!(
+                    "EndOfStimulation: {scene} is a flow-only scene (nothing is stimulated); \
+                     its apertures are Given"
+                ),
+            )),
+            (Some(Apertures::Residual), false) => Ok(Apertures::Residual),
+        }
     }
 }
 
@@ -364,6 +428,8 @@ impl ContinuumHeatSpec {
 pub enum State {
     Before,
     After,
+    /// The network of a flow-only scene, apertures as given (the heat-only path).
+    Given,
 }
 
 impl State {
@@ -371,6 +437,7 @@ impl State {
         match self {
             State::Before => "before",
             State::After => "after",
+            State::Given => "given",
         }
     }
 }
@@ -416,6 +483,11 @@ pub struct PipelineOptions {
 /// `summary.json`. Each stage's wall time is in `stages`.
 pub fn run_pipeline(path: &Path, opts: &PipelineOptions) -> Result<PipelineReport, PipelineError> {
     let spec = PipelineSpec::load(path)?;
+    // The stimulation scene is read and checked against the file before anything runs: a
+    // flow-only scene (no rock mesh) takes the heat-only path.
+    let scenario = crate::scenario::Scenario::load(&spec.stimulation, &spec.stimulation_set)
+        .map_err(|e| PipelineError::Stimulation(e.into()))?;
+    let apertures = spec.apertures_for(scenario.mesh.is_some())?;
     let out = opts
         .out
         .clone()
@@ -425,25 +497,26 @@ pub fn run_pipeline(path: &Path, opts: &PipelineOptions) -> Result<PipelineRepor
     let folder = plan.open()?;
     let mut stages = Vec::new();
     let stim = timed(&mut stages, "stimulation", || {
-        stimulation_stage(&spec, &out, opts)
+        stimulation_stage(&spec, scenario, &out, opts)
     })?;
-    let nets = Networks::of(&spec, &stim)?;
+    let nets = Networks::of(&spec, &stim, apertures)?;
+    let domain = spec.domain.unwrap_or(stim.mesh_box);
     let doublet = timed(&mut stages, "doublet", || {
         doublet_stage(&spec, &nets, &folder)
     })?;
     let permeability = timed(&mut stages, "upscaling", || {
-        upscaling_stage(&spec, &nets, stim.mesh_box, &folder)
+        upscaling_stage(&spec, &nets, domain, &folder)
     })?;
     let heat = heat_stage(
         &spec,
         &nets.views(),
         nets.chosen,
         &permeability,
-        stim.mesh_box,
+        domain,
         &mut stages,
     )?;
     write_heat(&folder, &spec, &heat)?;
-    let summary = write_summary(&folder, &spec, stim.summary, &stages, &heat)?;
+    let summary = write_summary(&folder, &spec, &nets, stim.summary, &stages, &heat)?;
     Ok(PipelineReport {
         out,
         doublet,
@@ -470,6 +543,7 @@ fn timed<T>(
 ///    `<out>/stimulation/`.
 fn stimulation_stage(
     spec: &PipelineSpec,
+    scenario: crate::scenario::ValidScenario,
     out: &Path,
     opts: &PipelineOptions,
 ) -> Result<RunReport, PipelineError> {
@@ -481,23 +555,30 @@ fn stimulation_stage(
         stop: opts.stop.clone(),
         ..Default::default()
     };
-    Ok(run_file(&spec.stimulation, &opts)?)
+    Ok(run_scenario(scenario, &opts)?)
 }
 
-/// The stimulation's networks as the later stages take them: before and after, the residual
-/// aperture, and the apertures the pipeline file chose (`Some(residual)`, or `None`: the
-/// networks' own).
+/// The stimulation's networks as the later stages take them: before and after (or the one
+/// given network of a flow-only scene), the residual aperture, and the apertures the pipeline
+/// file chose (`Some(residual)`, or `None`: the networks' own).
 struct Networks {
     start: FlowView,
     end: FlowView,
+    /// A flow-only scene: one network, `State::Given`, its apertures as given.
+    given: bool,
     residual: f64,
     chosen: Option<f64>,
+    apertures: Apertures,
 }
 
 impl Networks {
     /// The networks of a finished stimulation: refused when a signal stopped it, or when it
     /// has no fractures.
-    fn of(spec: &PipelineSpec, stim: &RunReport) -> Result<Self, PipelineError> {
+    fn of(
+        spec: &PipelineSpec,
+        stim: &RunReport,
+        apertures: Apertures,
+    ) -> Result<Self, PipelineError> {
         if let Some(signal) = stim.interrupted_by {
             return Err(PipelineError::Interrupted {
                 signal,
@@ -511,20 +592,28 @@ impl Networks {
             });
         };
         let residual = stim.residual_aperture;
-        let chosen = match spec.apertures {
+        let given = !stim.has_rock;
+        let chosen = match apertures {
             Apertures::Residual => Some(residual),
-            Apertures::EndOfStimulation => None,
+            Apertures::EndOfStimulation | Apertures::Given => None,
         };
         Ok(Networks {
             start,
             end,
+            given,
             residual,
             chosen,
+            apertures,
         })
     }
 
-    fn views(&self) -> [(State, &FlowView); 2] {
-        [(State::Before, &self.start), (State::After, &self.end)]
+    /// Before and after a stimulation; the one given network of a flow-only scene.
+    fn views(&self) -> Vec<(State, &FlowView)> {
+        if self.given {
+            vec![(State::Given, &self.start)]
+        } else {
+            vec![(State::Before, &self.start), (State::After, &self.end)]
+        }
     }
 }
 
@@ -566,7 +655,7 @@ fn doublet_stage(
                 spec.name,
                 state.name(),
                 dp / 1e6,
-                spec.apertures
+                nets.apertures
             ),
             &flow,
             &[(p.injection, "injection"), (p.production, "production")],
@@ -588,7 +677,7 @@ fn doublet_rate(
 ) -> Result<f64, PipelineError> {
     let p = &spec.production;
     let net = network_of_view(v, residual);
-    if state == State::Before && !reaches(&net, wells, p.reach) {
+    if state != State::After && !reaches(&net, wells, p.reach) {
         return Ok(0.0);
     }
     let flow = doublet_flow(&net, wells, spec.upscaling.viscosity, p.reach)
@@ -597,15 +686,15 @@ fn doublet_rate(
 }
 
 /// 3. The upscaling stage: Oda's tensor and the flow-based permeability of each network, with
-///    the chosen apertures, on `upscaling.blocks` over the stimulation's mesh (`mesh_box`):
+///    the chosen apertures, on `upscaling.blocks` over the rock block (`domain`: the mesh box unless the file gives one):
 ///    `permeability.csv`, `permeability.vtu` and the maps `permeability_{flow,oda}_{state}.png`.
 fn upscaling_stage(
     spec: &PipelineSpec,
     nets: &Networks,
-    mesh_box: [f64; 4],
+    domain: [f64; 4],
     folder: &Folder,
 ) -> Result<Vec<(State, BlockPermeability)>, PipelineError> {
-    let b = mesh_box;
+    let b = domain;
     let grid = Grid2 {
         origin: [b[0], b[2]],
         size: [b[1] - b[0], b[3] - b[2]],
@@ -669,6 +758,7 @@ fn permeability_maps(
 fn write_summary(
     folder: &Folder,
     spec: &PipelineSpec,
+    nets: &Networks,
     stimulation: serde_json::Value,
     stages: &[(&'static str, f64)],
     heat: &HeatResult,
@@ -676,7 +766,8 @@ fn write_summary(
     use serde_json::json;
     let mut summary = json!({
         "pipeline": spec.name,
-        "apertures": format!("{:?}", spec.apertures),
+        "apertures": format!("{:?}", nets.apertures),
+        "stimulated": !nets.given,
         "stimulation": stimulation,
         "stages": stages.iter().map(|(s, t)| json!({"stage": s, "wall_s": t})).collect::<Vec<_>>(),
         "systems": heat.timing.iter().map(|(s, calls, t)| json!({"system": s, "calls": calls, "total_s": t})).collect::<Vec<_>>(),
@@ -817,13 +908,13 @@ pub fn report_text(r: &PipelineReport) -> String {
     let mut s = String::from("doublet: production rate through the network (m^2/s per metre):\n");
     s += &format!(
         "{:<8} {:>10} {:>14} {:>16}\n",
-        "state", "dp [MPa]", "rate", "rate (residual)"
+        "state", "dp [Pa]", "rate", "rate (residual)"
     );
     for p in &r.doublet {
         s += &format!(
-            "{:<8} {:>10.1} {:>14.4e} {:>16.4e}\n",
+            "{:<8} {:>10.3e} {:>14.4e} {:>16.4e}\n",
             p.state.name(),
-            p.dp / 1e6,
+            p.dp,
             p.rate,
             p.rate_residual
         );
@@ -1043,13 +1134,13 @@ fn rock_quads(g: &RockGrid) -> Vec<[[f64; 2]; 4]> {
 ///    `heat.pressure_drop`, with their systems timed; each model's wall time in `stages`.
 fn heat_stage(
     spec: &PipelineSpec,
-    views: &[(State, &FlowView); 2],
+    views: &[(State, &FlowView)],
     apertures: Option<f64>,
     permeability: &[(State, BlockPermeability)],
-    mesh_box: [f64; 4],
+    domain: [f64; 4],
     stages: &mut Vec<(&'static str, f64)>,
 ) -> Result<HeatResult, PipelineError> {
-    let heat = HeatRun::new(spec, mesh_box);
+    let heat = HeatRun::new(spec, domain);
     let timing = crate::timing::TimingLayer::default();
     let table = timing.table.clone();
     let subscriber =
@@ -1110,11 +1201,11 @@ struct HeatRun<'a> {
     end_time: f64,
     snap_times: Vec<f64>,
     wells: [PressureWell; 2],
-    mesh_box: [f64; 4],
+    domain: [f64; 4],
 }
 
 impl<'a> HeatRun<'a> {
-    fn new(spec: &'a PipelineSpec, mesh_box: [f64; 4]) -> Self {
+    fn new(spec: &'a PipelineSpec, domain: [f64; 4]) -> Self {
         let h = &spec.heat;
         let snap_times: Vec<f64> = h
             .snapshot_years
@@ -1129,7 +1220,7 @@ impl<'a> HeatRun<'a> {
             end_time: h.years * YEAR,
             snap_times,
             wells: doublet_wells(&spec.production, h.pressure_drop),
-            mesh_box,
+            domain,
         }
     }
 
@@ -1187,10 +1278,10 @@ impl<'a> HeatRun<'a> {
         })
     }
 
-    /// The discrete model's rock grid over the stimulated block (the mesh box), graded from
+    /// The discrete model's rock grid over the stimulated block (`domain`), graded from
     /// `h_min` at the lines through the wells to `h_max`.
     fn rock_grid(&self) -> Result<RockGrid, PipelineError> {
-        let (d, b) = (&self.spec.heat.discrete, self.mesh_box);
+        let (d, b) = (&self.spec.heat.discrete, self.domain);
         let lines_x: Vec<f64> = Vec::new();
         let mut lines_y: Vec<f64> = self.wells.iter().map(|w| w.position[1]).collect();
         lines_y.sort_by(f64::total_cmp);
