@@ -332,33 +332,29 @@ fn rows_after_splits_are_marked_and_the_rest_is_smooth() {
 /// within `TRUSTED_RADIUS_EDGES` edges is not trusted to decide growth, and under
 /// `Toughness` without an `initiation` strength nothing decides there. `summary.json` `tips`
 /// reports those apart (`untrusted`: count, largest K_eq, K_I, K_II, where) and warns when
-/// one is past K_Ic: on `example2_small.ron` with `Toughness(k_ic: 1.5e6)` 4 of 7 tips are
-/// untrusted, the largest at 3.07e6 Pa m^0.5 (it had been reported as the run's largest K).
+/// one is past K_Ic. Scene: a pressurised 2 m crack (K_I about 1.7 K_Ic) whose right tip is
+/// two edges from a vertical fracture. (It was `example2_small.ron` with `Toughness(k_ic:
+/// 1.5e6)` to 0.05 s, where 4 of 7 tips were untrusted; they were its zigzag fractures' own
+/// faces, and are trusted now: to 0.6 s one tip remains untrusted there, at 4.5e7.)
 #[test]
 fn tips_past_k_ic_that_cannot_grow_are_reported_apart() {
-    let out = tmp("tips");
     let s = run_ok(
-        scenario("example2_small.ron"),
-        &out,
-        &[
-            "--set",
-            "fracture.strength=None",
-            "--set",
-            "fracture.criterion=Some(Toughness(k_ic: 1.5e6))",
-            "--set",
-            "time.end=Time(0.05)",
-            "--set",
-            "production=None",
-        ],
+        pressurised_crack(
+            "near",
+            0.0,
+            "(from: (-1.0, 0.0), to: (1.0, 0.0)), (from: (1.2, -1.0), to: (1.2, 1.0))",
+            1,
+        ),
+        &tmp("tips"),
+        &[],
     );
     let tips = &s["tips"];
     let untrusted = &tips["untrusted"];
     assert!(untrusted["count"].as_u64().unwrap() >= 1, "{tips}");
     let k = untrusted["k_eq_max"].as_f64().unwrap();
-    assert!(k >= 1.5e6, "{tips}");
-    if let Some(trusted) = tips["k_eq_max"].as_f64() {
-        assert!(trusted < 1.5e6, "a trusted tip past K_Ic stayed: {tips}");
-    }
+    assert!(k >= 1.0e6, "{tips}");
+    let at = untrusted["at"].as_array().unwrap();
+    assert_eq!(at[0].as_f64(), Some(1.0), "{tips}");
     let warned = s["warnings"]
         .as_array()
         .unwrap()
@@ -366,4 +362,115 @@ fn tips_past_k_ic_that_cannot_grow_are_reported_apart() {
         .filter_map(|w| w.as_str())
         .any(|w| w.contains("within 3 edges of another fracture") && w.contains("initiation"));
     assert!(warned, "{s}");
+}
+
+/// A pressurised crack (`fracture.pressure`, toughness criterion, quasi-static rock) in a 10 m
+/// clamped square of h = 0.1 m: `mesh` and the pre-existing crack `from`-`to` substituted.
+fn pressurised_crack(
+    name: &str,
+    mesh_fraction: f64,
+    crack: &str,
+    resolves: u32,
+) -> std::path::PathBuf {
+    let dir = tmp(&format!("crack_{name}"));
+    std::fs::create_dir_all(&dir).unwrap();
+    let text = format!(
+        "(
+    name: \"{name}\",
+    mesh: Perturbed(width: 10.0, height: 10.0, origin: (-5.0, -5.0), h: 0.1, fraction: {mesh_fraction}, seed: 3),
+    material: (young: 20e9, poisson: 0.2, density: 2700.0),
+    boundary: Sides(left: Fixed, right: Fixed, bottom: Fixed, top: Fixed),
+    fracture: Some((
+        criterion: Some(Toughness(k_ic: 1.0e6)),
+        preexisting: [{crack}],
+        pressure: 1e6,
+    )),
+    time: (end: Static(tol: 1e-8), max_steps: 100, max_resolves: {resolves}, solid_scheme: QuasiStatic),
+)"
+    );
+    let path = dir.join("scene.ron");
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+/// The largest K_I of the trusted tips and where the tips are (`summary.json` `tips`).
+fn tips_of(s: &serde_json::Value) -> (f64, [f64; 2]) {
+    let t = &s["tips"];
+    assert!(t.get("untrusted").is_none(), "untrusted tips: {t}");
+    let at = t["at"].as_array().unwrap();
+    (
+        t["k1"].as_f64().unwrap(),
+        [at[0].as_f64().unwrap(), at[1].as_f64().unwrap()],
+    )
+}
+
+/// Issue 41 item 10, first defect: faces opened after setup carried no `fracture.pressure`
+/// (the pressure was applied once, to the pre-existing faces), while the criterion's
+/// interaction integral loaded them: K was over-estimated (on a crack grown from a = 1 m to
+/// 4 m in a 20 m square: K_I 1.41e6 from the integral, 0.96e6 from J, against 2.88e6 for the
+/// pressurised crack of that length). Now a crack grown from a = 1 m at K_Ic = 1.5e6 (K_I
+/// rises with a, then falls near the clamped walls) stops at a = 4.8 m with the same K_I as a
+/// pre-existing crack of that length on the same mesh (measured: equal to 5 digits, 1.4634e6;
+/// 2 %: the grown crack's faces are the same mesh edges, so only the load history differs,
+/// and a linear solid has none).
+#[test]
+fn a_grown_pressurised_crack_carries_the_pressure_on_its_new_faces() {
+    let grown = run_ok(
+        pressurised_crack("grown", 0.0, "(from: (-1.0, 0.0), to: (1.0, 0.0))", 200),
+        &tmp("crack_grown_out"),
+        &["--set", "fracture.criterion=Some(Toughness(k_ic: 1.5e6))"],
+    );
+    assert_eq!(grown["quasi_static"]["resolve_cap_hits"], 0, "{grown}");
+    let (k_grown, at) = tips_of(&grown);
+    let a = at[0].abs();
+    assert!(a >= 2.0 && at[1] == 0.0, "grown to {at:?}");
+    assert!(k_grown < 1.5e6, "stopped at K_I {k_grown:e}");
+    let pre = run_ok(
+        pressurised_crack(
+            "pre",
+            0.0,
+            &format!("(from: ({:.1}, 0.0), to: ({:.1}, 0.0))", -a, a),
+            1,
+        ),
+        &tmp("crack_pre_out"),
+        &["--set", "fracture.criterion=Some(Toughness(k_ic: 1.0e9))"],
+    );
+    let (k_pre, _) = tips_of(&pre);
+    println!("a = {a} m: K_I grown {k_grown:.4e}, pre-existing {k_pre:.4e}");
+    assert!(
+        (k_grown / k_pre - 1.0).abs() < 0.02,
+        "{k_grown:e} vs {k_pre:e}"
+    );
+}
+
+/// Issue 41 item 10: a pre-existing crack at 30 degrees on a perturbed mesh (its path through
+/// the mesh zigzags by up to 67 degrees), pressurised past K_Ic (K_I = p sqrt(pi a) = 1.77 K_Ic
+/// at a = 1 m), must grow. Its tips had been "near another fracture" (their own zigzag faces
+/// off the straight line behind the last joint), never trusted, never grown. Now the fracture
+/// behind a tip is walked back through its own joints: their faces are its own, their mean
+/// line is its direction, and growth follows the line from the tip along the growth
+/// direction. Measured: 10 resolves, 2 x 10 edges, every tip trusted, the tips 2.0-2.2 m
+/// from the centre at 27-30 degrees. Bounds: growth at each tip (at least 5 edges), the
+/// direction within 10 degrees of 30 (the path zigzags by about one element about its line).
+#[test]
+fn an_inclined_crack_on_a_perturbed_mesh_grows_past_k_ic() {
+    let s = run_ok(
+        pressurised_crack(
+            "inclined",
+            0.25,
+            "(from: (-0.8660254037844386, -0.5), to: (0.8660254037844386, 0.5))",
+            10,
+        ),
+        &tmp("crack_inclined_out"),
+        &[],
+    );
+    let (k1, at) = tips_of(&s);
+    let new = s["fractures"]["new_cells"].as_u64().unwrap();
+    let r = at[0].hypot(at[1]);
+    let angle = at[1].atan2(at[0]).to_degrees();
+    let angle = if angle < 0.0 { angle + 180.0 } else { angle };
+    println!("new cells {new}, tip at {at:?}: r {r:.2} m, {angle:.1} deg, K_I {k1:.3e}");
+    assert!(new >= 10, "{new} new cells");
+    assert!(r >= 1.5, "tip at {r} m");
+    assert!((angle - 30.0).abs() < 10.0, "{angle} deg");
 }

@@ -232,6 +232,58 @@ pub fn apply_face_pressure(model: &mut Model, p: f64) {
     model.topology_generation += 1;
 }
 
+/// Per node, the nodal loads of a uniform pressure p (Pa) on both faces of every joint (what
+/// [`apply_face_pressure`] adds), N per metre.
+pub fn face_pressure_loads(model: &Model, p: f64) -> HashMap<Entity, [f64; 2]> {
+    let joints: Vec<Joint> = model.world.query::<&Joint>().iter().copied().collect();
+    let mut loads: HashMap<Entity, [f64; 2]> = HashMap::new();
+    for j in joints {
+        for e in j.edges {
+            let n = outward_normal(model, e);
+            let en = model.world.get::<&EdgeNodes>(e).expect("edge").0;
+            let [a, b] = en.map(|x| model.world.get::<&NodeRef>(x).expect("node").0);
+            let len = (b[0] - a[0]).hypot(b[1] - a[1]);
+            for node in en {
+                let f = loads.entry(node).or_insert([0.0; 2]);
+                f[0] -= p * n[0] * 0.5 * len;
+                f[1] -= p * n[1] * 0.5 * len;
+            }
+        }
+    }
+    loads
+}
+
+/// After a split under a uniform face pressure p (Pa): each daughter of a split node had its
+/// mass share of the mother's load, including the mother's face-pressure load (zero at a
+/// fracture tip, where the two faces' loads cancel). It now carries the load of the faces it
+/// has instead: the new joints' faces and its own side of the old ones. `before`:
+/// [`face_pressure_loads`] before the split; `daughters_of`: the split's mothers and daughters.
+/// Without this, faces opened after setup carry no pressure.
+pub fn reload_face_pressure(
+    model: &mut Model,
+    p: f64,
+    before: &HashMap<Entity, [f64; 2]>,
+    daughters_of: &[(Entity, Vec<Entity>)],
+) {
+    let after = face_pressure_loads(model, p);
+    for (m, ds) in daughters_of {
+        let fm = before.get(m).copied().unwrap_or([0.0; 2]);
+        let mother_mass = model.world.get::<&NodeMass>(*m).expect("node").0;
+        for d in ds {
+            let share = if mother_mass > 0.0 {
+                model.world.get::<&NodeMass>(*d).expect("node").0 / mother_mass
+            } else {
+                0.0
+            };
+            let fd = after.get(d).copied().unwrap_or([0.0; 2]);
+            let mut bc = model.world.get::<&mut NodeBc>(*d).expect("node");
+            for k in 0..2 {
+                bc.load[k] += fd[k] - share * fm[k];
+            }
+        }
+    }
+}
+
 /// Opening of a joint, m: (x_q - x_p) . n_p with x the current edge centres and n_p the outward
 /// normal of face p (seed (8)); positive when the faces separate. Also the centre (m) and length.
 pub fn joint_opening(model: &Model, j: &Joint) -> ([f64; 2], f64, f64) {

@@ -27,6 +27,8 @@ pub struct SplitReport {
     pub opened_edges: usize,
     pub cells: Vec<Entity>,
     pub joints: Vec<Entity>,
+    /// Each split node (mother) and its daughters, in the mothers' stable order.
+    pub daughters_of: Vec<(Entity, Vec<Entity>)>,
 }
 
 fn stable(world: &hecs::World, e: Entity) -> u64 {
@@ -226,6 +228,7 @@ fn spawn_daughters(
         model.world.get::<&mut NodeLink>(*n).expect("node").in_solid = false;
         report.split_nodes += 1;
         report.daughters += ds.len();
+        report.daughters_of.push((*n, ds.clone()));
         daughters.insert(*n, ds);
     }
     daughters

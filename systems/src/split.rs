@@ -32,7 +32,17 @@ pub fn split(
         return false;
     }
     sync::write_back(model, solid, flow, p);
+    // A uniform face pressure (`fracture.pressure`) acts on the faces opened now too.
+    let face = p.face_pressure.map(|fp| {
+        (
+            fp,
+            hydrofrac_core::fractures::face_pressure_loads(model, fp),
+        )
+    });
     let r = hydrofrac_core::split::open_edges(model, &ready, p.residual_aperture, t);
+    if let Some((fp, before)) = &face {
+        hydrofrac_core::fractures::reload_face_pressure(model, *fp, before, &r.daughters_of);
+    }
     frac.splits += r.split_nodes;
     frac.opened_edges += r.opened_edges;
     if r.split_nodes == 0 {

@@ -82,6 +82,10 @@ pub struct TipGeometry {
     pub left: [f64; 2],
     /// Length of the joint behind, m.
     pub b: f64,
+    /// Where the fracture zigzags behind the tip (`dir` is then its mean direction): the
+    /// tip's projection on the mean line, m. Growth then follows the line from it along the
+    /// growth direction ([`Tips::mark`]). `None` for a fracture straight behind the tip.
+    pub anchor: Option<[f64; 2]>,
     /// Radius R of the integrals' disc, m.
     pub radius: f64,
     /// No other fracture within [`TRUSTED_RADIUS_EDGES`] edge lengths; not in checkpoints
@@ -101,6 +105,10 @@ pub struct TipGeometry {
     /// Per face: the integral of q / (2 sqrt r) dr along it, and +1 when its face q is the
     /// upper one (-1 otherwise).
     face_aux: Vec<(f64, f64)>,
+    /// Where the fracture zigzags behind the tip (empty where it is straight): per face, the
+    /// integrals of u^a_j,1 q along it, evaluated on the face (not on the x1 axis), for its
+    /// face q and its face p, per mode I, II, j = 1, 2 (local axes).
+    face_exact: Vec<[[[f64; 2]; 2]; 2]>,
 }
 
 /// What the criterion measured at one tip in the last evaluation.
@@ -228,6 +236,8 @@ pub fn max_hoop_stress(k1: f64, k2: f64) -> (f64, f64) {
 struct Sides {
     faces: std::collections::HashSet<(u32, u32)>,
     inner: std::collections::HashSet<(u32, u32)>,
+    /// (node, joint) for every node of every joint, sorted.
+    joints_at: Vec<(u32, usize)>,
 }
 
 impl Sides {
@@ -257,7 +267,94 @@ impl Sides {
                 )
                 .collect()
         };
-        Sides { faces, inner }
+        let mut joints_at: Vec<(u32, usize)> = if !any {
+            Vec::new()
+        } else {
+            v.joint_nodes
+                .iter()
+                .enumerate()
+                .flat_map(|(k, j)| j.map(|i| (i, k)))
+                .collect()
+        };
+        joints_at.sort_unstable();
+        joints_at.dedup();
+        Sides {
+            faces,
+            inner,
+            joints_at,
+        }
+    }
+
+    /// The joints with a node at `i`.
+    fn joints_at(&self, i: u32) -> impl Iterator<Item = usize> + '_ {
+        let lo = self.joints_at.partition_point(|e| e.0 < i);
+        let hi = self.joints_at.partition_point(|e| e.0 <= i);
+        self.joints_at[lo..hi].iter().map(|e| e.1)
+    }
+}
+
+/// The fracture behind a tip, walked back from the tip's `joint` (far daughters `pair`) through
+/// the one joint that continues each far end (a junction, the other tip or `reach` m from the
+/// tip at `x` ends the walk): the joints, and the reference positions of their far ends.
+fn chain_behind(
+    v: &SolidView,
+    sides: &Sides,
+    joint: usize,
+    pair: [u32; 2],
+    x: [f64; 2],
+    reach: f64,
+) -> (Vec<usize>, Vec<[f64; 2]>) {
+    let dist = |i: u32| {
+        let y = v.x0[i as usize];
+        (y[0] - x[0]).hypot(y[1] - x[1])
+    };
+    let (mut chain, mut points) = (vec![joint], vec![v.x0[pair[0] as usize]]);
+    let (mut cur, mut far) = (joint, pair);
+    while far[0] != far[1] && far.iter().any(|&i| dist(i) <= reach) && chain.len() < 100_000 {
+        let mut next: Vec<usize> = far
+            .iter()
+            .flat_map(|&i| sides.joints_at(i))
+            .filter(|&k| k != cur)
+            .collect();
+        next.sort_unstable();
+        next.dedup();
+        let [n] = next[..] else { break };
+        if chain.contains(&n) {
+            break;
+        }
+        let jn = v.joint_nodes[n];
+        let (a_end, b_end) = ([jn[0], jn[2]], [jn[1], jn[3]]);
+        far = if a_end.iter().any(|i| far.contains(i)) {
+            b_end
+        } else {
+            a_end
+        };
+        chain.push(n);
+        points.push(v.x0[far[0] as usize]);
+        cur = n;
+    }
+    (chain, points)
+}
+
+/// The mean line of a zigzag fracture behind a tip at `x`: the principal axis of the tip and
+/// the points behind it (least squares), pointing to the tip, and their centroid.
+fn mean_line(x: [f64; 2], points: &[[f64; 2]]) -> ([f64; 2], [f64; 2]) {
+    let n = (points.len() + 1) as f64;
+    let all = || std::iter::once(&x).chain(points);
+    let m = all().fold([0.0; 2], |a, p| [a[0] + p[0] / n, a[1] + p[1] / n]);
+    let (mut sxx, mut syy, mut sxy) = (0.0, 0.0, 0.0);
+    for p in all() {
+        let d = [p[0] - m[0], p[1] - m[1]];
+        sxx += d[0] * d[0];
+        syy += d[1] * d[1];
+        sxy += d[0] * d[1];
+    }
+    let a = 0.5 * (2.0 * sxy).atan2(sxx - syy);
+    let e = [a.cos(), a.sin()];
+    if (x[0] - m[0]) * e[0] + (x[1] - m[1]) * e[1] >= 0.0 {
+        (e, m)
+    } else {
+        ([-e[0], -e[1]], m)
     }
 }
 
@@ -321,7 +418,15 @@ impl Disc {
     /// reach the outer boundary (its tractions are not in J) nor another fracture (the
     /// near-tip field is then not the single crack's, and its faces are not along x1): it
     /// shrinks to just inside the nearest such node.
-    fn grow(v: &SolidView, sides: &Sides, node: u32, f: &TipFrame, b: f64, shortest: f64) -> Self {
+    fn grow(
+        v: &SolidView,
+        sides: &Sides,
+        own: &std::collections::HashSet<(u32, u32)>,
+        node: u32,
+        f: &TipFrame,
+        b: f64,
+        shortest: f64,
+    ) -> Self {
         let (x, dir) = (f.x, f.dir);
         let mut radius = RADIUS_EDGES * shortest;
         let behind_line = |i: u32| {
@@ -347,10 +452,12 @@ impl Disc {
                     for (m, &j) in c.iter().enumerate() {
                         let k = c[(m + 1) % 3];
                         let side = (j.min(k), j.max(k));
-                        // An outer boundary side, or a face of another fracture (or of
-                        // this one off the straight line behind the tip).
-                        let fracture =
-                            sides.faces.contains(&side) && ![j, k].iter().all(|&i| behind_line(i));
+                        // An outer boundary side, or a face of another fracture (not of this
+                        // one behind the tip: on the straight line behind it, or on its
+                        // zigzag path, `own`).
+                        let fracture = sides.faces.contains(&side)
+                            && !own.contains(&side)
+                            && ![j, k].iter().all(|&i| behind_line(i));
                         if fracture || !sides.inner.contains(&side) {
                             for y in [j, k].map(|i| v.x0[i as usize]) {
                                 let d = (y[0] - x[0]).hypot(y[1] - x[1]);
@@ -400,11 +507,10 @@ fn tip_geometry(
     let x = v.x0[node as usize];
     // The pair behind: both daughters sit at the same reference point.
     let xb = v.x0[pair[0] as usize];
-    let (dir, b) = unit([x[0] - xb[0], x[1] - xb[1]]);
-    let left = [-dir[1], dir[0]];
+    let (last, b) = unit([x[0] - xb[0], x[1] - xb[1]]);
     let jn = hydrofrac_core::view::joint_frame(v, joint).n;
-    // Face p's outward normal points to face q: q is upper when it points left.
-    let q_upper = jn[0] * left[0] + jn[1] * left[1] >= 0.0;
+    // Face p's outward normal points to face q: q is upper when it points left of the joint.
+    let q_upper = jn[1] * last[0] - jn[0] * last[1] >= 0.0;
     let behind = if q_upper {
         [pair[1], pair[0]]
     } else {
@@ -420,8 +526,8 @@ fn tip_geometry(
             (k, unit([o[0] - x[0], o[1] - x[1]]).0)
         })
         .collect();
-    // The disc: R = 3 edge lengths at the tip (the shortest of the joint behind and
-    // the edges ahead), elements reached through nodes inside it.
+    // The disc: R = RADIUS_EDGES edge lengths at the tip (the shortest of the joint behind
+    // and the edges ahead), elements reached through nodes inside it.
     let shortest = ahead
         .iter()
         .map(|&(k, _)| {
@@ -429,8 +535,36 @@ fn tip_geometry(
             (e1[0] - e0[0]).hypot(e1[1] - e0[1])
         })
         .fold(b, f64::min);
+    // The fracture behind within the disc. Where it zigzags off the straight line through
+    // the last joint (a path through a mesh that does not follow it), its mean direction is
+    // the tip's direction, and its faces are this fracture's, not another's.
+    let (chain, points) = chain_behind(v, sides, joint, pair, x, RADIUS_EDGES * shortest);
+    let straight = points.iter().all(|y| {
+        let d = [y[0] - x[0], y[1] - x[1]];
+        (last[0] * d[1] - last[1] * d[0]).abs() <= 1e-6 * b
+    });
+    let (dir, path, anchor) = if straight {
+        (last, Vec::new(), None)
+    } else {
+        let path: Vec<[f64; 2]> = std::iter::once(x).chain(points.iter().copied()).collect();
+        let (dir, centre) = mean_line(x, &points);
+        let s = (x[0] - centre[0]) * dir[0] + (x[1] - centre[1]) * dir[1];
+        let anchor = [centre[0] + s * dir[0], centre[1] + s * dir[1]];
+        (dir, path, Some(anchor))
+    };
+    let left = [-dir[1], dir[0]];
+    let own: std::collections::HashSet<(u32, u32)> = chain
+        .iter()
+        .flat_map(|&k| {
+            let j = v.joint_nodes[k];
+            [
+                (j[0].min(j[1]), j[0].max(j[1])),
+                (j[2].min(j[3]), j[2].max(j[3])),
+            ]
+        })
+        .collect();
     let frame = TipFrame { x, dir, left };
-    let disc = Disc::grow(v, sides, node, &frame, b, shortest);
+    let disc = Disc::grow(v, sides, &own, node, &frame, b, shortest);
     let radius = disc.radius;
     let q = |i: u32| disc_weight(x, v.x0[i as usize], radius);
     let elements: Vec<(u32, [f64; 2])> = disc
@@ -452,6 +586,7 @@ fn tip_geometry(
         .filter(|(_, jn)| jn.iter().any(|i| disc.nodes.binary_search(i).is_ok()))
         .map(|(k, jn)| (k, [q(jn[0]), q(jn[1])]))
         .collect();
+    let face_aux = face_aux(v, &faces, &frame);
     TipGeometry {
         node,
         joint,
@@ -459,34 +594,57 @@ fn tip_geometry(
         dir,
         left,
         b,
+        anchor,
         radius,
         trusted: disc.nearest_fracture >= 0.999 * TRUSTED_RADIUS_EDGES * shortest,
         ahead,
-        aux: element_aux(v, p, &elements, &frame),
+        aux: element_aux(v, p, &elements, &frame, &path),
         elements,
-        face_aux: face_aux(v, &faces, &frame),
+        face_exact: if path.is_empty() {
+            Vec::new()
+        } else {
+            face_exact(v, p, &faces, &frame, &face_aux)
+        },
+        face_aux,
         faces,
     }
 }
 
 /// Per element of the disc (with its grad q, global axes), the auxiliary fields integrated
-/// over it ([`TipGeometry`]'s `aux`).
+/// over it ([`TipGeometry`]'s `aux`). `path`: the tip and the nodes of a fracture that
+/// zigzags behind it (reference positions; empty when it is straight): an element behind the
+/// tip is above or below the fracture's path, not the x1 axis, and the auxiliary field is
+/// continued across the axis inside it (its branch cut follows the fracture).
 fn element_aux(
     v: &SolidView,
     p: &SolidParams,
     elements: &[(u32, [f64; 2])],
     f: &TipFrame,
+    path: &[[f64; 2]],
 ) -> Vec<[[f64; 7]; 2]> {
+    let path: Vec<[f64; 2]> = path.iter().map(|&y| f.local(y)).collect();
+    // The path's x2 at x1 (behind the tip; 0 where the path does not reach).
+    let path_at = |x1: f64| {
+        path.windows(2)
+            .find(|w| (w[0][0] - x1) * (w[1][0] - x1) <= 0.0 && w[0][0] != w[1][0])
+            .map_or(0.0, |w| {
+                w[0][1] + (x1 - w[0][0]) / (w[1][0] - w[0][0]) * (w[1][1] - w[0][1])
+            })
+    };
     elements
         .iter()
         .map(|&(e, gq)| {
             let (g, c) = (&v.geom[e as usize], v.conn[e as usize]);
             let xs = c.map(|i| f.local(v.x0[i as usize]));
-            let side = if xs.iter().map(|y| y[1]).sum::<f64>() >= 0.0 {
-                1.0
+            let sum_y = xs.iter().map(|y| y[1]).sum::<f64>();
+            let above = if path.is_empty() {
+                sum_y >= 0.0
             } else {
-                -1.0
+                let cx = xs.iter().map(|y| y[0]).sum::<f64>() / 3.0;
+                cx >= 0.0 && sum_y >= 0.0 || cx < 0.0 && sum_y / 3.0 >= path_at(cx)
             };
+            let side = if above { 1.0 } else { -1.0 };
+            let continued = !path.is_empty();
             let ql = f.rot(gq);
             let w = g[0] / 3.0;
             let mut out = [[0.0; 7]; 2];
@@ -494,7 +652,7 @@ fn element_aux(
                 let y =
                     [0, 1].map(|d| bary[0] * xs[0][d] + bary[1] * xs[1][d] + bary[2] * xs[2][d]);
                 for (m, mode) in [Mode::I, Mode::II].into_iter().enumerate() {
-                    let (sa, ha) = auxiliary(mode, y, side, p);
+                    let (sa, ha) = auxiliary(mode, y, side, continued, p);
                     let o = &mut out[m];
                     for j in 0..2 {
                         o[j] += w * ha[j][0];
@@ -530,6 +688,59 @@ fn face_aux(v: &SolidView, faces: &[(usize, [f64; 2])], f: &TipFrame) -> Vec<(f6
             // Face q is upper when p's outward normal (towards q) points up.
             let n = hydrofrac_core::view::joint_frame(v, k).n;
             (iq, if f.rot(n)[1] >= 0.0 { 1.0 } else { -1.0 })
+        })
+        .collect()
+}
+
+/// Gauss-Legendre, 4 points on [0, 1]: (point, weight).
+const GAUSS4: [(f64, f64); 4] = [
+    (0.069_431_844_202_973_71, 0.173_927_422_568_726_9),
+    (0.330_009_478_207_571_9, 0.326_072_577_431_273_1),
+    (0.669_990_521_792_428_1, 0.326_072_577_431_273_1),
+    (0.930_568_155_797_026_3, 0.173_927_422_568_726_9),
+];
+
+/// Per joint face in the disc of a fracture that zigzags behind the tip, the integrals of
+/// u^a_j,1 q along it, on the face itself, for face q (branch `q_side`) and face p (the other
+/// branch), per mode ([`TipGeometry`]'s `face_exact`). The faces' direction and position off
+/// the x1 axis matter there: under a large contact traction (a closed fracture in compression)
+/// the axis-aligned form of [`face_aux`] is off by the traction times the faces' angle. The
+/// variable s = u^2 from the end nearer the tip takes the 1/sqrt(r) singularity out.
+fn face_exact(
+    v: &SolidView,
+    p: &SolidParams,
+    faces: &[(usize, [f64; 2])],
+    f: &TipFrame,
+    face_aux: &[(f64, f64)],
+) -> Vec<[[[f64; 2]; 2]; 2]> {
+    faces
+        .iter()
+        .zip(face_aux)
+        .map(|(&(k, qab), &(_, q_side))| {
+            let jn = v.joint_nodes[k];
+            let (ya, yb) = (f.local(v.x0[jn[0] as usize]), f.local(v.x0[jn[1] as usize]));
+            let (y0, y1, q0, q1) = if ya[0].hypot(ya[1]) <= yb[0].hypot(yb[1]) {
+                (ya, yb, qab[0], qab[1])
+            } else {
+                (yb, ya, qab[1], qab[0])
+            };
+            let d = [y1[0] - y0[0], y1[1] - y0[1]];
+            let len = d[0].hypot(d[1]);
+            let mut out = [[[0.0; 2]; 2]; 2];
+            for (u, w) in GAUSS4 {
+                let t = u * u;
+                let ds = 2.0 * u * len * w;
+                let y = [y0[0] + t * d[0], y0[1] + t * d[1]];
+                let q = q0 + t * (q1 - q0);
+                for (si, side) in [q_side, -q_side].into_iter().enumerate() {
+                    for (m, mode) in [Mode::I, Mode::II].into_iter().enumerate() {
+                        let (_, h) = auxiliary(mode, y, side, true, p);
+                        out[si][m][0] += h[0][0] * q * ds;
+                        out[si][m][1] += h[1][0] * q * ds;
+                    }
+                }
+            }
+            out
         })
         .collect()
 }
@@ -574,10 +785,14 @@ enum Mode {
 /// `y` (x1 ahead of the tip, x2 its left normal; `side` = +1 above the crack, -1 below, the
 /// branch for points on the crack line behind): its stress sigma_ij, Pa / (Pa sqrt(m)), and
 /// displacement gradient u_i,j (central differences of the closed-form displacement).
+/// `continued`: behind the tip, a point on the other side of the x1 axis than `side` takes
+/// the angle beyond +-pi (the field continued across the axis, for a fracture that zigzags
+/// about it).
 fn auxiliary(
     mode: Mode,
     y: [f64; 2],
     side: f64,
+    continued: bool,
     p: &SolidParams,
 ) -> ([[f64; 2]; 2], [[f64; 2]; 2]) {
     let nu = p.lam / (2.0 * (p.lam + p.g));
@@ -587,6 +802,8 @@ fn auxiliary(
         let mut th = y[1].atan2(y[0]);
         if (th.abs() - PI).abs() < 1e-12 {
             th = side * PI;
+        } else if continued && y[0] < 0.0 && th * side < 0.0 {
+            th += side * 2.0 * PI;
         }
         (r, th)
     };
@@ -753,7 +970,10 @@ impl Tips {
                 // u^a,1 = -s C / (2 sqrt r) e, integrated against q at refresh (`face_aux`).
                 let nu = p.lam / (2.0 * (p.lam + p.g));
                 let cc = (4.0 - 4.0 * nu) / (2.0 * p.g * (2.0 * PI).sqrt());
-                for (&(k, qab), &(iq, q_side)) in t.faces.iter().zip(&t.face_aux) {
+                for (f_idx, (&(k, qab), &(iq, q_side))) in
+                    t.faces.iter().zip(&t.face_aux).enumerate()
+                {
+                    let exact = t.face_exact.get(f_idx);
                     let jf = hydrofrac_core::view::joint_frame(v, k);
                     let pr = joint_pressure(k);
                     let st = &v.joint_state[k];
@@ -767,13 +987,23 @@ impl Tips {
                     let tau = [yb[0] - ya[0], yb[1] - ya[1]];
                     let len2 = tau[0] * tau[0] + tau[1] * tau[1];
                     let qm = 0.5 * (qab[0] + qab[1]) * len2.sqrt();
-                    for (sgn, na, nb, side) in [(1.0, qa, qb, q_side), (-1.0, pa, pb, -q_side)] {
+                    for (si, (sgn, na, nb, side)) in
+                        [(1.0, qa, qb, q_side), (-1.0, pa, pb, -q_side)]
+                            .into_iter()
+                            .enumerate()
+                    {
                         let t_f = [sgn * tq[0], sgn * tq[1]];
                         let du = rot([0, 1].map(|d| v.u[nb as usize][d] - v.u[na as usize][d]));
                         // u,1 along the face: (du/ds)(tau . e1) / |tau|.
                         m[0] -= (t_f[0] * du[0] + t_f[1] * du[1]) * tau[0] / len2 * qm;
-                        m[1] += side * cc * t_f[1] * iq;
-                        m[2] += side * cc * t_f[0] * iq;
+                        if let Some(a) = exact {
+                            for mode in 0..2 {
+                                m[1 + mode] -= t_f[0] * a[si][mode][0] + t_f[1] * a[si][mode][1];
+                            }
+                        } else {
+                            m[1] += side * cc * t_f[1] * iq;
+                            m[2] += side * cc * t_f[0] * iq;
+                        }
                     }
                 }
                 let j = m[0];
@@ -840,12 +1070,33 @@ impl Tips {
             }
             let (c, sn) = (s.theta.cos(), s.theta.sin());
             let want = [c * t.dir[0] - sn * t.dir[1], sn * t.dir[0] + c * t.dir[1]];
-            let best = t
+            let ahead = t
                 .ahead
                 .iter()
                 .map(|&(k, d)| (d[0] * want[0] + d[1] * want[1], k))
-                .filter(|(cos, _)| *cos > 0.0)
-                .max_by(|p, q| p.0.total_cmp(&q.0).then(q.1.cmp(&p.1)));
+                .filter(|(cos, _)| *cos > 0.0);
+            let best = match t.anchor {
+                // Straight behind: the edge closest in direction.
+                None => ahead.max_by(|p, q| p.0.total_cmp(&q.0).then(q.1.cmp(&p.1))),
+                // Zigzag behind: the edge whose far node lies closest to the line from the
+                // anchor along the growth direction, so that the path zigzags about that
+                // line instead of drifting into the mesh's directions.
+                Some(a) => {
+                    let off = |k: u32| {
+                        let [e0, e1] = v.edge_nodes[k as usize];
+                        let o = v.x0[if e0 == t.node { e1 } else { e0 } as usize];
+                        ((o[0] - a[0]) * want[1] - (o[1] - a[1]) * want[0]).abs()
+                    };
+                    ahead
+                        .map(|(cos, k)| (off(k), cos, k))
+                        .min_by(|p, q| {
+                            p.0.total_cmp(&q.0)
+                                .then(q.1.total_cmp(&p.1))
+                                .then(p.2.cmp(&q.2))
+                        })
+                        .map(|(_, cos, k)| (cos, k))
+                }
+            };
             if let Some((_, k)) = best
                 && !v.edge_ready[k as usize]
             {
