@@ -41,6 +41,10 @@ pub struct RunOptions {
     /// Continue from this checkpoint ([`crate::checkpoint`]): it must have been written for
     /// the same scenario, `set` overrides and `disable` list.
     pub restart: Option<PathBuf>,
+    /// Cleared (set false) when the run is about to create its output folder: the binary's
+    /// signal handlers end the process at once while it is true (nothing is written during
+    /// setup, which can take long on a large mesh), and stop it between steps after.
+    pub exit_until_output: Option<std::sync::Arc<std::sync::atomic::AtomicBool>>,
 }
 
 /// What a finished run reports.
@@ -184,6 +188,10 @@ fn set_up(mut sim: Simulation, opts: &RunOptions, out: &Path) -> Result<Run, Dri
     };
     if let Some(stop) = &opts.stop {
         sim.set_stop(stop.clone());
+    }
+    // From here on the run writes: a signal stops it between steps with its outputs finished.
+    if let Some(armed) = &opts.exit_until_output {
+        armed.store(false, std::sync::atomic::Ordering::SeqCst);
     }
     crate::resources::check_output_place(out).map_err(|why| {
         DriverError::Output(std::io::Error::other(format!(

@@ -226,16 +226,24 @@ fn signal_exit(sig: usize) -> ExitCode {
 /// then be incomplete: a frame or figure being written stays as a `*.tmp.*` file, which the
 /// next run into the folder removes).
 fn install_stop_handlers() -> Result<hydrofrac::sim::StopFlag> {
+    Ok(install_stop_handlers_armed(false)?.0)
+}
+
+/// [`install_stop_handlers`], with the flag that makes the next signal end the process at
+/// once: `exit_at_once` true until the run clears it (`RunOptions::exit_until_output`).
+fn install_stop_handlers_armed(
+    exit_at_once: bool,
+) -> Result<(hydrofrac::sim::StopFlag, Arc<AtomicBool>)> {
     use signal_hook::consts::{SIGINT, SIGTERM};
     let stop = Arc::new(AtomicUsize::new(0));
-    let armed = Arc::new(AtomicBool::new(false));
+    let armed = Arc::new(AtomicBool::new(exit_at_once));
     for sig in [SIGINT, SIGTERM] {
         // The order matters: the shutdown checks `armed` before the first signal sets it.
         signal_hook::flag::register_conditional_shutdown(sig, 128 + sig, armed.clone())?;
         signal_hook::flag::register(sig, armed.clone())?;
         signal_hook::flag::register_usize(sig, stop.clone(), sig as usize)?;
     }
-    Ok(stop)
+    Ok((stop, armed))
 }
 
 /// The one-line result, the timing table and the folder, on stdout.
@@ -284,6 +292,8 @@ fn real_main() -> Result<ExitCode> {
             max_disk,
             restart,
         } => {
+            // A signal during setup (nothing written yet) ends the process at once.
+            let (stop, armed) = install_stop_handlers_armed(true)?;
             let opts = RunOptions {
                 out,
                 disable,
@@ -291,10 +301,11 @@ fn real_main() -> Result<ExitCode> {
                 trace,
                 quiet,
                 force,
-                stop: Some(install_stop_handlers()?),
+                stop: Some(stop),
                 max_memory,
                 max_disk,
                 restart,
+                exit_until_output: Some(armed),
             };
             run_command(&scenario, &opts)
         }

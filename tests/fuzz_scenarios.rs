@@ -878,3 +878,243 @@ fn the_corpus_is_read() {
     assert!(c.paths.iter().any(|p| p == "material.poisson"));
     assert!(Path::new(&root().join("tests/bad_inputs.rs")).exists());
 }
+
+// ---------------------------------------------------------------------------------------------
+// Through the binary, as a user runs it.
+
+#[path = "support/finite.rs"]
+mod finite;
+
+/// Time a `hydrofrac run` gets before it is sent SIGTERM, and the time it then has to stop
+/// (it must: the step loop and the production stage check the stop flag).
+const BIN_LIMIT: Duration = Duration::from_secs(5);
+const BIN_GRACE: Duration = Duration::from_secs(5);
+/// Address space of a `hydrofrac run` (as on a cluster node or in a container): the memory
+/// check must refuse what does not fit, never an allocation abort.
+const BIN_MEMORY: u64 = 4 << 30;
+
+/// What came of one input through the binary.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+enum BinOutcome {
+    /// Exit 1 with a message (refused, or the run failed with its outputs kept).
+    Refused,
+    /// Exit 0.
+    Ran,
+    /// Stopped by the SIGTERM at `BIN_LIMIT` (exit 143, `summary.json` status `interrupted`).
+    Interrupted,
+    /// Ended by the SIGTERM during setup (exit 143), before its output folder existed.
+    StoppedInSetup,
+}
+
+/// Run `input` as `hydrofrac run scene.ron --out out [--set ...] --quiet` in a folder of its
+/// own under `work`, in a 4 GiB address space, with SIGTERM at [`BIN_LIMIT`] and SIGKILL
+/// [`BIN_GRACE`] later. `Err`: a defect (killed by a signal of its own, e.g. SIGABRT; SIGTERM
+/// not acted on; an exit status other than 0, 1 and 143; an empty message or a panic on
+/// stderr; a non-finite token in the outputs; a file written outside `out`).
+fn check_binary(input: &Input, work: &Path) -> Result<BinOutcome, String> {
+    use std::os::unix::process::{CommandExt, ExitStatusExt};
+    let _ = std::fs::remove_dir_all(work);
+    std::fs::create_dir_all(work).map_err(|e| e.to_string())?;
+    std::fs::write(work.join("scene.ron"), &input.text).map_err(|e| e.to_string())?;
+    let mut cmd = std::process::Command::new(env!("CARGO_BIN_EXE_hydrofrac"));
+    cmd.current_dir(work)
+        .args(["run", "scene.ron", "--out", "out", "--quiet"])
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped());
+    for s in &input.sets {
+        cmd.args(["--set", s]);
+    }
+    // SAFETY: setrlimit is async-signal-safe; the closure allocates nothing.
+    unsafe {
+        cmd.pre_exec(|| {
+            let r = libc::rlimit {
+                rlim_cur: BIN_MEMORY,
+                rlim_max: BIN_MEMORY,
+            };
+            if libc::setrlimit(libc::RLIMIT_AS, &r) != 0 {
+                return Err(std::io::Error::last_os_error());
+            }
+            Ok(())
+        });
+    }
+    let mut child = cmd.spawn().map_err(|e| e.to_string())?;
+    // Read stderr on a thread so that a chatty child never blocks on a full pipe.
+    let mut err_pipe = child.stderr.take().expect("stderr");
+    let reader = std::thread::spawn(move || {
+        let mut s = String::new();
+        let _ = std::io::Read::read_to_string(&mut err_pipe, &mut s);
+        s
+    });
+    let t0 = Instant::now();
+    let mut termed = false;
+    let status = loop {
+        if let Some(st) = child.try_wait().map_err(|e| e.to_string())? {
+            break st;
+        }
+        let dt = t0.elapsed();
+        if !termed && dt > BIN_LIMIT {
+            // SAFETY: a signal to our own child.
+            unsafe { libc::kill(child.id() as i32, libc::SIGTERM) };
+            termed = true;
+        }
+        if dt > BIN_LIMIT + BIN_GRACE {
+            let _ = child.kill();
+            let _ = child.wait();
+            return Err(format!(
+                "SIGTERM not acted on within {} s",
+                BIN_GRACE.as_secs()
+            ));
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    };
+    let stderr = reader.join().unwrap_or_default();
+    if stderr.contains("panicked at") {
+        return Err(format!("panic: {}", stderr.trim()));
+    }
+    let out = work.join("out");
+    let outcome = match (status.code(), status.signal()) {
+        (Some(0), _) => BinOutcome::Ran,
+        (Some(1), _) if !stderr.trim().is_empty() => BinOutcome::Refused,
+        (Some(1), _) => return Err("exit 1 without a message".into()),
+        // Stopped during setup, before anything was written.
+        (Some(143), _) if termed && !out.exists() => BinOutcome::StoppedInSetup,
+        (Some(143), _) if termed => {
+            let s = std::fs::read_to_string(out.join("summary.json")).unwrap_or_default();
+            if !s.contains("\"interrupted\"") {
+                return Err(format!("exit 143 without an interrupted summary: {s:.200}"));
+            }
+            BinOutcome::Interrupted
+        }
+        (Some(c), _) => return Err(format!("exit status {c}: {}", stderr.trim())),
+        (None, Some(sig)) => {
+            return Err(format!("killed by signal {sig}: {}", stderr.trim()));
+        }
+        (None, None) => return Err("no exit status".into()),
+    };
+    if out.is_dir() {
+        let bad = finite::non_finite_tokens(&out);
+        if !bad.is_empty() {
+            return Err(format!("{outcome:?} with non-finite output: {bad:?}"));
+        }
+    }
+    let mut extra: Vec<String> = std::fs::read_dir(work)
+        .map_err(|e| e.to_string())?
+        .map(|e| e.unwrap().file_name().to_string_lossy().to_string())
+        .filter(|n| n != "scene.ron" && n != "out")
+        .collect();
+    extra.sort();
+    if !extra.is_empty() {
+        return Err(format!(
+            "{outcome:?}, and wrote outside its folder: {extra:?}"
+        ));
+    }
+    Ok(outcome)
+}
+
+/// Run `inputs` through [`check_binary`] on `workers` threads; stop at `budget` (wall time)
+/// or 20 findings. Each worker has its folder under `target/fuzz-bin/`, emptied per input.
+fn fuzz_binary(
+    inputs: impl Iterator<Item = Input> + Send,
+    workers: usize,
+    budget: Duration,
+) -> Figures {
+    let inputs = std::sync::Mutex::new(inputs);
+    let fig = std::sync::Mutex::new(Figures::default());
+    let t0 = Instant::now();
+    let before = listing();
+    std::thread::scope(|s| {
+        for w in 0..workers {
+            let (inputs, fig) = (&inputs, &fig);
+            s.spawn(move || {
+                let work = root().join(format!("target/fuzz-bin/worker_{w}"));
+                loop {
+                    if t0.elapsed() > budget || fig.lock().unwrap().findings.len() >= 20 {
+                        break;
+                    }
+                    let Some(input) = inputs.lock().unwrap().next() else {
+                        break;
+                    };
+                    let ti = Instant::now();
+                    let r = check_binary(&input, &work);
+                    let mut f = fig.lock().unwrap();
+                    f.inputs += 1;
+                    f.slowest = f.slowest.max(ti.elapsed());
+                    match r {
+                        Ok(o) => *f.outcomes.entry(format!("{o:?}")).or_default() += 1,
+                        Err(why) => {
+                            let p = keep(&input, 1000 + f.findings.len());
+                            f.findings.push(format!("{why} (input in {})", p.display()));
+                        }
+                    }
+                }
+                let _ = std::fs::remove_dir_all(&work);
+            });
+        }
+    });
+    let mut fig = fig.into_inner().unwrap();
+    for p in listing().iter().filter(|p| !before.contains(p)) {
+        if !p.ends_with("target") {
+            fig.findings.push(format!("created {}", p.display()));
+        }
+    }
+    fig
+}
+
+/// CI: mutants of the shipped scenarios through the binary, as a user would run them (4 GiB,
+/// SIGTERM at 5 s): 40 inputs or 30 s, whichever first, on 2 workers. No finding; at least
+/// one run refused and one that ran or was interrupted.
+#[test]
+fn binary_inputs_within_budget() {
+    let c = corpus();
+    let t0 = Instant::now();
+    let fig = fuzz_binary(
+        stream(&c, 7, Vec::new()).skip(c.seeds.len()).take(40),
+        2,
+        Duration::from_secs(30),
+    );
+    report("fuzz through the binary (CI)", &fig, t0.elapsed());
+    assert!(
+        fig.findings.is_empty(),
+        "{} findings:\n{}",
+        fig.findings.len(),
+        fig.findings.join("\n")
+    );
+    assert!(
+        fig.outcomes.get("Refused").copied().unwrap_or(0) > 0,
+        "{:?}",
+        fig.outcomes
+    );
+}
+
+/// On demand: `HYDROFRAC_FUZZ_BIN_N` inputs through the binary (default 21,000, the issue's
+/// count), seed `HYDROFRAC_FUZZ_SEED`, `HYDROFRAC_FUZZ_WORKERS` at a time (default: the CPUs):
+/// `HYDROFRAC_FUZZ_BIN_N=21000 cargo test --release --test fuzz_scenarios -- --ignored binary`.
+#[test]
+#[ignore]
+fn long_binary_fuzz_run() {
+    let env = |k: &str, d: u64| -> u64 {
+        std::env::var(k)
+            .ok()
+            .and_then(|s| s.parse().ok())
+            .unwrap_or(d)
+    };
+    let n = env("HYDROFRAC_FUZZ_BIN_N", 21_000) as usize;
+    let seed = env("HYDROFRAC_FUZZ_SEED", 1);
+    let cpus = std::thread::available_parallelism().map_or(2, |n| n.get()) as u64;
+    let workers = env("HYDROFRAC_FUZZ_WORKERS", cpus) as usize;
+    let c = corpus();
+    let reg: Vec<Input> = regressions().into_iter().map(|r| r.1).collect();
+    let t0 = Instant::now();
+    let fig = fuzz_binary(stream(&c, seed, reg).take(n), workers, Duration::MAX);
+    report(
+        &format!("fuzz through the binary (seed {seed})"),
+        &fig,
+        t0.elapsed(),
+    );
+    assert!(
+        fig.findings.is_empty(),
+        "{} findings:\n{}",
+        fig.findings.len(),
+        fig.findings.join("\n")
+    );
+}
