@@ -1061,16 +1061,16 @@ fn fuzz_binary(
 }
 
 /// CI: mutants of the shipped scenarios through the binary, as a user would run them (4 GiB,
-/// SIGTERM at 5 s): 40 inputs or 30 s, whichever first, on 2 workers. No finding; at least
+/// SIGTERM at 5 s): 24 inputs or 15 s, whichever first, on 2 workers. No finding; at least
 /// one run refused and one that ran or was interrupted.
 #[test]
 fn binary_inputs_within_budget() {
     let c = corpus();
     let t0 = Instant::now();
     let fig = fuzz_binary(
-        stream(&c, 7, Vec::new()).skip(c.seeds.len()).take(40),
+        stream(&c, 7, Vec::new()).skip(c.seeds.len()).take(24),
         2,
-        Duration::from_secs(30),
+        Duration::from_secs(15),
     );
     report("fuzz through the binary (CI)", &fig, t0.elapsed());
     assert!(
