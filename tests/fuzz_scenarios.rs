@@ -793,6 +793,16 @@ fn report(what: &str, fig: &Figures, wall: Duration) {
     );
 }
 
+/// The run found nothing; else every finding, with where its input is kept.
+fn assert_no_findings(fig: &Figures) {
+    assert!(
+        fig.findings.is_empty(),
+        "{} findings:\n{}",
+        fig.findings.len(),
+        fig.findings.join("\n")
+    );
+}
+
 /// Every input that once failed, alone: no panic, one-line errors, in time.
 #[test]
 fn regression_inputs_pass() {
@@ -822,12 +832,7 @@ fn inputs_within_budget() {
         Duration::from_secs(5),
     );
     report("fuzz (CI)", &fig, t0.elapsed());
-    assert!(
-        fig.findings.is_empty(),
-        "{} findings:\n{}",
-        fig.findings.len(),
-        fig.findings.join("\n")
-    );
+    assert_no_findings(&fig);
     assert!(
         fig.inputs >= fixed,
         "only {} of the {fixed} regression and seed inputs ran (a hang?)",
@@ -857,12 +862,7 @@ fn long_fuzz_run() {
     let t0 = Instant::now();
     let fig = fuzz(stream(&c, seed, reg).take(n), n, Duration::ZERO);
     report(&format!("fuzz (seed {seed})"), &fig, t0.elapsed());
-    assert!(
-        fig.findings.is_empty(),
-        "{} findings:\n{}",
-        fig.findings.len(),
-        fig.findings.join("\n")
-    );
+    assert_no_findings(&fig);
 }
 
 /// The literal extractor reads the corpus: its small scene and `--set` overrides.
@@ -1073,12 +1073,7 @@ fn binary_inputs_within_budget() {
         Duration::from_secs(15),
     );
     report("fuzz through the binary (CI)", &fig, t0.elapsed());
-    assert!(
-        fig.findings.is_empty(),
-        "{} findings:\n{}",
-        fig.findings.len(),
-        fig.findings.join("\n")
-    );
+    assert_no_findings(&fig);
     assert!(
         fig.outcomes.get("Refused").copied().unwrap_or(0) > 0,
         "{:?}",
@@ -1111,10 +1106,5 @@ fn long_binary_fuzz_run() {
         &fig,
         t0.elapsed(),
     );
-    assert!(
-        fig.findings.is_empty(),
-        "{} findings:\n{}",
-        fig.findings.len(),
-        fig.findings.join("\n")
-    );
+    assert_no_findings(&fig);
 }

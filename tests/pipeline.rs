@@ -201,21 +201,7 @@ fn bad_pipelines_are_named() {
             "heat.initial_temperature",
         ),
     ] {
-        assert!(good.contains(from), "{from}");
-        let path = tmp.join("bad.ron");
-        std::fs::write(&path, good.replacen(from, to, 1)).unwrap();
-        let err = run_pipeline(
-            &path,
-            &PipelineOptions {
-                out: Some(tmp.join("out")),
-                quiet: true,
-                ..Default::default()
-            },
-        )
-        .unwrap_err()
-        .to_string();
-        assert!(err.contains(expect), "{to}: {err}");
-        assert!(!tmp.join("out").exists(), "{to}: the folder was touched");
+        refused_untouched(&tmp, &good, from, to, expect);
     }
     let _ = std::fs::remove_dir_all(&tmp);
 }
@@ -244,16 +230,8 @@ fn heat_only_pipeline_matches_the_closed_forms() {
     assert_eq!(r.reservoir[0].state, State::Given);
     assert_eq!(r.summary["apertures"], "Given");
     assert_eq!(r.summary["stimulated"], false);
-    let props = ThermalProps {
-        rock_density: 2650.0,
-        rock_heat_capacity: 900.0,
-        rock_conductivity: 3.0,
-        porosity: 0.01,
-        fluid_density: 1000.0,
-        fluid_heat_capacity: 4180.0,
-        fluid_conductivity: 0.6,
-        fluid_viscosity: 2e-4,
-    };
+    // The scenario's properties are granite and water.
+    let props = ThermalProps::granite_water();
     let (b, x, d, t0, t_inj): (f64, f64, f64, f64, f64) = (5e-4, 490.0, 50.0, 423.15, 323.15);
     let series = |model: &str| -> Vec<(f64, f64)> {
         let csv = std::fs::read_to_string(out.join(format!("heat_{model}_given.csv"))).unwrap();
@@ -346,21 +324,7 @@ fn heat_only_pipeline_errors_are_named() {
             "flow-only scene",
         ),
     ] {
-        assert!(good.contains(from), "{from}");
-        let path = tmp.join("bad.ron");
-        std::fs::write(&path, good.replacen(from, to, 1)).unwrap();
-        let err = run_pipeline(
-            &path,
-            &PipelineOptions {
-                out: Some(tmp.join("out")),
-                quiet: true,
-                ..Default::default()
-            },
-        )
-        .unwrap_err()
-        .to_string();
-        assert!(err.contains(expect), "{to}: {err}");
-        assert!(!tmp.join("out").exists(), "{to}: the folder was touched");
+        refused_untouched(&tmp, &good, from, to, expect);
     }
     // A stimulation scene with `apertures: Given` is refused.
     let path = tmp.join("given.ron");
@@ -392,4 +356,24 @@ fn heat_only_pipeline_errors_are_named() {
         "refused before the stimulation ran"
     );
     let _ = std::fs::remove_dir_all(&tmp);
+}
+
+/// `good` with `from` replaced by `to`, run as a pipeline: refused with an error containing
+/// `expect`, before its output folder is touched.
+fn refused_untouched(tmp: &Path, good: &str, from: &str, to: &str, expect: &str) {
+    assert!(good.contains(from), "{from}");
+    let path = tmp.join("bad.ron");
+    std::fs::write(&path, good.replacen(from, to, 1)).unwrap();
+    let err = run_pipeline(
+        &path,
+        &PipelineOptions {
+            out: Some(tmp.join("out")),
+            quiet: true,
+            ..Default::default()
+        },
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(err.contains(expect), "{to}: {err}");
+    assert!(!tmp.join("out").exists(), "{to}: the folder was touched");
 }

@@ -211,20 +211,7 @@ pub fn outward_normal(model: &Model, edge: Entity) -> [f64; 2] {
 /// Add the nodal loads of a uniform pressure p (Pa) on both faces of every joint: each face
 /// node gets -p n_out L/2 (the fluid pushes the faces apart).
 pub fn apply_face_pressure(model: &mut Model, p: f64) {
-    let joints: Vec<Joint> = model.world.query::<&Joint>().iter().copied().collect();
-    let mut loads: Vec<(Entity, [f64; 2])> = Vec::new();
-    for j in joints {
-        for e in j.edges {
-            let n = outward_normal(model, e);
-            let en = model.world.get::<&EdgeNodes>(e).expect("edge").0;
-            let [a, b] = en.map(|x| model.world.get::<&NodeRef>(x).expect("node").0);
-            let len = (b[0] - a[0]).hypot(b[1] - a[1]);
-            for node in en {
-                loads.push((node, [-p * n[0] * 0.5 * len, -p * n[1] * 0.5 * len]));
-            }
-        }
-    }
-    for (node, f) in loads {
+    for (node, f) in face_pressure_terms(model, p) {
         let mut bc = model.world.get::<&mut NodeBc>(node).expect("node");
         bc.load[0] += f[0];
         bc.load[1] += f[1];
@@ -235,8 +222,20 @@ pub fn apply_face_pressure(model: &mut Model, p: f64) {
 /// Per node, the nodal loads of a uniform pressure p (Pa) on both faces of every joint (what
 /// [`apply_face_pressure`] adds), N per metre.
 pub fn face_pressure_loads(model: &Model, p: f64) -> HashMap<Entity, [f64; 2]> {
-    let joints: Vec<Joint> = model.world.query::<&Joint>().iter().copied().collect();
     let mut loads: HashMap<Entity, [f64; 2]> = HashMap::new();
+    for (node, g) in face_pressure_terms(model, p) {
+        let f = loads.entry(node).or_insert([0.0; 2]);
+        f[0] += g[0];
+        f[1] += g[1];
+    }
+    loads
+}
+
+/// The nodal loads of a uniform pressure p (Pa) on both faces of every joint, one term per
+/// face node: -p n_out L/2 (the fluid pushes the faces apart), N per metre.
+fn face_pressure_terms(model: &Model, p: f64) -> Vec<(Entity, [f64; 2])> {
+    let joints: Vec<Joint> = model.world.query::<&Joint>().iter().copied().collect();
+    let mut terms = Vec::new();
     for j in joints {
         for e in j.edges {
             let n = outward_normal(model, e);
@@ -244,13 +243,11 @@ pub fn face_pressure_loads(model: &Model, p: f64) -> HashMap<Entity, [f64; 2]> {
             let [a, b] = en.map(|x| model.world.get::<&NodeRef>(x).expect("node").0);
             let len = (b[0] - a[0]).hypot(b[1] - a[1]);
             for node in en {
-                let f = loads.entry(node).or_insert([0.0; 2]);
-                f[0] -= p * n[0] * 0.5 * len;
-                f[1] -= p * n[1] * 0.5 * len;
+                terms.push((node, [-p * n[0] * 0.5 * len, -p * n[1] * 0.5 * len]));
             }
         }
     }
-    loads
+    terms
 }
 
 /// After a split under a uniform face pressure p (Pa): each daughter of a split node had its
