@@ -321,11 +321,14 @@ fn real_main() -> Result<ExitCode> {
             quiet,
             force,
         } => {
+            // A signal while the stimulation scene is read and checked ends it at once.
+            let (stop, armed) = install_stop_handlers_armed(true)?;
             let opts = hydrofrac::pipeline::PipelineOptions {
                 out,
                 quiet,
                 force,
-                stop: Some(install_stop_handlers()?),
+                stop: Some(stop),
+                exit_until_output: Some(armed),
             };
             pipeline_command(&file, &opts)
         }

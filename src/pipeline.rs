@@ -477,6 +477,10 @@ pub struct PipelineOptions {
     pub quiet: bool,
     pub force: bool,
     pub stop: Option<crate::sim::StopFlag>,
+    /// Handed to the stimulation's run (`RunOptions::exit_until_output`): until it creates its
+    /// folder (the stimulation's setup included) a signal ends the process at once, leaving
+    /// at most the pipeline's folder and manifest.
+    pub exit_until_output: Option<std::sync::Arc<std::sync::atomic::AtomicBool>>,
 }
 
 /// Run a pipeline file, stage by stage: stimulation, doublet, upscaling, heat, then
@@ -553,6 +557,7 @@ fn stimulation_stage(
         quiet: opts.quiet,
         force: opts.force,
         stop: opts.stop.clone(),
+        exit_until_output: opts.exit_until_output.clone(),
         ..Default::default()
     };
     Ok(run_scenario(scenario, &opts)?)

@@ -715,4 +715,55 @@ fn a_signal_during_setup_ends_the_run_at_once() {
     // At once: the signal handler exits (measured 1 ms); 1 s allows a loaded machine.
     assert!(dt < Duration::from_secs(1), "took {dt:?}");
     assert!(!out.exists(), "the output folder was created");
+
+    // The pipeline: during its stimulation's setup; only its folder and manifest exist.
+    let dir = tmp("signal-setup-pipeline");
+    std::fs::create_dir_all(&dir).unwrap();
+    let text = std::fs::read_to_string(scenario("example1_reservoir.ron"))
+        .unwrap()
+        .replace(
+            "stimulation: \"example1_cross.ron\",",
+            &format!(
+                "stimulation: {:?},\n    stimulation_set: [\"mesh.h=0.25\"],",
+                scenario("example1_cross.ron")
+            ),
+        );
+    assert!(text.contains("mesh.h=0.25"));
+    std::fs::write(dir.join("p.ron"), text).unwrap();
+    let out = dir.join("out");
+    let mut child = bin()
+        .args([
+            "pipeline",
+            dir.join("p.ron").to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--quiet",
+        ])
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(Duration::from_millis(300));
+    assert!(child.try_wait().unwrap().is_none(), "setup ended in 0.3 s");
+    let t0 = std::time::Instant::now();
+    // SAFETY: as above.
+    assert_eq!(unsafe { libc::kill(child.id() as i32, libc::SIGTERM) }, 0);
+    let status = wait_at_most(&mut child, Duration::from_secs(20), "pipeline setup");
+    assert_eq!(status.code(), Some(143));
+    assert!(
+        t0.elapsed() < Duration::from_secs(1),
+        "took {:?}",
+        t0.elapsed()
+    );
+    let left: Vec<String> = std::fs::read_dir(&out)
+        .map(|rd| {
+            rd.map(|e| e.unwrap().file_name().to_string_lossy().to_string())
+                .collect()
+        })
+        .unwrap_or_default();
+    assert!(
+        left.iter().all(|n| n == "hydrofrac-manifest.txt"),
+        "{left:?}"
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
 }

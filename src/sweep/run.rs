@@ -179,6 +179,7 @@ fn run_one(
                 quiet: true,
                 force: false,
                 stop,
+                exit_until_output: None,
             };
             match run_pipeline(file, &opts) {
                 Ok(_) => Ok(MemberOutcome::Ok),
