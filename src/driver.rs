@@ -60,11 +60,8 @@ pub struct RunReport {
     /// scene with fractures (the reservoir pipeline's before and after).
     pub networks: Option<[crate::flow::FlowView; 2]>,
     /// Bounding box of the rock mesh in reference positions, `[xmin, xmax, ymin, ymax]` m
-    /// (infinite bounds when the scene has no rock: see `has_rock`).
+    /// (infinite bounds when the scene has no rock mesh).
     pub mesh_box: [f64; 4],
-    /// Whether the scene has a rock mesh (false: a flow-only scene, a rigid network whose
-    /// apertures are the ones given, which the pipeline's heat-only path takes as they are).
-    pub has_rock: bool,
     /// The joints' residual hydraulic aperture, m.
     pub residual_aperture: f64,
 }
@@ -665,7 +662,6 @@ fn write_results(
         interrupted_by: sim.interrupted_by().or(production_interrupted),
         networks: start_network.zip(network_now(&sim)).map(|(a, b)| [a, b]),
         mesh_box: mesh_box(&sim),
-        has_rock: !sim.solid().x0.is_empty(),
         residual_aperture: sim.params().residual_aperture,
     })
 }

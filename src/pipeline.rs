@@ -249,9 +249,7 @@ impl PipelineSpec {
         self.heat.validate()?;
         self.upscaling.validate_viscosity()
     }
-}
 
-impl PipelineSpec {
     /// The apertures the later stages take, checked against the stimulation scene: after a
     /// stimulation (`has_rock`) `Residual` (the default) or `EndOfStimulation`; for a flow-only
     /// scene `Given` (the default), and a `domain`, which a scene without a mesh lacks.
@@ -491,7 +489,8 @@ pub fn run_pipeline(path: &Path, opts: &PipelineOptions) -> Result<PipelineRepor
     // flow-only scene (no rock mesh) takes the heat-only path.
     let scenario = crate::scenario::Scenario::load(&spec.stimulation, &spec.stimulation_set)
         .map_err(|e| PipelineError::Stimulation(e.into()))?;
-    let apertures = spec.apertures_for(scenario.mesh.is_some())?;
+    let given = scenario.mesh.is_none();
+    let apertures = spec.apertures_for(!given)?;
     let out = opts
         .out
         .clone()
@@ -503,7 +502,7 @@ pub fn run_pipeline(path: &Path, opts: &PipelineOptions) -> Result<PipelineRepor
     let stim = timed(&mut stages, "stimulation", || {
         stimulation_stage(&spec, scenario, &out, opts)
     })?;
-    let nets = Networks::of(&spec, &stim, apertures)?;
+    let nets = Networks::of(&spec, &stim, apertures, given)?;
     let domain = spec.domain.unwrap_or(stim.mesh_box);
     let doublet = timed(&mut stages, "doublet", || {
         doublet_stage(&spec, &nets, &folder)
@@ -577,12 +576,13 @@ struct Networks {
 }
 
 impl Networks {
-    /// The networks of a finished stimulation: refused when a signal stopped it, or when it
-    /// has no fractures.
+    /// The networks of a finished stimulation (`given`: of a flow-only scene): refused when a
+    /// signal stopped it, or when it has no fractures.
     fn of(
         spec: &PipelineSpec,
         stim: &RunReport,
         apertures: Apertures,
+        given: bool,
     ) -> Result<Self, PipelineError> {
         if let Some(signal) = stim.interrupted_by {
             return Err(PipelineError::Interrupted {
@@ -597,7 +597,6 @@ impl Networks {
             });
         };
         let residual = stim.residual_aperture;
-        let given = !stim.has_rock;
         let chosen = match apertures {
             Apertures::Residual => Some(residual),
             Apertures::EndOfStimulation | Apertures::Given => None,
@@ -691,8 +690,8 @@ fn doublet_rate(
 }
 
 /// 3. The upscaling stage: Oda's tensor and the flow-based permeability of each network, with
-///    the chosen apertures, on `upscaling.blocks` over the rock block (`domain`: the mesh box unless the file gives one):
-///    `permeability.csv`, `permeability.vtu` and the maps `permeability_{flow,oda}_{state}.png`.
+///    the chosen apertures, on `upscaling.blocks` over the rock block (`domain`: the mesh box
+///    unless the file gives one): `permeability.csv`, `permeability.vtu` and the maps `permeability_{flow,oda}_{state}.png`.
 fn upscaling_stage(
     spec: &PipelineSpec,
     nets: &Networks,

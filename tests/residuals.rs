@@ -410,9 +410,10 @@ fn tips_of(s: &serde_json::Value) -> (f64, [f64; 2]) {
 /// 4 m in a 20 m square: K_I 1.41e6 from the integral, 0.96e6 from J, against 2.88e6 for the
 /// pressurised crack of that length). Now a crack grown from a = 1 m at K_Ic = 1.5e6 (K_I
 /// rises with a, then falls near the clamped walls) stops at a = 4.8 m with the same K_I as a
-/// pre-existing crack of that length on the same mesh (measured: equal to 5 digits, 1.4634e6;
-/// 2 %: the grown crack's faces are the same mesh edges, so only the load history differs,
-/// and a linear solid has none).
+/// pre-existing crack of that length on the same mesh (measured 1.46341881e6 both, 5e-14
+/// apart). 1e-6: the grown crack's faces are the same mesh edges with the same nodal loads, so
+/// only the load history differs, which a linear solid does not remember; what is left is the
+/// static solve's tolerance (1e-8) and round-off.
 #[test]
 fn a_grown_pressurised_crack_carries_the_pressure_on_its_new_faces() {
     let grown = run_ok(
@@ -436,11 +437,9 @@ fn a_grown_pressurised_crack_carries_the_pressure_on_its_new_faces() {
         &["--set", "fracture.criterion=Some(Toughness(k_ic: 1.0e9))"],
     );
     let (k_pre, _) = tips_of(&pre);
-    println!("a = {a} m: K_I grown {k_grown:.4e}, pre-existing {k_pre:.4e}");
-    assert!(
-        (k_grown / k_pre - 1.0).abs() < 0.02,
-        "{k_grown:e} vs {k_pre:e}"
-    );
+    let rel = (k_grown / k_pre - 1.0).abs();
+    println!("a = {a} m: K_I grown {k_grown:.8e}, pre-existing {k_pre:.8e}, {rel:.1e}");
+    assert!(rel < 1e-6, "{k_grown:e} vs {k_pre:e}");
 }
 
 /// Issue 41 item 10: a pre-existing crack at 30 degrees on a perturbed mesh (its path through
@@ -449,8 +448,8 @@ fn a_grown_pressurised_crack_carries_the_pressure_on_its_new_faces() {
 /// off the straight line behind the last joint), never trusted, never grown. Now the fracture
 /// behind a tip is walked back through its own joints: their faces are its own, their mean
 /// line is its direction, and growth follows the line from the tip along the growth
-/// direction. Measured: 10 resolves, 2 x 10 edges, every tip trusted, the tips 2.0-2.2 m
-/// from the centre at 27-30 degrees. Bounds: growth at each tip (at least 5 edges), the
+/// direction. Measured: 10 resolves, 22 new cells, every tip trusted, the reported tip 2.21 m
+/// from the centre at 26.8 degrees. Bounds: growth at each tip (at least 5 edges), the
 /// direction within 10 degrees of 30 (the path zigzags by about one element about its line).
 #[test]
 fn an_inclined_crack_on_a_perturbed_mesh_grows_past_k_ic() {

@@ -254,26 +254,21 @@ fn face_pressure_terms(model: &Model, p: f64) -> Vec<(Entity, [f64; 2])> {
 /// mass share of the mother's load, including the mother's face-pressure load (zero at a
 /// fracture tip, where the two faces' loads cancel). It now carries the load of the faces it
 /// has instead: the new joints' faces and its own side of the old ones. `before`:
-/// [`face_pressure_loads`] before the split; `daughters_of`: the split's mothers and daughters.
-/// Without this, faces opened after setup carry no pressure.
+/// [`face_pressure_loads`] before the split; `daughters_of`: the split's mothers and their
+/// daughters with their shares (`SplitReport::daughters_of`). Without this, faces opened
+/// after setup carry no pressure.
 pub fn reload_face_pressure(
     model: &mut Model,
     p: f64,
     before: &HashMap<Entity, [f64; 2]>,
-    daughters_of: &[(Entity, Vec<Entity>)],
+    daughters_of: &[(Entity, Vec<(Entity, f64)>)],
 ) {
     let after = face_pressure_loads(model, p);
     for (m, ds) in daughters_of {
         let fm = before.get(m).copied().unwrap_or([0.0; 2]);
-        let mother_mass = model.world.get::<&NodeMass>(*m).expect("node").0;
-        for d in ds {
-            let share = if mother_mass > 0.0 {
-                model.world.get::<&NodeMass>(*d).expect("node").0 / mother_mass
-            } else {
-                0.0
-            };
-            let fd = after.get(d).copied().unwrap_or([0.0; 2]);
-            let mut bc = model.world.get::<&mut NodeBc>(*d).expect("node");
+        for &(d, share) in ds {
+            let fd = after.get(&d).copied().unwrap_or([0.0; 2]);
+            let mut bc = model.world.get::<&mut NodeBc>(d).expect("node");
             for k in 0..2 {
                 bc.load[k] += fd[k] - share * fm[k];
             }

@@ -27,8 +27,9 @@ pub struct SplitReport {
     pub opened_edges: usize,
     pub cells: Vec<Entity>,
     pub joints: Vec<Entity>,
-    /// Each split node (mother) and its daughters, in the mothers' stable order.
-    pub daughters_of: Vec<(Entity, Vec<Entity>)>,
+    /// Each split node (mother) and its daughters with their share of its mass (and loads),
+    /// in the mothers' stable order.
+    pub daughters_of: Vec<(Entity, Vec<(Entity, f64)>)>,
 }
 
 fn stable(world: &hecs::World, e: Entity) -> u64 {
@@ -200,6 +201,7 @@ fn spawn_daughters(
         }
         let mother = link.mother.unwrap_or(*n);
         let mut ds = Vec::with_capacity(*ng);
+        let mut shares = Vec::with_capacity(*ng);
         for &m in &mass {
             let id = model.next_node_id;
             model.next_node_id += 1;
@@ -224,11 +226,14 @@ fn spawn_daughters(
                 },
             );
             ds.push(model.world.spawn(bundle));
+            shares.push(share);
         }
         model.world.get::<&mut NodeLink>(*n).expect("node").in_solid = false;
         report.split_nodes += 1;
         report.daughters += ds.len();
-        report.daughters_of.push((*n, ds.clone()));
+        report
+            .daughters_of
+            .push((*n, ds.iter().copied().zip(shares).collect()));
         daughters.insert(*n, ds);
     }
     daughters

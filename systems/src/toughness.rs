@@ -631,6 +631,7 @@ fn element_aux(
                 w[0][1] + (x1 - w[0][0]) / (w[1][0] - w[0][0]) * (w[1][1] - w[0][1])
             })
     };
+    let continued = !path.is_empty();
     elements
         .iter()
         .map(|&(e, gq)| {
@@ -644,7 +645,6 @@ fn element_aux(
                 cx >= 0.0 && sum_y >= 0.0 || cx < 0.0 && sum_y / 3.0 >= path_at(cx)
             };
             let side = if above { 1.0 } else { -1.0 };
-            let continued = !path.is_empty();
             let ql = f.rot(gq);
             let w = g[0] / 3.0;
             let mut out = [[0.0; 7]; 2];
