@@ -360,8 +360,10 @@ fn sweep_command(command: SweepCommand) -> Result<ExitCode> {
             quiet,
         } => sweep_run_command(&dir, jobs, retry_failed, quiet),
         SweepCommand::Member { dir, id, quiet } => {
-            let stop = install_stop_handlers()?;
-            match sweep::run_member(&dir, id, Some(stop))? {
+            // A signal during the member's setup ends it at once (as `run` does); its
+            // status stays `running`, which a later `sweep run` runs again.
+            let (stop, armed) = install_stop_handlers_armed(true)?;
+            match sweep::run_member(&dir, id, Some(stop), Some(armed))? {
                 sweep::MemberOutcome::Ok => {
                     if !quiet {
                         let _ = writeln!(out, "member {id}: ok");

@@ -477,3 +477,67 @@ fn slurm_array_collects_the_same_table_as_the_local_runner() {
         assert_eq!(a, b, "{f}: the local runner's and the Slurm array's differ");
     }
 }
+
+/// SIGTERM to `sweep run` while its member is still in setup (Example I cross at h = 0.2 m:
+/// about 4 s of meshing and set-up before its first step): the member ends at once (it exits
+/// during setup as `run` does, before its run folder exists), the runner records it as
+/// interrupted and ends within 2 s of the signal (measured 0.1 s; before, the member finished
+/// its setup first). Its run folder was not created; a later `sweep run` runs it.
+#[test]
+fn a_signal_during_a_members_setup_ends_the_sweep_at_once() {
+    use std::time::{Duration, Instant};
+    let dir = tmp_dir("setup-signal");
+    let base = root().join("scenarios/example1_cross.ron");
+    let text = format!(
+        "Sweep(\n    base: {:?},\n    vary: [\n        (path: \"mesh.h\", values: List([0.2])),\n    ],\n)\n",
+        base.display().to_string()
+    );
+    let file = dir.join("sweep.ron");
+    std::fs::write(&file, text).unwrap();
+    let out = dir.join("sweep");
+    ok(&plan(&file, &out));
+    let mut runner = bin()
+        .args(["sweep", "run", "--quiet"])
+        .arg(&out)
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let status = out.join("members/0000/status.json");
+    let t0 = Instant::now();
+    while !std::fs::read_to_string(&status).is_ok_and(|s| s.contains("\"running\"")) {
+        assert!(
+            t0.elapsed() < Duration::from_secs(20),
+            "the member did not start"
+        );
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    std::thread::sleep(Duration::from_millis(300));
+    assert!(
+        runner.try_wait().unwrap().is_none(),
+        "ended before the signal"
+    );
+    let t1 = Instant::now();
+    // SAFETY: kill(2) on the runner's pid, which has not been waited for (so not reused).
+    assert_eq!(unsafe { libc::kill(runner.id() as i32, libc::SIGTERM) }, 0);
+    let exit = loop {
+        if let Some(e) = runner.try_wait().unwrap() {
+            break e;
+        }
+        assert!(
+            t1.elapsed() < Duration::from_secs(30),
+            "the runner did not end"
+        );
+        std::thread::sleep(Duration::from_millis(10));
+    };
+    let dt = t1.elapsed();
+    assert!(dt < Duration::from_secs(2), "the runner took {dt:?}");
+    assert!(!exit.success(), "an interrupted sweep exited 0");
+    let s = read(&status);
+    assert!(s.contains("\"interrupted\""), "{s}");
+    assert!(s.contains("during its setup"), "{s}");
+    assert!(
+        !out.join("members/0000/run").exists(),
+        "the member's run folder was created"
+    );
+}

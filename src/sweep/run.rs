@@ -17,8 +17,8 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
-use std::sync::Mutex;
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 /// A member's `status.json`.
@@ -80,11 +80,15 @@ fn write_status(member_dir: &Path, s: &MemberStatus) -> Result<(), SweepError> {
 /// Run member `id` of the sweep in `dir` (unless it finished before): its scenario into its
 /// `run/` folder, continuing from its checkpoint when it has one for the same fingerprint;
 /// the outcome is written to its `status.json` and returned. `stop`: the binary's signal
-/// flag, checked between steps.
+/// flag, checked between steps. `exit_until_output`: the binary's flag that makes a signal end
+/// the process at once, which the run clears before it creates its output folder
+/// (`RunOptions::exit_until_output`): a signal during a long setup ends the member at once, its
+/// `status.json` still `running` (the local runner then records it as interrupted).
 pub fn run_member(
     dir: &Path,
     id: usize,
     stop: Option<StopFlag>,
+    exit_until_output: Option<Arc<AtomicBool>>,
 ) -> Result<MemberOutcome, SweepError> {
     let plan = read_plan(dir)?;
     let m = plan.members.get(id).ok_or_else(|| {
@@ -112,11 +116,19 @@ pub fn run_member(
     write_status(&mdir, &status)?;
     let t0 = Instant::now();
     let file = mdir.join(plan.member_file());
-    let mut outcome = run_one(&plan, &file, &out, restart.clone(), stop.clone());
+    let armed = exit_until_output;
+    let mut outcome = run_one(
+        &plan,
+        &file,
+        &out,
+        restart.clone(),
+        stop.clone(),
+        armed.clone(),
+    );
     if restart.is_some() && matches!(&outcome, Err(Restart::Refused)) {
         // A checkpoint the run cannot use (cut short while written): start again.
         status.restarted = false;
-        outcome = run_one(&plan, &file, &out, None, stop);
+        outcome = run_one(&plan, &file, &out, None, stop, armed);
     }
     let outcome = match outcome {
         Ok(o) => o,
@@ -154,6 +166,7 @@ fn run_one(
     out: &Path,
     restart: Option<PathBuf>,
     stop: Option<StopFlag>,
+    exit_until_output: Option<Arc<AtomicBool>>,
 ) -> Result<MemberOutcome, Restart> {
     let line = |e: &dyn std::fmt::Display| crate::error::one_line(&e.to_string()).into_owned();
     match plan.kind {
@@ -163,6 +176,7 @@ fn run_one(
                 quiet: true,
                 stop,
                 restart,
+                exit_until_output,
                 ..Default::default()
             };
             match run_file(file, &opts) {
@@ -179,7 +193,7 @@ fn run_one(
                 quiet: true,
                 force: false,
                 stop,
-                exit_until_output: None,
+                exit_until_output,
             };
             match run_pipeline(file, &opts) {
                 Ok(_) => Ok(MemberOutcome::Ok),
@@ -360,6 +374,24 @@ fn spawn_member(
                 "interrupted" => MemberOutcome::Interrupted(exit_signal(&exit)),
                 _ => MemberOutcome::Failed(s.error.unwrap_or_default()),
             })
+        }
+        // Signalled by the runner before it recorded an outcome: ended at once during its
+        // setup (nothing written in its run folder yet), so interrupted, not failed.
+        prev if signalled && prev.as_ref().is_none_or(|s| s.status == "running") => {
+            let sig = exit_signal(&exit);
+            let status = MemberStatus {
+                member: id,
+                fingerprint: fingerprint.to_string(),
+                status: "interrupted".into(),
+                error: Some(format!(
+                    "interrupted by {} during its setup",
+                    crate::driver::signal_name(sig)
+                )),
+                wall_s: prev.map_or(0.0, |p| p.wall_s),
+                restarted: false,
+            };
+            write_status(&mdir, &status)?;
+            Ok(MemberOutcome::Interrupted(sig))
         }
         prev => {
             let why = format!(
