@@ -472,8 +472,9 @@ pub use hydrofrac_core::view::{JointFrame, joint_frame};
 
 /// `fluid_pressure`: the fluid in each fracture cell pushes its two faces apart. Joint k carries
 /// cell `joint_cell[k]` (u32::MAX: none) at pressure `pressure[cell]` (Pa, the mean over the last
-/// step's flow sub-steps): face q gets p L n (N/m, current normal and length of face p), face p
-/// the opposite, half to each node. Adds to `force`. Serial, fixed scatter order.
+/// step's flow sub-steps): face q gets p L0 n (N/m; the current normal of face p, its
+/// reference length L0, `JointFrame::len0`), face p the opposite, half to each node. Adds to
+/// `force`. Serial, fixed scatter order.
 pub fn fluid_pressure(v: &mut SolidView, joint_cell: &[u32], pressure: &[f64]) {
     for k in 0..v.joint_nodes.len() {
         let c = joint_cell[k];
@@ -484,8 +485,8 @@ pub fn fluid_pressure(v: &mut SolidView, joint_cell: &[u32], pressure: &[f64]) {
         if p == 0.0 {
             continue;
         }
-        let JointFrame { n, len, .. } = joint_frame(v, k);
-        let fq = [p * len * n[0], p * len * n[1]];
+        let JointFrame { n, len0, .. } = joint_frame(v, k);
+        let fq = [p * len0 * n[0], p * len0 * n[1]];
         let nodes = v.joint_nodes[k];
         for (j, sgn) in [(0, -0.5), (1, -0.5), (2, 0.5), (3, 0.5)] {
             let i = nodes[j] as usize;

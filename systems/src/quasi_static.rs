@@ -165,7 +165,8 @@ impl Structure {
         for f in frames {
             self.joint_axes.push([f.n, f.t]);
             self.joint_normal.push(f.n);
-            self.joint_len.push(f.len);
+            // The face pressure's length (`fracture::fluid_pressure`).
+            self.joint_len.push(f.len0);
         }
     }
 }

@@ -474,7 +474,7 @@ impl FullTangent {
                 let fr = joint_frame(v, kj as usize);
                 for (i, s) in self.g_slots[c].iter().enumerate() {
                     if *s != NONE {
-                        self.values[*s] -= fr.len * FACE[i / 2] * fr.n[i % 2];
+                        self.values[*s] -= fr.len0 * FACE[i / 2] * fr.n[i % 2];
                     }
                 }
             }
