@@ -394,3 +394,30 @@ fn example1_toughness_scheme(name: &str, end: f64, scheme: &str) -> hydrofrac::f
     sim.run(|_| {}).unwrap();
     sim.flow().unwrap().view.clone()
 }
+
+/// The viscous KGD under a confining stress of 120 MPa (`scenarios/kgd_m.ron`, s0 / p0 = 40.6,
+/// h = 1 m, 31 cells) with a residual aperture of 5 % of the well opening: fill number R =
+/// a_r^2 s0 / (12 mu h v_tip) = 8.5, above the rule's 2.5 (`docs/toughness.md`, "High
+/// confinement"), so within 5 % of the M-vertex (measured front +0.9 %, opening -0.9 %,
+/// pressure +4.2 %). Before the fluid's force was taken over the faces' reference length the
+/// pressure was +23 %: the in-situ strain (0.43 %) shortened the faces it acted on.
+#[test]
+fn viscous_kgd_under_high_confinement_within_the_fill_number_rule() {
+    let w0 = 14.623e-3;
+    let r = kgd_run_in(
+        1.0,
+        "QuasiStatic",
+        &[
+            "boundary=InSitu(sxx: -120e6, syy: -120e6)".into(),
+            format!("fracture.residual_aperture={:e}", 0.05 * w0),
+        ],
+        Regime::ViscosityToughness(2.4e6),
+    )
+    .unwrap();
+    assert!((r.exact[1] / w0 - 1.0).abs() < 1e-3, "w0 {}", r.exact[1]);
+    assert!(r.balance < 1e-9, "mass balance {:.2e}", r.balance);
+    let e = r.errors_front();
+    for k in 0..3 {
+        assert!(e[k].abs() < 0.05, "errors {e:?}");
+    }
+}

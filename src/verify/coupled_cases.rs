@@ -807,3 +807,108 @@ pub fn kgd_mk(quick: bool) -> anyhow::Result<CaseResult> {
     }
     Ok(res)
 }
+
+/// `kgd_confinement`: `scenarios/kgd_m.ron` (the viscous KGD grown by the toughness criterion,
+/// h = 1 m, 31 cells along the similarity half-length at 3.25 s) under a confining stress s0 of
+/// 10, 40 and 120 MPa (s0 / p0 = 3.4, 13.5 and 40.6, p0 the similarity net well pressure) with a
+/// residual aperture a_r of 0.5, 1 and 5 % of the similarity well opening w0, against the
+/// viscosity-dominated solution, which none of them changes (`docs/toughness.md`, "High
+/// confinement"). Each row's fill number R = a_r^2 s0 / (12 mu h v_tip), v_tip = 2 l / (3 t)
+/// the similarity tip speed: a new tip cell, dry at zero pressure (a closing load s0 over
+/// it), fills through its residual aperture in 12 mu h^2 / (a_r^2 s0), 1 / R of the time the
+/// tip takes to cross it.
+///
+/// Checks (measured at b742cdb: `docs/toughness.md`, "High confinement"): every run conserves
+/// mass to 1e-9; at s0 / p0 = 3.4 every a_r within 3 % (measured 2.7 %: the dry cell's load
+/// does not close it there); where R >= 2.5 within 5 % (measured 4.2 % at R = 2.8 and 8.5);
+/// below R = 1 at s0 / p0 = 13.5 and 40.6 the errors are 7 to 56 % (the table), the issue's 3 %
+/// everywhere is not met.
+pub fn kgd_confinement(quick: bool) -> anyhow::Result<CaseResult> {
+    let sc = Scenario::parse(KGD_M_RON, "scenarios/kgd_m.ron")?;
+    let mat = sc.material.expect("kgd_m has a material");
+    let e_prime = mat.young / (1.0 - mat.poisson * mat.poisson);
+    let mu = sc.fluid.viscosity;
+    let (q0, t_end, h): (f64, f64, f64) = (0.2, 3.25, 1.0);
+    let mu_prime = 12.0 * mu;
+    let l = 0.61524 * (e_prime * q0.powi(3) * t_end.powi(4) / mu_prime).powf(1.0 / 6.0);
+    let w0 = 1.1233 * (mu_prime * q0.powi(3) * t_end.powi(2) / e_prime).powf(1.0 / 6.0);
+    let p0 = 0.5443 * (mu_prime * e_prime * e_prime / t_end).powf(1.0 / 3.0);
+    let v_tip = 2.0 * l / (3.0 * t_end);
+    let (confinements, fractions): (&[f64], &[f64]) = if quick {
+        (&[10e6, 120e6], &[0.005, 0.05])
+    } else {
+        (&[10e6, 40e6, 120e6], &[0.005, 0.01, 0.05])
+    };
+    let mut res = CaseResult::default();
+    let mut csv = String::from(
+        "s0_pa,s0_over_p0,a_r_m,a_r_over_w0,fill_number,length_error,opening_error,pressure_error,wall_s\n",
+    );
+    let mut series = Vec::new();
+    let mut level = 0;
+    for &s0 in confinements {
+        let mut points = Vec::new();
+        for &f in fractions {
+            let a_r = f * w0;
+            let r = kgd_run_in(
+                h,
+                "QuasiStatic",
+                &[
+                    format!("boundary=InSitu(sxx: -{s0:e}, syy: -{s0:e})"),
+                    format!("fracture.residual_aperture={a_r:e}"),
+                ],
+                Regime::ViscosityToughness(KGD_TOUGHNESS),
+            )?;
+            let e = r.errors_front();
+            let fill = a_r * a_r * s0 / (mu_prime * h * v_tip);
+            let worst = e.iter().fold(0.0_f64, |m, x| m.max(x.abs()));
+            let tag = format!("s0 / p0 = {:.1}, a_r = {:.1} % of w0", s0 / p0, 100.0 * f);
+            res.notes.push(format!(
+                "{tag} (R = {fill:.2}): front {:+.2} %, opening {:+.2} %, pressure {:+.2} % ({:.1} s)",
+                100.0 * e[0],
+                100.0 * e[1],
+                100.0 * e[2],
+                r.wall
+            ));
+            csv.push_str(&format!(
+                "{s0:e},{:.4},{a_r:.6e},{f},{fill:.6e},{:.6e},{:.6e},{:.6e},{:.3}\n",
+                s0 / p0,
+                e[0],
+                e[1],
+                e[2],
+                r.wall
+            ));
+            for (m, err) in [("length", e[0]), ("opening", e[1]), ("pressure", e[2])] {
+                res.rows.push(Row {
+                    case: "kgd_confinement",
+                    level,
+                    h,
+                    unknowns: r.unknowns,
+                    metric: format!("{m}_s0_{:.0}_ar_{:.1}pct", s0 / p0, 100.0 * f),
+                    error: err.abs(),
+                    wall_s: r.wall,
+                });
+            }
+            level += 1;
+            res.check_max(format!("mass balance, {tag}"), r.balance, 1e-9);
+            if s0 / p0 < 4.0 {
+                res.check_max(format!("worst error, {tag}"), worst, 0.03);
+            } else if fill >= 2.5 {
+                res.check_max(format!("worst error, {tag} (R >= 2.5)"), worst, 0.05);
+            }
+            points.push((fill.log10(), 100.0 * worst));
+        }
+        series.push(Series {
+            label: format!("s0 / p0 = {:.1}", s0 / p0),
+            points,
+        });
+    }
+    res.files.push(("kgd_confinement.csv".into(), csv));
+    res.plots.push(LinePlot {
+        file: "kgd_confinement.png".into(),
+        title: "kgd_confinement: viscous KGD (31 cells) under confinement".into(),
+        xlabel: "log10 fill number R = a_r^2 s0 / (12 mu h v_tip)".into(),
+        ylabel: "worst |error| of front, opening, pressure [%]".into(),
+        series,
+    });
+    Ok(res)
+}

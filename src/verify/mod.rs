@@ -4,7 +4,7 @@
 //! Cases: solid (`docs/verification.md` R1-R4) `patch`, `insitu`, `mms`, `stability`; flow
 //! `cubic_law`, `diffusion`, `mass_balance`, `pump_curve`, `steady`, `flow_stability`; fracture
 //! (R5, R7b, R8, R12b) `sneddon`, `sif`,
-//! `friction`, `slip_inclined`; coupled (R6) `kgd`, `kgd_k`, `kgd_mk`; the seed's
+//! `friction`, `slip_inclined`; coupled (R6) `kgd`, `kgd_k`, `kgd_mk`, `kgd_confinement`; the seed's
 //! Example I (R9) `example1`, and with selective mass scaling `mass_scaling`; reservoir: upscaling `oda`, continuum heat (R17)
 //! `heat_continuum`, discrete heat (R15, R16) `lauwerier`, `gringarten`, the two against each other
 //! `heat_models`; reliability: `extreme` (corners of the parameter space: finite and bounded,
@@ -228,6 +228,11 @@ pub fn cases() -> Vec<Case> {
             name: "kgd_mk",
             about: "KGD between the viscosity and toughness vertices (dimensionless toughness 0.2 to 8, toughness criterion): bounded by both vertices, the M-K trend",
             run: coupled_cases::kgd_mk,
+        },
+        Case {
+            name: "kgd_confinement",
+            about: "viscous KGD (toughness criterion, 31 cells) under a confining stress of 3.4 to 40 times the net pressure, residual aperture 0.5 to 5 % of the well opening: errors against the fill number",
+            run: coupled_cases::kgd_confinement,
         },
         Case {
             name: "example1",
