@@ -116,19 +116,18 @@ pub fn run_member(
     write_status(&mdir, &status)?;
     let t0 = Instant::now();
     let file = mdir.join(plan.member_file());
-    let armed = exit_until_output;
     let mut outcome = run_one(
         &plan,
         &file,
         &out,
         restart.clone(),
         stop.clone(),
-        armed.clone(),
+        exit_until_output.clone(),
     );
     if restart.is_some() && matches!(&outcome, Err(Restart::Refused)) {
         // A checkpoint the run cannot use (cut short while written): start again.
         status.restarted = false;
-        outcome = run_one(&plan, &file, &out, None, stop, armed);
+        outcome = run_one(&plan, &file, &out, None, stop, exit_until_output);
     }
     let outcome = match outcome {
         Ok(o) => o,
@@ -375,39 +374,34 @@ fn spawn_member(
                 _ => MemberOutcome::Failed(s.error.unwrap_or_default()),
             })
         }
-        // Signalled by the runner before it recorded an outcome: ended at once during its
-        // setup (nothing written in its run folder yet), so interrupted, not failed.
-        prev if signalled && prev.as_ref().is_none_or(|s| s.status == "running") => {
-            let sig = exit_signal(&exit);
-            let status = MemberStatus {
-                member: id,
-                fingerprint: fingerprint.to_string(),
-                status: "interrupted".into(),
-                error: Some(format!(
+        prev => {
+            // Signalled by the runner before it recorded an outcome: it ended at once during
+            // its setup (nothing written in its run folder yet), so interrupted, not failed.
+            let in_setup = signalled && prev.as_ref().is_none_or(|s| s.status == "running");
+            let (status, error, outcome) = if in_setup {
+                let sig = exit_signal(&exit);
+                let why = format!(
                     "interrupted by {} during its setup",
                     crate::driver::signal_name(sig)
-                )),
-                wall_s: prev.map_or(0.0, |p| p.wall_s),
-                restarted: false,
+                );
+                ("interrupted", why, MemberOutcome::Interrupted(sig))
+            } else {
+                let why = format!(
+                    "the member process ended ({exit}) without recording its outcome; its output is in {}",
+                    log_path.display()
+                );
+                ("failed", why.clone(), MemberOutcome::Failed(why))
             };
-            write_status(&mdir, &status)?;
-            Ok(MemberOutcome::Interrupted(sig))
-        }
-        prev => {
-            let why = format!(
-                "the member process ended ({exit}) without recording its outcome; its output is in {}",
-                log_path.display()
-            );
             let status = MemberStatus {
                 member: id,
                 fingerprint: fingerprint.to_string(),
-                status: "failed".into(),
-                error: Some(why.clone()),
+                status: status.into(),
+                error: Some(error),
                 wall_s: prev.map_or(0.0, |p| p.wall_s),
                 restarted: false,
             };
             write_status(&mdir, &status)?;
-            Ok(MemberOutcome::Failed(why))
+            Ok(outcome)
         }
     }
 }

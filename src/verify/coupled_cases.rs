@@ -161,6 +161,18 @@ pub fn toughness_vertex(e_prime: f64, q0: f64, t: f64, k_ic: f64) -> [f64; 3] {
     ]
 }
 
+/// The viscosity-dominated KGD solution (l, w0, p0) at time t (s) for E' (Pa), Q0 (m^2/s),
+/// viscosity mu (Pa s) (`docs/verification.md` R6): l = 0.61524 (E' Q0^3 t^4 / mu')^(1/6),
+/// w0 = 1.1233 (mu' Q0^3 t^2 / E')^(1/6), p0 = 0.5443 (mu' E'^2 / t)^(1/3), mu' = 12 mu.
+pub fn viscosity_vertex(e_prime: f64, q0: f64, t: f64, mu: f64) -> [f64; 3] {
+    let mu_prime = 12.0 * mu;
+    [
+        0.61524 * (e_prime * q0.powi(3) * t.powi(4) / mu_prime).powf(1.0 / 6.0),
+        1.1233 * (mu_prime * q0.powi(3) * t.powi(2) / e_prime).powf(1.0 / 6.0),
+        0.5443 * (mu_prime * e_prime * e_prime / t).powf(1.0 / 3.0),
+    ]
+}
+
 /// [`kgd_run`] against the similarity solution of `regime`.
 pub fn kgd_run_in(
     h: f64,
@@ -272,15 +284,10 @@ pub fn kgd_run_in(
             .sum::<f64>();
     let l_tracked = if l_tracked.is_finite() { l_tracked } else { l };
     let (w0, p0) = well_state(&sim, &on_line, s0);
-    let mu_prime = 12.0 * mu;
     let exact = if let Regime::Toughness(k_ic) = regime {
         toughness_vertex(e_prime, q0, t_end, k_ic)
     } else {
-        [
-            0.61524 * (e_prime * q0.powi(3) * t_end.powi(4) / mu_prime).powf(1.0 / 6.0),
-            1.1233 * (mu_prime * q0.powi(3) * t_end.powi(2) / e_prime).powf(1.0 / 6.0),
-            0.5443 * (mu_prime * e_prime * e_prime / t_end).powf(1.0 / 3.0),
-        ]
+        viscosity_vertex(e_prime, q0, t_end, mu)
     };
     Ok(KgdRun {
         l,
@@ -828,11 +835,9 @@ pub fn kgd_confinement(quick: bool) -> anyhow::Result<CaseResult> {
     let mat = sc.material.expect("kgd_m has a material");
     let e_prime = mat.young / (1.0 - mat.poisson * mat.poisson);
     let mu = sc.fluid.viscosity;
-    let (q0, t_end, h): (f64, f64, f64) = (0.2, 3.25, 1.0);
+    let (q0, t_end, h) = (0.2, 3.25, 1.0);
     let mu_prime = 12.0 * mu;
-    let l = 0.61524 * (e_prime * q0.powi(3) * t_end.powi(4) / mu_prime).powf(1.0 / 6.0);
-    let w0 = 1.1233 * (mu_prime * q0.powi(3) * t_end.powi(2) / e_prime).powf(1.0 / 6.0);
-    let p0 = 0.5443 * (mu_prime * e_prime * e_prime / t_end).powf(1.0 / 3.0);
+    let [l, w0, p0] = viscosity_vertex(e_prime, q0, t_end, mu);
     let v_tip = 2.0 * l / (3.0 * t_end);
     let (confinements, fractions): (&[f64], &[f64]) = if quick {
         (&[10e6, 120e6], &[0.005, 0.05])
