@@ -44,6 +44,7 @@ mod sneddon;
 mod solid_verification;
 mod split;
 mod sweep;
+mod tet_solid;
 mod toughness;
 mod vtk_output;
 

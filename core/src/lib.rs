@@ -35,6 +35,8 @@ pub mod snap;
 pub mod sparse;
 pub mod split;
 pub mod stability;
+pub mod tet4;
+pub mod tetmesh;
 pub mod timing;
 pub mod union_find;
 pub mod view;

@@ -37,6 +37,49 @@ fn cells_along(length: f64, h: f64, what: &str) -> Result<usize, SetupError> {
     Ok(n as usize)
 }
 
+/// Coordinate lines of a graded axis from `lo` to `hi` (m): cells of size `h` over the fine part
+/// [f0, f1] (which `h` must divide; `what` names it in the error), growing by `ratio` per cell
+/// towards each end; the outermost cell on each side absorbs the remainder. Shared by the 2D
+/// [`TriMesh::graded`] and the 3D box ([`crate::tetmesh::TetMesh::graded_box`]).
+pub fn graded_axis(
+    lo: f64,
+    hi: f64,
+    f0: f64,
+    f1: f64,
+    h: f64,
+    ratio: f64,
+    what: &str,
+) -> Result<Vec<f64>, SetupError> {
+    let n = cells_along(f1 - f0, h, what)?;
+    let mut line: Vec<f64> = (0..=n).map(|k| f0 + k as f64 * h).collect();
+    for (dir, end) in [(1.0, hi), (-1.0, lo)] {
+        let mut step = h;
+        let mut x = if dir > 0.0 { f1 } else { f0 };
+        let mut out = Vec::new();
+        loop {
+            step *= ratio;
+            let next = x + dir * step;
+            if (end - next) * dir <= 0.5 * step {
+                out.push(end);
+                break;
+            }
+            out.push(next);
+            x = next;
+        }
+        if (end - if dir > 0.0 { f1 } else { f0 }).abs() < 1e-12 * h {
+            out.clear();
+        }
+        if dir > 0.0 {
+            line.extend(out);
+        } else {
+            out.reverse();
+            out.extend(line);
+            line = out;
+        }
+    }
+    Ok(line)
+}
+
 impl TriMesh {
     /// Regular mesh of `width` x `height` (m) with square cells of size `h`, lower-left corner at `origin`.
     pub fn regular(width: f64, height: f64, h: f64, origin: [f64; 2]) -> Result<Self, SetupError> {
@@ -99,37 +142,7 @@ impl TriMesh {
         fine: [f64; 4],
         ratio: f64,
     ) -> Result<Self, SetupError> {
-        let axis =
-            |lo: f64, hi: f64, f0: f64, f1: f64, what: &str| -> Result<Vec<f64>, SetupError> {
-                let n = cells_along(f1 - f0, h, what)?;
-                let mut line: Vec<f64> = (0..=n).map(|k| f0 + k as f64 * h).collect();
-                for (dir, end) in [(1.0, hi), (-1.0, lo)] {
-                    let mut step = h;
-                    let mut x = if dir > 0.0 { f1 } else { f0 };
-                    let mut out = Vec::new();
-                    loop {
-                        step *= ratio;
-                        let next = x + dir * step;
-                        if (end - next) * dir <= 0.5 * step {
-                            out.push(end);
-                            break;
-                        }
-                        out.push(next);
-                        x = next;
-                    }
-                    if (end - if dir > 0.0 { f1 } else { f0 }).abs() < 1e-12 * h {
-                        out.clear();
-                    }
-                    if dir > 0.0 {
-                        line.extend(out);
-                    } else {
-                        out.reverse();
-                        out.extend(line);
-                        line = out;
-                    }
-                }
-                Ok(line)
-            };
+        let axis = |lo, hi, f0, f1, what: &str| graded_axis(lo, hi, f0, f1, h, ratio, what);
         let xs = axis(origin[0], origin[0] + width, fine[0], fine[2], "fine width")?;
         let ys = axis(
             origin[1],

@@ -1,0 +1,288 @@
+//! The linear tetrahedron (TET4), the seed's 3D solid element: geometry, strain, 3D Hooke's law,
+//! nodal forces, the element stiffness, the lumped mass and the element's exact critical step.
+//! Each is a pure function of one element's nodes and displacements, the 3D counterpart of the
+//! CST in [`crate::element`] (which keeps the 2D formulas; the Lame constants are shared through
+//! [`SolidParams`]).
+//!
+//! Conventions: SI units (m, Pa, kg/m^3, s), tension positive. Strain and stress in Voigt order
+//! `[xx, yy, zz, xy, yz, zx]` with engineering shear strains (gamma = 2 eps). A tetrahedron
+//! `[a, b, c, d]` is positively oriented when (b - a) x (c - a) . (d - a) > 0; its volume is a
+//! sixth of that.
+//!
+//! Not yet part of the engine (issue 38, first part): the ECS, the schedule and the scenarios are
+//! still 2D. Used by [`crate::tetmesh`] and the 3D tests (`tests/tet_solid.rs`).
+
+use crate::element::SolidParams;
+use nalgebra::{Matrix3, SMatrix, SVector, SymmetricEigen};
+
+/// Geometry of one tetrahedron: its volume (m^3) and the gradients of its four shape functions
+/// (1/m), `grad[a] = [dN_a/dx, dN_a/dy, dN_a/dz]`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TetGeometry {
+    pub volume: f64,
+    pub grad: [[f64; 3]; 4],
+}
+
+/// Signed volume of the tetrahedron (a, b, c, d), positive when positively oriented, m^3.
+pub fn signed_volume(a: [f64; 3], b: [f64; 3], c: [f64; 3], d: [f64; 3]) -> f64 {
+    let e = |p: [f64; 3]| [p[0] - a[0], p[1] - a[1], p[2] - a[2]];
+    let (u, v, w) = (e(b), e(c), e(d));
+    (u[0] * (v[1] * w[2] - v[2] * w[1]) - u[1] * (v[0] * w[2] - v[2] * w[0])
+        + u[2] * (v[0] * w[1] - v[1] * w[0]))
+        / 6.0
+}
+
+/// Volume and shape-function gradients of a tetrahedron. `None` when it is degenerate or
+/// inverted (signed volume not above 1e-12 of its edges' bounding cube).
+///
+/// With J = [x1 - x0, x2 - x0, x3 - x0] (columns), N_k = xi_k for k = 1..3 and
+/// N_0 = 1 - xi_1 - xi_2 - xi_3, the gradient of N_k is row k - 1 of J^-1 and
+/// grad N_0 = -(grad N_1 + grad N_2 + grad N_3).
+pub fn geometry(x: [[f64; 3]; 4]) -> Option<TetGeometry> {
+    let volume = signed_volume(x[0], x[1], x[2], x[3]);
+    let scale = (1..4)
+        .flat_map(|k| (0..3).map(move |d| (k, d)))
+        .fold(0.0f64, |m, (k, d)| m.max((x[k][d] - x[0][d]).abs()));
+    if volume.is_nan() || volume <= 1e-12 * scale * scale * scale {
+        return None;
+    }
+    let j = Matrix3::from_fn(|r, c| x[c + 1][r] - x[0][r]);
+    let inv = j.try_inverse()?;
+    let mut grad = [[0.0; 3]; 4];
+    for k in 1..4 {
+        for d in 0..3 {
+            grad[k][d] = inv[(k - 1, d)];
+            grad[0][d] -= inv[(k - 1, d)];
+        }
+    }
+    Some(TetGeometry { volume, grad })
+}
+
+/// Strain of one element from its nodal displacements (m): Voigt, engineering shear.
+#[inline(always)]
+pub fn strain(g: &TetGeometry, u: [[f64; 3]; 4]) -> [f64; 6] {
+    // H = grad u, H[i][j] = du_i / dx_j.
+    let mut h = [[0.0; 3]; 3];
+    for a in 0..4 {
+        for i in 0..3 {
+            for j in 0..3 {
+                h[i][j] += u[a][i] * g.grad[a][j];
+            }
+        }
+    }
+    [
+        h[0][0],
+        h[1][1],
+        h[2][2],
+        h[0][1] + h[1][0],
+        h[1][2] + h[2][1],
+        h[2][0] + h[0][2],
+    ]
+}
+
+/// Isotropic Hooke's law in 3D: stress (Pa, Voigt) from strain (Voigt, engineering shear).
+#[inline(always)]
+pub fn hooke(e: [f64; 6], p: &SolidParams) -> [f64; 6] {
+    let tr = e[0] + e[1] + e[2];
+    [
+        p.lam * tr + 2.0 * p.g * e[0],
+        p.lam * tr + 2.0 * p.g * e[1],
+        p.lam * tr + 2.0 * p.g * e[2],
+        p.g * e[3],
+        p.g * e[4],
+        p.g * e[5],
+    ]
+}
+
+/// Nodal internal forces of one element, f_a = -V B_a^T sigma, N.
+#[inline(always)]
+pub fn forces(g: &TetGeometry, s: [f64; 6]) -> [[f64; 3]; 4] {
+    let v = g.volume;
+    let mut f = [[0.0; 3]; 4];
+    for (fa, b) in f.iter_mut().zip(&g.grad) {
+        fa[0] = -v * (b[0] * s[0] + b[1] * s[3] + b[2] * s[5]);
+        fa[1] = -v * (b[0] * s[3] + b[1] * s[1] + b[2] * s[4]);
+        fa[2] = -v * (b[0] * s[5] + b[1] * s[4] + b[2] * s[2]);
+    }
+    f
+}
+
+/// Strain-displacement matrix B (6 x 12): eps = B u with u = [u0x, u0y, u0z, u1x, ...].
+pub fn b_matrix(g: &TetGeometry) -> SMatrix<f64, 6, 12> {
+    let mut b = SMatrix::<f64, 6, 12>::zeros();
+    for (a, d) in g.grad.iter().enumerate() {
+        let c = 3 * a;
+        b[(0, c)] = d[0];
+        b[(1, c + 1)] = d[1];
+        b[(2, c + 2)] = d[2];
+        b[(3, c)] = d[1];
+        b[(3, c + 1)] = d[0];
+        b[(4, c + 1)] = d[2];
+        b[(4, c + 2)] = d[1];
+        b[(5, c)] = d[2];
+        b[(5, c + 2)] = d[0];
+    }
+    b
+}
+
+/// Elasticity matrix D (6 x 6) of [`hooke`].
+pub fn d_matrix(p: &SolidParams) -> SMatrix<f64, 6, 6> {
+    let mut d = SMatrix::<f64, 6, 6>::zeros();
+    for i in 0..3 {
+        for j in 0..3 {
+            d[(i, j)] = if i == j { p.lam2g } else { p.lam };
+        }
+        d[(3 + i, 3 + i)] = p.g;
+    }
+    d
+}
+
+/// Element stiffness K_e = V B^T D B (12 x 12), N/m.
+pub fn stiffness(g: &TetGeometry, p: &SolidParams) -> SMatrix<f64, 12, 12> {
+    let b = b_matrix(g);
+    (b.transpose() * d_matrix(p) * b) * g.volume
+}
+
+/// Lumped mass of each of the element's nodes, rho V / 4, kg.
+pub fn lumped_mass(g: &TetGeometry, density: f64) -> f64 {
+    density * g.volume / 4.0
+}
+
+/// The element's exact critical step of the central-difference scheme with the lumped mass,
+/// s: 2 / omega_max with omega_max^2 the largest eigenvalue of K_e / (rho V / 4). By the
+/// element eigenvalue theorem (Irons) the smallest over the elements bounds the mesh's step
+/// from below.
+pub fn critical_step(g: &TetGeometry, p: &SolidParams, density: f64) -> f64 {
+    let k = stiffness(g, p);
+    let lmax = SymmetricEigen::new(k)
+        .eigenvalues
+        .iter()
+        .fold(0.0f64, |m, &l| m.max(l));
+    2.0 / (lmax / lumped_mass(g, density)).sqrt()
+}
+
+/// The element's displacements as one vector [u0x, u0y, u0z, u1x, ...].
+pub fn element_vector(u: [[f64; 3]; 4]) -> SVector<f64, 12> {
+    SVector::<f64, 12>::from_fn(|i, _| u[i / 3][i % 3])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scenario::Damping;
+
+    fn params() -> SolidParams {
+        let (e, nu) = (30e9, 0.25);
+        let g = e / (2.0 * (1.0 + nu));
+        let lam = e * nu / ((1.0 + nu) * (1.0 - 2.0 * nu));
+        SolidParams {
+            lam2g: lam + 2.0 * g,
+            lam,
+            g,
+            damping: Damping::default(),
+        }
+    }
+
+    fn skew() -> [[f64; 3]; 4] {
+        [
+            [0.1, -0.2, 0.05],
+            [1.3, 0.1, -0.1],
+            [0.2, 0.9, 0.3],
+            [0.4, 0.3, 1.1],
+        ]
+    }
+
+    #[test]
+    fn shape_gradients_reproduce_linear_fields() {
+        // sum_a N_a = 1 and sum_a x_a grad N_a = I: exact for any tetrahedron, to round-off.
+        let x = skew();
+        let g = geometry(x).expect("valid");
+        for d in 0..3 {
+            let s: f64 = g.grad.iter().map(|b| b[d]).sum();
+            assert!(s.abs() < 1e-13, "sum of dN/dx_{d} = {s}");
+            for e in 0..3 {
+                let m: f64 = (0..4).map(|a| x[a][e] * g.grad[a][d]).sum();
+                let want = if d == e { 1.0 } else { 0.0 };
+                assert!((m - want).abs() < 1e-13, "x_{e} gradient along {d}: {m}");
+            }
+        }
+        assert!(
+            geometry([x[1], x[0], x[2], x[3]]).is_none(),
+            "inverted accepted"
+        );
+    }
+
+    #[test]
+    fn rigid_motions_carry_no_force_and_a_uniform_strain_is_exact() {
+        let x = skew();
+        let g = geometry(x).expect("valid");
+        let p = params();
+        // A rigid translation and a small rotation about z: zero strain to round-off.
+        let w = 1e-3;
+        let u = x.map(|q| [0.3 - w * q[1], 0.1 + w * q[0], -0.2]);
+        let e = strain(&g, u);
+        assert!(e.iter().all(|v| v.abs() < 1e-15), "rigid strain {e:?}");
+        let k = stiffness(&g, &p);
+        let f = k * element_vector(u);
+        assert!(
+            f.amax() < 1e-3 * 1e-4 * k.amax(),
+            "rigid force {}",
+            f.amax()
+        );
+        // The six rigid modes: K_e has exactly six zero eigenvalues and six positive ones.
+        let ev = SymmetricEigen::new(k).eigenvalues;
+        let small = ev.iter().filter(|l| l.abs() < 1e-9 * k.amax()).count();
+        assert_eq!(small, 6, "zero eigenvalues {ev:?}");
+        assert!(ev.iter().all(|&l| l > -1e-9 * k.amax()));
+        // A linear field u = E x: the strain is E's symmetric part, exactly.
+        let m = [[1e-4, 2e-5, -3e-5], [4e-5, -2e-4, 1e-5], [0.0, 5e-5, 3e-4]];
+        let u = x.map(|q| {
+            let mut r = [0.0; 3];
+            for i in 0..3 {
+                r[i] = (0..3).map(|j| m[i][j] * q[j]).sum();
+            }
+            r
+        });
+        let e = strain(&g, u);
+        let want = [
+            m[0][0],
+            m[1][1],
+            m[2][2],
+            m[0][1] + m[1][0],
+            m[1][2] + m[2][1],
+            m[2][0] + m[0][2],
+        ];
+        for (a, b) in e.iter().zip(want) {
+            assert!((a - b).abs() < 1e-16, "strain {e:?} against {want:?}");
+        }
+        // Forces from the kernel equal K_e u, and they balance.
+        let f = forces(&g, hooke(e, &p));
+        let ku = k * element_vector(u);
+        for a in 0..4 {
+            for d in 0..3 {
+                assert!((f[a][d] + ku[3 * a + d]).abs() < 1e-9 * ku.amax());
+            }
+        }
+        for d in 0..3 {
+            assert!((0..4).map(|a| f[a][d]).sum::<f64>().abs() < 1e-9 * ku.amax());
+        }
+    }
+
+    #[test]
+    fn hooke_gives_the_uniaxial_strain_modulus() {
+        // Uniaxial strain: sigma_xx = (lambda + 2G) e, sigma_yy = sigma_zz = lambda e.
+        let p = params();
+        let s = hooke([1e-4, 0.0, 0.0, 0.0, 0.0, 0.0], &p);
+        assert!((s[0] - p.lam2g * 1e-4).abs() < 1e-6);
+        assert!((s[1] - p.lam * 1e-4).abs() < 1e-6 && (s[2] - s[1]).abs() < 1e-9);
+        // Uniaxial stress: E = G (3 lambda + 2 G) / (lambda + G) and nu from the lateral strain.
+        let (lam, g) = (p.lam, p.g);
+        let young = g * (3.0 * lam + 2.0 * g) / (lam + g);
+        let nu = lam / (2.0 * (lam + g));
+        let e = [1e-4, -nu * 1e-4, -nu * 1e-4, 0.0, 0.0, 0.0];
+        let s = hooke(e, &p);
+        assert!((s[0] - young * 1e-4).abs() < 1e-9 * young);
+        assert!(s[1].abs() < 1e-9 * young && s[2].abs() < 1e-9 * young);
+        assert!((young - 30e9).abs() < 1e-3 && (nu - 0.25).abs() < 1e-15);
+    }
+}
