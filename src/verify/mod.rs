@@ -4,7 +4,7 @@
 //! Cases: solid (`docs/verification.md` R1-R4) `patch`, `insitu`, `mms`, `stability`; flow
 //! `cubic_law`, `diffusion`, `mass_balance`, `pump_curve`, `steady`, `flow_stability`; fracture
 //! (R5, R7b, R8, R12b) `sneddon`, `sif`,
-//! `friction`, `slip_inclined`; coupled (R6) `kgd`, `kgd_k`, `kgd_mk`, `kgd_confinement`; the seed's
+//! `friction`, `slip_inclined`; 3D `penny3d`; coupled (R6) `kgd`, `kgd_k`, `kgd_mk`, `kgd_confinement`; the seed's
 //! Example I (R9) `example1`, and with selective mass scaling `mass_scaling`; reservoir: upscaling `oda`, continuum heat (R17)
 //! `heat_continuum`, discrete heat (R15, R16) `lauwerier`, `gringarten`, the two against each other
 //! `heat_models`; reliability: `extreme` (corners of the parameter space: finite and bounded,
@@ -22,6 +22,7 @@ pub mod heat_discrete_cases;
 pub mod heat_models_cases;
 pub mod sif_cases;
 pub mod slip_cases;
+pub mod solid3d_cases;
 pub mod solid_cases;
 pub mod upscale_cases;
 
@@ -193,6 +194,11 @@ pub fn cases() -> Vec<Case> {
             name: "sneddon",
             about: "pressurised pre-existing crack on a graded mesh against Sneddon's opening",
             run: fracture_cases::sneddon,
+        },
+        Case {
+            name: "penny3d",
+            about: "3D: Sneddon's penny-shaped crack under pressure, TET4 on a graded box (static, faer Cholesky), a/h = 4 to 16: centre opening, opened volume",
+            run: solid3d_cases::penny3d,
         },
         Case {
             name: "sneddon_inclined",
