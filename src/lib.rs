@@ -20,8 +20,8 @@
 pub use hydrofrac_components as components;
 pub use hydrofrac_core::{
     atomic, conforming, element, error, flow, fractures, gmsh, mesh, model, network, output,
-    params, plot, reservoir, resources, scenario, snap, sparse, split, stability, timing,
-    union_find, view,
+    params, plot, reservoir, resources, scenario, snap, sparse, split, stability, tet4, tetmesh,
+    timing, union_find, view,
 };
 pub use hydrofrac_engine::{checkpoint, schedule, setup, sim};
 pub use hydrofrac_systems as systems;
