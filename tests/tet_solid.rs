@@ -8,7 +8,9 @@
 //! - the explicit central-difference scheme with the lumped mass: the elements' critical step
 //!   bounds the mesh's (Irons), within a factor of 2 of it; a run just below the mesh's step
 //!   stays bounded and one just above it diverges;
-//! - Sneddon's penny-shaped crack (`hydrofrac verify penny3d`) at a/h = 4 and 8.
+//! - Sneddon's penny-shaped crack (`hydrofrac verify penny3d`) at a/h = 4 and 8;
+//! - 3D Gmsh import (`gmsh::parse_msh3`): tetrahedra with an embedded surface in both formats,
+//!   and the bad meshes refused with the line and the reason.
 
 use faer::Side;
 use faer::prelude::Solve;
@@ -274,4 +276,169 @@ fn the_penny_shaped_crack_opens_as_sneddon_s() {
         c4.abs() > c8.abs(),
         "centre error {c4} at a/h = 4, {c8} at 8"
     );
+}
+
+/// Element lines of [`box_msh`]: (tag, Gmsh type, 1-based node tags).
+type Elems = Vec<(u64, u32, Vec<u32>)>;
+
+/// A 2 x 1 x 1 box of unit cubes (12 tetrahedra) as Gmsh writes it, format 4.1 or 2.2: the
+/// volume in the physical group "rock" and the interior square x = 1 (two triangles, faces of
+/// the tetrahedra) in "fracture". `edit` changes the element lines (tag, type, nodes) first.
+fn box_msh(v4: bool, edit: impl Fn(&mut Elems)) -> String {
+    let m = TetMesh::regular_box([0.0; 3], [2.0, 1.0, 1.0], 1.0).expect("box");
+    let mut elems: Elems = Vec::new();
+    for (f, _) in m.faces() {
+        if f.iter()
+            .all(|&k| (m.nodes[k as usize][0] - 1.0).abs() < 1e-12)
+        {
+            elems.push((0, 2, f.iter().map(|k| k + 1).collect()));
+        }
+    }
+    elems.sort();
+    for t in &m.tets {
+        elems.push((0, 4, t.iter().map(|k| k + 1).collect()));
+    }
+    for (i, e) in elems.iter_mut().enumerate() {
+        e.0 = 100 + i as u64;
+    }
+    edit(&mut elems);
+    let mut s = String::new();
+    let nn = m.nodes.len();
+    let ne = elems.len();
+    let names = "$PhysicalNames\n2\n2 1 \"fracture\"\n3 2 \"rock\"\n$EndPhysicalNames\n";
+    let list = |v: &[u32]| {
+        v.iter()
+            .map(|k| k.to_string())
+            .collect::<Vec<_>>()
+            .join(" ")
+    };
+    if v4 {
+        s += "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n";
+        s += names;
+        s += "$Entities\n0 0 1 1\n1 1 0 0 1 1 1 1 1 0\n1 0 0 0 2 1 1 1 2 0\n$EndEntities\n";
+        s += &format!("$Nodes\n1 {nn} 1 {nn}\n3 1 0 {nn}\n");
+        for i in 0..nn {
+            s += &format!("{}\n", i + 1);
+        }
+        for q in &m.nodes {
+            s += &format!("{} {} {}\n", q[0], q[1], q[2]);
+        }
+        s += "$EndNodes\n";
+        let blocks: Vec<u32> = {
+            let mut t: Vec<u32> = elems.iter().map(|e| e.1).collect();
+            t.dedup();
+            t
+        };
+        s += &format!("$Elements\n{} {ne} 100 {}\n", blocks.len(), 99 + ne);
+        for ty in blocks {
+            let of: Vec<_> = elems.iter().filter(|e| e.1 == ty).collect();
+            let dim = if ty == 2 { 2 } else { 3 };
+            s += &format!("{dim} 1 {ty} {}\n", of.len());
+            for e in of {
+                s += &format!("{} {}\n", e.0, list(&e.2));
+            }
+        }
+        s += "$EndElements\n";
+    } else {
+        s += "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n";
+        s += names;
+        s += &format!("$Nodes\n{nn}\n");
+        for (i, q) in m.nodes.iter().enumerate() {
+            s += &format!("{} {} {} {}\n", i + 1, q[0], q[1], q[2]);
+        }
+        s += &format!("$EndNodes\n$Elements\n{ne}\n");
+        for e in &elems {
+            let phys = if e.1 == 2 { 1 } else { 2 };
+            s += &format!("{} {} 2 {phys} 1 {}\n", e.0, e.1, list(&e.2));
+        }
+        s += "$EndElements\n";
+    }
+    s
+}
+
+#[test]
+fn a_gmsh_tetrahedral_mesh_with_an_embedded_surface_is_read_in_both_formats() {
+    use hydrofrac_core::gmsh::{parse_msh, parse_msh3};
+    for v4 in [true, false] {
+        let g = parse_msh3(&box_msh(v4, |_| {}), "box.msh").expect("valid 3D mesh");
+        assert_eq!((g.mesh.nodes.len(), g.mesh.tets.len()), (12, 12));
+        let vol: f64 = (0..12)
+            .map(|t| tet4::geometry(g.mesh.corners(t)).expect("positive").volume)
+            .sum();
+        assert!((vol - 2.0).abs() < 1e-14, "volume {vol}");
+        assert!(g.tet_physical.iter().all(|p| p.as_deref() == Some("rock")));
+        assert_eq!(g.surfaces.len(), 2);
+        assert!(
+            g.surface_physical
+                .iter()
+                .all(|p| p.as_deref() == Some("fracture"))
+        );
+        for f in &g.surfaces {
+            assert!(
+                f.iter()
+                    .all(|&k| (g.mesh.nodes[k as usize][0] - 1.0).abs() < 1e-12)
+            );
+        }
+        assert_eq!(g.mesh.bbox, [0.0, 0.0, 0.0, 2.0, 1.0, 1.0]);
+        // The 2D reader still refuses it as not planar.
+        let e = parse_msh(&box_msh(v4, |_| {}), "box.msh").expect_err("3D file as 2D");
+        assert!(e.to_string().contains("plane z = 0"), "{e}");
+    }
+    // Inverted tetrahedra are turned over; the file's order does not matter.
+    let g = parse_msh3(
+        &box_msh(true, |e| {
+            for x in e.iter_mut().filter(|x| x.1 == 4) {
+                x.2.swap(0, 1);
+            }
+        }),
+        "box.msh",
+    )
+    .expect("inverted tetrahedra accepted");
+    assert!((0..12).all(|t| tet4::geometry(g.mesh.corners(t)).is_some()));
+}
+
+#[test]
+fn bad_3d_gmsh_meshes_are_refused_with_the_line_and_the_reason() {
+    use hydrofrac_core::gmsh::parse_msh3;
+    let err = |v4: bool, edit: &dyn Fn(&mut Elems)| {
+        parse_msh3(&box_msh(v4, edit), "box.msh")
+            .expect_err("refused")
+            .to_string()
+    };
+    // A degenerate tetrahedron (four coplanar nodes: the x = 1 square's corners).
+    let e = err(false, &|e| {
+        let t = e.iter_mut().find(|x| x.1 == 4).expect("a tet");
+        t.2 = vec![2, 5, 8, 11];
+    });
+    assert!(
+        e.contains("degenerate tetrahedron") && e.starts_with("box.msh:"),
+        "{e}"
+    );
+    // A triangle that is not a face of the tetrahedra.
+    let e = err(true, &|e| e[0].2 = vec![1, 2, 12]);
+    assert!(
+        e.contains("not a face of the tetrahedra") && e.contains("In Volume"),
+        "{e}"
+    );
+    // Second-order tetrahedra and hexahedra: a hint.
+    let e = err(false, &|e| {
+        let t = e.iter_mut().find(|x| x.1 == 4).expect("a tet");
+        t.1 = 11;
+        t.2.extend([1, 2, 3, 4, 5, 6]);
+    });
+    assert!(e.contains("Mesh.ElementOrder = 1"), "{e}");
+    let e = err(false, &|e| {
+        let t = e.iter_mut().find(|x| x.1 == 4).expect("a tet");
+        t.1 = 5;
+        t.2 = (1..=8).collect();
+    });
+    assert!(e.contains("mesh the volume with tetrahedra"), "{e}");
+    // No tetrahedra at all; a node that is not in $Nodes.
+    let e = err(false, &|e| e.retain(|x| x.1 == 2));
+    assert!(e.contains("no 4-node tetrahedra"), "{e}");
+    let e = err(true, &|e| {
+        let t = e.iter_mut().find(|x| x.1 == 4).expect("a tet");
+        t.2[0] = 99;
+    });
+    assert!(e.contains("node 99, not in $Nodes"), "{e}");
 }

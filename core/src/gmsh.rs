@@ -1,4 +1,5 @@
-//! Reader for 2D triangle meshes in Gmsh `.msh` files (ASCII format 4.1 and 2.2).
+//! Reader for Gmsh `.msh` files (ASCII format 4.1 and 2.2): 2D triangle meshes
+//! ([`parse_msh`]) and 3D tetrahedral meshes with the surfaces they embed ([`parse_msh3`]).
 //!
 //! Only 3-node triangles (element type 2) are kept; points, lines and other element types are
 //! skipped, except second-order triangles and quadrilaterals, which are rejected with a hint.
@@ -68,6 +69,21 @@ pub enum GmshError {
         other_line: usize,
         why: &'static str,
     },
+    #[error("{path}: no 4-node tetrahedra (element type 4) in the mesh")]
+    NoTetrahedra { path: String },
+    #[error("{path}:{line}: element {tag}: degenerate tetrahedron (volume {volume:e})")]
+    BadTetrahedron {
+        path: String,
+        line: usize,
+        tag: u64,
+        volume: f64,
+    },
+    /// A surface triangle that is not a face of the tetrahedra (the surface was not embedded
+    /// in the volume mesh, e.g. a fracture meshed on its own).
+    #[error(
+        "{path}:{line}: element {tag}: triangle is not a face of the tetrahedra (embed the surface in the volume: Gmsh's Surface{{..}} In Volume{{..}} or BooleanFragments)"
+    )]
+    NotEmbedded { path: String, line: usize, tag: u64 },
     #[error("{path}:{line}: node {tag}: z = {z:e}, but the mesh must lie in the plane z = 0")]
     NotPlanar {
         path: String,
@@ -90,14 +106,21 @@ pub fn read_msh(path: &Path) -> Result<GmshMesh, GmshError> {
 
 /// Parses the text of a `.msh` file; `path_for_messages` is only used in error messages.
 pub fn parse_msh(text: &str, path_for_messages: &str) -> Result<GmshMesh, GmshError> {
-    let path = path_for_messages;
+    build(read_raw(text, path_for_messages, false)?, path_for_messages)
+}
+
+/// The sections of a `.msh` file into [`Raw`] (tetrahedra kept when `three_d`).
+fn read_raw(text: &str, path: &str, three_d: bool) -> Result<Raw, GmshError> {
     let mut lines = Lines {
         path,
         iter: text.lines().enumerate(),
         last: 0,
     };
     let v4 = read_format(&mut lines)?;
-    let mut raw = Raw::default();
+    let mut raw = Raw {
+        three_d,
+        ..Raw::default()
+    };
     while let Some((line, header)) = lines.next() {
         match header {
             "$PhysicalNames" => read_physical_names(&mut lines, &mut raw)?,
@@ -110,7 +133,7 @@ pub fn parse_msh(text: &str, path_for_messages: &str) -> Result<GmshMesh, GmshEr
             h => return Err(parse_err(path, line, format!("unexpected '{h}'"))),
         }
     }
-    build(raw, path)
+    Ok(raw)
 }
 
 fn parse_err(path: &str, line: usize, msg: String) -> GmshError {
@@ -253,6 +276,21 @@ struct RawTri {
     physical: Option<String>,
 }
 
+struct RawTet {
+    tag: u64,
+    line: usize,
+    nodes: [u64; 4],
+    physical: Option<String>,
+}
+
+/// What the reader keeps of an element type.
+#[derive(PartialEq)]
+enum Kind {
+    Triangle,
+    Tetrahedron,
+    Skip,
+}
+
 #[derive(Default)]
 struct Raw {
     /// Names of 2D physical groups by physical tag.
@@ -263,6 +301,11 @@ struct Raw {
     node_index: HashMap<u64, usize>,
     nodes: Vec<RawNode>,
     tris: Vec<RawTri>,
+    /// 3D reading ([`parse_msh3`]): tetrahedra kept, volumes' physical names and tags.
+    three_d: bool,
+    names3: HashMap<i64, String>,
+    volumes: HashMap<i64, Vec<i64>>,
+    tets: Vec<RawTet>,
 }
 
 impl Raw {
@@ -271,6 +314,25 @@ impl Raw {
             return Err(rec.err(format!("duplicate node tag {tag}")));
         }
         self.nodes.push((tag, rec.line, xyz));
+        Ok(())
+    }
+
+    /// A tetrahedron whose four node tags start at token `first` and end the line.
+    fn add_tet(
+        &mut self,
+        rec: &Record,
+        first: usize,
+        physical: Option<String>,
+    ) -> Result<(), GmshError> {
+        rec.len(first.saturating_add(4))?;
+        let tag = rec.get(0, "element tag")?;
+        let nodes = rec.array(first, "node tag")?;
+        self.tets.push(RawTet {
+            tag,
+            line: rec.line,
+            nodes,
+            physical,
+        });
         Ok(())
     }
 
@@ -338,6 +400,8 @@ fn read_physical_names(lines: &mut Lines, raw: &mut Raw) -> Result<(), GmshError
         };
         if dim == 2 {
             raw.names.insert(tag, name);
+        } else if dim == 3 {
+            raw.names3.insert(tag, name);
         }
     }
     lines.expect_end("PhysicalNames")
@@ -351,12 +415,17 @@ fn read_entities(lines: &mut Lines, raw: &mut Raw) -> Result<(), GmshError> {
     for (dim, &n) in counts.iter().enumerate() {
         for _ in 0..n {
             let rec = lines.record("entity line")?;
-            if dim == 2 {
-                // tag minX minY minZ maxX maxY maxZ numPhysicalTags physicalTag... curves...
+            if dim >= 2 {
+                // tag minX minY minZ maxX maxY maxZ numPhysicalTags physicalTag... bounding...
                 let nphys: usize = rec.get(7, "number of physical tags")?;
                 let phys = (0..nphys).map(|k| rec.get(8 + k, "physical tag"));
                 let phys = phys.collect::<Result<Vec<i64>, _>>()?;
-                raw.surfaces.insert(rec.get(0, "surface tag")?, phys);
+                let map = if dim == 2 {
+                    &mut raw.surfaces
+                } else {
+                    &mut raw.volumes
+                };
+                map.insert(rec.get(0, "entity tag")?, phys);
             }
         }
     }
@@ -402,13 +471,19 @@ fn read_nodes_v4(lines: &mut Lines, raw: &mut Raw) -> Result<(), GmshError> {
     lines.expect_end("Nodes")
 }
 
-/// Whether an element type is a 3-node triangle; rejects second-order triangles and quads.
-fn is_triangle(etype: u32, rec: &Record) -> Result<bool, GmshError> {
+/// What to keep of an element type: 3-node triangles, and in 3D 4-node tetrahedra; rejects
+/// second-order elements, quadrilaterals and, in 3D, hexahedra, prisms and pyramids.
+fn kind(etype: u32, rec: &Record, three_d: bool) -> Result<Kind, GmshError> {
     let msg = match etype {
-        2 => return Ok(true),
+        2 => return Ok(Kind::Triangle),
+        4 if three_d => return Ok(Kind::Tetrahedron),
         9 | 20..=25 => "second-order mesh: export with Mesh.ElementOrder = 1",
+        11 | 29 | 30 if three_d => "second-order mesh: export with Mesh.ElementOrder = 1",
         3 | 10 | 16 => "quadrilaterals: use triangles",
-        _ => return Ok(false),
+        5..=7 | 12..=14 | 17..=19 if three_d => {
+            "hexahedra, prisms or pyramids: mesh the volume with tetrahedra"
+        }
+        _ => return Ok(Kind::Skip),
     };
     let (path, line) = (rec.path.to_string(), rec.line);
     let msg = format!("element type {etype}: {msg}");
@@ -419,13 +494,23 @@ fn is_triangle(etype: u32, rec: &Record) -> Result<bool, GmshError> {
 fn read_elements_v2(lines: &mut Lines, raw: &mut Raw) -> Result<(), GmshError> {
     for _ in 0..lines.count("number of elements")? {
         let rec = lines.record("element line 'tag type ntags tags... nodes...'")?;
-        if is_triangle(rec.get(1, "element type")?, &rec)? {
+        let k = kind(rec.get(1, "element type")?, &rec, raw.three_d)?;
+        if k != Kind::Skip {
             let ntags: usize = rec.get(2, "number of tags")?;
+            let names = if k == Kind::Triangle {
+                &raw.names
+            } else {
+                &raw.names3
+            };
             let physical = match ntags {
                 0 => None,
-                _ => raw.names.get(&rec.get(3, "physical tag")?).cloned(),
+                _ => names.get(&rec.get(3, "physical tag")?).cloned(),
             };
-            raw.add_tri(&rec, ntags.saturating_add(3), physical)?;
+            if k == Kind::Triangle {
+                raw.add_tri(&rec, ntags.saturating_add(3), physical)?;
+            } else {
+                raw.add_tet(&rec, ntags.saturating_add(3), physical)?;
+            }
         }
     }
     lines.expect_end("Elements")
@@ -441,14 +526,21 @@ fn read_elements_v4(lines: &mut Lines, raw: &mut Raw) -> Result<(), GmshError> {
         let rec = lines.record("element block 'entityDim entityTag elementType numElements'")?;
         rec.len(4)?;
         // Gmsh writes $PhysicalNames and $Entities before $Elements.
-        let phys = raw.surfaces.get(&rec.get::<i64>(1, "entity tag")?);
-        let physical = phys.and_then(|ps| ps.iter().find_map(|p| raw.names.get(p).cloned()));
-        let triangles = is_triangle(rec.get(2, "element type")?, &rec)?;
+        let k = kind(rec.get(2, "element type")?, &rec, raw.three_d)?;
+        let (entities, names) = if k == Kind::Tetrahedron {
+            (&raw.volumes, &raw.names3)
+        } else {
+            (&raw.surfaces, &raw.names)
+        };
+        let phys = entities.get(&rec.get::<i64>(1, "entity tag")?);
+        let physical = phys.and_then(|ps| ps.iter().find_map(|p| names.get(p).cloned()));
         let n: usize = rec.get(3, "number of elements in block")?;
         for _ in 0..n {
             let rec = lines.record("element line 'tag nodes...'")?;
-            if triangles {
-                raw.add_tri(&rec, 1, physical.clone())?;
+            match k {
+                Kind::Triangle => raw.add_tri(&rec, 1, physical.clone())?,
+                Kind::Tetrahedron => raw.add_tet(&rec, 1, physical.clone())?,
+                Kind::Skip => {}
             }
         }
         total = total.saturating_add(n);
@@ -458,6 +550,126 @@ fn read_elements_v4(lines: &mut Lines, raw: &mut Raw) -> Result<(), GmshError> {
         return Err(header.err(msg));
     }
     lines.expect_end("Elements")
+}
+
+/// A 3D mesh read from Gmsh: the tetrahedra (positively oriented, as [`crate::tetmesh`]
+/// keeps them), each one's volume physical group, and the surface triangles the file holds
+/// (fractures and boundaries embedded in the volume mesh) with their surface physical group.
+/// Every surface triangle is a face of the tetrahedra.
+#[derive(Debug, Clone)]
+pub struct GmshMesh3 {
+    pub mesh: crate::tetmesh::TetMesh,
+    pub tet_physical: Vec<Option<String>>,
+    pub surfaces: Vec<[u32; 3]>,
+    pub surface_physical: Vec<Option<String>>,
+}
+
+/// Reads and parses a 3D `.msh` file (see [`parse_msh3`]).
+pub fn read_msh3(path: &Path) -> Result<GmshMesh3, GmshError> {
+    let shown = path.display().to_string();
+    let bytes = std::fs::read(path).map_err(|source| GmshError::Io {
+        path: shown.clone(),
+        source,
+    })?;
+    parse_msh3(&String::from_utf8_lossy(&bytes), &shown)
+}
+
+/// Parses the text of a 3D `.msh` file: 4-node tetrahedra (element type 4) and 3-node
+/// triangles; second-order elements, hexahedra, prisms and pyramids are refused with a hint.
+/// Node tags map to compact indices in order of first appearance, nodes used by no
+/// tetrahedron are dropped (a triangle that uses one is not embedded), tetrahedra are
+/// reoriented to a positive volume, and degenerate ones are refused.
+pub fn parse_msh3(text: &str, path_for_messages: &str) -> Result<GmshMesh3, GmshError> {
+    let path = path_for_messages;
+    let raw = read_raw(text, path, true)?;
+    if raw.tets.is_empty() {
+        return Err(GmshError::NoTetrahedra {
+            path: path.to_string(),
+        });
+    }
+    let resolve = |node: u64, tag: u64, line: usize| {
+        let msg = || format!("element {tag} refers to node {node}, not in $Nodes");
+        raw.node_index
+            .get(&node)
+            .copied()
+            .ok_or_else(|| parse_err(path, line, msg()))
+    };
+    let mut used = vec![false; raw.nodes.len()];
+    let mut tets = Vec::with_capacity(raw.tets.len());
+    for t in &raw.tets {
+        let mut idx = [0usize; 4];
+        for (i, &node) in idx.iter_mut().zip(&t.nodes) {
+            *i = resolve(node, t.tag, t.line)?;
+            used[*i] = true;
+        }
+        tets.push(idx);
+    }
+    let mut new_index = vec![u32::MAX; raw.nodes.len()];
+    let mut nodes = Vec::new();
+    for (i, node) in raw.nodes.iter().enumerate().filter(|&(i, _)| used[i]) {
+        let too_many = |_| parse_err(path, node.1, "more than 2^32 nodes".into());
+        new_index[i] = u32::try_from(nodes.len()).map_err(too_many)?;
+        nodes.push(node.2);
+    }
+    let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+    for q in &nodes {
+        for d in 0..3 {
+            lo[d] = lo[d].min(q[d]);
+            hi[d] = hi[d].max(q[d]);
+        }
+    }
+    let diag = ((hi[0] - lo[0]).powi(2) + (hi[1] - lo[1]).powi(2) + (hi[2] - lo[2]).powi(2)).sqrt();
+    let mut out = Vec::with_capacity(tets.len());
+    let mut tet_physical = Vec::with_capacity(tets.len());
+    for (t, idx) in raw.tets.iter().zip(tets) {
+        let mut v = idx.map(|i| new_index[i]);
+        let x = v.map(|k| nodes[k as usize]);
+        let volume = crate::tet4::signed_volume(x[0], x[1], x[2], x[3]);
+        if volume.is_nan() || volume.abs() <= 1e-15 * diag * diag * diag {
+            return Err(GmshError::BadTetrahedron {
+                path: path.to_string(),
+                line: t.line,
+                tag: t.tag,
+                volume,
+            });
+        }
+        if volume < 0.0 {
+            v.swap(2, 3);
+        }
+        out.push(v);
+        tet_physical.push(t.physical.clone());
+    }
+    let mesh = crate::tetmesh::TetMesh {
+        nodes,
+        tets: out,
+        bbox: [lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]],
+    };
+    let faces = mesh.faces();
+    let (mut surfaces, mut surface_physical) = (Vec::new(), Vec::new());
+    for t in &raw.tris {
+        let mut f = [0u32; 3];
+        for (k, &node) in f.iter_mut().zip(&t.nodes) {
+            let i = resolve(node, t.tag, t.line)?;
+            *k = new_index[i];
+        }
+        let mut key = f;
+        key.sort_unstable();
+        if f.contains(&u32::MAX) || !faces.contains_key(&key) {
+            return Err(GmshError::NotEmbedded {
+                path: path.to_string(),
+                line: t.line,
+                tag: t.tag,
+            });
+        }
+        surfaces.push(f);
+        surface_physical.push(t.physical.clone());
+    }
+    Ok(GmshMesh3 {
+        mesh,
+        tet_physical,
+        surfaces,
+        surface_physical,
+    })
 }
 
 /// Resolves node tags, drops orphan nodes, checks planarity and orientation.
