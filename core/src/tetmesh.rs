@@ -158,3 +158,119 @@ impl TetMesh {
         faces
     }
 }
+
+/// What [`TetMesh::split_along`] did: each new node with the node it was copied from, and each
+/// fracture face as its two sister faces (the same positions, one per side; node order as
+/// given, on the side the tetrahedron's copy took).
+#[derive(Clone, Debug, Default)]
+pub struct TetSplit {
+    /// (mother, daughter) node pairs, daughters numbered from the old node count on.
+    pub daughters: Vec<(u32, u32)>,
+    /// Per fracture face: its nodes on each side.
+    pub sisters: Vec<[[u32; 3]; 2]>,
+}
+
+impl TetMesh {
+    /// Open the fracture made of `faces` (node triples, each a face shared by two tetrahedra):
+    /// the seed's splitting condition in 3D. At every node of the fracture, the tetrahedra
+    /// around it are grouped by the faces they share that are not fracture faces; a node whose
+    /// tetrahedra fall into two or more groups gets one copy per further group (the group
+    /// holding the lowest-numbered tetrahedron keeps the node), and those tetrahedra are
+    /// relinked to it. Nodes on the fracture's front inside the rock keep one group and stay
+    /// shared, so the fracture closes there; where it reaches the domain's surface it opens.
+    /// Deterministic: groups and copies follow tetrahedron and node order. Errors name a face
+    /// that is not an interior face of the mesh.
+    pub fn split_along(&mut self, faces: &[[u32; 3]]) -> Result<TetSplit, SetupError> {
+        let all = self.faces();
+        let key = |f: [u32; 3]| {
+            let mut k = f;
+            k.sort_unstable();
+            k
+        };
+        let mut cut = std::collections::HashSet::new();
+        for &f in faces {
+            match all.get(&key(f)) {
+                Some(ts) if ts.len() == 2 => {
+                    cut.insert(key(f));
+                }
+                _ => {
+                    return Err(SetupError::Invalid {
+                        field: "fracture".into(),
+                        why: format!("face {f:?} is not an interior face of the tetrahedra"),
+                    });
+                }
+            }
+        }
+        // The tetrahedra around each fracture node, in order.
+        let mut nodes: Vec<u32> = faces.iter().flatten().copied().collect();
+        nodes.sort_unstable();
+        nodes.dedup();
+        let mut around: HashMap<u32, Vec<u32>> = nodes.iter().map(|&n| (n, Vec::new())).collect();
+        for (t, tet) in self.tets.iter().enumerate() {
+            for n in tet {
+                if let Some(v) = around.get_mut(n) {
+                    v.push(t as u32);
+                }
+            }
+        }
+        let mut out = TetSplit::default();
+        for &n in &nodes {
+            let ts = &around[&n];
+            // Union the tetrahedra around n across shared faces through n that are not cut.
+            let mut group: Vec<usize> = (0..ts.len()).collect();
+            fn root(g: &mut [usize], mut i: usize) -> usize {
+                while g[i] != i {
+                    g[i] = g[g[i]];
+                    i = g[i];
+                }
+                i
+            }
+            for a in 0..ts.len() {
+                for b in a + 1..ts.len() {
+                    let (ta, tb) = (self.tets[ts[a] as usize], self.tets[ts[b] as usize]);
+                    let shared: Vec<u32> = ta.iter().copied().filter(|x| tb.contains(x)).collect();
+                    if shared.len() == 3 && !cut.contains(&key([shared[0], shared[1], shared[2]])) {
+                        let (ra, rb) = (root(&mut group, a), root(&mut group, b));
+                        group[ra.max(rb)] = ra.min(rb);
+                    }
+                }
+            }
+            let roots: Vec<usize> = (0..ts.len()).map(|i| root(&mut group, i)).collect();
+            let mut firsts: Vec<usize> = roots.clone();
+            firsts.sort_unstable();
+            firsts.dedup();
+            for &r in firsts.iter().skip(1) {
+                let d = self.nodes.len() as u32;
+                self.nodes.push(self.nodes[n as usize]);
+                out.daughters.push((n, d));
+                for (i, &t) in ts.iter().enumerate() {
+                    if roots[i] == r {
+                        for x in self.tets[t as usize].iter_mut().filter(|x| **x == n) {
+                            *x = d;
+                        }
+                    }
+                }
+            }
+        }
+        // Each fracture face on its two sides: the nodes of each of its two tetrahedra that
+        // sit where the face's nodes do (a mother or one of its daughters).
+        let mut copies: HashMap<u32, Vec<u32>> = HashMap::new();
+        for &(m, d) in &out.daughters {
+            copies.entry(m).or_default().push(d);
+        }
+        let family = |m: u32, x: u32| x == m || copies.get(&m).is_some_and(|v| v.contains(&x));
+        for &f in faces {
+            let ts = &all[&key(f)];
+            let side = |t: u32| {
+                let tet = self.tets[t as usize];
+                f.map(|m| {
+                    *tet.iter()
+                        .find(|&&x| family(m, x))
+                        .expect("face node in its tet")
+                })
+            };
+            out.sisters.push([side(ts[0]), side(ts[1])]);
+        }
+        Ok(out)
+    }
+}
