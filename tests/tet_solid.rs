@@ -11,7 +11,8 @@
 //! - Sneddon's penny-shaped crack (`hydrofrac verify penny3d`) at a/h = 4 and 8, and the same
 //!   crack with both faces opened by `TetMesh::split_along` (topology invariants asserted);
 //! - 3D Gmsh import (`gmsh::parse_msh3`): tetrahedra with an embedded surface in both formats,
-//!   and the bad meshes refused with the line and the reason.
+//!   and the bad meshes refused with the line and the reason;
+//! - a manufactured smooth displacement (`hydrofrac verify mms3d`): second order.
 
 use faer::Side;
 use faer::prelude::Solve;
@@ -589,4 +590,14 @@ fn a_penny_crack_opened_by_node_splitting_matches_the_symmetric_model() {
         .0;
     let e = m.split_along(&[outer]).expect_err("boundary face");
     assert!(e.to_string().contains("not an interior face"), "{e}");
+}
+
+#[test]
+fn a_manufactured_smooth_displacement_converges_at_second_order() {
+    // `verify mms3d --quick`: h = 1/4, 1/8, 1/16 (0.2 s); its order checks in [1.7, 2.3].
+    let r = hydrofrac::verify::solid3d_cases::mms3d(true).expect("runs");
+    assert!(r.passed(), "{:?}", r.failures());
+    // And the error itself is small where it should be: below 1 % of the amplitude at 1/16.
+    let (emax, _, _) = hydrofrac::verify::solid3d_cases::mms3d_level(16);
+    assert!(emax < 0.01, "max nodal error {emax} of the amplitude");
 }

@@ -4,7 +4,7 @@
 //! Cases: solid (`docs/verification.md` R1-R4) `patch`, `insitu`, `mms`, `stability`; flow
 //! `cubic_law`, `diffusion`, `mass_balance`, `pump_curve`, `steady`, `flow_stability`; fracture
 //! (R5, R7b, R8, R12b) `sneddon`, `sif`,
-//! `friction`, `slip_inclined`; 3D `penny3d`; coupled (R6) `kgd`, `kgd_k`, `kgd_mk`, `kgd_confinement`; the seed's
+//! `friction`, `slip_inclined`; 3D `mms3d`, `penny3d`; coupled (R6) `kgd`, `kgd_k`, `kgd_mk`, `kgd_confinement`; the seed's
 //! Example I (R9) `example1`, and with selective mass scaling `mass_scaling`; reservoir: upscaling `oda`, continuum heat (R17)
 //! `heat_continuum`, discrete heat (R15, R16) `lauwerier`, `gringarten`, the two against each other
 //! `heat_models`; reliability: `extreme` (corners of the parameter space: finite and bounded,
@@ -194,6 +194,11 @@ pub fn cases() -> Vec<Case> {
             name: "sneddon",
             about: "pressurised pre-existing crack on a graded mesh against Sneddon's opening",
             run: fracture_cases::sneddon,
+        },
+        Case {
+            name: "mms3d",
+            about: "3D: TET4 on Kuhn cubes against a manufactured smooth displacement (body force in closed form), h = 1/4 to 1/32: O(h^2) displacement",
+            run: solid3d_cases::mms3d,
         },
         Case {
             name: "penny3d",
