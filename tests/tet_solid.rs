@@ -14,10 +14,9 @@
 //!   and the bad meshes refused with the line and the reason;
 //! - a manufactured smooth displacement (`hydrofrac verify mms3d`): second order.
 
-use faer::Side;
-use faer::prelude::Solve;
-use faer::sparse::SparseColMat;
-use hydrofrac::verify::solid3d_cases::{NU, YOUNG, params, penny, stiffness};
+use hydrofrac::verify::solid3d_cases::{
+    NU, YOUNG, number_dofs, params, penny, solve, triangle_area,
+};
 use hydrofrac_core::tet4;
 use hydrofrac_core::tetmesh::TetMesh;
 
@@ -56,16 +55,7 @@ fn the_graded_box_is_a_conforming_cover() {
         );
         if ts.len() == 1 {
             let p = f.map(|n| m.nodes[n as usize]);
-            let (u, v) = (
-                [p[1][0] - p[0][0], p[1][1] - p[0][1], p[1][2] - p[0][2]],
-                [p[2][0] - p[0][0], p[2][1] - p[0][1], p[2][2] - p[0][2]],
-            );
-            let c = [
-                u[1] * v[2] - u[2] * v[1],
-                u[2] * v[0] - u[0] * v[2],
-                u[0] * v[1] - u[1] * v[0],
-            ];
-            area += 0.5 * (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt();
+            area += triangle_area(p);
             // A boundary face lies on the box's surface.
             let on = |d: usize| {
                 p.iter().all(|q| q[d].abs() < 1e-12)
@@ -99,36 +89,18 @@ fn a_graded_box_under_uniaxial_stress_is_exact() {
     let m = graded();
     let p = params(YOUNG, NU);
     let s = -5e6;
-    let n = m.nodes.len();
-    let mut dof = vec![0usize; 3 * n];
-    let mut nf = 0;
-    for (i, q) in m.nodes.iter().enumerate() {
-        for d in 0..3 {
-            dof[3 * i + d] = if q[d].abs() < 1e-12 {
-                usize::MAX
-            } else {
-                nf += 1;
-                nf - 1
-            };
-        }
-    }
+    let (dof, nf) = number_dofs(&m.nodes, |_, q, d| q[d].abs() < 1e-12);
     let mut rhs = faer::Col::<f64>::zeros(nf);
     for (f, ts) in m.faces() {
         let pts = f.map(|k| m.nodes[k as usize]);
         if ts.len() == 1 && pts.iter().all(|q| (q[0] - 8.0).abs() < 1e-12) {
-            let area = 0.5
-                * ((pts[1][1] - pts[0][1]) * (pts[2][2] - pts[0][2])
-                    - (pts[2][1] - pts[0][1]) * (pts[1][2] - pts[0][2]))
-                    .abs();
+            let area = triangle_area(pts);
             for k in f {
                 rhs[dof[3 * k as usize]] += s * area / 3.0;
             }
         }
     }
-    let k = SparseColMat::<usize, f64>::try_new_from_triplets(nf, nf, &stiffness(&m, &p, &dof))
-        .expect("sparse matrix");
-    let llt = k.sp_cholesky(Side::Lower).expect("positive definite");
-    let u = llt.solve(&rhs);
+    let u = solve(&m, &p, &dof, &rhs);
     let ue = |q: [f64; 3]| {
         [
             s * q[0] / YOUNG,
@@ -500,25 +472,14 @@ fn penny_split(cells_per_radius: f64) -> (f64, usize, usize) {
         }
     }
     let p = params(YOUNG, NU);
-    let n = m.nodes.len();
-    let mut dof = vec![0usize; 3 * n];
-    let mut nf = 0;
-    for (i, q) in m.nodes.iter().enumerate() {
-        for d in 0..3 {
-            // Rollers on the symmetry planes x = 0, y = 0; the far faces held normally.
-            let held = if d < 2 {
-                q[d].abs() < 1e-12 || (q[d] - len).abs() < 1e-12
-            } else {
-                (q[2].abs() - len).abs() < 1e-12
-            };
-            dof[3 * i + d] = if held {
-                usize::MAX
-            } else {
-                nf += 1;
-                nf - 1
-            };
+    // Rollers on the symmetry planes x = 0, y = 0; the far faces held normally.
+    let (dof, nf) = number_dofs(&m.nodes, |_, q, d| {
+        if d < 2 {
+            q[d].abs() < 1e-12 || (q[d] - len).abs() < 1e-12
+        } else {
+            (q[2].abs() - len).abs() < 1e-12
         }
-    }
+    });
     let mut rhs = faer::Col::<f64>::zeros(nf);
     let all = m.faces();
     for s in &split.sisters {
@@ -531,10 +492,7 @@ fn penny_split(cells_per_radius: f64) -> (f64, usize, usize) {
         if r_of(c) >= a {
             continue;
         }
-        let area = 0.5
-            * ((pts[1][0] - pts[0][0]) * (pts[2][1] - pts[0][1])
-                - (pts[2][0] - pts[0][0]) * (pts[1][1] - pts[0][1]))
-                .abs();
+        let area = triangle_area(pts);
         for side in s {
             let mut k = *side;
             k.sort_unstable();
@@ -549,12 +507,7 @@ fn penny_split(cells_per_radius: f64) -> (f64, usize, usize) {
             }
         }
     }
-    let k = SparseColMat::<usize, f64>::try_new_from_triplets(nf, nf, &stiffness(&m, &p, &dof))
-        .expect("sparse matrix");
-    let u = k
-        .sp_cholesky(Side::Lower)
-        .expect("positive definite")
-        .solve(&rhs);
+    let u = solve(&m, &p, &dof, &rhs);
     let vol: f64 = (0..nf).map(|q| rhs[q] * u[q]).sum::<f64>() / p_crack;
     let v_want = 16.0 * (1.0 - NU * NU) * p_crack * a.powi(3) / (3.0 * YOUNG) / 4.0;
     (

@@ -22,6 +22,19 @@ pub struct SolidParams {
     pub damping: Damping,
 }
 
+impl SolidParams {
+    /// The Lame constants of an isotropic material (`Material::lambda`, `Material::shear`),
+    /// Pa, with the given damping.
+    pub fn of(material: &crate::scenario::Material, damping: Damping) -> Self {
+        SolidParams {
+            lam2g: material.lambda() + 2.0 * material.shear(),
+            lam: material.lambda(),
+            g: material.shear(),
+            damping,
+        }
+    }
+}
+
 /// Strain of one element from its nodal displacements: [exx, eyy, gamma_xy] (engineering shear).
 #[inline(always)]
 pub fn cst_strain(g: &[f64; 7], u: [[f64; 2]; 3]) -> [f64; 3] {

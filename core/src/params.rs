@@ -163,12 +163,7 @@ impl RunParams {
         };
         RunParams {
             name: sc.name.clone(),
-            solid: SolidParams {
-                lam2g: material.lambda() + 2.0 * material.shear(),
-                lam: material.lambda(),
-                g: material.shear(),
-                damping: sc.damping,
-            },
+            solid: SolidParams::of(&material, sc.damping),
             material,
             e_prime: material.young / (1.0 - material.poisson * material.poisson),
             c_p: if has_solid {

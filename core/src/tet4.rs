@@ -172,15 +172,12 @@ mod tests {
     use crate::scenario::Damping;
 
     fn params() -> SolidParams {
-        let (e, nu) = (30e9, 0.25);
-        let g = e / (2.0 * (1.0 + nu));
-        let lam = e * nu / ((1.0 + nu) * (1.0 - 2.0 * nu));
-        SolidParams {
-            lam2g: lam + 2.0 * g,
-            lam,
-            g,
-            damping: Damping::default(),
-        }
+        let rock = crate::scenario::Material {
+            young: 30e9,
+            poisson: 0.25,
+            density: 2700.0,
+        };
+        SolidParams::of(&rock, Damping::default())
     }
 
     fn skew() -> [[f64; 3]; 4] {

@@ -20,16 +20,55 @@ use hydrofrac_core::tetmesh::TetMesh;
 pub const YOUNG: f64 = 30e9;
 pub const NU: f64 = 0.25;
 
-/// Lame constants of an isotropic rock (E in Pa).
+/// Lame constants of an isotropic rock (E in Pa; the density plays no part here).
 pub fn params(young: f64, nu: f64) -> SolidParams {
-    let g = young / (2.0 * (1.0 + nu));
-    let lam = young * nu / ((1.0 + nu) * (1.0 - 2.0 * nu));
-    SolidParams {
-        lam2g: lam + 2.0 * g,
-        lam,
-        g,
-        damping: Damping::default(),
+    let rock = hydrofrac_core::scenario::Material {
+        young,
+        poisson: nu,
+        density: 2700.0,
+    };
+    SolidParams::of(&rock, Damping::default())
+}
+
+/// Number the free dofs: `dof[3 n + d]` is node n's component d, `usize::MAX` where `held`
+/// (node index, position, component) says it is prescribed at zero; returns them and their count.
+pub fn number_dofs(
+    nodes: &[[f64; 3]],
+    held: impl Fn(usize, [f64; 3], usize) -> bool,
+) -> (Vec<usize>, usize) {
+    let mut dof = vec![usize::MAX; 3 * nodes.len()];
+    let mut nf = 0;
+    for (i, q) in nodes.iter().enumerate() {
+        for d in 0..3 {
+            if !held(i, *q, d) {
+                dof[3 * i + d] = nf;
+                nf += 1;
+            }
+        }
     }
+    (dof, nf)
+}
+
+/// The static solve K u = f on the free dofs (faer's sparse Cholesky).
+pub fn solve(m: &TetMesh, p: &SolidParams, dof: &[usize], f: &faer::Col<f64>) -> faer::Col<f64> {
+    let nf = f.nrows();
+    SparseColMat::<usize, f64>::try_new_from_triplets(nf, nf, &stiffness(m, p, dof))
+        .expect("sparse matrix")
+        .sp_cholesky(Side::Lower)
+        .expect("positive definite")
+        .solve(f)
+}
+
+/// Area of a triangle in space, m^2.
+pub fn triangle_area(p: [[f64; 3]; 3]) -> f64 {
+    let u: [f64; 3] = std::array::from_fn(|d| p[1][d] - p[0][d]);
+    let v: [f64; 3] = std::array::from_fn(|d| p[2][d] - p[0][d]);
+    let c = [
+        u[1] * v[2] - u[2] * v[1],
+        u[2] * v[0] - u[0] * v[2],
+        u[0] * v[1] - u[1] * v[0],
+    ];
+    0.5 * (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt()
 }
 
 /// Assemble the stiffness of the free dofs (`dof[3 n + d]`, `usize::MAX` prescribed at zero)
@@ -69,7 +108,6 @@ pub fn penny(cells_per_radius: f64) -> ([f64; 3], usize) {
     let m = TetMesh::graded_box([0.0; 3], [len; 3], h, [0.0, 0.0, 0.0, 1.5, 1.5, 0.5], 1.25)
         .expect("box");
     let p = params(YOUNG, NU);
-    let n = m.nodes.len();
     let r_of = |q: [f64; 3]| (q[0] * q[0] + q[1] * q[1]).sqrt();
     let on_plane = |q: &[f64; 3]| q[2].abs() < 1e-12;
     let opens: Vec<bool> = m
@@ -77,19 +115,10 @@ pub fn penny(cells_per_radius: f64) -> ([f64; 3], usize) {
         .iter()
         .map(|q| on_plane(q) && r_of(*q) < a - 1e-9)
         .collect();
-    let mut dof = vec![0usize; 3 * n];
-    let mut nf = 0;
-    for (i, q) in m.nodes.iter().enumerate() {
-        for d in 0..3 {
-            let on_symmetry = q[d].abs() < 1e-12 && !(d == 2 && opens[i]);
-            dof[3 * i + d] = if on_symmetry || (q[d] - len).abs() < 1e-12 {
-                usize::MAX
-            } else {
-                nf += 1;
-                nf - 1
-            };
-        }
-    }
+    let (dof, nf) = number_dofs(&m.nodes, |i, q, d| {
+        let on_symmetry = q[d].abs() < 1e-12 && !(d == 2 && opens[i]);
+        on_symmetry || (q[d] - len).abs() < 1e-12
+    });
     let mut rhs = faer::Col::<f64>::zeros(nf);
     for (f, ts) in m.faces() {
         let pts = f.map(|k| m.nodes[k as usize]);
@@ -101,10 +130,7 @@ pub fn penny(cells_per_radius: f64) -> ([f64; 3], usize) {
         if ts.len() != 1 || !pts.iter().all(on_plane) || r_of(centroid) >= a {
             continue;
         }
-        let area = 0.5
-            * ((pts[1][0] - pts[0][0]) * (pts[2][1] - pts[0][1])
-                - (pts[2][0] - pts[0][0]) * (pts[1][1] - pts[0][1]))
-                .abs();
+        let area = triangle_area(pts);
         for k in f {
             let q = dof[3 * k as usize + 2];
             if q != usize::MAX {
@@ -113,12 +139,7 @@ pub fn penny(cells_per_radius: f64) -> ([f64; 3], usize) {
             }
         }
     }
-    let k = SparseColMat::<usize, f64>::try_new_from_triplets(nf, nf, &stiffness(&m, &p, &dof))
-        .expect("sparse matrix");
-    let u = k
-        .sp_cholesky(Side::Lower)
-        .expect("positive definite")
-        .solve(&rhs);
+    let u = solve(&m, &p, &dof, &rhs);
     let w0 = 8.0 * (1.0 - NU * NU) * p_crack * a / (std::f64::consts::PI * YOUNG);
     // The quarter disc's opened volume, 2 int u_z dA = 2 f.u / p (f the consistent loads).
     let vol: f64 = (0..nf).map(|q| rhs[q] * u[q]).sum::<f64>() * 2.0 / p_crack;
@@ -239,16 +260,7 @@ pub fn mms3d_level(n: usize) -> (f64, f64, usize) {
     let m = TetMesh::regular_box([0.0; 3], [1.0; 3], 1.0 / n as f64).expect("cube");
     let p = params(YOUNG, NU);
     let on_boundary = |q: &[f64; 3]| q.iter().any(|x| x.abs() < 1e-12 || (x - 1.0).abs() < 1e-12);
-    let mut dof = vec![usize::MAX; 3 * m.nodes.len()];
-    let mut nf = 0;
-    for (i, q) in m.nodes.iter().enumerate() {
-        if !on_boundary(q) {
-            for d in 0..3 {
-                dof[3 * i + d] = nf;
-                nf += 1;
-            }
-        }
-    }
+    let (dof, nf) = number_dofs(&m.nodes, |_, q, _| on_boundary(&q));
     let mut rhs = faer::Col::<f64>::zeros(nf);
     let (al, be) = (0.585_410_196_624_968_5, 0.138_196_601_125_010_5);
     for t in 0..m.tets.len() {
@@ -268,12 +280,7 @@ pub fn mms3d_level(n: usize) -> (f64, f64, usize) {
             }
         }
     }
-    let k = SparseColMat::<usize, f64>::try_new_from_triplets(nf, nf, &stiffness(&m, &p, &dof))
-        .expect("sparse matrix");
-    let u = k
-        .sp_cholesky(Side::Lower)
-        .expect("positive definite")
-        .solve(&rhs);
+    let u = solve(&m, &p, &dof, &rhs);
     let (mut emax, mut sum2, mut count) = (0.0f64, 0.0, 0usize);
     for (i, q) in m.nodes.iter().enumerate() {
         let want = mms_u(*q);
