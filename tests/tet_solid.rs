@@ -369,6 +369,14 @@ fn a_gmsh_tetrahedral_mesh_with_an_embedded_surface_is_read_in_both_formats() {
     )
     .expect("inverted tetrahedra accepted");
     assert!((0..12).all(|t| tet4::geometry(g.mesh.corners(t)).is_some()));
+    // From a file, and a missing file named.
+    let dir = crate::support_cli::tmp_dir("msh3");
+    std::fs::write(dir.join("box.msh"), box_msh(true, |_| {})).unwrap();
+    let g = hydrofrac_core::gmsh::read_msh3(&dir.join("box.msh")).expect("read");
+    assert_eq!(g.mesh.tets.len(), 12);
+    let e = hydrofrac_core::gmsh::read_msh3(&dir.join("none.msh")).expect_err("missing");
+    assert!(e.to_string().contains("none.msh: cannot read file"), "{e}");
+    std::fs::remove_dir_all(&dir).unwrap();
 }
 
 #[test]

@@ -95,13 +95,21 @@ pub enum GmshError {
 
 /// Reads and parses a `.msh` file (see [`parse_msh`]).
 pub fn read_msh(path: &Path) -> Result<GmshMesh, GmshError> {
+    read_with(path, parse_msh)
+}
+
+/// Read a file and hand its text and shown path to `parse`.
+fn read_with<T>(
+    path: &Path,
+    parse: fn(&str, &str) -> Result<T, GmshError>,
+) -> Result<T, GmshError> {
     let shown = path.display().to_string();
     let bytes = std::fs::read(path).map_err(|source| GmshError::Io {
         path: shown.clone(),
         source,
     })?;
     // Lossy, so that a binary file still reaches the header check and gets a clear message.
-    parse_msh(&String::from_utf8_lossy(&bytes), &shown)
+    parse(&String::from_utf8_lossy(&bytes), &shown)
 }
 
 /// Parses the text of a `.msh` file; `path_for_messages` is only used in error messages.
@@ -566,12 +574,7 @@ pub struct GmshMesh3 {
 
 /// Reads and parses a 3D `.msh` file (see [`parse_msh3`]).
 pub fn read_msh3(path: &Path) -> Result<GmshMesh3, GmshError> {
-    let shown = path.display().to_string();
-    let bytes = std::fs::read(path).map_err(|source| GmshError::Io {
-        path: shown.clone(),
-        source,
-    })?;
-    parse_msh3(&String::from_utf8_lossy(&bytes), &shown)
+    read_with(path, parse_msh3)
 }
 
 /// Parses the text of a 3D `.msh` file: 4-node tetrahedra (element type 4) and 3-node
