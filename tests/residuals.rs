@@ -481,7 +481,7 @@ fn an_inclined_crack_on_a_perturbed_mesh_grows_past_k_ic() {
 /// 200 MPa); the fluid force was taken over the current, shortened face, which lost
 /// P x 0.72 % = 1.45 MPa of the 2 MPa: the opening under 200 MPa was 27 % of that under 1 MPa
 /// (measured 1.555e-3 against 5.736e-3 m). Now over the reference length
-/// (`JointFrame::len0`): the same to 4e-7 (tolerance 1e-5: the rock is linear, so only the
+/// (`view::joint_len0`): the same to 4e-7 (tolerance 1e-5: the rock is linear, so only the
 /// solves' round-off, relative to a 202 MPa pressure carrying a 2 MPa net, tells them apart). Each
 /// against Sneddon: -4.9 % (tolerance 6 %: a / h = 20, the linear elements under-open the
 /// last cells before the tip). On the viscous KGD under 120 MPa (`kgd_m.ron`, s0 / p0 = 40,

@@ -442,7 +442,7 @@ impl SolidView {
 /// Current geometry of joint `k`: face p's unit tangent t (from its first node to its second),
 /// its outward unit normal n (towards face q), its length (m), and the offsets of face q's centre
 /// from face p's along n (opening delta_n, m, positive when the faces separate) and along t
-/// (delta_t, m) (seed (8)); and face p's length in the reference positions, `len0` (m).
+/// (delta_t, m) (seed (8)).
 #[derive(Clone, Copy, Debug)]
 pub struct JointFrame {
     pub n: [f64; 2],
@@ -450,11 +450,17 @@ pub struct JointFrame {
     pub len: f64,
     pub dn: f64,
     pub dt: f64,
-    /// Face p's length in the reference positions x0, m: the length a fluid pressure acts
-    /// on (the rock's small-strain stresses are over the reference geometry too; over the
-    /// current length, an in-situ compression sigma_0 shortens the face by sigma_0 / E and
-    /// the pressure P loses P sigma_0 / E: 0.6 MPa of a 3 MPa net pressure under 120 MPa).
-    pub len0: f64,
+}
+
+/// Face p's length of joint `k` in the reference positions x0, m: the length a fluid pressure
+/// acts on (the rock's small-strain stresses are over the reference geometry too; over the
+/// current length, an in-situ compression sigma_0 shortens the face by sigma_0 / E and the
+/// pressure P loses P sigma_0 / E: 0.6 MPa of a 3 MPa net pressure under 120 MPa). Apart from
+/// [`joint_frame`], which the contact kernel calls for every joint at every step.
+#[inline]
+pub fn joint_len0(v: &SolidView, k: usize) -> f64 {
+    let [a, b] = [v.joint_nodes[k][0], v.joint_nodes[k][1]].map(|i| v.x0[i as usize]);
+    (b[0] - a[0]).hypot(b[1] - a[1])
 }
 
 #[inline]
@@ -469,13 +475,11 @@ pub fn joint_frame(v: &SolidView, k: usize) -> JointFrame {
     let cp = [0.5 * (x[0][0] + x[1][0]), 0.5 * (x[0][1] + x[1][1])];
     let cq = [0.5 * (x[2][0] + x[3][0]), 0.5 * (x[2][1] + x[3][1])];
     let d = [cq[0] - cp[0], cq[1] - cp[1]];
-    let (a, b) = (v.x0[nodes[0] as usize], v.x0[nodes[1] as usize]);
     JointFrame {
         n,
         t,
         len,
         dn: d[0] * n[0] + d[1] * n[1],
         dt: d[0] * t[0] + d[1] * t[1],
-        len0: (b[0] - a[0]).hypot(b[1] - a[1]),
     }
 }

@@ -468,12 +468,12 @@ fn evaluate_all(
     marks.iter().flatten().count() as u64
 }
 
-pub use hydrofrac_core::view::{JointFrame, joint_frame};
+pub use hydrofrac_core::view::{JointFrame, joint_frame, joint_len0};
 
 /// `fluid_pressure`: the fluid in each fracture cell pushes its two faces apart. Joint k carries
 /// cell `joint_cell[k]` (u32::MAX: none) at pressure `pressure[cell]` (Pa, the mean over the last
 /// step's flow sub-steps): face q gets p L0 n (N/m; the current normal of face p, its
-/// reference length L0, `JointFrame::len0`), face p the opposite, half to each node. Adds to
+/// reference length L0, `joint_len0`), face p the opposite, half to each node. Adds to
 /// `force`. Serial, fixed scatter order.
 pub fn fluid_pressure(v: &mut SolidView, joint_cell: &[u32], pressure: &[f64]) {
     for k in 0..v.joint_nodes.len() {
@@ -485,7 +485,8 @@ pub fn fluid_pressure(v: &mut SolidView, joint_cell: &[u32], pressure: &[f64]) {
         if p == 0.0 {
             continue;
         }
-        let JointFrame { n, len0, .. } = joint_frame(v, k);
+        let n = joint_frame(v, k).n;
+        let len0 = joint_len0(v, k);
         let fq = [p * len0 * n[0], p * len0 * n[1]];
         let nodes = v.joint_nodes[k];
         for (j, sgn) in [(0, -0.5), (1, -0.5), (2, 0.5), (3, 0.5)] {

@@ -159,8 +159,7 @@ pub fn opened_length(v: &SolidView) -> (f64, f64) {
     let mut max_opening = 0.0f64;
     for (k, st) in v.joint_state.iter().enumerate() {
         if st.opening > 0.0 {
-            let [a, b] = [v.joint_nodes[k][0], v.joint_nodes[k][1]].map(|i| v.x0[i as usize]);
-            length += (b[0] - a[0]).hypot(b[1] - a[1]);
+            length += hydrofrac_core::view::joint_len0(v, k);
         }
         max_opening = max_opening.max(st.opening);
     }

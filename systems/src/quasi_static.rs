@@ -162,11 +162,11 @@ impl Structure {
             Vec::with_capacity(v.joint_nodes.len()),
             Vec::with_capacity(v.joint_nodes.len()),
         );
-        for f in frames {
+        for (k, f) in frames.enumerate() {
             self.joint_axes.push([f.n, f.t]);
             self.joint_normal.push(f.n);
             // The face pressure's length (`fracture::fluid_pressure`).
-            self.joint_len.push(f.len0);
+            self.joint_len.push(hydrofrac_core::view::joint_len0(v, k));
         }
     }
 }

@@ -471,10 +471,11 @@ impl FullTangent {
                     continue;
                 }
                 // -G H: the face pressure's force per unit pressure, len d(delta_n)/du.
-                let fr = joint_frame(v, kj as usize);
+                let n = joint_frame(v, kj as usize).n;
+                let len0 = hydrofrac_core::view::joint_len0(v, kj as usize);
                 for (i, s) in self.g_slots[c].iter().enumerate() {
                     if *s != NONE {
-                        self.values[*s] -= fr.len0 * FACE[i / 2] * fr.n[i % 2];
+                        self.values[*s] -= len0 * FACE[i / 2] * n[i % 2];
                     }
                 }
             }
