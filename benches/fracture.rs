@@ -78,6 +78,7 @@ fn bench(c: &mut Criterion) {
                     .collect(),
                 pressure: None,
                 friction_deg: 30.0,
+                slip_weakening: None,
                 normal_stiffness: None,
                 shear_stiffness: None,
             });

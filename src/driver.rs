@@ -116,6 +116,9 @@ pub fn run_scenario(scenario: ValidScenario, opts: &RunOptions) -> Result<RunRep
     let stepped = step_loop(&mut run, opts.quiet);
     let mut summary = run_summary(&mut run, &stepped);
     network_outputs(&mut run, &mut summary)?;
+    if let Some(s) = crate::catalogue::outputs(&mut run.sim, &mut run.warnings) {
+        summary["seismicity"] = s;
+    }
     let production = if stepped.result.is_ok() && run.sim.interrupted_by().is_none() {
         production_stage(&mut run, &mut summary, opts)?
     } else {

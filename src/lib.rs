@@ -26,6 +26,7 @@ pub use hydrofrac_core::{
 pub use hydrofrac_engine::{checkpoint, schedule, setup, sim};
 pub use hydrofrac_systems as systems;
 
+pub mod catalogue;
 pub mod driver;
 pub mod pipeline;
 pub mod production_stage;

@@ -226,6 +226,9 @@ pub struct JointState {
     /// Slid at some step since the last frame (output: "slid during the output interval";
     /// cleared after each frame; the physics never reads it).
     pub slid: bool,
+    /// Accumulated frictional (plastic) slip, m: the sum over sliding steps of the return
+    /// map's excess |F_t trial| - cap over K_t. Slip-weakening friction reads it.
+    pub slip: f64,
 }
 
 /// Joint bundle.

@@ -15,10 +15,23 @@ use crate::scenario::{
 pub struct JointParams {
     pub kn: f64,
     pub kt: f64,
+    /// Friction coefficient (the peak one under slip weakening).
     pub mu: f64,
+    /// Slip weakening (`fracture.slip_weakening`): the residual friction coefficient and the
+    /// critical slip distance, m.
+    pub weakening: Option<(f64, f64)>,
 }
 
 impl JointParams {
+    /// The friction coefficient after the accumulated frictional slip `slip` (m): `mu`, or
+    /// under slip weakening mu_r + (mu - mu_r) max(0, 1 - slip / d_c).
+    pub fn mu_at(&self, slip: f64) -> f64 {
+        match self.weakening {
+            None => self.mu,
+            Some((mu_r, dc)) => mu_r + (self.mu - mu_r) * (1.0 - slip / dc).max(0.0),
+        }
+    }
+
     /// The stiffer of K_n and K_t, Pa: what the stability bounds take per joint.
     pub fn k_max(&self) -> f64 {
         self.kn.max(self.kt)
@@ -136,6 +149,8 @@ pub struct RunParams {
     pub criterion: Option<CriterionParams>,
     /// The scenario has a `fracture` block (pre-existing fractures and/or a criterion).
     pub has_fractures: bool,
+    /// The event catalogue's settings (`seismicity:`; `None`: no catalogue).
+    pub seismicity: Option<crate::scenario::SeismicitySpec>,
     /// A prescribed uniform pressure on every fracture face, Pa.
     pub face_pressure: Option<f64>,
     pub fluid: FlowParams,
@@ -177,6 +192,9 @@ impl RunParams {
                     .and_then(|f| f.shear_stiffness)
                     .unwrap_or(material.shear()),
                 mu: f.map_or(0.0, |f| f.friction_deg.to_radians().tan()),
+                weakening: f
+                    .and_then(|f| f.slip_weakening)
+                    .map(|w| (w.residual_deg.to_radians().tan(), w.dc)),
             },
             residual_aperture: f.map_or(DEFAULT_RESIDUAL_APERTURE, |f| f.residual_aperture),
             criterion: f
@@ -203,6 +221,7 @@ impl RunParams {
                 })
                 .filter(|_| has_solid),
             has_fractures: f.is_some(),
+            seismicity: sc.seismicity.clone(),
             face_pressure: f.and_then(|f| f.pressure),
             fluid: FlowParams::from(sc.fluid),
             coupled,

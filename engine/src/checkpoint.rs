@@ -49,7 +49,7 @@ use std::path::Path;
 /// First bytes of every checkpoint file.
 pub const MAGIC: &[u8; 8] = b"HFCKPT\0\n";
 /// Version of the layout of [`State`]; bumped whenever a saved type changes.
-pub const FORMAT_VERSION: u32 = 4;
+pub const FORMAT_VERSION: u32 = 5;
 /// The latest checkpoint in the output folder, and the one before it.
 pub const FILE: &str = "checkpoint.ckpt";
 pub const PREV_FILE: &str = "checkpoint.prev.ckpt";
@@ -114,6 +114,8 @@ pub struct State {
     pub cells_at_start: usize,
     /// The next simulated time at which an `output.checkpoint_every: Time` checkpoint is due.
     pub next_checkpoint_time: f64,
+    /// The event catalogue (`seismicity:`), running events included.
+    pub seismicity: Option<hydrofrac_systems::seismicity::Catalogue>,
 }
 
 impl WorldRecords {
@@ -422,6 +424,7 @@ impl Simulation {
             effort: self.effort,
             cells_at_start: self.cells_at_start,
             next_checkpoint_time: self.next_checkpoint_time,
+            seismicity: self.seismicity.clone(),
         };
         Ok((header, state))
     }
@@ -485,6 +488,7 @@ impl Simulation {
         self.effort = state.effort;
         self.cells_at_start = state.cells_at_start;
         self.next_checkpoint_time = state.next_checkpoint_time;
+        self.seismicity = state.seismicity;
         let has_load = self.solid.view.has_load();
         self.schedule.set_data(SystemId::ExternalLoad, has_load);
         Ok(())

@@ -28,6 +28,8 @@ pub struct SceneData {
     pub criterion: bool,
     /// The rock is solved quasi-statically (`solve` replaces `damping` and `integrate`).
     pub quasi_static: bool,
+    /// The scenario asks for the event catalogue (`seismicity:`).
+    pub seismicity: bool,
 }
 
 impl SceneData {
@@ -43,6 +45,7 @@ impl SceneData {
             SystemId::Solve => self.solid && self.quasi_static,
             SystemId::FlowSubsteps => self.flow,
             SystemId::FractureCriterion | SystemId::Split => self.criterion,
+            SystemId::Seismicity => self.solid && self.seismicity,
             SystemId::Monitor | SystemId::Output => true,
         }
     }

@@ -227,6 +227,7 @@ pub fn schedule(
         coupled: p.coupled,
         criterion: p.criterion.is_some(),
         quasi_static: solid && p.time.solid_scheme == SolidScheme::QuasiStatic,
+        seismicity: p.seismicity.is_some(),
     };
     crate::schedule::Schedule::new(disabled, |s| data.has(s))
 }

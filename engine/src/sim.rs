@@ -24,7 +24,7 @@ use hydrofrac_systems::solid::StepStats;
 use hydrofrac_systems::state::SolidPart;
 use hydrofrac_systems::{
     RunError, SystemId, coupling, criterion, flow, fracture, monitor, output, quasi_static,
-    quasi_static_step, solid, split,
+    quasi_static_step, seismicity, solid, split,
 };
 
 pub use hydrofrac_systems::monitor::{Clock, Finish, SPEED_LIMIT_FRACTION};
@@ -64,6 +64,8 @@ pub struct Simulation {
     pub(crate) next_checkpoint_time: f64,
     /// Checkpoints written by this process.
     pub(crate) checkpoints: CheckpointStats,
+    /// The event catalogue (`seismicity:`).
+    pub(crate) seismicity: Option<seismicity::Catalogue>,
 }
 
 /// Which pass of the schedule's systems a call is part of.
@@ -117,6 +119,14 @@ impl Simulation {
             q.linear = scenario.time.linear_solver;
             q.tol = scenario.time.newton_tol;
         }
+        let seismicity = p.seismicity.as_ref().filter(|_| has_solid).map(|s| {
+            seismicity::Catalogue::new(seismicity::Settings {
+                v_start: s.v_start,
+                v_stop: s.v_stop(),
+                width: s.width,
+                shear_modulus: p.material.shear(),
+            })
+        });
         let next_checkpoint_time = match p.output.checkpoint_every {
             Some(hydrofrac_core::scenario::CheckpointEvery::Time(t)) => t,
             _ => f64::INFINITY,
@@ -145,6 +155,7 @@ impl Simulation {
             extra_disable: extra_disable.to_vec(),
             next_checkpoint_time,
             checkpoints: CheckpointStats::default(),
+            seismicity,
         })
     }
 
@@ -179,6 +190,7 @@ impl Simulation {
                 progress(self);
             }
         }
+        self.close_catalogue();
         self.sync();
         Ok(self.clock.finish.expect("loop ends with a finish"))
     }
@@ -346,6 +358,12 @@ impl Simulation {
                     monitor::next_step(clock, p, self.effort);
                 }
             }
+            (SystemId::Seismicity, Pass::Step { t0 }) => {
+                if let Some(c) = self.seismicity.as_mut() {
+                    let inj = seismicity::injection(self.flow.as_ref());
+                    seismicity::seismicity(c, v, t0, clock.time, inj);
+                }
+            }
             (SystemId::Output, Pass::Step { t0 }) => {
                 if let Some(out) = self.output.as_mut() {
                     let scene = Scene {
@@ -494,6 +512,20 @@ impl Simulation {
                     c.a_r,
                 );
             }
+        }
+    }
+
+    /// The event catalogue (`seismicity:` in the scenario).
+    pub fn catalogue(&self) -> Option<&seismicity::Catalogue> {
+        self.seismicity.as_ref()
+    }
+
+    /// Close the catalogue's running events at the current time (the run ended, or failed and
+    /// its outputs are being kept); a second call finds none.
+    pub fn close_catalogue(&mut self) {
+        if let Some(c) = self.seismicity.as_mut() {
+            let inj = seismicity::injection(self.flow.as_ref());
+            c.finish(&self.solid.view, self.clock.time, inj);
         }
     }
 

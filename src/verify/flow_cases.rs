@@ -67,6 +67,7 @@ pub fn flow_scenario(
         systems: SystemsSpec::default(),
         output: OutputSpec::default(),
         production: None,
+        seismicity: None,
     }
 }
 

@@ -78,6 +78,7 @@ pub fn crack_spec(from: [f64; 2], to: [f64; 2], pressure: Option<f64>) -> Fractu
         preexisting: vec![PreFracture { from, to }],
         pressure,
         friction_deg: 30.0,
+        slip_weakening: None,
         normal_stiffness: None,
         shear_stiffness: None,
     }
@@ -400,6 +401,7 @@ pub(super) fn block_scenario(phi_deg: f64, h: f64, gravity: [f64; 2]) -> crate::
         }],
         pressure: None,
         friction_deg: phi_deg,
+        slip_weakening: None,
         normal_stiffness: Some(BLOCK_JOINT_STIFFNESS),
         shear_stiffness: Some(BLOCK_JOINT_STIFFNESS),
     });

@@ -233,6 +233,7 @@ pub fn slip_scenario(mesh: SlipMesh, h: f64, r: f64, k_factor: f64) -> crate::sc
         }],
         pressure: None,
         friction_deg: PHI_DEG,
+        slip_weakening: None,
         normal_stiffness: Some(k_factor * mat.young),
         shear_stiffness: Some(k_factor * mat.shear()),
     });

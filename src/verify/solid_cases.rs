@@ -61,6 +61,7 @@ pub fn scenario(
         systems: SystemsSpec::default(),
         output: OutputSpec::default(),
         production: None,
+        seismicity: None,
     }
 }
 

@@ -500,7 +500,8 @@ pub fn fluid_pressure(v: &mut SolidView, joint_cell: &[u32], pressure: &[f64]) {
 /// `contact` (seed (8)-(11)): for each joint, the offsets of face q's centre from face p's in
 /// p's outward normal and tangent, delta_n and delta_t (current geometry). In contact
 /// (delta_n < 0): F_n = -K_n delta_n; F_t += -K_t (change of delta_t), capped at mu F_n
-/// (sliding). Open: both zero. Face q gets F_n n + F_t t, face p the opposite, half to each
+/// (sliding; under slip weakening mu follows the joint's accumulated frictional slip,
+/// `JointParams::mu_at`, which grows by the cap's excess over K_t at each sliding step). Open: both zero. Face q gets F_n n + F_t t, face p the opposite, half to each
 /// node. Adds to `force` (after `internal_force` and `external_load`). Serial: joints are few
 /// against elements and the scatter order is then fixed.
 pub fn contact(v: &mut SolidView, p: &JointParams) {
@@ -512,10 +513,13 @@ pub fn contact(v: &mut SolidView, p: &JointParams) {
         if dn < 0.0 {
             st.normal_force = -p.kn * dn;
             let mut ft = st.shear_force - p.kt * (dt - st.last_shear_offset);
-            let cap = p.mu * st.normal_force;
+            let cap = p.mu_at(st.slip) * st.normal_force;
             st.sliding = ft.abs() > cap;
             st.slid |= st.sliding;
             if st.sliding {
+                if p.weakening.is_some() {
+                    st.slip += (ft.abs() - cap) / p.kt;
+                }
                 ft = cap.copysign(ft);
             }
             st.shear_force = ft;

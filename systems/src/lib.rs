@@ -32,6 +32,7 @@ pub mod quasi_static;
 pub mod quasi_static_flow;
 pub mod quasi_static_lu;
 pub mod quasi_static_step;
+pub mod seismicity;
 pub mod solid;
 pub mod split;
 pub mod state;
@@ -91,6 +92,7 @@ systems! {
     FractureCriterion => "fracture_criterion", "marks internal edges whose normal stress reaches lambda*T0 (never changes topology)";
     Split => "split", "node splitting at fracture-ready edges: daughters, sister edges, cells, joints (the only topology change)";
     Monitor => "monitor", "advances the clock; blow-up detection (solid speed, cell mass, flow step bound); residual and end";
+    Seismicity => "seismicity", "slip rate of every joint; events from connected sets of fast-slipping joints (moment, magnitude, stress drop)";
     Output => "output", "ParaView frames and timeseries.csv rows at the scenario's intervals";
 }
 

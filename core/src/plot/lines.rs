@@ -63,6 +63,47 @@ pub fn scatter(
     })
 }
 
+/// One panel of [`stacked`]: title, x and y labels, series, and whether it is a scatter
+/// plot (markers only) rather than lines.
+#[derive(Clone, Debug)]
+pub struct Panel {
+    pub title: String,
+    pub xlabel: String,
+    pub ylabel: String,
+    pub series: Vec<Series>,
+    pub points: bool,
+}
+
+/// Panels stacked top to bottom on one 1000 px wide PNG, 450 px per panel, each drawn as
+/// [`lines`] or [`scatter`] (e.g. magnitudes against time above the injection pressure on
+/// the same time axis).
+pub fn stacked(path: &Path, panels: &[Panel]) -> Result<(), PlotError> {
+    let n = panels.len().max(1);
+    let (w, h) = (SIZE.0, PANEL_HEIGHT);
+    write_png(path, (w, h * n as u32), |root| {
+        // Each panel is drawn on a bitmap of its own (the plot's layout works in the pixels of
+        // a whole image) and copied into its place.
+        for (i, p) in panels.iter().enumerate() {
+            let mut buf = vec![255u8; (w * h * 3) as usize];
+            {
+                let area = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
+                let texts = (&p.title[..], &p.xlabel[..], &p.ylabel[..]);
+                draw_plot(&area, texts, &p.series, false, p.points)?;
+                area.present()?;
+            }
+            let y0 = (i as u32 * h) as i32;
+            for (k, px) in buf.chunks_exact(3).enumerate() {
+                let (x, y) = ((k as u32 % w) as i32, (k as u32 / w) as i32);
+                root.draw_pixel((x, y0 + y), &RGBColor(px[0], px[1], px[2]))?;
+            }
+        }
+        Ok(())
+    })
+}
+
+/// Height of one panel of [`stacked`], px.
+const PANEL_HEIGHT: u32 = 450;
+
 /// Colour of series `i` (cycling), and its marker: circle, square, triangle
 /// or diamond, changing after each cycle of colours.
 fn series_style(i: usize) -> (RGBColor, usize) {

@@ -110,6 +110,36 @@ pub fn fracture_map(
     })
 }
 
+/// Draw an event map, 1100x900 px PNG: the fracture network `fractures` as grey lines and
+/// each event as a disc at `centres[k]` (m) of radius `radius_px[k]` px (e.g. growing with
+/// the magnitude), coloured by `values[k]` (viridis, e.g. the event's time; colour bar
+/// labelled `value_label`), larger discs drawn first. `values` and `radius_px` must have one
+/// entry per centre, else [`PlotError::Input`].
+pub fn event_map(
+    path: &Path,
+    title: &str,
+    fractures: &[Segment],
+    centres: &[[f64; 2]],
+    radius_px: &[f64],
+    values: &[f64],
+    value_label: &str,
+) -> Result<(), PlotError> {
+    let n = centres.len();
+    if values.len() != n || radius_px.len() != n {
+        let message = format!(
+            "{} values and {} radii given for {n} events (need one of each per event)",
+            values.len(),
+            radius_px.len()
+        );
+        return Err(input_error(path, message));
+    }
+    let shapes = Shapes::Discs(centres, radius_px, fractures);
+    let linear = ColourScale::Linear;
+    write_png(path, (NET_WIDTH, NET_HEIGHT), |root| {
+        draw_map(root, (title, value_label), &shapes, values, linear, &[])
+    })
+}
+
 fn input_error(path: &Path, message: String) -> PlotError {
     PlotError::Input {
         path: path.to_path_buf(),
@@ -213,6 +243,8 @@ fn finite(ps: &[[f64; 2]]) -> bool {
 pub(super) enum Shapes<'a> {
     Lines(&'a [Segment], Option<&'a [f64]>),
     Quads(&'a [[[f64; 2]; 4]], &'a [Segment], Option<[f64; 4]>),
+    /// [`event_map`]'s disc centres, radii (px) and the fractures under them.
+    Discs(&'a [[f64; 2]], &'a [f64], &'a [Segment]),
 }
 
 /// Draw a map (arguments of [`network`] or [`fracture_map`], validated) on
@@ -228,10 +260,21 @@ pub(super) fn draw_map(
     let items: Vec<Vec<[f64; 2]>> = match *shapes {
         Shapes::Lines(segments, _) => segments.iter().map(|s| vec![s.a, s.b]).collect(),
         Shapes::Quads(quads, ..) => quads.iter().map(|q| q.to_vec()).collect(),
+        Shapes::Discs(centres, ..) => centres.iter().map(|c| vec![*c]).collect(),
     };
     let (mesh, window, widths, pad, lines) = match *shapes {
         Shapes::Lines(_, widths) => (&[][..], None, widths, NET_PAD, true),
         Shapes::Quads(_, mesh, window) => (mesh, window, None, QUAD_PAD, false),
+        Shapes::Discs(_, _, fractures) => (fractures, None, None, NET_PAD, false),
+    };
+    let discs = match *shapes {
+        Shapes::Discs(_, radii, _) => Some(radii),
+        _ => None,
+    };
+    let background = if discs.is_some() {
+        RGBColor(120, 120, 120)
+    } else {
+        MESH_GREY
     };
     let drawable: Vec<usize> = (0..items.len()).filter(|&k| finite(&items[k])).collect();
     let edges: Vec<&Segment> = mesh.iter().filter(|s| finite(&[s.a, s.b])).collect();
@@ -257,10 +300,21 @@ pub(super) fn draw_map(
     let area = chart.plotting_area();
     for s in edges.iter().filter(|s| shown(&[s.a, s.b])) {
         let line = vec![(s.a[0], s.a[1]), (s.b[0], s.b[1])];
-        area.draw(&PathElement::new(line, MESH_GREY))?;
+        area.draw(&PathElement::new(line, background))?;
+    }
+    let mut order = order;
+    if let Some(r) = discs {
+        // Large discs first, so small ones stay visible on top.
+        order.sort_by(|p, q| disc_px(r[q.1]).cmp(&disc_px(r[p.1])));
     }
     for &(t, k) in order.iter().filter(|o| shown(&items[o.1])) {
         let color = t.map_or(NO_VALUE_GREY, viridis);
+        if let Some(r) = discs {
+            let (c, px) = ((items[k][0][0], items[k][0][1]), disc_px(r[k]));
+            area.draw(&Circle::new(c, px, color.mix(0.85).filled()))?;
+            area.draw(&Circle::new(c, px, RGBColor(40, 40, 40)))?;
+            continue;
+        }
         let mut pts: Vec<(f64, f64)> = items[k].iter().map(|p| (p[0], p[1])).collect();
         if lines {
             let px = line_px(widths.map_or(NET_LINE_PX, |w| w[k]));
@@ -284,6 +338,8 @@ pub(super) fn draw_map(
     // Notes.
     let [many, one, ends] = if lines {
         ["segments", "segment", "end points"]
+    } else if discs.is_some() {
+        ["events", "event", "centres"]
     } else {
         ["fracture cells", "cell", "corners"]
     };
@@ -313,6 +369,15 @@ pub(super) fn draw_map(
     .collect();
     notes(root, &frame, big.as_deref().map(|m| (m, centred)), &small)?;
     Ok(chart.as_coord_spec().clone())
+}
+
+/// Radius in whole pixels of an event disc `r` px wide, clamped to 2..=60 (non-finite: 2).
+fn disc_px(r: f64) -> u32 {
+    if r.is_finite() {
+        r.clamp(2.0, 60.0).round() as u32
+    } else {
+        2
+    }
 }
 
 /// Width in whole pixels of a network line `w` px wide, clamped to 0.75..=40.

@@ -26,8 +26,8 @@ use plotters::style::text_anchor::{HPos, VPos};
 use plotters::style::{FontStyle, RGBColor};
 
 use axis::Axis;
-pub use lines::{lines, loglog, scatter};
-pub use map::{fracture_map, network};
+pub use lines::{Panel, lines, loglog, scatter, stacked};
+pub use map::{event_map, fracture_map, network};
 
 /// One named polyline (drawn in the given order).
 #[derive(Debug, Clone, PartialEq)]

@@ -59,6 +59,11 @@ pub struct FractureSpec {
     /// Joint friction angle phi, degrees (Coulomb: |F_t| <= F_n tan phi). Default 30.
     #[serde(default = "default_friction")]
     pub friction_deg: f64,
+    /// Slip-weakening friction (`docs/seismicity.md`): the friction angle falls from
+    /// `friction_deg` to a residual angle over a critical slip. Default: constant Coulomb
+    /// friction.
+    #[serde(default)]
+    pub slip_weakening: Option<super::SlipWeakening>,
     /// Joint normal and shear penalty stiffness K_n, K_t, Pa (force per unit thickness per unit
     /// offset). Default: the rock's E and G, as in the seed.
     #[serde(default)]
@@ -268,6 +273,9 @@ impl FractureSpec {
                     self.friction_deg
                 ),
             ));
+        }
+        if let Some(w) = &self.slip_weakening {
+            w.validate(self.friction_deg)?;
         }
         if let Some(k) = self.normal_stiffness {
             positive("fracture.normal_stiffness", k, "the joint normal stiffness")?;

@@ -21,6 +21,7 @@ mod mesh;
 mod output;
 mod parse;
 mod production;
+mod seismicity;
 #[cfg(test)]
 mod tests;
 mod time;
@@ -40,6 +41,7 @@ pub use mesh::{GMSH_BYTES_PER_TRIANGLE, MeshCounts, MeshSpec};
 pub use output::{CheckpointEvery, Field, MAX_NAME_LEN, OutputSpec, SystemsSpec, check_run_name};
 pub use parse::parse_ron;
 pub use production::{ProductionSpec, ProductionStage};
+pub use seismicity::{DEFAULT_V_START, SeismicitySpec, SlipWeakening};
 pub use time::{
     DEFAULT_NEWTON_EASY, DEFAULT_NEWTON_TOL, End, FlowScheme, Inertia, LinearSolver, SolidScheme,
     TimeControl,
@@ -107,6 +109,9 @@ pub struct Scenario {
     /// fractures and flow boundaries (a coupled run).
     #[serde(default)]
     pub production: Option<ProductionStage>,
+    /// The event catalogue of joint slip (`docs/seismicity.md`): needs a rock with fractures.
+    #[serde(default)]
+    pub seismicity: Option<SeismicitySpec>,
 }
 
 /// A scenario that passed [`Scenario::validate`], the only way to make one: what takes a
@@ -185,6 +190,7 @@ impl Scenario {
             self.check_production_is_coupled()?;
         }
         self.check_network_without_mesh()?;
+        self.check_seismicity()?;
         self.check_initial_state()?;
         self.time.validate_max_substeps()?;
         flow::validate_flow_boundaries(&self.flow_boundaries)?;
@@ -339,6 +345,32 @@ impl Scenario {
                 "production needs a coupled run: a mesh with pre-existing fractures \
                  (`fracture.preexisting`, `fracture.random` or `fracture.file`) and flow \
                  boundaries",
+            ));
+        }
+        Ok(())
+    }
+
+    /// `seismicity` needs joints (a rock with a `fracture` section); slip-weakening friction
+    /// needs the explicit rock (a quasi-static step has no unique equilibrium while the
+    /// friction weakens with the slip it solves for).
+    fn check_seismicity(&self) -> Result<(), SetupError> {
+        if let Some(s) = &self.seismicity {
+            s.validate()?;
+            if self.mesh.is_none() || self.fracture.is_none() {
+                return Err(SetupError::invalid(
+                    "seismicity",
+                    "the event catalogue is made of joint slip: it needs a mesh with a \
+                     `fracture` section (pre-existing fractures or a criterion that opens some)",
+                ));
+            }
+        }
+        let weakening = self.fracture.as_ref().and_then(|f| f.slip_weakening);
+        if weakening.is_some() && self.time.solid_scheme == SolidScheme::QuasiStatic {
+            return Err(SetupError::invalid(
+                "fracture.slip_weakening",
+                "slip-weakening friction needs the explicit rock (`time.solid_scheme: \
+                 Explicit`): an event it nucleates runs dynamically, which the quasi-static \
+                 step cannot follow",
             ));
         }
         Ok(())
