@@ -40,6 +40,7 @@ mod reliability;
 mod reservoir_verification;
 mod residuals;
 mod rock_network;
+mod seismicity;
 mod sneddon;
 mod solid_verification;
 mod split;

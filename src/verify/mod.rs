@@ -20,6 +20,7 @@ pub mod fracture_cases;
 pub mod heat_continuum_cases;
 pub mod heat_discrete_cases;
 pub mod heat_models_cases;
+pub mod seismicity_cases;
 pub mod sif_cases;
 pub mod slip_cases;
 pub mod solid3d_cases;
@@ -224,6 +225,16 @@ pub fn cases() -> Vec<Case> {
             name: "slip_inclined",
             about: "closed crack at 20 degrees under remote compression (-40/-10 MPa), sliding against friction (20 degrees): slip against the mode-II Sneddon closed form on a conforming and a snapped graded mesh, b/h = 20 and 40",
             run: slip_cases::slip_inclined,
+        },
+        Case {
+            name: "seismicity",
+            about: "event catalogue: prescribed slip on two fractures (M0', Mw, stress drop, hypocentre, a sub-threshold set, exact to round-off); synthetic Gutenberg-Richter catalogues of 200 to 20,000 events drawn with b = 1 (Aki-Utsu within 2 sigma)",
+            run: seismicity_cases::seismicity_case,
+        },
+        Case {
+            name: "slip_weakening",
+            about: "a crack whose friction weakens from 29 to 15 degrees slides dynamically on the explicit rock and arrests: the event's M0' against the residual-friction static crack, b/h = 10 and 20",
+            run: seismicity_cases::slip_weakening_case,
         },
         Case {
             name: "kgd",

@@ -126,20 +126,26 @@ pub struct Catalogue {
     scratch: Scratch,
 }
 
+/// A joint slipping at `v_stop` or faster in the step: its view index, signed offset
+/// increment (m), slip rate (m/s) and shear force at the step's start (N/m).
+#[derive(Clone, Copy, Debug)]
+struct Hot {
+    k: u32,
+    inc: f64,
+    rate: f64,
+    force0: f64,
+}
+
 #[derive(Clone, Debug, Default)]
 struct Scratch {
-    /// The step's signed offset increment (m) and slip rate (m/s) per joint, and the shear
-    /// force at its start (N/m).
-    inc: Vec<f64>,
-    rate: Vec<f64>,
-    force0: Vec<f64>,
-    hot: Vec<u32>,
-    is_hot: Vec<bool>,
+    hot: Vec<Hot>,
+    /// Per joint, its place in `hot` (`NONE`: not hot); reset after each step.
+    hot_at: Vec<u32>,
     seen: Vec<bool>,
     set: Vec<u32>,
-    /// Reference lengths (m), filled while events run.
+    /// Reference lengths (m), joints by node (CSR over the view's nodes): rebuilt with the
+    /// topology.
     len0: Vec<f64>,
-    /// Joints by node (CSR over the view's nodes), rebuilt with the topology.
     node_start: Vec<u32>,
     node_joints: Vec<u32>,
     adjacency_generation: Option<u64>,
@@ -233,6 +239,8 @@ impl Catalogue {
                 fill[i as usize] += 1;
             }
         }
+        s.len0 = (0..v.joint_nodes.len()).map(|k| joint_len0(v, k)).collect();
+        s.hot_at = vec![NONE; v.joint_nodes.len()];
         s.adjacency_generation = Some(v.generation);
     }
 
@@ -351,37 +359,30 @@ pub fn seismicity(cat: &mut Catalogue, v: &SolidView, t0: f64, t1: f64, inj: Inj
     let n = v.joint_nodes.len();
     let v_stop = cat.settings.v_stop;
     let mut sc = std::mem::take(&mut cat.scratch);
-    for buf in [&mut sc.inc, &mut sc.rate, &mut sc.force0, &mut sc.len0] {
-        buf.clear();
-        buf.resize(n, 0.0);
-    }
-    sc.is_hot.clear();
-    sc.is_hot.resize(n, false);
     sc.hot.clear();
     let j = &mut cat.joints;
     for k in 0..n {
         let st = &v.joint_state[k];
-        let off = st.last_shear_offset;
-        let d = off - j.offset[k];
-        j.offset[k] = off;
-        sc.inc[k] = d;
-        sc.force0[k] = j.force[k];
-        j.force[k] = v.joint_state[k].shear_force;
+        let d = st.last_shear_offset - j.offset[k];
+        j.offset[k] = st.last_shear_offset;
+        let force0 = std::mem::replace(&mut j.force[k], st.shear_force);
         if j.event[k] != NONE {
             // A member's slip counts every increment while its event runs, hot or not.
             j.slip[k] += d;
         }
         // Frictional slip only: a sticking joint's offset follows its shear force through the
         // penalty spring, and an open joint has no friction to release.
-        let rate = if dt > 0.0 && st.sliding {
-            d.abs() / dt
-        } else {
-            0.0
-        };
-        sc.rate[k] = rate;
-        if rate >= v_stop {
-            sc.hot.push(k as u32);
-            sc.is_hot[k] = true;
+        if st.sliding && dt > 0.0 {
+            let rate = d.abs() / dt;
+            if rate >= v_stop {
+                sc.hot_at[k] = sc.hot.len() as u32;
+                sc.hot.push(Hot {
+                    k: k as u32,
+                    inc: d,
+                    rate,
+                    force0,
+                });
+            }
         }
     }
     for r in &mut cat.running {
@@ -389,27 +390,27 @@ pub fn seismicity(cat: &mut Catalogue, v: &SolidView, t0: f64, t1: f64, inj: Inj
     }
     // Connected sets of hot joints (sharing a node), in order of their first joint.
     sc.seen.clear();
-    sc.seen.resize(n, false);
-    let hot = std::mem::take(&mut sc.hot);
+    sc.seen.resize(sc.hot.len(), false);
     let mut set = std::mem::take(&mut sc.set);
-    for &k0 in &hot {
-        if sc.seen[k0 as usize] {
+    for h0 in 0..sc.hot.len() {
+        if sc.seen[h0] {
             continue;
         }
         set.clear();
-        set.push(k0);
-        sc.seen[k0 as usize] = true;
+        set.push(h0 as u32);
+        sc.seen[h0] = true;
         let mut head = 0;
         while head < set.len() {
-            let k = set[head] as usize;
+            let k = sc.hot[set[head] as usize].k as usize;
             head += 1;
             for &i in &v.joint_nodes[k] {
                 let i = i as usize;
                 let (a, b) = (sc.node_start[i] as usize, sc.node_start[i + 1] as usize);
                 for &q in &sc.node_joints[a..b] {
-                    if sc.is_hot[q as usize] && !sc.seen[q as usize] {
-                        sc.seen[q as usize] = true;
-                        set.push(q);
+                    let h = sc.hot_at[q as usize];
+                    if h != NONE && !sc.seen[h as usize] {
+                        sc.seen[h as usize] = true;
+                        set.push(h);
                     }
                 }
             }
@@ -417,13 +418,10 @@ pub fn seismicity(cat: &mut Catalogue, v: &SolidView, t0: f64, t1: f64, inj: Inj
         set.sort_unstable();
         absorb(cat, v, &set, &sc, t0);
     }
-    sc.hot = hot;
-    sc.set = set;
-    if !cat.running.is_empty() {
-        for k in 0..n {
-            sc.len0[k] = joint_len0(v, k);
-        }
+    for h in &sc.hot {
+        sc.hot_at[h.k as usize] = NONE;
     }
+    sc.set = set;
     cat.scratch = sc;
     // Events none of whose joints was hot close at t1.
     let (done, still): (Vec<Running>, Vec<Running>) = std::mem::take(&mut cat.running)
@@ -441,18 +439,16 @@ pub fn seismicity(cat: &mut Catalogue, v: &SolidView, t0: f64, t1: f64, inj: Inj
 /// fastest joint reaches `v_start`, with that joint (the first in stable order at the peak
 /// rate) as the hypocentre.
 fn absorb(cat: &mut Catalogue, v: &SolidView, set: &[u32], step: &Scratch, t0: f64) {
+    let hot = |h: &u32| step.hot[*h as usize];
     let j = &mut cat.joints;
     let mut ids: Vec<u32> = set
         .iter()
-        .map(|&k| j.event[k as usize])
+        .map(|h| j.event[hot(h).k as usize])
         .filter(|&e| e != NONE)
         .collect();
     ids.sort_unstable();
     ids.dedup();
-    let peak = set
-        .iter()
-        .map(|&k| step.rate[k as usize])
-        .fold(0.0, f64::max);
+    let peak = set.iter().map(|h| hot(h).rate).fold(0.0, f64::max);
     let target = match ids.first() {
         Some(&id) => {
             for &other in &ids[1..] {
@@ -472,9 +468,9 @@ fn absorb(cat: &mut Catalogue, v: &SolidView, set: &[u32], step: &Scratch, t0: f
         None if peak >= cat.settings.v_start => {
             let first = set
                 .iter()
-                .copied()
-                .find(|&k| step.rate[k as usize] == peak)
-                .unwrap_or(set[0]) as usize;
+                .map(hot)
+                .find(|h| h.rate == peak)
+                .map_or(hot(&set[0]).k, |h| h.k) as usize;
             let id = cat.next_id;
             cat.next_id += 1;
             cat.running.push(Running {
@@ -492,16 +488,16 @@ fn absorb(cat: &mut Catalogue, v: &SolidView, set: &[u32], step: &Scratch, t0: f
         r.touched = true;
         r.peak_rate = r.peak_rate.max(peak);
     }
-    for &k in set {
-        let k = k as usize;
+    for h in set.iter().map(hot) {
+        let k = h.k as usize;
         if j.event[k] == target {
             continue;
         }
         // The joint joins now: its slip starts with the step's increment, its traction is the
         // one at the step's start.
         j.event[k] = target;
-        j.slip[k] = step.inc[k];
-        j.tau_start[k] = step.force0[k] / joint_len0(v, k);
+        j.slip[k] = h.inc;
+        j.tau_start[k] = h.force0 / step.len0[k];
     }
 }
 
