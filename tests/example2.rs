@@ -73,9 +73,23 @@ fn small_example2_stimulates_and_produces() {
         "network_before.png",
         "network_after.png",
         "preexisting_fractures.csv",
+        "events.csv",
+        "events_map.png",
+        "events_magnitude.png",
+        "events_gutenberg_richter.png",
+        "events_moment.png",
     ] {
         assert!(out.join(f).is_file(), "{f} missing");
     }
+    // The catalogue (`seismicity:`): joints slide as the fluid reaches the network (measured
+    // 15 events on commit 5097904), and the cumulative moment stays under McGarr's G dV.
+    let seis = &s["seismicity"];
+    assert!(seis["events"].as_u64().unwrap() >= 2, "{seis}");
+    let m0 = seis["cumulative_moment_per_thickness"].as_f64().unwrap();
+    assert!(
+        m0 > 0.0 && m0 < seis["mcgarr_bound_per_thickness"].as_f64().unwrap(),
+        "{seis}"
+    );
     let p = &s["production"];
     assert_eq!(p["rows"].as_array().unwrap().len(), 2, "{p}");
     assert!(p["fractures_grew"].is_boolean());
