@@ -120,12 +120,14 @@ impl Simulation {
             q.tol = scenario.time.newton_tol;
         }
         let seismicity = p.seismicity.as_ref().filter(|_| has_solid).map(|s| {
-            seismicity::Catalogue::new(seismicity::Settings {
+            let mut c = seismicity::Catalogue::new(seismicity::Settings {
                 v_start: s.v_start,
                 v_stop: s.v_stop(),
                 width: s.width,
                 shear_modulus: p.material.shear(),
-            })
+            });
+            c.follow(&view);
+            c
         });
         let next_checkpoint_time = match p.output.checkpoint_every {
             Some(hydrofrac_core::scenario::CheckpointEvery::Time(t)) => t,

@@ -506,3 +506,39 @@ pub fn slip_weakening_case(quick: bool) -> anyhow::Result<CaseResult> {
     }
     Ok(res)
 }
+
+/// The crack of [`slip_weakening_scenario`] with constant friction `friction_deg` (below the
+/// 30-degree ratio of its in-situ shear to normal stress, so it slides to a static state) under
+/// `scheme`, for `end` s (quasi-static: steps of `end` / 10): its catalogue's events and the
+/// largest's M0' (N), and the static crack's closed-form M0' at that friction.
+pub fn constant_friction_run(
+    scheme: crate::scenario::SolidScheme,
+    b_over_h: f64,
+    friction_deg: f64,
+    end: f64,
+) -> anyhow::Result<(usize, f64, f64)> {
+    let mut sc = slip_weakening_scenario(b_over_h, end);
+    if let Some(f) = sc.fracture.as_mut() {
+        f.slip_weakening = None;
+        f.friction_deg = friction_deg;
+    }
+    sc.time.solid_scheme = scheme;
+    if scheme == crate::scenario::SolidScheme::QuasiStatic {
+        sc.time.dt = Some(end / 10.0);
+    }
+    let mut sim = Simulation::new(sc.validate()?, &[])?;
+    sim.run(|_| {})?;
+    let cat = sim
+        .catalogue()
+        .ok_or_else(|| anyhow::anyhow!("no catalogue"))?;
+    let m0 = cat
+        .events
+        .iter()
+        .map(|e| e.moment_per_thickness)
+        .fold(0.0, f64::max);
+    let (sigma_n, tau, _, _) = slip_weakening_closed_form();
+    let dtau = tau.abs() + sigma_n * friction_deg.to_radians().tan();
+    let e_prime = ROCK.young / (1.0 - ROCK.poisson * ROCK.poisson);
+    let exact = ROCK.shear() * 2.0 * std::f64::consts::PI * dtau * B_SW * B_SW / e_prime;
+    Ok((cat.events.len(), m0, exact))
+}

@@ -181,9 +181,10 @@ impl Catalogue {
         self.running.len()
     }
 
-    /// Follow the view's joints after a topology change: each joint keeps its state by entity;
-    /// a new joint starts at its current offset and force, in no event.
-    fn follow(&mut self, v: &SolidView) {
+    /// Follow the view's joints (at setup, so the first step's slip counts, and after a
+    /// topology change): each joint keeps its state by entity; a new joint starts at its
+    /// current offset and force, in no event.
+    pub fn follow(&mut self, v: &SolidView) {
         if self.generation == Some(v.generation) {
             return;
         }
