@@ -41,6 +41,7 @@ mod reservoir_verification;
 mod residuals;
 mod rock_network;
 mod seismicity;
+mod shear_crack;
 mod sneddon;
 mod solid_verification;
 mod split;

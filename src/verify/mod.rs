@@ -21,6 +21,7 @@ pub mod heat_continuum_cases;
 pub mod heat_discrete_cases;
 pub mod heat_models_cases;
 pub mod seismicity_cases;
+pub mod shear_crack_cases;
 pub mod sif_cases;
 pub mod slip_cases;
 pub mod solid3d_cases;
@@ -225,6 +226,11 @@ pub fn cases() -> Vec<Case> {
             name: "slip_inclined",
             about: "closed crack at 20 degrees under remote compression (-40/-10 MPa), sliding against friction (20 degrees): slip against the mode-II Sneddon closed form on a conforming and a snapped graded mesh, b/h = 20 and 40",
             run: slip_cases::slip_inclined,
+        },
+        Case {
+            name: "shear_crack",
+            about: "fluid-driven frictional shear crack (Bhattacharya and Viesca 2019): a closed joint under a held pressure step at its centre, slip front a = lambda sqrt(4 alpha t) against lambda(T), T = 0.1 and 0.8, 10 to 40 faces (3 % at 40); pressure against erfc, moment ~ V^2",
+            run: shear_crack_cases::shear_crack,
         },
         Case {
             name: "seismicity",
