@@ -62,26 +62,17 @@ fn bench(c: &mut Criterion) {
     let mk = |fractures: bool| {
         let mut sc = seed_block(1.0, End::Time(1e9), Damping::Local(0.8));
         if fractures {
-            sc.fracture = Some(FractureSpec {
-                random: None,
-                file: None,
-                strength: None,
-                criterion: None,
-                face_stress: Default::default(),
-                tip_handover: None,
-                residual_aperture: 5e-4,
-                preexisting: (1..=10)
+            sc.fracture = Some(FractureSpec::joints(
+                (1..=10)
                     .map(|k| PreFracture {
                         from: [0.0, 9.0 * k as f64],
                         to: [100.0, 9.0 * k as f64],
                     })
                     .collect(),
-                pressure: None,
-                friction_deg: 30.0,
-                slip_weakening: None,
-                normal_stiffness: None,
-                shear_stiffness: None,
-            });
+                30.0,
+                5e-4,
+                None,
+            ));
         }
         Simulation::new(sc.validate().unwrap(), &[]).unwrap()
     };

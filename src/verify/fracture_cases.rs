@@ -67,21 +67,9 @@ pub fn mesh_parity(h: f64, r: f64, fine: [f64; 4]) -> anyhow::Result<usize> {
 /// One pre-existing straight crack from `from` to `to` (m), no criterion, under the uniform
 /// face pressure `pressure` (Pa), joints with the default friction and stiffnesses.
 pub fn crack_spec(from: [f64; 2], to: [f64; 2], pressure: Option<f64>) -> FractureSpec {
-    FractureSpec {
-        random: None,
-        file: None,
-        strength: None,
-        criterion: None,
-        face_stress: Default::default(),
-        tip_handover: None,
-        residual_aperture: 5e-4,
-        preexisting: vec![PreFracture { from, to }],
-        pressure,
-        friction_deg: 30.0,
-        slip_weakening: None,
-        normal_stiffness: None,
-        shear_stiffness: None,
-    }
+    let mut f = FractureSpec::joints(vec![PreFracture { from, to }], 30.0, 5e-4, None);
+    f.pressure = pressure;
+    f
 }
 
 /// Opened area, largest opening, wall time and unknowns of a pressurised straight crack of
@@ -387,24 +375,15 @@ pub(super) fn block_scenario(phi_deg: f64, h: f64, gravity: [f64; 2]) -> crate::
         Damping::Local(0.8),
     );
     sc.gravity = Some(gravity);
-    sc.fracture = Some(FractureSpec {
-        random: None,
-        file: None,
-        strength: None,
-        criterion: None,
-        face_stress: Default::default(),
-        tip_handover: None,
-        residual_aperture: 5e-4,
-        preexisting: vec![PreFracture {
+    sc.fracture = Some(FractureSpec::joints(
+        vec![PreFracture {
             from: [0.0, 1.0],
             to: [4.0, 1.0],
         }],
-        pressure: None,
-        friction_deg: phi_deg,
-        slip_weakening: None,
-        normal_stiffness: Some(BLOCK_JOINT_STIFFNESS),
-        shear_stiffness: Some(BLOCK_JOINT_STIFFNESS),
-    });
+        phi_deg,
+        5e-4,
+        Some((BLOCK_JOINT_STIFFNESS, BLOCK_JOINT_STIFFNESS)),
+    ));
     sc
 }
 

@@ -77,21 +77,14 @@ fn fracture_spec(
     friction_deg: f64,
     slip_weakening: Option<SlipWeakening>,
 ) -> FractureSpec {
-    FractureSpec {
-        random: None,
-        file: None,
-        strength: None,
-        criterion: None,
-        face_stress: Default::default(),
-        tip_handover: None,
-        residual_aperture: 5e-4,
+    let mut f = FractureSpec::joints(
         preexisting,
-        pressure: None,
         friction_deg,
-        slip_weakening,
-        normal_stiffness: Some(10.0 * ROCK.young),
-        shear_stiffness: Some(10.0 * ROCK.shear()),
-    }
+        5e-4,
+        Some((10.0 * ROCK.young, 10.0 * ROCK.shear())),
+    );
+    f.slip_weakening = slip_weakening;
+    f
 }
 
 /// The measured quantities of the prescribed-slip catalogue, each with its exact value.

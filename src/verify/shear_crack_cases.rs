@@ -231,24 +231,15 @@ impl Setup {
         // to 1e-5 t_end and stayed there, 140 cutbacks in 340 steps); with LU none failed.
         sc.time.linear_solver = LinearSolver::Lu;
         let (t, _) = axes();
-        sc.fracture = Some(FractureSpec {
-            random: None,
-            file: None,
-            strength: None,
-            criterion: None,
-            face_stress: Default::default(),
-            tip_handover: None,
-            residual_aperture: A_R,
-            preexisting: vec![PreFracture {
+        sc.fracture = Some(FractureSpec::joints(
+            vec![PreFracture {
                 from: [-self.c * t[0], -self.c * t[1]],
                 to: [self.c * t[0], self.c * t[1]],
             }],
-            pressure: None,
-            friction_deg: FRICTION.atan().to_degrees(),
-            slip_weakening: None,
-            normal_stiffness: Some(STIFFNESS_FACTOR * mat.young),
-            shear_stiffness: Some(STIFFNESS_FACTOR * mat.shear()),
-        });
+            FRICTION.atan().to_degrees(),
+            A_R,
+            Some((STIFFNESS_FACTOR * mat.young, STIFFNESS_FACTOR * mat.shear())),
+        ));
         sc.initial_fluid = InitialFluid::Full(0.0);
         sc.flow_boundaries = vec![FlowBoundary {
             name: "well".into(),

@@ -219,24 +219,15 @@ pub fn slip_scenario(mesh: SlipMesh, h: f64, r: f64, k_factor: f64) -> crate::sc
     sc.time.solid_scheme = SolidScheme::QuasiStatic;
     sc.time.max_steps = 100;
     let (t, _) = axes();
-    sc.fracture = Some(FractureSpec {
-        random: None,
-        file: None,
-        strength: None,
-        criterion: None,
-        face_stress: Default::default(),
-        tip_handover: None,
-        residual_aperture: 5e-4,
-        preexisting: vec![PreFracture {
+    sc.fracture = Some(FractureSpec::joints(
+        vec![PreFracture {
             from: [-B * t[0], -B * t[1]],
             to: [B * t[0], B * t[1]],
         }],
-        pressure: None,
-        friction_deg: PHI_DEG,
-        slip_weakening: None,
-        normal_stiffness: Some(k_factor * mat.young),
-        shear_stiffness: Some(k_factor * mat.shear()),
-    });
+        PHI_DEG,
+        5e-4,
+        Some((k_factor * mat.young, k_factor * mat.shear())),
+    ));
     sc
 }
 

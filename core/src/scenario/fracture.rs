@@ -72,6 +72,35 @@ pub struct FractureSpec {
     pub shear_stiffness: Option<f64>,
 }
 
+impl FractureSpec {
+    /// Pre-existing joints only: `preexisting` fractures with friction angle `friction_deg`
+    /// (degrees), residual aperture `residual_aperture` (m) and penalty stiffnesses K_n, K_t
+    /// (Pa; `None`: the rock's E and G); no criterion, no generated network, no prescribed
+    /// pressure, constant friction (set the other fields on the result).
+    pub fn joints(
+        preexisting: Vec<PreFracture>,
+        friction_deg: f64,
+        residual_aperture: f64,
+        stiffness: Option<(f64, f64)>,
+    ) -> Self {
+        FractureSpec {
+            random: None,
+            file: None,
+            strength: None,
+            criterion: None,
+            face_stress: Default::default(),
+            tip_handover: None,
+            residual_aperture,
+            preexisting,
+            pressure: None,
+            friction_deg,
+            slip_weakening: None,
+            normal_stiffness: stiffness.map(|k| k.0),
+            shear_stiffness: stiffness.map(|k| k.1),
+        }
+    }
+}
+
 /// The fracture criterion (`fracture.criterion`).
 #[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
