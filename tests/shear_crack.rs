@@ -48,3 +48,31 @@ fn quick_run_passes() {
         failed.join("\n")
     );
 }
+
+/// `time.linear_solver: Auto` on the shear crack (T = 0.1, 10 faces): the Cholesky tangent's
+/// Newton fails once the front joints slide (the case itself asks for `Lu`); Auto then solves
+/// that step again by LU and keeps the LU, so the run takes no cutback (before: 140 cutbacks in
+/// 340 steps and the front stuck at a step of 1e-5 t_end) and as many steps as with `Lu`.
+#[test]
+fn auto_solver_falls_back_to_lu() {
+    use hydrofrac::scenario::LinearSolver;
+    use hydrofrac::sim::{Finish, Simulation};
+    use hydrofrac::verify::shear_crack_cases::Setup;
+    let steps = |lin: LinearSolver| {
+        let mut sc = Setup::new(0.1, 10).scenario();
+        sc.time.linear_solver = lin;
+        let mut sim = Simulation::new(sc.validate().unwrap(), &[]).unwrap();
+        assert_eq!(sim.run(|_| {}).unwrap(), Finish::EndTime);
+        sim.quasi_static_counts().unwrap()
+    };
+    let (auto, lu) = (steps(LinearSolver::Auto), steps(LinearSolver::Lu));
+    assert_eq!(auto.cutbacks, 0, "{auto:?}");
+    assert!((1..=3).contains(&auto.lu_retries), "{auto:?}");
+    let ratio = auto.steps as f64 / lu.steps as f64;
+    assert!(
+        (0.95..=1.05).contains(&ratio),
+        "{} against {} steps",
+        auto.steps,
+        lu.steps
+    );
+}

@@ -124,6 +124,11 @@ pub struct QsCounts {
     pub resolves: u64,
     pub max_resolves_in_step: u64,
     pub resolve_cap_hits: u64,
+    /// [`Linear::Auto`]: steps whose Newton iteration failed with the Cholesky tangent and
+    /// were solved again at the same length with the LU, which the run then keeps
+    /// ([`QuasiStatic::force_lu`]).
+    #[serde(default)]
+    pub lu_retries: u64,
 }
 
 /// Everything that depends on the topology (dof numbering, pattern, elastic values, symbolic
@@ -203,6 +208,11 @@ pub struct QuasiStatic {
     /// Re-solves after splits in the step being taken (0 until it splits; the time series'
     /// `resolves` column). Not in checkpoints: a restart starts between steps, where it is 0.
     pub step_resolves: u64,
+    /// [`Linear::Auto`]: every Newton direction from the full matrix's LU, set from the retry
+    /// of a step that failed with the Cholesky tangent on (`quasi_static_step::solve_step`).
+    /// Not in checkpoints: a restarted run starts with the Cholesky tangent again (its steps
+    /// agree to the solver's tolerance, as every quasi-static restart's).
+    pub force_lu: bool,
     /// A stop request checked between Newton iterations (non-zero: stop): a solve it
     /// interrupts fails with "interrupted". Set by the production stage, whose failed solve is
     /// rolled back and which then ends between two solves (a solve of Example II's network
@@ -293,6 +303,7 @@ impl QuasiStatic {
             step_start: None,
             factored_shift: 0.0,
             step_resolves: 0,
+            force_lu: false,
             interrupt: None,
         }
     }
@@ -558,6 +569,7 @@ impl QuasiStatic {
         match self.linear {
             Linear::Cholesky => false,
             Linear::Lu => true,
+            Linear::Auto if self.force_lu => true,
             Linear::Auto => {
                 let sliding = states.iter().filter(|s| **s == State::Slip).count();
                 let cells = flow.map_or(0, |f| {

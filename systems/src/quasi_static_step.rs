@@ -69,9 +69,14 @@ pub fn solve_at(
     Ok(())
 }
 
-/// `solve` over the step from `t0` of the clock's length: an adaptive step whose Newton
-/// iteration fails is halved and retried from the step's start (down to `time.dt_min`).
-/// Records how hard the solve was in `effort` (the adaptive step's input).
+/// `solve` over the step from `t0` of the clock's length. Under `time.linear_solver: Auto`, a
+/// step whose Newton iteration fails is first solved again at the same length with every
+/// direction from the full matrix's LU (the exact joint tangent; the Cholesky path adds the
+/// sliding joints' Coulomb term by Sherman-Morrison-Woodbury, and on the fluid-driven shear
+/// crack of `verify shear_crack` its Newton failed at every step once the front joints began
+/// to slide), and the run keeps the LU from then on (the sliding that defeated the Cholesky
+/// path persists: retrying it at every step cost 5x the LU's time there); then an adaptive
+/// step is halved and retried from the step's start (down to `time.dt_min`). Records how hard the solve was in `effort` (the adaptive step's input).
 pub fn solve_step(
     solid: &mut SolidPart,
     mut flow: Option<&mut FlowPart>,
@@ -82,13 +87,18 @@ pub fn solve_step(
     t0: f64,
 ) -> Result<(), RunError> {
     let v = &solid.view;
-    let saved = clock
-        .adaptive(p)
-        .then(|| (v.u.clone(), v.joint_state.clone()));
+    let auto = solid
+        .quasi_static
+        .as_ref()
+        .is_some_and(|q| q.linear == quasi_static::Linear::Auto);
+    let saved = (auto || clock.adaptive(p)).then(|| (v.u.clone(), v.joint_state.clone()));
     loop {
         let dt = clock.dt;
-        let Err(e) = solve_at(solid, flow.as_deref_mut(), flow_on, clock, p, t0, dt) else {
-            let qs = solid.quasi_static.as_ref().expect("quasi-static scheme");
+        let solved = solve_at(solid, flow.as_deref_mut(), flow_on, clock, p, t0, dt);
+        let qs = solid.quasi_static.as_mut().expect("quasi-static scheme");
+        let retry_lu = auto && !qs.force_lu && solved.is_err();
+        qs.force_lu |= retry_lu;
+        let Err(e) = solved else {
             effort.iterations = qs.counts.last_iterations;
             effort.pressure_change = qs.rows.pressure_change();
             return Ok(());
@@ -96,6 +106,17 @@ pub fn solve_step(
         let Some((u, js)) = saved.as_ref() else {
             return Err(e);
         };
+        if retry_lu {
+            tracing::debug!("quasi-static step from t = {t0:.6e} s failed: {e}; again by LU");
+            qs.counts.lu_retries += 1;
+            let v = &mut solid.view;
+            v.u.copy_from_slice(u);
+            v.joint_state.copy_from_slice(js);
+            continue;
+        }
+        if !clock.adaptive(p) {
+            return Err(e);
+        }
         if 0.5 * dt < p.time.dt_min {
             return Err(match e {
                 RunError::QuasiStatic { step, time, why } => RunError::QuasiStatic {
