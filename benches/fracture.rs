@@ -1,6 +1,7 @@
 //! Fracture costs on the 20,000-element mesh (100 m x 100 m, h = 1 m): opening a 100-edge crack
 //! by node splitting (per split node), rebuilding the dense view after it, and the whole solid
-//! step with 1,000 joints in contact against the same mesh without fractures.
+//! step with 1,000 joints in contact against the same mesh without fractures, and with the
+//! event catalogue (`seismicity:`) on.
 //!
 //! Run: `cargo bench --bench fracture`.
 
@@ -59,8 +60,11 @@ fn bench(c: &mut Criterion) {
     });
     // Step with and without 1,000 joints (10 horizontal fractures across the block, closed by
     // the in-situ compression).
-    let mk = |fractures: bool| {
+    let mk = |fractures: bool, catalogue: bool| {
         let mut sc = seed_block(1.0, End::Time(1e9), Damping::Local(0.8));
+        if catalogue {
+            sc.seismicity = Some(Default::default());
+        }
         if fractures {
             sc.fracture = Some(FractureSpec::joints(
                 (1..=10)
@@ -77,8 +81,12 @@ fn bench(c: &mut Criterion) {
         Simulation::new(sc.validate().unwrap(), &[]).unwrap()
     };
     let pool = common::pool(1);
-    for (name, with) in [("step_no_joints_1t", false), ("step_1000_joints_1t", true)] {
-        let mut sim = mk(with);
+    for (name, with, catalogue) in [
+        ("step_no_joints_1t", false, false),
+        ("step_1000_joints_1t", true, false),
+        ("step_1000_joints_catalogue_1t", true, true),
+    ] {
+        let mut sim = mk(with, catalogue);
         eprintln!("{name}: {} joints", sim.solid().joint_nodes.len());
         g.bench_function(name, |b| {
             pool.install(|| b.iter(|| sim.step_once().unwrap()))
