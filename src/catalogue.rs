@@ -5,7 +5,7 @@
 use crate::plot::{Panel, Segment, Series};
 use crate::sim::Simulation;
 use crate::systems::seismicity::{
-    Catalogue, Event, MAGNITUDE_BIN, MIN_B_EVENTS, b_value_min, completeness_max_curvature,
+    Catalogue, Event, MAGNITUDE_BIN, MIN_B_EVENTS, b_value, completeness_max_curvature,
 };
 use serde_json::json;
 use std::fmt::Write as _;
@@ -74,8 +74,8 @@ pub fn events_csv(events: &[Event]) -> Option<String> {
     Some(s)
 }
 
-/// The b-value of the catalogue's magnitudes: (b, its error, events used, completeness,
-/// where the completeness came from), `None` with too few events.
+/// The b-value of the catalogue's magnitudes at the completeness `completeness` (`None`: by
+/// maximum curvature); `None` with fewer than [`MIN_B_EVENTS`] events above it.
 pub fn catalogue_b(magnitudes: &[f64], completeness: Option<f64>) -> Option<BValue> {
     let (mc, from) = match completeness {
         Some(m) => (m, "scenario"),
@@ -84,7 +84,7 @@ pub fn catalogue_b(magnitudes: &[f64], completeness: Option<f64>) -> Option<BVal
             "maximum curvature",
         ),
     };
-    let (b, error, events) = b_value_min(magnitudes, mc, MAGNITUDE_BIN, MIN_B_EVENTS)?;
+    let (b, error, events) = b_value(magnitudes, mc, MAGNITUDE_BIN, MIN_B_EVENTS)?;
     Some(BValue {
         b,
         error,
@@ -108,8 +108,13 @@ pub struct BValue {
 /// `summary.json`'s `seismicity`. A file or figure that cannot be written is a warning.
 pub fn outputs(sim: &mut Simulation, warnings: &mut Vec<String>) -> Option<serde_json::Value> {
     sim.close_catalogue();
-    let cat = sim.catalogue()?.clone();
-    let spec = sim.params().seismicity.clone().unwrap_or_default();
+    let sim = &*sim;
+    let cat = sim.catalogue()?;
+    let completeness = sim
+        .params()
+        .seismicity
+        .as_ref()
+        .and_then(|s| s.completeness);
     let g = cat.settings.shear_modulus;
     let mags: Vec<f64> = cat.events.iter().map(|e| e.magnitude).collect();
     let largest = cat
@@ -117,7 +122,7 @@ pub fn outputs(sim: &mut Simulation, warnings: &mut Vec<String>) -> Option<serde
         .iter()
         .max_by(|a, b| a.moment.total_cmp(&b.moment));
     let injected = crate::systems::seismicity::injection(sim.flow()).injected;
-    let b = catalogue_b(&mags, spec.completeness);
+    let b = catalogue_b(&mags, completeness);
     let mut s = json!({
         "events": cat.events.len(),
         "open_at_end": cat.events.iter().filter(|e| e.open_at_end).count(),
@@ -151,7 +156,7 @@ pub fn outputs(sim: &mut Simulation, warnings: &mut Vec<String>) -> Option<serde
             }
             None => warnings.push("events.csv not written: a non-finite value".into()),
         }
-        if let Err(e) = figures(sim, &cat, b) {
+        if let Err(e) = figures(sim, cat, b) {
             warnings.push(format!("seismicity figures not written: {e}"));
         }
     }

@@ -5,7 +5,7 @@
 
 use crate::support_cli as cli;
 use hydrofrac::checkpoint;
-use hydrofrac::scenario::{Scenario, SolidScheme};
+use hydrofrac::scenario::{Scenario, SeismicitySpec, SlipWeakening, SolidScheme};
 use hydrofrac::sim::{Finish, Simulation};
 use hydrofrac::verify::seismicity_cases::{
     prescribed_run, seismicity_case, slip_weakening_case, slip_weakening_scenario,
@@ -127,7 +127,11 @@ fn restart_keeps_the_catalogue() {
     assert_eq!(restarted.catalogue().unwrap().events, events);
 }
 
-fn refused(sc: Scenario, field: &str, needle: &str) {
+/// The slip-weakening crack's scenario edited by `edit` is refused, naming `field` and saying
+/// `needle`.
+fn refused(edit: impl FnOnce(&mut Scenario), field: &str, needle: &str) {
+    let mut sc = slip_weakening_scenario(10.0, 0.05);
+    edit(&mut sc);
     let e = sc.validate().unwrap_err().to_string();
     assert!(e.contains(field) && e.contains(needle), "{e}");
 }
@@ -135,44 +139,48 @@ fn refused(sc: Scenario, field: &str, needle: &str) {
 /// Bad settings are refused with the field and the reason.
 #[test]
 fn bad_seismicity_settings_are_refused() {
-    let base = slip_weakening_scenario(10.0, 0.05);
-    let mut sc = base.clone();
-    sc.seismicity.as_mut().unwrap().v_stop = Some(1.0);
-    refused(sc, "seismicity.v_stop", "above the opening rate");
-    let mut sc = base.clone();
-    sc.seismicity.as_mut().unwrap().v_start = f64::NAN;
-    refused(sc, "seismicity.v_start", "not a finite number");
-    let mut sc = base.clone();
-    sc.seismicity.as_mut().unwrap().width = Some(-1.0);
-    refused(sc, "seismicity.width", "must be > 0");
-    let mut sc = base.clone();
-    sc.fracture = None;
-    refused(sc, "seismicity", "needs a mesh with a `fracture` section");
-    let mut sc = base.clone();
-    sc.time.solid_scheme = SolidScheme::QuasiStatic;
-    refused(sc, "fracture.slip_weakening", "explicit rock");
-    let mut sc = base.clone();
-    sc.fracture
-        .as_mut()
-        .unwrap()
-        .slip_weakening
-        .as_mut()
-        .unwrap()
-        .residual_deg = 40.0;
+    fn seis(sc: &mut Scenario) -> &mut SeismicitySpec {
+        sc.seismicity.as_mut().unwrap()
+    }
+    fn weak(sc: &mut Scenario) -> &mut SlipWeakening {
+        let f = sc.fracture.as_mut().unwrap();
+        f.slip_weakening.as_mut().unwrap()
+    }
     refused(
-        sc,
+        |sc| seis(sc).v_stop = Some(1.0),
+        "seismicity.v_stop",
+        "above the opening rate",
+    );
+    refused(
+        |sc| seis(sc).v_start = f64::NAN,
+        "seismicity.v_start",
+        "not a finite number",
+    );
+    refused(
+        |sc| seis(sc).width = Some(-1.0),
+        "seismicity.width",
+        "must be > 0",
+    );
+    refused(
+        |sc| sc.fracture = None,
+        "seismicity",
+        "needs a mesh with a `fracture` section",
+    );
+    refused(
+        |sc| sc.time.solid_scheme = SolidScheme::QuasiStatic,
+        "fracture.slip_weakening",
+        "explicit rock",
+    );
+    refused(
+        |sc| weak(sc).residual_deg = 40.0,
         "fracture.slip_weakening.residual_deg",
         "[0, friction_deg",
     );
-    let mut sc = base;
-    sc.fracture
-        .as_mut()
-        .unwrap()
-        .slip_weakening
-        .as_mut()
-        .unwrap()
-        .dc = 0.0;
-    refused(sc, "fracture.slip_weakening.dc", "must be > 0");
+    refused(
+        |sc| weak(sc).dc = 0.0,
+        "fracture.slip_weakening.dc",
+        "must be > 0",
+    );
 }
 
 /// Both solid schemes catalogue the same crack sliding under constant friction (25 degrees,

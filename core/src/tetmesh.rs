@@ -217,25 +217,17 @@ impl TetMesh {
         for &n in &nodes {
             let ts = &around[&n];
             // Union the tetrahedra around n across shared faces through n that are not cut.
-            let mut group: Vec<usize> = (0..ts.len()).collect();
-            fn root(g: &mut [usize], mut i: usize) -> usize {
-                while g[i] != i {
-                    g[i] = g[g[i]];
-                    i = g[i];
-                }
-                i
-            }
+            let mut group = crate::union_find::UnionFind::new(ts.len());
             for a in 0..ts.len() {
                 for b in a + 1..ts.len() {
                     let (ta, tb) = (self.tets[ts[a] as usize], self.tets[ts[b] as usize]);
                     let shared: Vec<u32> = ta.iter().copied().filter(|x| tb.contains(x)).collect();
                     if shared.len() == 3 && !cut.contains(&key([shared[0], shared[1], shared[2]])) {
-                        let (ra, rb) = (root(&mut group, a), root(&mut group, b));
-                        group[ra.max(rb)] = ra.min(rb);
+                        group.union(a, b);
                     }
                 }
             }
-            let roots: Vec<usize> = (0..ts.len()).map(|i| root(&mut group, i)).collect();
+            let roots: Vec<usize> = (0..ts.len()).map(|i| group.find(i)).collect();
             let mut firsts: Vec<usize> = roots.clone();
             firsts.sort_unstable();
             firsts.dedup();

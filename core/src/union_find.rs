@@ -1,6 +1,6 @@
 //! Disjoint sets over `0..n` (union-find with path halving), used to group elements around a
-//! node in the split (`crate::split`) and to find the connected components of the flow network
-//! (`crate::flow::steady`).
+//! node in the split (`crate::split`, and in 3D `crate::tetmesh::TetMesh::split_along`) and to
+//! find the connected components of the flow network (`crate::flow::steady`).
 //!
 //! The representative of a set is always its smallest member: `union` hangs the larger root
 //! under the smaller one. So the grouping and the representatives do not depend on the order of

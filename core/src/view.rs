@@ -463,6 +463,13 @@ pub fn joint_len0(v: &SolidView, k: usize) -> f64 {
     (b[0] - a[0]).hypot(b[1] - a[1])
 }
 
+/// Midpoint of joint `k`'s face p in the reference positions x0, m (where the event catalogue
+/// places a joint).
+pub fn joint_mid0(v: &SolidView, k: usize) -> [f64; 2] {
+    let [a, b] = [v.joint_nodes[k][0], v.joint_nodes[k][1]].map(|i| v.x0[i as usize]);
+    [0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1])]
+}
+
 #[inline]
 pub fn joint_frame(v: &SolidView, k: usize) -> JointFrame {
     let nodes = v.joint_nodes[k];

@@ -119,67 +119,50 @@ pub fn prescribed_run() -> anyhow::Result<Prescribed> {
     });
     let v = sim.solid();
     let n = v.joint_nodes.len();
-    let mid: Vec<[f64; 2]> = (0..n)
-        .map(|k| {
-            let [a, b] = [v.joint_nodes[k][0], v.joint_nodes[k][1]].map(|i| v.x0[i as usize]);
-            [0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1])]
-        })
-        .collect();
+    let mid: Vec<[f64; 2]> = (0..n).map(|k| crate::view::joint_mid0(v, k)).collect();
     let len: Vec<f64> = (0..n).map(|k| crate::view::joint_len0(v, k)).collect();
     let on_a: Vec<bool> = mid.iter().map(|m| (m[1] - 6.0).abs() < 1e-9).collect();
     let profile = |x: f64| SLIP_A * (1.0 - ((x - XC) / HALF).powi(2)).max(0.0).sqrt();
     let (tau0, tau1) = (4e6, 3e6);
-    let set = |sim: &mut Simulation, slide: &dyn Fn(usize) -> Option<(f64, f64)>| {
+    // Every joint's offset (m) and shear traction (Pa) at the end of a step, sliding or not.
+    let set = |sim: &mut Simulation, sliding: bool, state: &dyn Fn(usize) -> (f64, f64)| {
         let v = sim.solid_mut();
         for k in 0..n {
+            let (offset, tau) = state(k);
             let st = &mut v.joint_state[k];
-            st.sliding = false;
-            if let Some((offset, tau)) = slide(k) {
-                st.sliding = true;
-                st.last_shear_offset = offset;
-                st.shear_force = tau * len[k];
-            }
+            st.sliding = sliding;
+            st.last_shear_offset = offset;
+            st.shear_force = tau * len[k];
         }
     };
     let inj = Injection::default();
     // Step 1: at rest, A's traction tau0.
-    set(&mut sim, &|k| on_a[k].then_some((0.0, tau0)));
-    {
-        let v = sim.solid_mut();
-        v.joint_state.iter_mut().for_each(|s| s.sliding = false);
-    }
+    set(&mut sim, false, &|k| {
+        (0.0, if on_a[k] { tau0 } else { 0.0 })
+    });
     seismicity(&mut cat, sim.solid(), 0.0, 1.0, inj);
     // Step 2: A on the profile, B sub-threshold.
-    set(&mut sim, &|k| {
-        Some(if on_a[k] {
+    set(&mut sim, true, &|k| {
+        if on_a[k] {
             (profile(mid[k][0]), tau0)
         } else {
             (5e-4, 0.0)
-        })
+        }
     });
     seismicity(&mut cat, sim.solid(), 1.0, 2.0, inj);
     let sub_threshold_events = cat.running() - 1;
     // Step 3: A 1.5 x the profile, B a further 2e-3 m.
-    set(&mut sim, &|k| {
-        Some(if on_a[k] {
+    let step3 = |k: usize| {
+        if on_a[k] {
             (1.5 * profile(mid[k][0]), tau1)
         } else {
             (5e-4 + 2e-3, 0.0)
-        })
-    });
+        }
+    };
+    set(&mut sim, true, &step3);
     seismicity(&mut cat, sim.solid(), 2.0, 3.0, inj);
     // Step 4: nothing slides; offsets and tractions stay.
-    set(&mut sim, &|k| {
-        Some(if on_a[k] {
-            (1.5 * profile(mid[k][0]), tau1)
-        } else {
-            (2.5e-3, 0.0)
-        })
-    });
-    {
-        let v = sim.solid_mut();
-        v.joint_state.iter_mut().for_each(|s| s.sliding = false);
-    }
+    set(&mut sim, false, &step3);
     seismicity(&mut cat, sim.solid(), 3.0, 4.0, inj);
     ensure!(cat.running() == 0, "events still running after step 4");
     let ev = &cat.events;
@@ -275,7 +258,7 @@ pub fn seismicity_case(quick: bool) -> anyhow::Result<CaseResult> {
         let t = Instant::now();
         let mags = synthetic_catalogue(n, 1.0, 1.0, 40 + level as u64);
         let mc = completeness_max_curvature(&mags, MAGNITUDE_BIN).unwrap_or(f64::NAN);
-        let (b, sigma, used) = b_value(&mags, 1.0, MAGNITUDE_BIN)
+        let (b, sigma, used) = b_value(&mags, 1.0, MAGNITUDE_BIN, 2)
             .ok_or_else(|| anyhow::anyhow!("no b-value from {n} events"))?;
         let wall = t.elapsed().as_secs_f64();
         res.rows.push(Row {

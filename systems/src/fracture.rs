@@ -501,9 +501,10 @@ pub fn fluid_pressure(v: &mut SolidView, joint_cell: &[u32], pressure: &[f64]) {
 /// p's outward normal and tangent, delta_n and delta_t (current geometry). In contact
 /// (delta_n < 0): F_n = -K_n delta_n; F_t += -K_t (change of delta_t), capped at mu F_n
 /// (sliding; under slip weakening mu follows the joint's accumulated frictional slip,
-/// `JointParams::mu_at`, which grows by the cap's excess over K_t at each sliding step). Open: both zero. Face q gets F_n n + F_t t, face p the opposite, half to each
-/// node. Adds to `force` (after `internal_force` and `external_load`). Serial: joints are few
-/// against elements and the scatter order is then fixed.
+/// `JointParams::mu_at`, which grows by the cap's excess over K_t at each sliding step).
+/// Open: both zero. Face q gets F_n n + F_t t, face p the opposite, half to each node. Adds
+/// to `force` (after `internal_force` and `external_load`). Serial: joints are few against
+/// elements and the scatter order is then fixed.
 pub fn contact(v: &mut SolidView, p: &JointParams) {
     for k in 0..v.joint_nodes.len() {
         let nodes = v.joint_nodes[k];

@@ -127,7 +127,6 @@ pub struct QsCounts {
     /// [`Linear::Auto`]: steps whose Newton iteration failed with the Cholesky tangent and
     /// were solved again at the same length with the LU, which the run then keeps
     /// ([`QuasiStatic::force_lu`]).
-    #[serde(default)]
     pub lu_retries: u64,
 }
 

@@ -76,7 +76,8 @@ pub fn solve_at(
 /// crack of `verify shear_crack` its Newton failed at every step once the front joints began
 /// to slide), and the run keeps the LU from then on (the sliding that defeated the Cholesky
 /// path persists: retrying it at every step cost 5x the LU's time there); then an adaptive
-/// step is halved and retried from the step's start (down to `time.dt_min`). Records how hard the solve was in `effort` (the adaptive step's input).
+/// step is halved and retried from the step's start (down to `time.dt_min`). Records how hard
+/// the solve was in `effort` (the adaptive step's input).
 pub fn solve_step(
     solid: &mut SolidPart,
     mut flow: Option<&mut FlowPart>,
@@ -87,10 +88,12 @@ pub fn solve_step(
     t0: f64,
 ) -> Result<(), RunError> {
     let v = &solid.view;
+    // The step's start is kept only if a retry can use it: an LU retry (Auto, not yet on
+    // the LU) or a halving (adaptive).
     let auto = solid
         .quasi_static
         .as_ref()
-        .is_some_and(|q| q.linear == quasi_static::Linear::Auto);
+        .is_some_and(|q| q.linear == quasi_static::Linear::Auto && !q.force_lu);
     let saved = (auto || clock.adaptive(p)).then(|| (v.u.clone(), v.joint_state.clone()));
     loop {
         let dt = clock.dt;

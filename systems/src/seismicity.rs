@@ -26,7 +26,7 @@
 //! per step, and a search over the hot joints only.
 
 use hecs::Entity;
-use hydrofrac_core::view::{SolidView, joint_len0};
+use hydrofrac_core::view::{SolidView, joint_len0, joint_mid0};
 use serde::{Deserialize, Serialize};
 
 const NONE: u32 = u32::MAX;
@@ -267,7 +267,7 @@ impl Catalogue {
             let len = joint_len0(v, k);
             let tau_end = v.joint_state[k].shear_force / len;
             let (s, a) = (j.slip[k], j.slip[k].abs());
-            let x = midpoint0(v, k);
+            let x = joint_mid0(v, k);
             n += 1;
             length += len;
             m0 += a * len;
@@ -477,7 +477,7 @@ fn absorb(cat: &mut Catalogue, v: &SolidView, set: &[u32], step: &Scratch, t0: f
             cat.running.push(Running {
                 id,
                 t_start: t0,
-                hypocentre: midpoint0(v, first),
+                hypocentre: joint_mid0(v, first),
                 peak_rate: 0.0,
                 touched: true,
             });
@@ -502,25 +502,15 @@ fn absorb(cat: &mut Catalogue, v: &SolidView, set: &[u32], step: &Scratch, t0: f
     }
 }
 
-/// Reference midpoint of joint `k`'s face p, m.
-fn midpoint0(v: &SolidView, k: usize) -> [f64; 2] {
-    let [a, b] = [v.joint_nodes[k][0], v.joint_nodes[k][1]].map(|i| v.x0[i as usize]);
-    [0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1])]
-}
+/// Events at or above the completeness a run's catalogue needs for its b-value (with fewer it
+/// is not reported: Aki's relative error 1 / sqrt(N) is over 30 %).
+pub const MIN_B_EVENTS: usize = 10;
 
 /// Aki-Utsu maximum-likelihood b-value of the magnitudes at or above the completeness `mc`,
 /// binned to `bin` (half-bin correction): b = log10(e) / (mean M - (mc - bin / 2)), with Aki's
-/// standard error b / sqrt(N). `None` with fewer than two events above `mc` or no spread.
-pub fn b_value(magnitudes: &[f64], mc: f64, bin: f64) -> Option<(f64, f64, usize)> {
-    b_value_min(magnitudes, mc, bin, 2)
-}
-
-/// Events at or above the completeness a catalogue's b-value needs ([`b_value`] with fewer is
-/// not reported: Aki's relative error 1 / sqrt(N) is over 30 %).
-pub const MIN_B_EVENTS: usize = 10;
-
-/// [`b_value`] with at least `min` events above `mc`.
-pub fn b_value_min(magnitudes: &[f64], mc: f64, bin: f64, min: usize) -> Option<(f64, f64, usize)> {
+/// standard error b / sqrt(N). `None` with fewer than `min` (and two) events above `mc`, or no
+/// spread.
+pub fn b_value(magnitudes: &[f64], mc: f64, bin: f64, min: usize) -> Option<(f64, f64, usize)> {
     let binned: Vec<f64> = magnitudes
         .iter()
         .map(|m| (m / bin).round() * bin)
