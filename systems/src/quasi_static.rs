@@ -220,15 +220,19 @@ pub struct QuasiStatic {
 }
 
 /// The state at the start of an implicit-dynamics step (`time.inertia: BackwardEuler`): its
-/// length (s), and per node the displacement (m) and velocity (m/s). A re-solve at the same
-/// time after a split solves the same step again; a node the split added takes the start
-/// state that gives its own end state, u_n = u - dt v, v_n = v (its origin's, less the
-/// step's acceleration).
+/// length (s), and per node the displacement (m) and velocity (m/s), in the order of the view
+/// of topology `generation`, whose nodes' stable ids are `id`. A re-solve at the same time
+/// after a split solves the same step again on the rebuilt view: each node keeps its start
+/// state by stable id (the rebuilt view may order the nodes differently), and a node the
+/// split added takes the start state that gives its own end state, u_n = u - dt v, v_n = v
+/// (its origin's, less the step's acceleration).
 #[derive(Clone, Debug, Default)]
 pub struct StepStart {
     pub dt: f64,
     pub u: Vec<[f64; 2]>,
     pub v: Vec<[f64; 2]>,
+    pub id: Vec<u64>,
+    pub generation: u64,
 }
 
 impl StepStart {
@@ -243,14 +247,32 @@ impl StepStart {
         std::array::from_fn(|d| -s * (u[d] - self.u[i][d] - self.dt * self.v[i][d]))
     }
 
-    /// Nodes added since the step started (a split) take the start state that gives their
-    /// current end state.
+    /// Carry the start state over to the view's topology after a split: by stable id for the
+    /// nodes that were there, and for the nodes added since the step started the start state
+    /// that gives their current end state.
     fn extend(&mut self, v: &SolidView) {
-        for i in self.u.len()..v.n_nodes() {
-            let (u, w) = (v.u[i], v.v[i]);
-            self.u.push([u[0] - self.dt * w[0], u[1] - self.dt * w[1]]);
-            self.v.push(w);
+        if self.generation == v.generation {
+            return;
         }
+        let by_id: std::collections::HashMap<u64, ([f64; 2], [f64; 2])> = self
+            .id
+            .iter()
+            .zip(self.u.iter().zip(&self.v))
+            .map(|(&id, (&u, &w))| (id, (u, w)))
+            .collect();
+        let dt = self.dt;
+        let (u, w): (Vec<_>, Vec<_>) = (0..v.n_nodes())
+            .map(|i| {
+                by_id.get(&v.node_id[i]).copied().unwrap_or_else(|| {
+                    let (u, w) = (v.u[i], v.v[i]);
+                    ([u[0] - dt * w[0], u[1] - dt * w[1]], w)
+                })
+            })
+            .unzip();
+        self.u = u;
+        self.v = w;
+        self.id.clone_from(&v.node_id);
+        self.generation = v.generation;
     }
 }
 
@@ -1122,6 +1144,8 @@ fn start_step(qs: &mut QuasiStatic, v: &SolidView, p: &RunParams, dt: f64) {
         s.u.extend_from_slice(&v.u);
         s.v.clear();
         s.v.extend_from_slice(&v.v);
+        s.id.clone_from(&v.node_id);
+        s.generation = v.generation;
     } else if let Some(s) = qs.step_start.as_mut() {
         s.extend(v);
     }
