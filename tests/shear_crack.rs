@@ -51,8 +51,11 @@ fn quick_run_passes() {
 
 /// `time.linear_solver: Auto` on the shear crack (T = 0.1, 10 faces): the Cholesky tangent's
 /// Newton fails once the front joints slide (the case itself asks for `Lu`); Auto then solves
-/// that step again by LU and keeps the LU, so the run takes no cutback (before: 140 cutbacks in
-/// 340 steps and the front stuck at a step of 1e-5 t_end) and as many steps as with `Lu`.
+/// that step again by LU and keeps the LU for 8 steps, 16 after the next retry, and so on, so
+/// the run takes no cutback (before the retry: 140 cutbacks in 340 steps and the front stuck
+/// at a step of 1e-5 t_end) and as many steps as with `Lu`, with one retry per doubling
+/// (measured 4 in 213 steps; at least 2, at most 6 = 1 + log2(213 / 8)). Measured wall, same build: Auto
+/// 2.88 s, `Lu` 2.61 s.
 #[test]
 fn auto_solver_falls_back_to_lu() {
     use hydrofrac::scenario::LinearSolver;
@@ -67,7 +70,9 @@ fn auto_solver_falls_back_to_lu() {
     };
     let (auto, lu) = (steps(LinearSolver::Auto), steps(LinearSolver::Lu));
     assert_eq!(auto.cutbacks, 0, "{auto:?}");
-    assert!((1..=3).contains(&auto.lu_retries), "{auto:?}");
+    // At least two: the run went back to the Cholesky tangent after the first hold (kept to
+    // the end, the LU made Example I cross quasi-static 2.7 times slower, 50 s against 18.6 s).
+    assert!((2..=6).contains(&auto.lu_retries), "{auto:?}");
     let ratio = auto.steps as f64 / lu.steps as f64;
     assert!(
         (0.95..=1.05).contains(&ratio),

@@ -208,10 +208,17 @@ pub struct QuasiStatic {
     /// `resolves` column). Not in checkpoints: a restart starts between steps, where it is 0.
     pub step_resolves: u64,
     /// [`Linear::Auto`]: every Newton direction from the full matrix's LU, set from the retry
-    /// of a step that failed with the Cholesky tangent on (`quasi_static_step::solve_step`).
+    /// of a step that failed with the Cholesky tangent on (`quasi_static_step::solve_step`)
+    /// for [`QuasiStatic::lu_left`] steps.
     /// Not in checkpoints: a restarted run starts with the Cholesky tangent again (its steps
     /// agree to the solver's tolerance, as every quasi-static restart's).
     pub force_lu: bool,
+    /// Steps left on the LU after a retry (`force_lu`); then the Cholesky tangent again.
+    pub lu_left: u64,
+    /// The LU's hold after the last retry: [`LU_HOLD_FIRST`] steps, doubled at every retry
+    /// after the first (a scene where the Cholesky tangent keeps failing pays one failed
+    /// Cholesky solve per doubling; one where it failed once goes back to it).
+    pub lu_hold: u64,
     /// A stop request checked between Newton iterations (non-zero: stop): a solve it
     /// interrupts fails with "interrupted". Set by the production stage, whose failed solve is
     /// rolled back and which then ends between two solves (a solve of Example II's network
@@ -303,6 +310,10 @@ pub const LU_MIN_SLIDING: usize = 32;
 /// [`Linear::Auto`] takes the LU when more fracture cells than this load the rock.
 pub const LU_MIN_CELLS: usize = 200;
 
+/// Steps the LU keeps the Newton directions after the first retry of a failed Cholesky step
+/// ([`QuasiStatic::lu_hold`]).
+pub const LU_HOLD_FIRST: u64 = 8;
+
 impl QuasiStatic {
     /// A solver whose residual includes the force systems `on`.
     pub fn new(on: Systems) -> Self {
@@ -325,6 +336,8 @@ impl QuasiStatic {
             factored_shift: 0.0,
             step_resolves: 0,
             force_lu: false,
+            lu_left: 0,
+            lu_hold: 0,
             interrupt: None,
         }
     }

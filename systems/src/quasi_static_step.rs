@@ -74,10 +74,14 @@ pub fn solve_at(
 /// direction from the full matrix's LU (the exact joint tangent; the Cholesky path adds the
 /// sliding joints' Coulomb term by Sherman-Morrison-Woodbury, and on the fluid-driven shear
 /// crack of `verify shear_crack` its Newton failed at every step once the front joints began
-/// to slide), and the run keeps the LU from then on (the sliding that defeated the Cholesky
-/// path persists: retrying it at every step cost 5x the LU's time there); then an adaptive
-/// step is halved and retried from the step's start (down to `time.dt_min`). Records how hard
-/// the solve was in `effort` (the adaptive step's input).
+/// to slide), and the run keeps the LU for [`quasi_static::LU_HOLD_FIRST`] steps, twice as
+/// many after each later retry, then goes back to the Cholesky tangent. Where the sliding
+/// that defeated the Cholesky path persists (the shear crack: retrying at every step cost 5x
+/// the LU's time) that is one failed Cholesky solve per doubling (Auto 2.88 s against `Lu`
+/// 2.61 s); where it failed once (Example I cross at 0.2 s), the run goes back to the
+/// cheaper path (18.6 s for the 1.5 s, against 50 s when the LU was kept to the end). Then an
+/// adaptive step is halved and retried from the step's start (down to `time.dt_min`). Records
+/// how hard the solve was in `effort` (the adaptive step's input).
 pub fn solve_step(
     solid: &mut SolidPart,
     mut flow: Option<&mut FlowPart>,
@@ -100,10 +104,21 @@ pub fn solve_step(
         let solved = solve_at(solid, flow.as_deref_mut(), flow_on, clock, p, t0, dt);
         let qs = solid.quasi_static.as_mut().expect("quasi-static scheme");
         let retry_lu = auto && !qs.force_lu && solved.is_err();
-        qs.force_lu |= retry_lu;
+        if retry_lu {
+            qs.force_lu = true;
+            qs.lu_hold = match qs.lu_hold {
+                0 => quasi_static::LU_HOLD_FIRST,
+                h => 2 * h,
+            };
+            qs.lu_left = qs.lu_hold;
+        }
         let Err(e) = solved else {
             effort.iterations = qs.counts.last_iterations;
             effort.pressure_change = qs.rows.pressure_change();
+            if qs.force_lu && qs.linear == quasi_static::Linear::Auto {
+                qs.lu_left = qs.lu_left.saturating_sub(1);
+                qs.force_lu = qs.lu_left > 0;
+            }
             return Ok(());
         };
         let Some((u, js)) = saved.as_ref() else {
