@@ -311,7 +311,7 @@ impl Simulation {
             }
             (SystemId::Solve, Pass::Resolve { t1 }) => {
                 let (s, f) = (&mut self.solid, self.flow.as_mut());
-                quasi_static_step::solve_at(s, f, flow_on, clock, p, t1, 0.0)?;
+                quasi_static_step::resolve_at(s, f, flow_on, clock, p, t1)?;
             }
             (SystemId::FlowSubsteps, pass) => {
                 let Some(f) = self.flow.as_mut() else {

@@ -1029,15 +1029,6 @@ pub fn solve(
         }
         if qs.step_start.is_none() {
             v.v[i] = [0.0; 2];
-        } else if dt > 0.0 {
-            // Implicit dynamics: Newton starts from the constant-velocity predictor
-            // u_n + dt v_n (`verify contact`: 2.0 iterations per step on the sliding block
-            // against 3.6-4.2 from u_n; Example II: 4.95 s simulated in 300 s against 2.73 s).
-            for d in 0..2 {
-                if v.fixed[i] & (1 << d) == 0 {
-                    v.u[i][d] += dt * v.v[i][d];
-                }
-            }
         }
     }
     let joint0 = v.joint_state.clone();

@@ -69,6 +69,49 @@ pub fn solve_at(
     Ok(())
 }
 
+/// A re-solve at `t1` after a split ([`solve_at`] with no time passing). Under
+/// `time.linear_solver: Auto` on the Cholesky tangent, a re-solve whose Newton iteration fails
+/// is solved again by LU, which then holds as after a failed step ([`solve_step`]): a re-solve
+/// cannot be halved, so this is its only second chance before the run stops.
+pub fn resolve_at(
+    solid: &mut SolidPart,
+    mut flow: Option<&mut FlowPart>,
+    flow_on: bool,
+    clock: &mut Clock,
+    p: &RunParams,
+    t1: f64,
+) -> Result<(), RunError> {
+    let auto = solid
+        .quasi_static
+        .as_ref()
+        .is_some_and(|q| q.linear == quasi_static::Linear::Auto && !q.force_lu);
+    let v = &solid.view;
+    let saved = auto.then(|| (v.u.clone(), v.joint_state.clone()));
+    let solved = solve_at(solid, flow.as_deref_mut(), flow_on, clock, p, t1, 0.0);
+    let (Err(e), Some((u, js))) = (&solved, saved) else {
+        return solved;
+    };
+    tracing::debug!("quasi-static re-solve at t = {t1:.6e} s failed: {e}; again by LU");
+    let qs = solid.quasi_static.as_mut().expect("quasi-static scheme");
+    hold_lu(qs);
+    let v = &mut solid.view;
+    v.u.copy_from_slice(&u);
+    v.joint_state.copy_from_slice(&js);
+    solve_at(solid, flow, flow_on, clock, p, t1, 0.0)
+}
+
+/// Directions from the LU for the next [`QuasiStatic::lu_hold`] steps after a retry
+/// ([`quasi_static::LU_HOLD_FIRST`], doubled at each later retry).
+fn hold_lu(qs: &mut quasi_static::QuasiStatic) {
+    qs.counts.lu_retries += 1;
+    qs.force_lu = true;
+    qs.lu_hold = match qs.lu_hold {
+        0 => quasi_static::LU_HOLD_FIRST,
+        h => 2 * h,
+    };
+    qs.lu_left = qs.lu_hold;
+}
+
 /// `solve` over the step from `t0` of the clock's length. Under `time.linear_solver: Auto`, a
 /// step whose Newton iteration fails is first solved again at the same length with every
 /// direction from the full matrix's LU (the exact joint tangent; the Cholesky path adds the
@@ -105,12 +148,7 @@ pub fn solve_step(
         let qs = solid.quasi_static.as_mut().expect("quasi-static scheme");
         let retry_lu = auto && !qs.force_lu && solved.is_err();
         if retry_lu {
-            qs.force_lu = true;
-            qs.lu_hold = match qs.lu_hold {
-                0 => quasi_static::LU_HOLD_FIRST,
-                h => 2 * h,
-            };
-            qs.lu_left = qs.lu_hold;
+            hold_lu(qs);
         }
         let Err(e) = solved else {
             effort.iterations = qs.counts.last_iterations;
@@ -126,7 +164,6 @@ pub fn solve_step(
         };
         if retry_lu {
             tracing::debug!("quasi-static step from t = {t0:.6e} s failed: {e}; again by LU");
-            qs.counts.lu_retries += 1;
             let v = &mut solid.view;
             v.u.copy_from_slice(u);
             v.joint_state.copy_from_slice(js);
