@@ -124,9 +124,9 @@ pub struct QsCounts {
     pub resolves: u64,
     pub max_resolves_in_step: u64,
     pub resolve_cap_hits: u64,
-    /// [`Linear::Auto`]: steps whose Newton iteration failed with the Cholesky tangent and
-    /// were solved again at the same length with the LU, which the run then keeps
-    /// ([`QuasiStatic::force_lu`]).
+    /// [`Linear::Auto`]: solves (steps and re-solves) whose Newton iteration failed with the
+    /// Cholesky tangent and were solved again with the LU, which then holds for a while
+    /// ([`QuasiStatic::lu_left`]).
     pub lu_retries: u64,
 }
 
@@ -207,13 +207,12 @@ pub struct QuasiStatic {
     /// Re-solves after splits in the step being taken (0 until it splits; the time series'
     /// `resolves` column). Not in checkpoints: a restart starts between steps, where it is 0.
     pub step_resolves: u64,
-    /// [`Linear::Auto`]: every Newton direction from the full matrix's LU, set from the retry
-    /// of a step that failed with the Cholesky tangent on (`quasi_static_step::solve_step`)
-    /// for [`QuasiStatic::lu_left`] steps.
+    /// [`Linear::Auto`]: while above 0, every Newton direction comes from the full matrix's
+    /// LU; set by the retry of a solve that failed with the Cholesky tangent
+    /// (`quasi_static_step::solve_step`, `resolve_at`) to [`QuasiStatic::lu_hold`] steps, one
+    /// less after each step solved, then the Cholesky tangent again.
     /// Not in checkpoints: a restarted run starts with the Cholesky tangent again (its steps
     /// agree to the solver's tolerance, as every quasi-static restart's).
-    pub force_lu: bool,
-    /// Steps left on the LU after a retry (`force_lu`); then the Cholesky tangent again.
     pub lu_left: u64,
     /// The LU's hold after the last retry: [`LU_HOLD_FIRST`] steps, doubled at every retry
     /// after the first (a scene where the Cholesky tangent keeps failing pays one failed
@@ -335,7 +334,6 @@ impl QuasiStatic {
             step_start: None,
             factored_shift: 0.0,
             step_resolves: 0,
-            force_lu: false,
             lu_left: 0,
             lu_hold: 0,
             interrupt: None,
@@ -598,12 +596,17 @@ impl QuasiStatic {
         Ok(true)
     }
 
+    /// Whether a failed solve may be solved again by LU: `Auto`, not already on the LU.
+    pub fn may_retry_lu(&self) -> bool {
+        self.linear == Linear::Auto && self.lu_left == 0
+    }
+
     /// Whether this iteration's direction comes from the full matrix's LU ([`Linear`]).
     fn use_lu(&self, states: &[State], flow: Option<&FlowStep>) -> bool {
         match self.linear {
             Linear::Cholesky => false,
             Linear::Lu => true,
-            Linear::Auto if self.force_lu => true,
+            Linear::Auto if self.lu_left > 0 => true,
             Linear::Auto => {
                 let sliding = states.iter().filter(|s| **s == State::Slip).count();
                 let cells = flow.map_or(0, |f| {

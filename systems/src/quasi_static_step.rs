@@ -84,27 +84,44 @@ pub fn resolve_at(
     let auto = solid
         .quasi_static
         .as_ref()
-        .is_some_and(|q| q.linear == quasi_static::Linear::Auto && !q.force_lu);
-    let v = &solid.view;
-    let saved = auto.then(|| (v.u.clone(), v.joint_state.clone()));
+        .is_some_and(QuasiStatic::may_retry_lu);
+    let saved = auto.then(|| Saved::of(solid));
     let solved = solve_at(solid, flow.as_deref_mut(), flow_on, clock, p, t1, 0.0);
-    let (Err(e), Some((u, js))) = (&solved, saved) else {
+    let (Err(e), Some(saved)) = (&solved, saved) else {
         return solved;
     };
     tracing::debug!("quasi-static re-solve at t = {t1:.6e} s failed: {e}; again by LU");
-    let qs = solid.quasi_static.as_mut().expect("quasi-static scheme");
-    hold_lu(qs);
-    let v = &mut solid.view;
-    v.u.copy_from_slice(&u);
-    v.joint_state.copy_from_slice(&js);
+    hold_lu(solid.quasi_static.as_mut().expect("quasi-static scheme"));
+    saved.restore(solid);
     solve_at(solid, flow, flow_on, clock, p, t1, 0.0)
+}
+
+/// The rock's state before a solve (displacements, joint states), for a retry.
+struct Saved {
+    u: Vec<[f64; 2]>,
+    joints: Vec<hydrofrac_components::JointState>,
+}
+
+impl Saved {
+    fn of(solid: &SolidPart) -> Self {
+        let v = &solid.view;
+        Saved {
+            u: v.u.clone(),
+            joints: v.joint_state.clone(),
+        }
+    }
+
+    fn restore(&self, solid: &mut SolidPart) {
+        let v = &mut solid.view;
+        v.u.copy_from_slice(&self.u);
+        v.joint_state.copy_from_slice(&self.joints);
+    }
 }
 
 /// Directions from the LU for the next [`QuasiStatic::lu_hold`] steps after a retry
 /// ([`quasi_static::LU_HOLD_FIRST`], doubled at each later retry).
-fn hold_lu(qs: &mut quasi_static::QuasiStatic) {
+fn hold_lu(qs: &mut QuasiStatic) {
     qs.counts.lu_retries += 1;
-    qs.force_lu = true;
     qs.lu_hold = match qs.lu_hold {
         0 => quasi_static::LU_HOLD_FIRST,
         h => 2 * h,
@@ -134,39 +151,33 @@ pub fn solve_step(
     effort: &mut Effort,
     t0: f64,
 ) -> Result<(), RunError> {
-    let v = &solid.view;
     // The step's start is kept only if a retry can use it: an LU retry (Auto, not yet on
     // the LU) or a halving (adaptive).
     let auto = solid
         .quasi_static
         .as_ref()
-        .is_some_and(|q| q.linear == quasi_static::Linear::Auto && !q.force_lu);
-    let saved = (auto || clock.adaptive(p)).then(|| (v.u.clone(), v.joint_state.clone()));
+        .is_some_and(QuasiStatic::may_retry_lu);
+    let saved = (auto || clock.adaptive(p)).then(|| Saved::of(solid));
     loop {
         let dt = clock.dt;
         let solved = solve_at(solid, flow.as_deref_mut(), flow_on, clock, p, t0, dt);
         let qs = solid.quasi_static.as_mut().expect("quasi-static scheme");
-        let retry_lu = auto && !qs.force_lu && solved.is_err();
+        let retry_lu = solved.is_err() && qs.may_retry_lu();
         if retry_lu {
             hold_lu(qs);
         }
         let Err(e) = solved else {
             effort.iterations = qs.counts.last_iterations;
             effort.pressure_change = qs.rows.pressure_change();
-            if qs.force_lu && qs.linear == quasi_static::Linear::Auto {
-                qs.lu_left = qs.lu_left.saturating_sub(1);
-                qs.force_lu = qs.lu_left > 0;
-            }
+            qs.lu_left = qs.lu_left.saturating_sub(1);
             return Ok(());
         };
-        let Some((u, js)) = saved.as_ref() else {
+        let Some(saved) = saved.as_ref() else {
             return Err(e);
         };
         if retry_lu {
             tracing::debug!("quasi-static step from t = {t0:.6e} s failed: {e}; again by LU");
-            let v = &mut solid.view;
-            v.u.copy_from_slice(u);
-            v.joint_state.copy_from_slice(js);
+            saved.restore(solid);
             continue;
         }
         if !clock.adaptive(p) {
@@ -183,9 +194,7 @@ pub fn solve_step(
             });
         }
         tracing::debug!("quasi-static step from t = {t0:.6e} s failed at dt = {dt:.3e} s: {e}");
-        let v = &mut solid.view;
-        v.u.copy_from_slice(u);
-        v.joint_state.copy_from_slice(js);
+        saved.restore(solid);
         clock.dt = 0.5 * dt;
         clock.aim = None;
         let qs = solid.quasi_static.as_mut().expect("quasi-static scheme");
