@@ -111,10 +111,14 @@ pub fn run_scenario(scenario: ValidScenario, opts: &RunOptions) -> Result<RunRep
         .clone()
         .unwrap_or_else(|| PathBuf::from("out").join(&scenario.name));
     check_resources(&scenario, opts)?;
+    let loading = NetworkLoading::of(&scenario);
     let sim = Simulation::new(scenario, &opts.disable)?;
     let mut run = set_up(sim, opts, &out)?;
     let stepped = step_loop(&mut run, opts.quiet);
     let mut summary = run_summary(&mut run, &stepped);
+    if let Some(n) = network_json(run.sim.placed(), run.sim.model().bbox, &loading) {
+        summary["network"] = n;
+    }
     network_outputs(&mut run, &mut summary)?;
     if let Some(s) = crate::catalogue::outputs(&mut run.sim, &mut run.warnings) {
         summary["seismicity"] = s;
@@ -426,6 +430,70 @@ fn network_outputs(run: &mut Run, summary: &mut serde_json::Value) -> Result<(),
         }
     }
     Ok(())
+}
+
+/// What the slip statistics of `summary.json` `network` are measured under: the in-situ
+/// stress (Pa, tension positive) where the rock starts from a uniform one without gravity,
+/// and the joints' friction angle (degrees).
+struct NetworkLoading {
+    stress: Option<[f64; 2]>,
+    friction_deg: f64,
+}
+
+impl NetworkLoading {
+    fn of(sc: &crate::scenario::Scenario) -> Self {
+        use crate::scenario::{Boundary, InitialState};
+        let stress = match (&sc.boundary, sc.initial_state, sc.gravity) {
+            (Boundary::InSitu { sxx, syy }, InitialState::InSitu, None) => Some([*sxx, *syy]),
+            _ => None,
+        };
+        Self {
+            stress,
+            friction_deg: sc.fracture.as_ref().map_or(0.0, |f| f.friction_deg),
+        }
+    }
+}
+
+/// `summary.json` `network`: statistics of the pre-existing fractures as placed (the listed,
+/// the file's and the generated ones, clipped to the domain `bbox`): count, length, P21,
+/// intersections, the percolation parameter ([`crate::network::statistics`]) and, under a
+/// uniform in-situ stress, their slip pressures ([`crate::network::slip_pressure`]): the
+/// length-weighted mean (`mean_slip_pressure`, Pa) and the fraction of the length that is
+/// critically stressed below the least principal compression (`critically_stressed_fraction`:
+/// it slips by Coulomb's law at a fluid pressure under `critical_pressure`, before any
+/// fracture can open in tension). `None` without pre-existing fractures.
+fn network_json(
+    placed: &[crate::fractures::Placed],
+    bbox: [f64; 4],
+    loading: &NetworkLoading,
+) -> Option<serde_json::Value> {
+    use crate::network::{slip_pressure, statistics};
+    if placed.is_empty() {
+        return None;
+    }
+    let segs: Vec<([f64; 2], [f64; 2])> = placed.iter().map(|p| (p.from, p.to)).collect();
+    let area = (bbox[2] - bbox[0]) * (bbox[3] - bbox[1]);
+    let mut v = json!(statistics(&segs, area));
+    if let Some([sxx, syy]) = loading.stress {
+        let p_open = -sxx.max(syy);
+        let (mut critical, mut total, mut weighted) = (0.0, 0.0, 0.0);
+        for &(a, b) in &segs {
+            let (len, p) = (
+                (b[0] - a[0]).hypot(b[1] - a[1]),
+                slip_pressure(a, b, sxx, syy, loading.friction_deg),
+            );
+            total += len;
+            // A frictionless joint's -inf counts as slipping at no pressure.
+            weighted += len * p.max(-p_open.abs());
+            if p < p_open {
+                critical += len;
+            }
+        }
+        v["critically_stressed_fraction"] = json!(critical / total);
+        v["critical_pressure"] = json!(p_open);
+        v["mean_slip_pressure"] = json!(weighted / total);
+    }
+    Some(v)
 }
 
 /// `summary.json` `fractures`: the cells, their total length and the new cells of `v`.

@@ -776,6 +776,7 @@ fn write_summary(
         "stages": stages.iter().map(|(s, t)| json!({"stage": s, "wall_s": t})).collect::<Vec<_>>(),
         "systems": heat.timing.iter().map(|(s, calls, t)| json!({"system": s, "calls": calls, "total_s": t})).collect::<Vec<_>>(),
         "reservoir": heat.rows.iter().map(|r| r.json()).collect::<Vec<_>>(),
+        "gains": gains_json(&heat.rows),
         "energy_balance": heat.energy_balance,
     });
     crate::output::json::finite_summary(&mut summary);
@@ -789,6 +790,30 @@ fn write_summary(
     )
     .map_err(PipelineError::Output)?;
     Ok(summary)
+}
+
+/// `summary.json` `gains`: what the stimulation gave, after / before, per heat model: the
+/// production rate (`rate`) and the heat extracted over the run (`heat_total`). A ratio whose
+/// "before" is zero (wells not connected before) is left out, never infinite; without both
+/// states the object is empty.
+fn gains_json(rows: &[ReservoirRow]) -> serde_json::Value {
+    let find = |s: State| rows.iter().find(|r| r.state == s);
+    let mut m = serde_json::Map::new();
+    if let (Some(b), Some(a)) = (find(State::Before), find(State::After)) {
+        for (k, name) in MODELS.iter().enumerate() {
+            let (fb, fa) = (&b.models[k], &a.models[k]);
+            let mut v = serde_json::Map::new();
+            for (key, before, after) in
+                [("rate", fb.rate, fa.rate), ("heat_total", fb.heat, fa.heat)]
+            {
+                if before > 0.0 {
+                    v.insert(key.into(), (after / before).into());
+                }
+            }
+            m.insert((*name).into(), v.into());
+        }
+    }
+    m.into()
 }
 
 /// `network_production.csv`: `state,dp,rate,rate_residual` (Pa, m^2/s per metre).

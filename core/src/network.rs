@@ -233,6 +233,95 @@ fn intersect(p: &Fracture, q: &Fracture, tol: f64) -> Option<(f64, f64)> {
     Some((t.clamp(0.0, 1.0), u.clamp(0.0, 1.0)))
 }
 
+/// Statistics of a fracture network (`summary.json` `network`): what a sweep plots its results
+/// against. Lengths in m, areas in m^2.
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct NetworkStatistics {
+    /// Fractures.
+    pub count: usize,
+    /// Their total length, m.
+    pub total_length: f64,
+    /// P21: total length per unit area of the region, 1/m.
+    pub p21: f64,
+    /// Pairs of fractures that cross or touch (within 1e-9 of the longer one's length).
+    pub intersections: usize,
+    /// Intersections per fracture, 2 x intersections / count: each crossing counts for both.
+    pub intersections_per_fracture: f64,
+    /// Fractures that cross no other.
+    pub isolated: usize,
+    /// The 2D percolation parameter sum(l_i^2) / area (dimensionless): for isotropic
+    /// segments of one length, about 5.6 at the percolation threshold (the literature's
+    /// continuum percolation value of N l^2 / A for sticks).
+    pub percolation_parameter: f64,
+}
+
+/// [`NetworkStatistics`] of the segments `(from, to)` (m) in a region of `area` m^2.
+/// Every pair is compared (O(n^2); at most 1e4 fractures in the rock: 5e7 pairs).
+pub fn statistics(segments: &[([f64; 2], [f64; 2])], area: f64) -> NetworkStatistics {
+    let frac: Vec<Fracture> = segments
+        .iter()
+        .map(|&(from, to)| Fracture {
+            from,
+            to,
+            aperture: 1.0,
+        })
+        .collect();
+    let len = |f: &Fracture| ((f.to[0] - f.from[0]).powi(2) + (f.to[1] - f.from[1]).powi(2)).sqrt();
+    let lengths: Vec<f64> = frac.iter().map(len).collect();
+    let mut degree = vec![0usize; frac.len()];
+    let mut pairs = 0;
+    for i in 0..frac.len() {
+        for j in i + 1..frac.len() {
+            let tol = 1e-9 * lengths[i].max(lengths[j]);
+            if intersect(&frac[i], &frac[j], tol).is_some() {
+                pairs += 1;
+                degree[i] += 1;
+                degree[j] += 1;
+            }
+        }
+    }
+    let total: f64 = lengths.iter().sum();
+    let n = frac.len();
+    NetworkStatistics {
+        count: n,
+        total_length: total,
+        p21: total / area,
+        intersections: pairs,
+        intersections_per_fracture: if n > 0 {
+            2.0 * pairs as f64 / n as f64
+        } else {
+            0.0
+        },
+        isolated: degree.iter().filter(|&&d| d == 0).count(),
+        percolation_parameter: lengths.iter().map(|l| l * l).sum::<f64>() / area,
+    }
+}
+
+/// The fluid pressure (Pa) at which a fracture from `from` to `to` (m) starts to slip under
+/// the uniform stress `sxx`, `syy` (Pa, tension positive, no shear) by Coulomb's law with
+/// friction angle `friction_deg`: tau = tan(phi) (sigma_c - p), where sigma_c = -n.sigma.n is
+/// the normal compression and tau the resolved shear stress, so p = sigma_c - tau / tan(phi).
+/// Negative where the fracture slips with no fluid at all (then it is critically stressed at
+/// any pressure).
+pub fn slip_pressure(from: [f64; 2], to: [f64; 2], sxx: f64, syy: f64, friction_deg: f64) -> f64 {
+    let d = [to[0] - from[0], to[1] - from[1]];
+    let l = (d[0] * d[0] + d[1] * d[1]).sqrt();
+    let (t, n) = ([d[0] / l, d[1] / l], [-d[1] / l, d[0] / l]);
+    // Traction on the plane, sigma n, with sigma = diag(sxx, syy).
+    let tr = [sxx * n[0], syy * n[1]];
+    let sigma_n = tr[0] * n[0] + tr[1] * n[1];
+    let tau = (tr[0] * t[0] + tr[1] * t[1]).abs();
+    let mu = friction_deg.to_radians().tan();
+    if mu > 0.0 {
+        -sigma_n - tau / mu
+    } else if tau > 0.0 {
+        // No friction: any shear stress slips it.
+        f64::NEG_INFINITY
+    } else {
+        -sigma_n
+    }
+}
+
 impl NetworkSpec {
     /// All fractures: the explicit ones, then the generated ones.
     pub fn all_fractures(&self) -> Vec<Fracture> {
@@ -512,5 +601,51 @@ mod tests {
             }
             assert!(f.aperture >= 1e-4 && f.aperture <= 1e-3);
         }
+    }
+
+    #[test]
+    fn statistics_count_crossings_lengths_and_isolated_fractures() {
+        // Two crossing 10 m segments and one 4 m segment apart, in a 20 m x 10 m box.
+        let segs = [
+            ([0.0, 5.0], [10.0, 5.0]),
+            ([5.0, 0.0], [5.0, 10.0]),
+            ([12.0, 1.0], [16.0, 1.0]),
+        ];
+        let s = statistics(&segs, 200.0);
+        assert_eq!((s.count, s.intersections, s.isolated), (3, 1, 1));
+        assert!((s.intersections_per_fracture - 2.0 / 3.0).abs() < 1e-15);
+        assert!((s.total_length - 24.0).abs() < 1e-12);
+        assert!((s.p21 - 0.12).abs() < 1e-15);
+        assert!((s.percolation_parameter - 216.0 / 200.0).abs() < 1e-15);
+        // A T (one ends on the other) counts as an intersection.
+        let t = statistics(&[([0.0, 0.0], [2.0, 0.0]), ([1.0, 0.0], [1.0, 3.0])], 1.0);
+        assert_eq!(t.intersections, 1);
+    }
+
+    #[test]
+    fn slip_pressure_is_mohr_coulomb_on_the_fracture_plane() {
+        // Mohr's circle: a plane whose normal makes beta with x under sxx = -20, syy = -10 MPa
+        // carries sigma_c = 15 + 5 cos(2 beta) MPa (compression) and tau = 5 |sin(2 beta)|.
+        let (sxx, syy) = (-20e6, -10e6);
+        for deg in [0.0f64, 20.0, 45.0, 60.0, 100.0, 150.0] {
+            let th = deg.to_radians();
+            let beta = th + std::f64::consts::FRAC_PI_2;
+            let (sc, tau) = (
+                15e6 + 5e6 * (2.0 * beta).cos(),
+                5e6 * (2.0 * beta).sin().abs(),
+            );
+            let want = sc - tau / 30f64.to_radians().tan();
+            let got = slip_pressure([1.0, 2.0], [1.0 + th.cos(), 2.0 + th.sin()], sxx, syy, 30.0);
+            assert!((got - want).abs() < 1e-6, "{deg} deg: {got} vs {want}");
+        }
+        // At 45 deg and 30 deg friction: 15 - 5 sqrt(3) MPa.
+        let p = slip_pressure([0.0, 0.0], [1.0, 1.0], sxx, syy, 30.0);
+        assert!((p - (15e6 - 5e6 * 3f64.sqrt())).abs() < 1e-6);
+        // No friction: any shear slips; a principal plane never does.
+        assert_eq!(
+            slip_pressure([0.0, 0.0], [1.0, 1.0], sxx, syy, 0.0),
+            f64::NEG_INFINITY
+        );
+        assert_eq!(slip_pressure([0.0, 0.0], [1.0, 0.0], sxx, syy, 0.0), 10e6);
     }
 }
