@@ -67,6 +67,10 @@ pub struct ProductionRow {
     /// Steps of the rock in all the equilibria of this state (quasi-static solves, or
     /// dynamic-relaxation steps).
     pub relax_steps: u64,
+    /// Of those, the steps of implicit dynamics in the iteration's equilibria where the
+    /// quasi-static solve found none from the last one (`production_stage::settle`; 0 where
+    /// none was needed).
+    pub settle_steps: u64,
     /// Fracture cells the production pressure opened (0: no fracture grew).
     pub new_cells: usize,
     /// Largest hydraulic aperture of the coupled state, m.
@@ -238,7 +242,7 @@ fn relax(
     tol: f64,
     max_steps: u64,
     report: &dyn Fn(&str),
-) -> Result<(u64, bool), RunError> {
+) -> Result<Relaxed, RunError> {
     if sim.params().time.solid_scheme == SolidScheme::QuasiStatic {
         return equilibrate(sim, pressure, report);
     }
@@ -246,16 +250,16 @@ fn relax(
     hold(sim, pressure);
     for k in 1..=max_steps {
         if sim.stop_signal().is_some() {
-            return Ok((k - 1, false));
+            return Ok(Relaxed::steps(k - 1, false));
         }
         sim.step_once()?;
         if sim.model().topology_generation != generation {
             // The new cells arrive empty; the caller solves the flow on the new network.
             set_relaxation_step(sim);
-            return Ok((k, true));
+            return Ok(Relaxed::steps(k, true));
         }
         if sim.stats().residual() < tol {
-            return Ok((k, false));
+            return Ok(Relaxed::steps(k, false));
         }
         if k % RELAX_REPORT_EVERY == 0 {
             report(&format!(
@@ -264,7 +268,26 @@ fn relax(
             ));
         }
     }
-    Ok((max_steps, false))
+    Ok(Relaxed::steps(max_steps, false))
+}
+
+/// What one equilibrium of the rock took: its steps (quasi-static solves or relaxation steps,
+/// the settling steps included), the settling steps of [`settle`], and whether a fracture grew.
+#[derive(Clone, Copy, Debug, Default)]
+struct Relaxed {
+    steps: u64,
+    settle: u64,
+    grew: bool,
+}
+
+impl Relaxed {
+    fn steps(steps: u64, grew: bool) -> Self {
+        Self {
+            steps,
+            settle: 0,
+            grew,
+        }
+    }
 }
 
 /// Hold `pressure` (Pa, per cell) on the faces.
@@ -289,7 +312,7 @@ fn equilibrate(
     sim: &mut Simulation,
     pressure: &[f64],
     report: &dyn Fn(&str),
-) -> Result<(u64, bool), RunError> {
+) -> Result<Relaxed, RunError> {
     let generation = sim.model().topology_generation;
     let from = sim.flow().expect("coupled run").view.pressure.clone();
     let (mut done, mut inc, mut solves, mut streak) = (0.0f64, 1.0f64, 0, 0);
@@ -321,7 +344,7 @@ fn equilibrate(
             Ok(()) => {
                 solves += 1;
                 if sim.model().topology_generation != generation {
-                    return Ok((solves, true));
+                    return Ok(Relaxed::steps(solves, true));
                 }
                 done = s;
                 // Grow after two successes in a row: doubling right after a failure retries
@@ -355,7 +378,28 @@ fn equilibrate(
                     break;
                 }
                 if inc <= MIN_LOAD_INCREMENT {
-                    return Err(e);
+                    report(&format!(
+                        "no equilibrium at {:.1} % increments ({e}); settling by implicit \
+                         dynamics",
+                        100.0 * inc
+                    ));
+                    return settle(sim, pressure, report)
+                        .map(|(n, grew)| Relaxed {
+                            steps: solves + n,
+                            settle: n,
+                            grew,
+                        })
+                        .map_err(|why| match (e, why) {
+                            (
+                                RunError::QuasiStatic { step, time, why: a },
+                                RunError::QuasiStatic { why: b, .. },
+                            ) => RunError::QuasiStatic {
+                                step,
+                                time,
+                                why: format!("{a}; settling by implicit dynamics: {b}"),
+                            },
+                            (_, other) => other,
+                        });
                 }
                 inc *= 0.5;
                 streak = 0;
@@ -368,7 +412,161 @@ fn equilibrate(
             Err(e) => return Err(e),
         }
     }
-    Ok((solves, false))
+    Ok(Relaxed::steps(solves, false))
+}
+
+/// The most steps [`settle`] takes.
+pub const MAX_SETTLE_STEPS: u64 = 400;
+
+/// The most Newton iterations of one settling step (a failed step is retried four times
+/// shorter, which is cheaper than a long failed solve).
+pub const SETTLE_MAX_ITER: usize = 20;
+
+/// [`settle`] tries the static solve again once the static residual is below this and a
+/// tenth of what it was at the last try.
+pub const SETTLE_STATIC_TRY: f64 = 1e-2;
+
+/// The rock's equilibrium under `pressure` where the quasi-static Newton solve finds none from
+/// the last equilibrium even in the smallest load increment (a block held only by joints that
+/// slide: the Newton matrix is singular there, as no static equilibrium is near). The rock
+/// moves by implicit dynamics with its real mass from rest (the quasi-static step with
+/// `time.inertia: BackwardEuler`): each step solves F(u) = M (u - u_n - dt v_n) / dt^2, whose
+/// mass term keeps the Newton matrix regular and moves a free block with its true
+/// acceleration; backward Euler damps the rock's vibration, friction the sliding. The step
+/// starts at 10 times the rock's explicit bound and doubles after each step, up to half the
+/// shortest step that found no equilibrium (a failed step is taken back and quartered). A
+/// step's static residual is its inertia force, F(u). Once that is below
+/// [`SETTLE_STATIC_TRY`] (and a tenth of its value at the last try) the static Newton solve is
+/// tried again from there; the march ends when that converges or when the static residual
+/// itself is below `production.static_tol` of the loads and reactions: the state is then a
+/// static equilibrium like any other row's. The path to it is the rock's motion, one of the
+/// many that friction allows; the row counts the steps (`settle_steps`). Returns the steps and
+/// whether a fracture grew.
+fn settle(
+    sim: &mut Simulation,
+    pressure: &[f64],
+    report: &dyn Fn(&str),
+) -> Result<(u64, bool), RunError> {
+    let generation = sim.model().topology_generation;
+    let dt_rock = sim.dt();
+    let Some(qs) = sim.quasi_static_mut() else {
+        unreachable!("settle is the quasi-static rock's");
+    };
+    let (tol, max_iter) = (qs.tol, qs.max_iter);
+    qs.max_iter = SETTLE_MAX_ITER;
+    hold(sim, pressure);
+    // From rest: the last equilibrium.
+    sim.solid_mut().v.iter_mut().for_each(|v| *v = [0.0; 2]);
+    let out = settle_steps(sim, dt_rock, tol, generation, report);
+    sim.set_inertia(Inertia::Off);
+    // The last step's velocity is the pseudo-time's, not the rock's.
+    sim.solid_mut().v.iter_mut().for_each(|v| *v = [0.0; 2]);
+    if let Some(qs) = sim.quasi_static_mut() {
+        qs.step_start = None;
+        qs.max_iter = max_iter;
+        qs.forget_factor();
+    }
+    sim.hold_step(dt_rock);
+    out
+}
+
+/// One step of [`settle`]: the step of length `dt` (with the inertia `sim` has now) from the
+/// current state, taken back where it finds no equilibrium (`Ok(false)`); `Ok(true)` when it
+/// converged.
+fn settle_step(sim: &mut Simulation, dt: f64, generation: u64) -> Result<bool, RunError> {
+    let (u_n, v_n) = (sim.solid().u.clone(), sim.solid().v.clone());
+    let joints = sim.solid().joint_state.clone();
+    sim.hold_step(dt);
+    match sim.step_once() {
+        Ok(()) => Ok(true),
+        Err(e @ RunError::QuasiStatic { .. }) => {
+            if sim.model().topology_generation != generation {
+                return Err(e);
+            }
+            let v = sim.solid_mut();
+            v.u.copy_from_slice(&u_n);
+            v.v.copy_from_slice(&v_n);
+            v.joint_state.copy_from_slice(&joints);
+            if let Some(qs) = sim.quasi_static_mut() {
+                qs.forget_factor();
+            }
+            Ok(false)
+        }
+        Err(e) => Err(e),
+    }
+}
+
+fn settle_steps(
+    sim: &mut Simulation,
+    dt_rock: f64,
+    tol: f64,
+    generation: u64,
+    report: &dyn Fn(&str),
+) -> Result<(u64, bool), RunError> {
+    let fail = |sim: &Simulation, why: String| RunError::QuasiStatic {
+        step: sim.step(),
+        time: sim.time(),
+        why,
+    };
+    let (mut dt, mut dt_fail) = (10.0 * dt_rock, f64::INFINITY);
+    let (mut residual, mut last_try) = (f64::INFINITY, f64::INFINITY);
+    for k in 1..=MAX_SETTLE_STEPS {
+        if sim.stop_signal().is_some() {
+            return Err(fail(sim, "interrupted".into()));
+        }
+        sim.set_inertia(Inertia::BackwardEuler);
+        let (u_n, v_n) = (sim.solid().u.clone(), sim.solid().v.clone());
+        if !settle_step(sim, dt, generation)? {
+            dt_fail = dt_fail.min(dt);
+            dt *= 0.25;
+            if dt < dt_rock {
+                return Err(fail(
+                    sim,
+                    format!("the step fell below the rock's explicit bound ({dt_rock:.2e} s)"),
+                ));
+            }
+            continue;
+        }
+        if sim.model().topology_generation != generation {
+            return Ok((k, true));
+        }
+        // F(u) = M (u - u_n - dt v_n) / dt^2 at the step's solution: the static residual.
+        let v = sim.solid();
+        let (mut r2, shift) = (0.0, 1.0 / (dt * dt));
+        for i in 0..v.n_nodes() {
+            for d in 0..2 {
+                if v.fixed[i] & (1 << d) == 0 {
+                    let f = v.mass[i] * shift * (v.u[i][d] - u_n[i][d] - dt * v_n[i][d]);
+                    r2 += f * f;
+                }
+            }
+        }
+        residual = (r2 / sim.stats().ref2.max(f64::MIN_POSITIVE)).sqrt();
+        if residual < tol {
+            return Ok((k, false));
+        }
+        if residual < SETTLE_STATIC_TRY && residual < 0.1 * last_try {
+            last_try = residual;
+            sim.set_inertia(Inertia::Off);
+            if settle_step(sim, dt, generation)? {
+                return Ok((k, sim.model().topology_generation != generation));
+            }
+        }
+        dt = (2.0 * dt).min(0.5 * dt_fail).max(dt);
+        if k % 20 == 0 {
+            report(&format!(
+                "settling step {k}, static residual {residual:.2e} (tolerance {tol:.0e}), \
+                 step {dt:.2e} s"
+            ));
+        }
+    }
+    Err(fail(
+        sim,
+        format!(
+            "not settled in {MAX_SETTLE_STEPS} steps: static residual {residual:.2e} \
+             (tolerance {tol:.0e})"
+        ),
+    ))
 }
 
 /// The hydraulic apertures max(delta_n, a_r) of the rock's current state, per cell, m (seed
@@ -460,6 +658,7 @@ pub fn solve_state_reporting(
         converged: false,
         change: f64::INFINITY,
         steps,
+        settle_steps: 0,
     };
     on.iterate(sim, &mut it, report)?;
     let row = on.row(sim, &it, rate_frozen, frozen_settled);
@@ -490,9 +689,9 @@ fn relax_frozen(
         }
         let p0 = vec![0.0; cell_count(sim)];
         report("the rock without fluid pressure (frozen apertures)");
-        let (n, grew) = relax(sim, &p0, stage.static_tol, stage.max_steps, report)?;
-        steps += n;
-        if !grew {
+        let r = relax(sim, &p0, stage.static_tol, stage.max_steps, report)?;
+        steps += r.steps;
+        if !r.grew {
             return Ok((steps, true));
         }
     }
@@ -528,6 +727,8 @@ struct FixedPoint {
     change: f64,
     /// Steps of the rock in all the equilibria.
     steps: u64,
+    /// Of those, the settling steps ([`settle`]) of the iteration's equilibria.
+    settle_steps: u64,
 }
 
 impl Solving<'_> {
@@ -569,9 +770,14 @@ impl Solving<'_> {
             for (pc, tc) in it.p.iter_mut().zip(&it.target) {
                 *pc += omega * (tc - *pc);
             }
-            let (n, grew) = relax(sim, &it.p, stage.static_tol, stage.max_steps, report)
+            let Relaxed {
+                steps: n,
+                settle,
+                grew,
+            } = relax(sim, &it.p, stage.static_tol, stage.max_steps, report)
                 .map_err(|e| self.run_err(e))?;
             it.steps += n;
+            it.settle_steps += settle;
             it.a = apertures(sim);
             let (r, next, fl) = self.steady(&network(sim, &it.a))?;
             if grew {
@@ -619,6 +825,7 @@ impl Solving<'_> {
             converged: it.converged,
             change: it.change,
             relax_steps: it.steps,
+            settle_steps: it.settle_steps,
             new_cells: cell_count(sim).saturating_sub(self.cells0),
             max_aperture: it.a.iter().fold(0.0, |m: f64, &x| m.max(x)),
             wall_s: self.t0.elapsed().as_secs_f64(),
@@ -913,7 +1120,8 @@ pub fn production_json(
                 "state": r.state.name(), "dp": r.dp, "rate": r.rate, "rate_frozen": r.rate_frozen,
                 "iterations": r.iterations, "converged": r.converged,
                 "change": if r.change.is_finite() { r.change } else { 0.0 },
-                "relax_steps": r.relax_steps, "new_cells": r.new_cells,
+                "relax_steps": r.relax_steps, "settle_steps": r.settle_steps,
+                "new_cells": r.new_cells,
                 "max_aperture": r.max_aperture, "wall_s": r.wall_s, "rock": r.rock,
                 "frozen_settled": r.frozen_settled,
             });
@@ -1007,6 +1215,100 @@ pub fn network_figure(
 mod tests {
     use super::*;
 
+    /// A square block of rock (4 m x 4 m, in a 20 m x 20 m body under sigma_xx = -20 MPa,
+    /// sigma_yy = -10 MPa) enclosed by four fractures, all held at 25 MPa: every face opens,
+    /// the block floats and the quasi-static Newton matrix is singular (its rigid motions have
+    /// no stiffness), so the static solve fails. Settling by implicit dynamics finds the
+    /// equilibrium: the uniform pressure puts no net force on the block, so it stays where it
+    /// is (its mean displacement within 1e-3 of the faces' opening: the balance is the
+    /// rock's, not held by a constraint) and every face is open.
+    #[test]
+    fn a_floating_block_settles_where_the_static_solve_fails() {
+        let text = r#"(
+            name: "island",
+            mesh: Regular(width: 20.0, height: 20.0, h: 1.0),
+            material: (young: 20e9, poisson: 0.2, density: 2700.0),
+            boundary: InSitu(sxx: -20e6, syy: -10e6),
+            initial_state: InSitu,
+            fracture: Some((
+                residual_aperture: 5e-4,
+                preexisting: [
+                    (from: (8.0, 8.0), to: (12.0, 8.0)),
+                    (from: (12.0, 8.0), to: (12.0, 12.0)),
+                    (from: (12.0, 12.0), to: (8.0, 12.0)),
+                    (from: (8.0, 12.0), to: (8.0, 8.0)),
+                ],
+                friction_deg: 30.0,
+                normal_stiffness: Some(20e9),
+                shear_stiffness: Some(8.3e9),
+            )),
+            flow_boundaries: [(name: "well", at: Node((8.0, 8.0)), kind: Pressure(0.0))],
+            time: (end: Time(1.0), flow_scheme: Implicit, solid_scheme: QuasiStatic),
+            production: Some((wells: (injection: (8.0, 8.0), production: (12.0, 12.0),
+                production_pressure: 0.0, pressure_drops: [9e6], reach: 0.5))),
+        )"#;
+        let sc = Scenario::parse(text, "island.ron").unwrap();
+        let sc = sc.validate().unwrap().into_inner();
+        let p = vec![25e6; 16];
+        // The static solve alone, in the smallest increment too, finds no equilibrium.
+        let mut sim = production_sim(&sc, None, None).unwrap();
+        assert_eq!(cell_count(&sim), 16);
+        hold(&mut sim, &p);
+        let e = sim
+            .step_once()
+            .expect_err("a floating block has no static Newton solve");
+        assert!(e.to_string().contains("quasi-static"), "{e}");
+        // Settling: an equilibrium, reached by implicit dynamics.
+        let mut sim = production_sim(&sc, None, None).unwrap();
+        let r = equilibrate(&mut sim, &p, &|_| {}).expect("settled");
+        assert!(r.settle > 0 && !r.grew, "{r:?}");
+        let v = sim.solid();
+        let c = sim.flow().unwrap().coupling.as_ref().unwrap();
+        let opening: Vec<f64> = v.joint_state.iter().map(|j| j.opening).collect();
+        assert!(!opening.is_empty() && c.joint_cell.len() == opening.len());
+        let (min, max) = opening
+            .iter()
+            .fold((f64::INFINITY, 0.0f64), |(a, b), &o| (a.min(o), b.max(o)));
+        assert!(min > 0.0, "a face stayed closed: openings {min:e}..{max:e}");
+        let (mut mean, mut n) = ([0.0; 2], 0.0);
+        for i in 0..v.n_nodes() {
+            let x = v.x0[i];
+            if (8.5..11.5).contains(&x[0]) && (8.5..11.5).contains(&x[1]) {
+                mean[0] += v.u[i][0];
+                mean[1] += v.u[i][1];
+                n += 1.0;
+            }
+        }
+        let (mx, my) = (mean[0] / n, mean[1] / n);
+        assert!(n >= 9.0);
+        // Any position of a floating block under no net force is an equilibrium; the motion
+        // from rest leaves it where it was (the in-situ displacement at the centre (10, 10) is
+        // zero) to within 5 % of the faces' opening (measured 1.9 %, in y).
+        assert!(
+            mx.hypot(my) < 0.05 * max,
+            "block drifted by ({mx:e}, {my:e}), opening {max:e}"
+        );
+        // And the state is an equilibrium, checked on its own: with every face open the
+        // joints carry nothing, so the rock's internal force and the fluid's pressure on the
+        // faces balance at every free dof (to the solve's tolerance of the reactions).
+        let mut w = v.clone();
+        crate::systems::solid::internal_force(&mut w, &sim.params().solid);
+        crate::systems::fracture::fluid_pressure(&mut w, &c.joint_cell, &p);
+        let (mut free, mut fixed) = (0.0, 0.0);
+        for i in 0..w.n_nodes() {
+            for d in 0..2 {
+                let f = w.force[i][d] * w.force[i][d];
+                if w.fixed[i] & (1 << d) == 0 {
+                    free += f;
+                } else {
+                    fixed += f;
+                }
+            }
+        }
+        let r = (free / fixed).sqrt();
+        assert!(r < 1e-5, "static residual {r:e}");
+    }
+
     /// A state that failed leaves its drop without a ratio (not a ratio against a zero rate)
     /// and is listed under `failed`; the rest of the summary is as with every state solved.
     #[test]
@@ -1023,6 +1325,7 @@ mod tests {
             converged: true,
             change: 0.0,
             relax_steps: 1,
+            settle_steps: 0,
             new_cells: 0,
             max_aperture: 5e-4,
             wall_s: 0.1,

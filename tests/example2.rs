@@ -24,6 +24,25 @@ fn small_example2_stimulates_and_produces() {
     )
     .expect("run");
     let s = &report.summary;
+    // The network's statistics, counted by hand on the scenario's five fractures in the
+    // 100 m x 100 m block: the starter alone; the horizontal one ends on the vertical one (a T)
+    // and both oblique ones cross it: 3 intersections, 1 isolated. Under sxx = -20 MPa,
+    // syy = -10 MPa and 45 degrees of friction no fracture slips below the 10 MPa that opens
+    // the horizontal ones (Mohr: the obliques at about 13 MPa, the vertical never).
+    let n = &s["network"];
+    assert_eq!(n["count"], 5, "{n}");
+    assert_eq!(
+        (n["intersections"].as_u64(), n["isolated"].as_u64()),
+        (Some(3), Some(1))
+    );
+    let lengths = [10.0, 20.0, 84.0, 16f64.hypot(28.0), 14f64.hypot(24.0)];
+    let total: f64 = lengths.iter().sum();
+    assert!(
+        (n["p21"].as_f64().unwrap() - total / 1e4).abs() < 1e-12,
+        "{n}"
+    );
+    assert_eq!(n["critically_stressed_fraction"], 0.0, "{n}");
+    assert_eq!(n["critical_pressure"], 10e6, "{n}");
     // The stimulation grows at least one new fracture cell.
     let new_cells = s["fractures"]["new_cells"].as_u64().unwrap();
     assert!(new_cells >= 1, "no new fracture: {}", s["fractures"]);

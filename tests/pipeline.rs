@@ -104,6 +104,13 @@ fn stimulation_improves_production_and_heat() {
             }
         }
     }
+    // `gains`: after / before per model, left out where nothing flowed before (the network).
+    let g = &r.summary["gains"];
+    assert!(g["discrete"].get("rate").is_none(), "{g}");
+    assert!(g["discrete"].get("heat_total").is_none(), "{g}");
+    let want = after.models[1].heat / before.models[1].heat;
+    assert_eq!(g["continuum"]["heat_total"].as_f64(), Some(want), "{g}");
+    assert!(want > 1.0, "{g}");
     let eb = r.summary["energy_balance"].as_f64().unwrap();
     assert!(eb < 1e-9, "energy balance {eb:e}");
 

@@ -194,6 +194,61 @@ fn local_runner_records_a_failure_goes_on_and_skips_finished_members() {
 }
 
 #[test]
+fn pooled_members_are_summarised_by_group() {
+    // Pooled over the cell length, the four members make two groups, one per viscosity; the
+    // steady rate does not depend on the cell length, so each group's min, median and max
+    // are its viscosity's cubic-law rate.
+    let extra = format!("{COLLECT}\n    pool: [\"network.cell_length\"],");
+    let file = sweep_file("pool", FOUR, &extra);
+    let dir = tmp("pool-dir");
+    ok(&plan(&file, &dir));
+    let p: serde_json::Value = serde_json::from_str(&read(dir.join("plan.json"))).unwrap();
+    assert_eq!(p["pool"], serde_json::json!(["network.cell_length"]));
+    ok(&bin()
+        .args(["sweep", "run", "--jobs", "2", "--quiet"])
+        .arg(&dir)
+        .output()
+        .unwrap());
+    ok(&sweep(&["collect"], &dir));
+    let csv = read(dir.join("collect/groups.csv"));
+    let lines: Vec<&str> = csv.lines().collect();
+    let q = "flow.boundaries[name=outlet].rate";
+    let head = format!(
+        "fluid.viscosity,members,ok,{q}:n,{q}:nonzero,{q}:min,{q}:median,{q}:max,\
+         steps:n,steps:nonzero,steps:min,steps:median,steps:max"
+    );
+    assert_eq!(lines[0], head);
+    assert_eq!(lines.len(), 3, "{csv}");
+    for (line, mu) in lines[1..].iter().zip([8.9e-4, 1.2e-3]) {
+        let c: Vec<&str> = line.split(',').collect();
+        assert_eq!(c[0].parse::<f64>().unwrap(), mu, "{line}");
+        assert_eq!(&c[1..5], ["2", "2", "2", "1"], "{line}");
+        let exact = 1e-12 * 2e6 / (12.0 * mu * 10.0);
+        for cell in &c[5..8] {
+            let r: f64 = cell.parse().unwrap();
+            assert!(
+                (r.abs() - exact).abs() < 1e-6 * exact,
+                "{line}: {r} vs {exact}"
+            );
+        }
+        let (lo, mid, hi): (f64, f64, f64) = (
+            c[10].parse().unwrap(),
+            c[11].parse().unwrap(),
+            c[12].parse().unwrap(),
+        );
+        assert!(lo <= mid && mid <= hi && lo > 0.0, "{line}");
+    }
+    assert!(dir.join("collect/groups_steps.png").is_file());
+    // A pooled path that is not varied is refused before anything is written.
+    refused_plan(
+        "pool-bad",
+        FOUR,
+        &format!("{COLLECT}\n    pool: [\"fluid.density\"],"),
+        &["pool[0] (fluid.density)", "not a varied path"],
+    );
+}
+
+#[test]
 fn an_interrupted_member_continues_from_its_checkpoint() {
     let vary = r#"        (path: "output.checkpoint_every", values: List(["Steps(100)"])),"#;
     let file = sweep_file("ckpt", vary, COLLECT);

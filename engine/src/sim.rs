@@ -571,6 +571,11 @@ impl Simulation {
     pub fn hold_step(&mut self, dt: f64) {
         self.clock.hold(dt);
     }
+    /// Switch the quasi-static step's inertia (`time.inertia`) during a run: the production
+    /// stage's settling steps (`production_stage::settle`) turn it on, and off again.
+    pub fn set_inertia(&mut self, inertia: hydrofrac_core::scenario::Inertia) {
+        self.params.time.inertia = inertia;
+    }
     /// The rock's dense view (state between syncs).
     pub fn solid(&self) -> &SolidView {
         &self.solid.view

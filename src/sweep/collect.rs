@@ -104,11 +104,121 @@ pub fn collect(dir: &Path, opts: &CollectOptions) -> Result<CollectReport, Sweep
     }
     let folder = Folder::prepare(&report.out, false)?;
     write_tables(&folder, &plan, &paths, &rows)?;
+    let groups = group_members(&plan, &rows);
+    if !plan.pool.is_empty() {
+        write_groups(&folder, &plan, &groups, &rows)?;
+    }
     if opts.figures {
-        let warnings = figures(&folder, &plan, &paths, &rows)?;
+        let warnings = figures(&folder, &plan, &paths, &rows, &groups)?;
         report.warnings.extend(warnings);
     }
     Ok(report)
+}
+
+/// Members that differ only in the pooled inputs (`pool`): the values of the other inputs
+/// and the members' indices, in the order of their first member. Empty without `pool`.
+struct Group {
+    key: Vec<Value>,
+    members: Vec<usize>,
+}
+
+fn group_members(plan: &Plan, rows: &[Row]) -> Vec<Group> {
+    if plan.pool.is_empty() {
+        return Vec::new();
+    }
+    let kept: Vec<usize> = (0..plan.inputs.len())
+        .filter(|&k| !plan.pool.contains(&plan.inputs[k]))
+        .collect();
+    let mut out: Vec<Group> = Vec::new();
+    for (i, m) in plan.members.iter().enumerate().take(rows.len()) {
+        let key: Vec<Value> = kept.iter().map(|&k| m.values[k].clone()).collect();
+        match out.iter_mut().find(|g| g.key == key) {
+            Some(g) => g.members.push(i),
+            None => out.push(Group {
+                key,
+                members: vec![i],
+            }),
+        }
+    }
+    out
+}
+
+/// A quantity as a number: numbers as they are, booleans as 1 and 0.
+fn numeric(v: &Result<Value, String>) -> Option<f64> {
+    match v.as_ref().ok()? {
+        Value::Bool(b) => Some(if *b { 1.0 } else { 0.0 }),
+        other => other.as_f64(),
+    }
+}
+
+/// The median of `xs` (sorted in place; the mean of the middle two for an even count).
+fn median(xs: &mut [f64]) -> f64 {
+    xs.sort_by(f64::total_cmp);
+    let n = xs.len();
+    if n % 2 == 1 {
+        xs[n / 2]
+    } else {
+        0.5 * (xs[n / 2 - 1] + xs[n / 2])
+    }
+}
+
+/// `groups.csv`: one row per group (the inputs not pooled, `members`, `ok`), and for each
+/// `collect` quantity over the group's finished members that have it: `Q:n` (how many),
+/// `Q:nonzero` (the fraction not zero or false), `Q:min`, `Q:median`, `Q:max` (empty when
+/// none has it).
+fn write_groups(
+    folder: &Folder,
+    plan: &Plan,
+    groups: &[Group],
+    rows: &[Row],
+) -> Result<(), SweepError> {
+    let kept: Vec<&String> = plan
+        .inputs
+        .iter()
+        .filter(|p| !plan.pool.contains(p))
+        .collect();
+    let mut csv: Vec<String> = kept.iter().map(|p| csv_text(p)).collect();
+    csv.extend(["members".into(), "ok".into()]);
+    for q in &plan.collect {
+        for stat in ["n", "nonzero", "min", "median", "max"] {
+            csv.push(csv_text(&format!("{q}:{stat}")));
+        }
+    }
+    let mut text = csv.join(",") + "\n";
+    for g in groups {
+        let ok: Vec<usize> = g
+            .members
+            .iter()
+            .copied()
+            .filter(|&i| rows[i].status == "ok")
+            .collect();
+        let mut cells: Vec<String> = g.key.iter().map(cell).collect();
+        cells.extend([g.members.len().to_string(), ok.len().to_string()]);
+        for k in 0..plan.collect.len() {
+            let mut xs: Vec<f64> = ok
+                .iter()
+                .filter_map(|&i| numeric(&rows[i].quantities[k]))
+                .collect();
+            cells.push(xs.len().to_string());
+            if xs.is_empty() {
+                cells.extend(std::iter::repeat_n(String::new(), 4));
+                continue;
+            }
+            let nonzero = xs.iter().filter(|&&x| x != 0.0).count() as f64 / xs.len() as f64;
+            let (lo, hi) = xs
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| {
+                    (a.min(x), b.max(x))
+                });
+            let mid = median(&mut xs);
+            cells.extend([nonzero, lo, mid, hi].iter().map(|x| x.to_string()));
+        }
+        text += &(cells.join(",") + "\n");
+    }
+    let p = folder
+        .claim("groups.csv")
+        .map_err(|e| SweepError::io(&folder.dir, e))?;
+    crate::output::write_atomic(&p, text.as_bytes()).map_err(|e| SweepError::io(&p, e))
 }
 
 /// A member's row from its `status.json` and `run/summary.json`.
@@ -301,7 +411,7 @@ fn slug(s: &str) -> String {
 }
 
 /// The most figures one collect draws.
-const MAX_FIGURES: usize = 60;
+const MAX_FIGURES: usize = 200;
 
 /// The histograms and scatter plots; returns the figures not drawn.
 fn figures(
@@ -309,6 +419,7 @@ fn figures(
     plan: &Plan,
     paths: &[String],
     rows: &[Row],
+    groups: &[Group],
 ) -> Result<Vec<String>, SweepError> {
     let ok: Vec<usize> = (0..rows.len())
         .filter(|&i| rows[i].status == "ok")
@@ -350,6 +461,16 @@ fn figures(
             hist,
             false,
         ));
+        if !groups.is_empty() {
+            jobs.push((
+                format!("groups_{}.png", slug(q)),
+                format!("{q} by group (pooled over {})", plan.pool.join(", ")),
+                "group".into(),
+                q.clone(),
+                group_series(groups, rows, k),
+                true,
+            ));
+        }
         for (name, xs) in axes.iter().filter(|(n, _)| n != q) {
             let pts: Vec<(f64, f64)> = ys
                 .iter()
@@ -400,6 +521,50 @@ fn figures(
         .collect();
     warnings.extend(drawn.into_iter().flatten());
     Ok(warnings)
+}
+
+/// The strip plot of quantity `k` by group: group g's finished members at x = g + 1 (spread
+/// over +-0.3 in member order so that equal values stay apart), one series per group labelled
+/// with its inputs' values.
+fn group_series(groups: &[Group], rows: &[Row], k: usize) -> Vec<Series> {
+    groups
+        .iter()
+        .enumerate()
+        .map(|(g, grp)| {
+            let ys: Vec<f64> = grp
+                .members
+                .iter()
+                .filter(|&&i| rows[i].status == "ok")
+                .filter_map(|&i| numeric(&rows[i].quantities[k]))
+                .collect();
+            let n = ys.len();
+            let points = ys
+                .into_iter()
+                .enumerate()
+                .map(|(j, y)| {
+                    let dx = if n > 1 {
+                        0.6 * (j as f64 / (n - 1) as f64 - 0.5)
+                    } else {
+                        0.0
+                    };
+                    ((g + 1) as f64 + dx, y)
+                })
+                .collect();
+            let label = grp
+                .key
+                .iter()
+                .map(|v| match v {
+                    Value::String(s) => s.clone(),
+                    other => other.to_string(),
+                })
+                .collect::<Vec<_>>()
+                .join(" ");
+            Series {
+                label: format!("{}: {label}", g + 1),
+                points,
+            }
+        })
+        .collect()
 }
 
 /// A histogram's outline (a step line from zero to zero) of `xs`: about sqrt(n) bins (1 to

@@ -40,6 +40,10 @@ pub struct Plan {
     pub collect: Vec<String>,
     /// Extra x axes of the scatter plots (paths into `summary.json`).
     pub plot_against: Vec<String>,
+    /// The varied paths pooled over in `collect/groups.csv` (left out of `plan.json` when
+    /// empty).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub pool: Vec<String>,
     pub members: Vec<MemberPlan>,
 }
 
@@ -156,6 +160,7 @@ pub fn plan_sweep(file: &Path, out: &Path) -> Result<Plan, SweepError> {
         inputs: paths.iter().map(|p| p.to_string()).collect(),
         collect: spec.collect.clone(),
         plot_against: spec.plot_against.clone(),
+        pool: spec.pool.clone(),
         members,
     };
     write_plan(out, &plan, &files, &text)?;

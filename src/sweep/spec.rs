@@ -37,6 +37,11 @@ pub struct SweepSpec {
     /// written.
     #[serde(default = "default_max_members")]
     pub max_members: usize,
+    /// Varied paths to pool over in `collect/groups.csv` (the network seeds of a study): the
+    /// members that differ only in these make one group, whose distribution of each
+    /// quantity is tabulated and drawn. Empty (the default): no groups.
+    #[serde(default)]
+    pub pool: Vec<String>,
 }
 
 fn default_max_members() -> usize {
@@ -120,6 +125,16 @@ impl SweepSpec {
                 "vary",
                 "an empty sweep: vary at least one path".into(),
             ));
+        }
+        for (i, p) in self.pool.iter().enumerate() {
+            if !self.vary.iter().any(|v| &v.path == p) {
+                let why = "not a varied path (pool lists paths of vary)".to_string();
+                return Err(spec_err(
+                    format!("pool[{i}] ({p})"),
+                    &format!("\"{p}\""),
+                    why,
+                ));
+            }
         }
         let mut columns = Vec::with_capacity(self.vary.len());
         for (i, v) in self.vary.iter().enumerate() {

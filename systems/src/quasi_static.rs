@@ -189,6 +189,9 @@ pub struct QuasiStatic {
     w_updates: usize,
     pub max_w_updates: usize,
     pub tol: f64,
+    /// The most Newton iterations of one solve ([`MAX_ITER`]; the production stage's settling
+    /// steps allow fewer, since a shorter step is cheaper than a long failed solve).
+    pub max_iter: usize,
     pub counts: QsCounts,
     /// The network's rows of a coupled step.
     pub rows: FlowRows,
@@ -325,6 +328,7 @@ impl QuasiStatic {
             w_updates: 0,
             max_w_updates: MAX_W_UPDATES,
             tol: DEFAULT_TOL,
+            max_iter: MAX_ITER,
             counts: QsCounts::default(),
             rows: FlowRows::default(),
             linear: Linear::Auto,
@@ -1092,7 +1096,7 @@ pub fn solve(
         if res2 <= tol2 && flow_ok && (settled || !on.contact) {
             break (res2, ref2);
         }
-        if iterations >= MAX_ITER {
+        if iterations >= qs.max_iter {
             return Err(fail(
                 step,
                 time,
@@ -1386,8 +1390,9 @@ fn not_converged(
         _ => String::new(),
     };
     format!(
-        "no equilibrium after {MAX_ITER} Newton iterations: relative residual {:.3e} \
+        "no equilibrium after {} Newton iterations: relative residual {:.3e} \
          (tolerance {:.1e}){cell}{hint}",
+        qs.max_iter,
         (res2 / ref2.max(f64::MIN_POSITIVE)).sqrt(),
         qs.tol
     )
