@@ -422,6 +422,10 @@ pub const MAX_SETTLE_STEPS: u64 = 400;
 /// shorter, which is cheaper than a long failed solve).
 pub const SETTLE_MAX_ITER: usize = 20;
 
+/// Steps of [`settle`] at its step's cap (half the shortest step that failed) before the cap
+/// doubles.
+pub const SETTLE_CAP_STEPS: u32 = 5;
+
 /// [`settle`] tries the static solve again once the static residual is below this and a
 /// tenth of what it was at the last try.
 pub const SETTLE_STATIC_TRY: f64 = 1e-2;
@@ -434,7 +438,8 @@ pub const SETTLE_STATIC_TRY: f64 = 1e-2;
 /// mass term keeps the Newton matrix regular and moves a free block with its true
 /// acceleration; backward Euler damps the rock's vibration, friction the sliding. The step
 /// starts at 10 times the rock's explicit bound and doubles after each step, up to half the
-/// shortest step that found no equilibrium (a failed step is taken back and quartered). A
+/// shortest step that found no equilibrium (a failed step is taken back and quartered; the
+/// cap doubles after [`SETTLE_CAP_STEPS`] steps at it). A
 /// step's static residual is its inertia force, F(u). Once that is below
 /// [`SETTLE_STATIC_TRY`] (and a tenth of its value at the last try) the static Newton solve is
 /// tried again from there; the march ends when that converges or when the static residual
@@ -471,17 +476,33 @@ fn settle(
 }
 
 /// One step of [`settle`]: the step of length `dt` (with the inertia `sim` has now) from the
-/// current state, taken back where it finds no equilibrium (`Ok(false)`); `Ok(true)` when it
-/// converged.
+/// current state, taken back where it finds no equilibrium (`Ok(false)`; a step that split
+/// faces and then failed is taken back with its trial splits, from the whole state taken
+/// before it where a criterion can split faces); `Ok(true)` when it converged.
 fn settle_step(sim: &mut Simulation, dt: f64, generation: u64) -> Result<bool, RunError> {
     let (u_n, v_n) = (sim.solid().u.clone(), sim.solid().v.clone());
     let joints = sim.solid().joint_state.clone();
+    let whole = match sim.params().criterion {
+        Some(_) => Some(sim.checkpoint_state().map_err(|why| RunError::QuasiStatic {
+            step: sim.step(),
+            time: sim.time(),
+            why: format!("production stage: the state before a settling step: {why}"),
+        })?),
+        None => None,
+    };
     sim.hold_step(dt);
     match sim.step_once() {
         Ok(()) => Ok(true),
         Err(e @ RunError::QuasiStatic { .. }) => {
             if sim.model().topology_generation != generation {
-                return Err(e);
+                let Some((_, state)) = whole else {
+                    return Err(e);
+                };
+                sim.adopt(state).map_err(|why| RunError::QuasiStatic {
+                    step: sim.step(),
+                    time: sim.time(),
+                    why: format!("production stage: rolling back a failed split: {why}"),
+                })?;
             }
             let v = sim.solid_mut();
             v.u.copy_from_slice(&u_n);
@@ -508,7 +529,7 @@ fn settle_steps(
         time: sim.time(),
         why,
     };
-    let (mut dt, mut dt_fail) = (10.0 * dt_rock, f64::INFINITY);
+    let (mut dt, mut dt_fail, mut at_cap) = (10.0 * dt_rock, f64::INFINITY, 0);
     let (mut residual, mut last_try) = (f64::INFINITY, f64::INFINITY);
     for k in 1..=MAX_SETTLE_STEPS {
         if sim.stop_signal().is_some() {
@@ -517,7 +538,7 @@ fn settle_steps(
         sim.set_inertia(Inertia::BackwardEuler);
         let (u_n, v_n) = (sim.solid().u.clone(), sim.solid().v.clone());
         if !settle_step(sim, dt, generation)? {
-            dt_fail = dt_fail.min(dt);
+            (dt_fail, at_cap) = (dt_fail.min(dt), 0);
             dt *= 0.25;
             if dt < dt_rock {
                 return Err(fail(
@@ -550,6 +571,14 @@ fn settle_steps(
             sim.set_inertia(Inertia::Off);
             if settle_step(sim, dt, generation)? {
                 return Ok((k, sim.model().topology_generation != generation));
+            }
+        }
+        // The cap lifts after SETTLE_CAP_STEPS steps at it: the motion may allow longer
+        // steps as it slows.
+        if 2.0 * dt > 0.5 * dt_fail {
+            at_cap += 1;
+            if at_cap >= SETTLE_CAP_STEPS {
+                (dt_fail, at_cap) = (2.0 * dt_fail, 0);
             }
         }
         dt = (2.0 * dt).min(0.5 * dt_fail).max(dt);
