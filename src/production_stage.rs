@@ -483,11 +483,14 @@ fn settle_step(sim: &mut Simulation, dt: f64, generation: u64) -> Result<bool, R
     let (u_n, v_n) = (sim.solid().u.clone(), sim.solid().v.clone());
     let joints = sim.solid().joint_state.clone();
     let whole = match sim.params().criterion {
-        Some(_) => Some(sim.checkpoint_state().map_err(|why| RunError::QuasiStatic {
-            step: sim.step(),
-            time: sim.time(),
-            why: format!("production stage: the state before a settling step: {why}"),
-        })?),
+        Some(_) => Some(
+            sim.checkpoint_state()
+                .map_err(|why| RunError::QuasiStatic {
+                    step: sim.step(),
+                    time: sim.time(),
+                    why: format!("production stage: the state before a settling step: {why}"),
+                })?,
+        ),
         None => None,
     };
     sim.hold_step(dt);

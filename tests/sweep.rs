@@ -249,6 +249,40 @@ fn pooled_members_are_summarised_by_group() {
 }
 
 #[test]
+fn a_value_every_member_leaves_out_is_a_warning_a_misspelt_path_an_error() {
+    // `flow.boundaries[name=outlet].ratio` is not in any summary, but its parent is: the runs
+    // left the value out (as a ratio against a zero rate is), so collect warns and goes on;
+    // `flow.boundarys.0.rate` leaves the document at its first key: a misspelt path, refused.
+    let run = |name: &str, q: &str| {
+        let extra = format!("    collect: [\"steps\", \"{q}\"],");
+        let file = sweep_file(name, FOUR, &extra);
+        let dir = tmp(&format!("{name}-dir"));
+        ok(&plan(&file, &dir));
+        ok(&bin()
+            .args(["sweep", "run", "--jobs", "2", "--quiet"])
+            .arg(&dir)
+            .output()
+            .unwrap());
+        (sweep(&["collect"], &dir), dir)
+    };
+    let (o, dir) = run("leaf", "flow.boundaries[name=outlet].ratio");
+    let out = ok(&o);
+    assert!(out.contains("4 members: 4 ok"), "{out}");
+    let err = stderr(&o);
+    assert!(
+        err.contains("flow.boundaries[name=outlet].ratio` is missing in 4 of 4"),
+        "{err}"
+    );
+    let csv = read(dir.join("collect/table.csv"));
+    assert!(csv.lines().nth(1).unwrap().ends_with(",,"), "{csv}");
+    let (o, _) = run("typo", "flow.boundarys.0.rate");
+    assert_refused(
+        &o,
+        &["flow.boundarys.0.rate", "is in no member's summary.json"],
+    );
+}
+
+#[test]
 fn an_interrupted_member_continues_from_its_checkpoint() {
     let vary = r#"        (path: "output.checkpoint_every", values: List(["Steps(100)"])),"#;
     let file = sweep_file("ckpt", vary, COLLECT);

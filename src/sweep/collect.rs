@@ -44,6 +44,9 @@ struct Row {
     status: &'static str,
     /// Per quantity (collect, then plot_against): its value, or why there is none.
     quantities: Vec<Result<Value, String>>,
+    /// Per quantity: missing, but the path up to its last key is there (a value the run
+    /// leaves out, such as a ratio against a zero rate, not a misspelt path).
+    leaf_only: Vec<bool>,
     error: Option<String>,
     wall_s: Option<f64>,
 }
@@ -79,7 +82,10 @@ pub fn collect(dir: &Path, opts: &CollectOptions) -> Result<CollectReport, Sweep
             .iter()
             .filter_map(|r| r.quantities[k].as_ref().err())
             .collect();
-        if !ok.is_empty() && missing.len() == ok.len() {
+        // Missing everywhere: a misspelt path, unless some member has all but its last key
+        // (then the runs left the value out: a warning).
+        let leaf = ok.iter().any(|r| r.leaf_only[k]);
+        if !ok.is_empty() && missing.len() == ok.len() && !leaf {
             return Err(SweepError::Other(format!(
                 "quantity `{p}` is in no member's summary.json: {}",
                 missing[0]
@@ -227,6 +233,7 @@ fn read_row(mdir: &Path, fingerprint: &str, paths: &[String]) -> Row {
     let none = |status: &'static str, error: Option<String>| Row {
         status,
         quantities: paths.iter().map(|_| Err(String::new())).collect(),
+        leaf_only: vec![false; paths.len()],
         error,
         wall_s: None,
     };
@@ -264,12 +271,23 @@ fn read_row(mdir: &Path, fingerprint: &str, paths: &[String]) -> Row {
             };
         }
     };
+    let quantities: Vec<Result<Value, String>> = paths
+        .iter()
+        .map(|p| extract(&summary, p).cloned())
+        .collect();
+    let leaf_only = paths
+        .iter()
+        .zip(&quantities)
+        .map(|(p, q)| {
+            q.is_err()
+                && p.rsplit_once('.')
+                    .is_some_and(|(parent, _)| extract(&summary, parent).is_ok())
+        })
+        .collect();
     Row {
         status: "ok",
-        quantities: paths
-            .iter()
-            .map(|p| extract(&summary, p).cloned())
-            .collect(),
+        quantities,
+        leaf_only,
         error: None,
         wall_s: wall,
     }
