@@ -71,6 +71,8 @@ pub fn scenario(name: &str) -> String {
 /// test named by its thread (libtest names each test's thread after it), so tests of
 /// different files in the one integration binary never share a path.
 pub fn tmp(name: &str) -> PathBuf {
+    static SWEPT: std::sync::Once = std::sync::Once::new();
+    SWEPT.call_once(sweep_stale_tmp);
     let test: String = std::thread::current()
         .name()
         .unwrap_or("main")
@@ -85,6 +87,34 @@ pub fn tmp(name: &str) -> PathBuf {
     let _ = std::fs::remove_dir_all(&d);
     let _ = std::fs::remove_file(&d);
     d
+}
+
+/// Remove what earlier runs of this test binary left in the temporary folder: the paths
+/// `hydrofrac-<test binary>-<process>-...` of processes that no longer run (Linux: no
+/// `/proc/<process>`; elsewhere nothing is removed). A run's own paths stay after it, for a
+/// look at a failed test, until the next run of the binary.
+fn sweep_stale_tmp() {
+    if !std::path::Path::new("/proc/self").exists() {
+        return;
+    }
+    let prefix = format!("hydrofrac-{}-", env!("CARGO_CRATE_NAME"));
+    let Ok(entries) = std::fs::read_dir(std::env::temp_dir()) else {
+        return;
+    };
+    for e in entries.flatten() {
+        let name = e.file_name().to_string_lossy().into_owned();
+        let Some(rest) = name.strip_prefix(&prefix) else {
+            continue;
+        };
+        let Some(pid) = rest.split('-').next().and_then(|p| p.parse::<u32>().ok()) else {
+            continue;
+        };
+        if pid != std::process::id() && !std::path::Path::new(&format!("/proc/{pid}")).exists() {
+            let p = e.path();
+            let _ = std::fs::remove_dir_all(&p);
+            let _ = std::fs::remove_file(&p);
+        }
+    }
 }
 
 /// [`tmp`], created as an empty folder.
