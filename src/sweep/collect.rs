@@ -482,8 +482,8 @@ fn figures(
         if !groups.is_empty() {
             jobs.push((
                 format!("groups_{}.png", slug(q)),
-                format!("{q} by group (pooled over {})", plan.pool.join(", ")),
-                "group".into(),
+                format!("{q} by group"),
+                "group (row of groups.csv)".into(),
                 q.clone(),
                 group_series(groups, rows, k),
                 true,
@@ -542,8 +542,9 @@ fn figures(
 }
 
 /// The strip plot of quantity `k` by group: group g's finished members at x = g + 1 (spread
-/// over +-0.3 in member order so that equal values stay apart), one series per group labelled
-/// with its inputs' values.
+/// over +-0.3 in member order so that equal values stay apart), one series per group. The
+/// series have no labels (a legend of a dozen groups would hide the points): group g is row g
+/// of `groups.csv`.
 fn group_series(groups: &[Group], rows: &[Row], k: usize) -> Vec<Series> {
     groups
         .iter()
@@ -568,17 +569,8 @@ fn group_series(groups: &[Group], rows: &[Row], k: usize) -> Vec<Series> {
                     ((g + 1) as f64 + dx, y)
                 })
                 .collect();
-            let label = grp
-                .key
-                .iter()
-                .map(|v| match v {
-                    Value::String(s) => s.clone(),
-                    other => other.to_string(),
-                })
-                .collect::<Vec<_>>()
-                .join(" ");
             Series {
-                label: format!("{}: {label}", g + 1),
+                label: String::new(),
                 points,
             }
         })
