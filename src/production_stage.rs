@@ -326,20 +326,7 @@ fn equilibrate(
             *t = a + s * (b - a);
         }
         hold(sim, &trial);
-        let saved = (sim.solid().u.clone(), sim.solid().joint_state.clone());
-        // A step that splits faces and then fails has changed the topology (the trial split's
-        // nodes): only a whole state brings it back. Taken only where faces can open.
-        let whole = match sim.params().criterion {
-            Some(_) => Some(
-                sim.checkpoint_state()
-                    .map_err(|why| RunError::QuasiStatic {
-                        step: sim.step(),
-                        time: sim.time(),
-                        why: format!("production stage: the state before a load increment: {why}"),
-                    })?,
-            ),
-            None => None,
-        };
+        let trial_state = Trial::take(sim, "a load increment")?;
         match sim.step_once() {
             Ok(()) => {
                 solves += 1;
@@ -355,24 +342,7 @@ fn equilibrate(
                 streak += 1;
             }
             Err(e @ RunError::QuasiStatic { .. }) => {
-                if sim.model().topology_generation != generation {
-                    let Some((_, state)) = whole else {
-                        return Err(e);
-                    };
-                    sim.adopt(state).map_err(|why| RunError::QuasiStatic {
-                        step: sim.step(),
-                        time: sim.time(),
-                        why: format!("production stage: rolling back a failed split: {why}"),
-                    })?;
-                } else {
-                    let v = sim.solid_mut();
-                    v.u.copy_from_slice(&saved.0);
-                    v.joint_state.copy_from_slice(&saved.1);
-                }
-                // The kept factor's joint axes are the failed iterate's.
-                if let Some(qs) = sim.quasi_static_mut() {
-                    qs.forget_factor();
-                }
+                let e = trial_state.undo(sim, generation, e)?;
                 // A stop request interrupted the solve: end at the last equilibrium.
                 if sim.stop_signal().is_some() {
                     break;
@@ -476,47 +446,82 @@ fn settle(
 }
 
 /// One step of [`settle`]: the step of length `dt` (with the inertia `sim` has now) from the
-/// current state, taken back where it finds no equilibrium (`Ok(false)`; a step that split
-/// faces and then failed is taken back with its trial splits, from the whole state taken
-/// before it where a criterion can split faces); `Ok(true)` when it converged.
+/// current state, taken back where it finds no equilibrium (`Ok(false)`, [`Trial::undo`]);
+/// `Ok(true)` when it converged.
 fn settle_step(sim: &mut Simulation, dt: f64, generation: u64) -> Result<bool, RunError> {
-    let (u_n, v_n) = (sim.solid().u.clone(), sim.solid().v.clone());
-    let joints = sim.solid().joint_state.clone();
-    let whole = match sim.params().criterion {
-        Some(_) => Some(
-            sim.checkpoint_state()
-                .map_err(|why| RunError::QuasiStatic {
-                    step: sim.step(),
-                    time: sim.time(),
-                    why: format!("production stage: the state before a settling step: {why}"),
-                })?,
-        ),
-        None => None,
-    };
+    let trial = Trial::take(sim, "a settling step")?;
     sim.hold_step(dt);
     match sim.step_once() {
         Ok(()) => Ok(true),
-        Err(e @ RunError::QuasiStatic { .. }) => {
-            if sim.model().topology_generation != generation {
-                let Some((_, state)) = whole else {
-                    return Err(e);
-                };
-                sim.adopt(state).map_err(|why| RunError::QuasiStatic {
-                    step: sim.step(),
-                    time: sim.time(),
-                    why: format!("production stage: rolling back a failed split: {why}"),
-                })?;
-            }
-            let v = sim.solid_mut();
-            v.u.copy_from_slice(&u_n);
-            v.v.copy_from_slice(&v_n);
-            v.joint_state.copy_from_slice(&joints);
-            if let Some(qs) = sim.quasi_static_mut() {
-                qs.forget_factor();
-            }
-            Ok(false)
-        }
+        Err(e @ RunError::QuasiStatic { .. }) => trial.undo(sim, generation, e).map(|_| false),
         Err(e) => Err(e),
+    }
+}
+
+/// The rock's state before a trial step of the production stage ([`equilibrate`]'s load
+/// increments, [`settle`]'s steps): displacements, velocities and the joints' contact states,
+/// and where a criterion can split faces the whole state, since a step that splits faces and
+/// then fails has changed the topology (the trial split's nodes).
+struct Trial {
+    u: Vec<[f64; 2]>,
+    v: Vec<[f64; 2]>,
+    joints: Vec<crate::components::JointState>,
+    whole: Option<crate::checkpoint::State>,
+}
+
+impl Trial {
+    /// The state now, before `what` (for a message).
+    fn take(sim: &Simulation, what: &str) -> Result<Self, RunError> {
+        let whole = match sim.params().criterion {
+            Some(_) => Some(
+                sim.checkpoint_state()
+                    .map_err(|why| RunError::QuasiStatic {
+                        step: sim.step(),
+                        time: sim.time(),
+                        why: format!("production stage: the state before {what}: {why}"),
+                    })?
+                    .1,
+            ),
+            None => None,
+        };
+        let v = sim.solid();
+        Ok(Self {
+            u: v.u.clone(),
+            v: v.v.clone(),
+            joints: v.joint_state.clone(),
+            whole,
+        })
+    }
+
+    /// Take back the trial step that failed with `e` (the topology `generation` before it):
+    /// the whole state where it split faces, else the displacements, velocities and contact
+    /// states; the kept factor is dropped (its joint axes are the failed iterate's). Returns
+    /// `e`, or `e` itself as the error where a split cannot be taken back (no whole state).
+    fn undo(
+        self,
+        sim: &mut Simulation,
+        generation: u64,
+        e: RunError,
+    ) -> Result<RunError, RunError> {
+        if sim.model().topology_generation != generation {
+            let Some(state) = self.whole else {
+                return Err(e);
+            };
+            sim.adopt(state).map_err(|why| RunError::QuasiStatic {
+                step: sim.step(),
+                time: sim.time(),
+                why: format!("production stage: rolling back a failed split: {why}"),
+            })?;
+        } else {
+            let v = sim.solid_mut();
+            v.u.copy_from_slice(&self.u);
+            v.v.copy_from_slice(&self.v);
+            v.joint_state.copy_from_slice(&self.joints);
+        }
+        if let Some(qs) = sim.quasi_static_mut() {
+            qs.forget_factor();
+        }
+        Ok(e)
     }
 }
 
