@@ -204,11 +204,19 @@ fn pooled_members_are_summarised_by_group() {
     ok(&plan(&file, &dir));
     let p: serde_json::Value = serde_json::from_str(&read(dir.join("plan.json"))).unwrap();
     assert_eq!(p["pool"], serde_json::json!(["network.cell_length"]));
-    ok(&bin()
-        .args(["sweep", "run", "--jobs", "2", "--quiet"])
+    // Not --quiet, and stderr is not a terminal: one line per member instead of a bar.
+    let o = bin()
+        .args(["sweep", "run", "--jobs", "2"])
         .arg(&dir)
         .output()
-        .unwrap());
+        .unwrap();
+    ok(&o);
+    let err = stderr(&o);
+    assert_eq!(err.matches(": ok in ").count(), 4, "{err}");
+    assert!(
+        err.contains("member 3: ok in") && err.contains("(4 of 4 members done)"),
+        "{err}"
+    );
     ok(&sweep(&["collect"], &dir));
     let csv = read(dir.join("collect/groups.csv"));
     let lines: Vec<&str> = csv.lines().collect();

@@ -15,6 +15,7 @@ use crate::pipeline::{PipelineError, PipelineOptions, run_pipeline};
 use crate::sim::StopFlag;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use serde::{Deserialize, Serialize};
+use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
@@ -271,6 +272,10 @@ pub fn run_local(dir: &Path, opts: &LocalOptions) -> Result<RunSummary, SweepErr
     }
     let bar = runner_bar(opts.quiet, summary.total as u64);
     bar.set_position((summary.total - pending.len()) as u64);
+    // Without a terminal (a log file, `nohup`, a batch job) the bar is not drawn: one line
+    // per member instead.
+    let log_lines = !opts.quiet && !std::io::stderr().is_terminal();
+    let done = AtomicUsize::new(summary.total - pending.len());
     let next = AtomicUsize::new(0);
     let results: Mutex<Vec<(usize, MemberOutcome)>> = Mutex::new(Vec::new());
     let spawn_error: Mutex<Option<SweepError>> = Mutex::new(None);
@@ -286,10 +291,25 @@ pub fn run_local(dir: &Path, opts: &LocalOptions) -> Result<RunSummary, SweepErr
                     let k = next.fetch_add(1, Ordering::Relaxed);
                     let Some(&id) = pending.get(k) else { break };
                     let m = &plan.members[id];
+                    let t0 = std::time::Instant::now();
                     match spawn_member(dir, id, &m.dir, &m.fingerprint, opts) {
                         Ok(o) => {
                             if let MemberOutcome::Failed(e) = &o {
                                 bar.println(format!("member {id} failed: {e}"));
+                            }
+                            if log_lines {
+                                let what = match &o {
+                                    MemberOutcome::Ok => "ok",
+                                    MemberOutcome::AlreadyDone => "finished before",
+                                    MemberOutcome::Failed(_) => "failed",
+                                    MemberOutcome::Interrupted(_) => "interrupted",
+                                };
+                                let n = done.fetch_add(1, Ordering::Relaxed) + 1;
+                                eprintln!(
+                                    "member {id}: {what} in {:.0} s ({n} of {} members done)",
+                                    t0.elapsed().as_secs_f64(),
+                                    summary.total
+                                );
                             }
                             results.lock().expect("results").push((id, o));
                         }
