@@ -424,9 +424,9 @@ fn settle(
 ) -> Result<(u64, bool), RunError> {
     let generation = sim.model().topology_generation;
     let dt_rock = sim.dt();
-    let Some(qs) = sim.quasi_static_mut() else {
-        unreachable!("settle is the quasi-static rock's");
-    };
+    let qs = sim
+        .quasi_static_mut()
+        .expect("settling is the quasi-static rock's");
     let (tol, max_iter) = (qs.tol, qs.max_iter);
     qs.max_iter = SETTLE_MAX_ITER;
     hold(sim, pressure);
@@ -495,8 +495,8 @@ impl Trial {
 
     /// Take back the trial step that failed with `e` (the topology `generation` before it):
     /// the whole state where it split faces, else the displacements, velocities and contact
-    /// states; the kept factor is dropped (its joint axes are the failed iterate's). Returns
-    /// `e`, or `e` itself as the error where a split cannot be taken back (no whole state).
+    /// states; the kept factor is dropped (its joint axes are the failed iterate's). `Ok(e)`
+    /// once taken back; `Err(e)` where a split cannot be (no whole state was taken).
     fn undo(
         self,
         sim: &mut Simulation,
@@ -544,7 +544,6 @@ fn settle_steps(
             return Err(fail(sim, "interrupted".into()));
         }
         sim.set_inertia(Inertia::BackwardEuler);
-        let (u_n, v_n) = (sim.solid().u.clone(), sim.solid().v.clone());
         if !settle_step(sim, dt, generation)? {
             (dt_fail, at_cap) = (dt_fail.min(dt), 0);
             dt *= 0.25;
@@ -559,17 +558,9 @@ fn settle_steps(
         if sim.model().topology_generation != generation {
             return Ok((k, true));
         }
-        // F(u) = M (u - u_n - dt v_n) / dt^2 at the step's solution: the static residual.
-        let v = sim.solid();
-        let (mut r2, shift) = (0.0, 1.0 / (dt * dt));
-        for i in 0..v.n_nodes() {
-            for d in 0..2 {
-                if v.fixed[i] & (1 << d) == 0 {
-                    let f = v.mass[i] * shift * (v.u[i][d] - u_n[i][d] - dt * v_n[i][d]);
-                    r2 += f * f;
-                }
-            }
-        }
+        // The step's inertia force balances F(u): it is the static residual.
+        let start = sim.quasi_static().and_then(|q| q.step_start.as_ref());
+        let r2 = start.expect("a step with inertia").force_norm2(sim.solid());
         residual = (r2 / sim.stats().ref2.max(f64::MIN_POSITIVE)).sqrt();
         if residual < tol {
             return Ok((k, false));
@@ -1256,9 +1247,9 @@ mod tests {
     /// sigma_yy = -10 MPa) enclosed by four fractures, all held at 25 MPa: every face opens,
     /// the block floats and the quasi-static Newton matrix is singular (its rigid motions have
     /// no stiffness), so the static solve fails. Settling by implicit dynamics finds the
-    /// equilibrium: the uniform pressure puts no net force on the block, so it stays where it
-    /// is (its mean displacement within 1e-3 of the faces' opening: the balance is the
-    /// rock's, not held by a constraint) and every face is open.
+    /// equilibrium: the uniform pressure puts no net force on the block, so it stays about
+    /// where it is (its mean displacement within 5 % of the faces' opening) and every face
+    /// is open.
     #[test]
     fn a_floating_block_settles_where_the_static_solve_fails() {
         let text = r#"(
@@ -1327,7 +1318,7 @@ mod tests {
         );
         // And the state is an equilibrium, checked on its own: with every face open the
         // joints carry nothing, so the rock's internal force and the fluid's pressure on the
-        // faces balance at every free dof (to the solve's tolerance of the reactions).
+        // faces balance at every free dof.
         let mut w = v.clone();
         crate::systems::solid::internal_force(&mut w, &sim.params().solid);
         crate::systems::fracture::fluid_pressure(&mut w, &c.joint_cell, &p);
@@ -1343,7 +1334,10 @@ mod tests {
             }
         }
         let r = (free / fixed).sqrt();
-        assert!(r < 1e-5, "static residual {r:e}");
+        // The solve's own test is 1e-6 of the reactions and loads (no loads here, the
+        // boundaries are displacements): measured 7.8e-7; 2e-6 leaves room for the order of
+        // summation, not for a state out of balance.
+        assert!(r < 2e-6, "static residual {r:e}");
     }
 
     /// A state that failed leaves its drop without a ratio (not a ratio against a zero rate)

@@ -620,6 +620,10 @@ impl Simulation {
     pub fn quasi_static_counts(&self) -> Option<quasi_static::QsCounts> {
         self.solid.quasi_static.as_ref().map(|q| q.counts)
     }
+    /// The quasi-static solver (`None` with the explicit scheme), to read its state.
+    pub fn quasi_static(&self) -> Option<&quasi_static::QuasiStatic> {
+        self.solid.quasi_static.as_ref()
+    }
     /// The quasi-static solver, to change its settings (tolerance, W updates) before a run.
     pub fn quasi_static_mut(&mut self) -> Option<&mut quasi_static::QuasiStatic> {
         self.solid.quasi_static.as_mut()

@@ -110,7 +110,7 @@ pub fn collect(dir: &Path, opts: &CollectOptions) -> Result<CollectReport, Sweep
     }
     let folder = Folder::prepare(&report.out, false)?;
     write_tables(&folder, &plan, &paths, &rows)?;
-    let groups = group_members(&plan, &rows);
+    let groups = group_members(&plan);
     if !plan.pool.is_empty() {
         write_groups(&folder, &plan, &groups, &rows)?;
     }
@@ -128,7 +128,7 @@ struct Group {
     members: Vec<usize>,
 }
 
-fn group_members(plan: &Plan, rows: &[Row]) -> Vec<Group> {
+fn group_members(plan: &Plan) -> Vec<Group> {
     if plan.pool.is_empty() {
         return Vec::new();
     }
@@ -136,7 +136,7 @@ fn group_members(plan: &Plan, rows: &[Row]) -> Vec<Group> {
         .filter(|&k| !plan.pool.contains(&plan.inputs[k]))
         .collect();
     let mut out: Vec<Group> = Vec::new();
-    for (i, m) in plan.members.iter().enumerate().take(rows.len()) {
+    for (i, m) in plan.members.iter().enumerate() {
         let key: Vec<Value> = kept.iter().map(|&k| m.values[k].clone()).collect();
         match out.iter_mut().find(|g| g.key == key) {
             Some(g) => g.members.push(i),
@@ -211,12 +211,9 @@ fn write_groups(
                 continue;
             }
             let nonzero = xs.iter().filter(|&&x| x != 0.0).count() as f64 / xs.len() as f64;
-            let (lo, hi) = xs
-                .iter()
-                .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| {
-                    (a.min(x), b.max(x))
-                });
+            // `median` sorts: the ends are the extremes.
             let mid = median(&mut xs);
+            let (lo, hi) = (xs[0], xs[xs.len() - 1]);
             cells.extend([nonzero, lo, mid, hi].iter().map(|x| x.to_string()));
         }
         text += &(cells.join(",") + "\n");

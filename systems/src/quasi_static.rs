@@ -256,6 +256,22 @@ impl StepStart {
         std::array::from_fn(|d| -s * (u[d] - self.u[i][d] - self.dt * self.v[i][d]))
     }
 
+    /// The squared norm of the inertia force over the free dofs of `v` at its displacements:
+    /// after a converged step the inertia force balances F(u), so this is the squared static
+    /// residual of the step's end state (the production stage's settling reads it).
+    pub fn force_norm2(&self, v: &SolidView) -> f64 {
+        let mut r2 = 0.0;
+        for i in 0..v.n_nodes() {
+            let f = self.force(v.mass[i], i, v.u[i]);
+            for (d, fd) in f.iter().enumerate() {
+                if v.fixed[i] & (1 << d) == 0 {
+                    r2 += fd * fd;
+                }
+            }
+        }
+        r2
+    }
+
     /// Carry the start state over to the view's topology after a split: by stable id for the
     /// nodes that were there, and for the nodes added since the step started the start state
     /// that gives their current end state.
