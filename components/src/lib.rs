@@ -2,8 +2,15 @@
 //!
 //! Every kind of entity (node, element, edge) is spawned with one fixed bundle, so it lives in a
 //! single archetype for the whole run: state flags are fields, never marker components.
-//! Relations between entities are `hecs::Entity` fields. Units are SI; the model is plane strain
-//! per unit thickness (forces in N/m, masses in kg/m, stresses in Pa, tension positive).
+//! Relations between entities are `hecs::Entity` fields. Units are SI; in 2D the model is plane
+//! strain per unit thickness (forces in N/m, masses in kg/m, stresses in Pa, tension positive),
+//! in 3D forces are in N and masses in kg.
+//!
+//! Where the dimension enters a component its shape is a type parameter whose default is the 2D
+//! one (`NodeRef` is `NodeRef<[f64; 2]>`; a 3D node is a `NodeRef<[f64; 3]>`), so 2D code
+//! names the components as it always did ([`Node3Bundle`] and [`Tet4Bundle`] name the 3D
+//! bundles). A 3D face (a triangle) is an entity like a 2D edge: [`FaceNodes`] with the same
+//! [`EdgeElems`] and [`EdgeState`].
 
 use hecs::Entity;
 use serde::{Deserialize, Serialize};
@@ -16,25 +23,53 @@ use serde::{Deserialize, Serialize};
 )]
 pub struct StableId(pub u64);
 
-/// Which side of the rectangular domain a boundary node or external edge lies on.
+/// Which side of the box-shaped domain a boundary node or external edge (face) lies on. The
+/// vertical axis is the last one: y in 2D, z in 3D. `Front` and `Back` (y = min and max) exist in
+/// 3D only.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 pub enum Side {
     Left,
     Right,
     Bottom,
     Top,
+    Front,
+    Back,
 }
 
 impl Side {
+    /// The sides of a 2D domain.
     pub const ALL: [Side; 4] = [Side::Left, Side::Right, Side::Bottom, Side::Top];
+    /// The sides of a 3D domain.
+    pub const ALL3: [Side; 6] = [
+        Side::Left,
+        Side::Right,
+        Side::Front,
+        Side::Back,
+        Side::Bottom,
+        Side::Top,
+    ];
 
-    /// Outward unit normal of the side.
+    /// Outward unit normal of the side in 2D (`Front` and `Back` have none: zero).
     pub fn normal(self) -> [f64; 2] {
         match self {
             Side::Left => [-1.0, 0.0],
             Side::Right => [1.0, 0.0],
             Side::Bottom => [0.0, -1.0],
             Side::Top => [0.0, 1.0],
+            Side::Front | Side::Back => [0.0, 0.0],
+        }
+    }
+
+    /// The axis the side is normal to in `dim` dimensions (the vertical one is the last) and
+    /// the sign of its outward normal along it.
+    pub fn axis(self, dim: usize) -> (usize, f64) {
+        match self {
+            Side::Left => (0, -1.0),
+            Side::Right => (0, 1.0),
+            Side::Front => (1, -1.0),
+            Side::Back => (1, 1.0),
+            Side::Bottom => (dim - 1, -1.0),
+            Side::Top => (dim - 1, 1.0),
         }
     }
 
@@ -44,6 +79,8 @@ impl Side {
             Side::Right => "right",
             Side::Bottom => "bottom",
             Side::Top => "top",
+            Side::Front => "front",
+            Side::Back => "back",
         }
     }
 }
@@ -54,27 +91,29 @@ impl Side {
 
 /// Reference (undeformed) position of a node, m.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
-pub struct NodeRef(pub [f64; 2]);
+pub struct NodeRef<V = [f64; 2]>(pub V);
 
 /// Kinematic state of a node: displacement u (m) and velocity v (m/s, at the last half step).
 /// The dense solid view holds the hot copy during stepping; it is written back here at every
 /// sync point (output frame, topology change, end of run).
 #[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
-pub struct NodeState {
-    pub u: [f64; 2],
-    pub v: [f64; 2],
+pub struct NodeState<V = [f64; 2]> {
+    pub u: V,
+    pub v: V,
 }
 
-/// Lumped nodal mass per unit thickness, kg/m (one third of rho*A of each element around it).
+/// Lumped nodal mass: per unit thickness in 2D, kg/m (one third of rho*A of each element around
+/// it); kg in 3D (a quarter of rho*V of each tetrahedron around it).
 #[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct NodeMass(pub f64);
 
 /// Boundary condition of a node: a prescribed displacement per direction (m) where `Some`,
-/// and a constant external force (N/m, from tractions and body forces) added every step.
+/// and a constant external force (N/m in 2D, N in 3D, from tractions and body forces) added
+/// every step.
 #[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
-pub struct NodeBc {
-    pub prescribed: [Option<f64>; 2],
-    pub load: [f64; 2],
+pub struct NodeBc<V = [f64; 2], P = [Option<f64>; 2]> {
+    pub prescribed: P,
+    pub load: V,
 }
 
 /// Topological role of a node. `in_solid` is false for a mother node that has left the solid
@@ -88,13 +127,24 @@ pub struct NodeLink {
 /// Node bundle: the one archetype of every node entity.
 pub type NodeBundle = (StableId, NodeRef, NodeState, NodeMass, NodeBc, NodeLink);
 
+/// A 3D node's bundle.
+pub type Node3Bundle = (
+    StableId,
+    NodeRef<[f64; 3]>,
+    NodeState<[f64; 3]>,
+    NodeMass,
+    NodeBc<[f64; 3], [Option<f64>; 3]>,
+    NodeLink,
+);
+
 // ---------------------------------------------------------------------------------------------
 // Elements
 // ---------------------------------------------------------------------------------------------
 
-/// The three nodes of a constant-strain triangle, counter-clockwise.
+/// The nodes of an element: a constant-strain triangle's three, counter-clockwise (2D), or a
+/// tetrahedron's four, positively oriented (3D).
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
-pub struct ElemNodes(pub [Entity; 3]);
+pub struct ElemNodes<C = [Entity; 3]>(pub C);
 
 /// Precomputed geometry of a constant-strain triangle in the reference configuration:
 /// area A (m^2) and the constant shape-function gradients dN_a/dx, dN_a/dy (1/m).
@@ -105,13 +155,28 @@ pub struct ElemGeom {
     pub dndy: [f64; 3],
 }
 
-/// Cauchy stress of the element [sigma_xx, sigma_yy, sigma_xy], Pa, tension positive
-/// (sigma_zz = nu (sigma_xx + sigma_yy) in plane strain). Written back from the view at sync points.
+/// Precomputed geometry of a linear tetrahedron in the reference configuration: volume V (m^3)
+/// and the four constant shape-function gradients (1/m), packed as
+/// `[V, dN0/dx, dN0/dy, dN0/dz, dN1/dx, ..]` (`hydrofrac_core::dim::Tet4`'s view geometry).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct TetGeom(pub [f64; 13]);
+
+/// Cauchy stress of the element, Pa, tension positive: [sigma_xx, sigma_yy, sigma_xy] in 2D
+/// (sigma_zz = nu (sigma_xx + sigma_yy) in plane strain), [xx, yy, zz, xy, yz, zx] in 3D.
+/// Written back from the view at sync points.
 #[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
-pub struct ElemStress(pub [f64; 3]);
+pub struct ElemStress<S = [f64; 3]>(pub S);
 
 /// Element bundle: the one archetype of every element entity.
 pub type ElemBundle = (StableId, ElemNodes, ElemGeom, ElemStress);
+
+/// A tetrahedron's bundle.
+pub type Tet4Bundle = (
+    StableId,
+    ElemNodes<[Entity; 4]>,
+    TetGeom,
+    ElemStress<[f64; 6]>,
+);
 
 // ---------------------------------------------------------------------------------------------
 // Edges (faces)
@@ -146,6 +211,13 @@ pub struct EdgeState {
 
 /// Edge bundle: the one archetype of every edge entity.
 pub type EdgeBundle = (StableId, EdgeNodes, EdgeElems, EdgeState);
+
+/// The three nodes of a 3D face (a triangle between two tetrahedra, or on the boundary).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct FaceNodes(pub [Entity; 3]);
+
+/// A 3D face's bundle: the 2D edge's, with three nodes.
+pub type FaceBundle = (StableId, FaceNodes, EdgeElems, EdgeState);
 
 // ---------------------------------------------------------------------------------------------
 // Flow cells and flow boundaries

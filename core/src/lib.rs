@@ -17,6 +17,7 @@
 
 pub mod atomic;
 pub mod conforming;
+pub mod dim;
 pub mod element;
 pub mod error;
 pub mod flow;

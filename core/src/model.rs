@@ -376,6 +376,7 @@ impl Model {
             Side::Right => (p[0] - x1).abs() < tol,
             Side::Bottom => (p[1] - y0).abs() < tol,
             Side::Top => (p[1] - y1).abs() < tol,
+            Side::Front | Side::Back => false,
         })
     }
 
@@ -436,7 +437,7 @@ impl Model {
             if !link.in_solid {
                 continue;
             }
-            let mut bc = NodeBc::default();
+            let mut bc: NodeBc = NodeBc::default();
             for &s in node_sides.get(&e).map_or(&[][..], |v| &v[..]) {
                 let n = s.normal();
                 match bc_of_side[side_index(s)] {

@@ -3,6 +3,7 @@
 //! model's topology generation moves; between rebuilds the view holds the hot node and element
 //! state, which [`SolidView::write_back`] copies into the components at sync points.
 
+use crate::dim::{Cst, Element};
 use crate::element::{SolidParams, cst_stress};
 use crate::model::Model;
 use hecs::Entity;
@@ -11,43 +12,47 @@ use hydrofrac_components::*;
 /// Marker for a dense index that does not exist.
 pub const NONE: u32 = u32::MAX;
 
-/// The solid mesh as flat arrays. Node vectors are `[x, y]` pairs; `elem_force` holds the six
-/// nodal force components of every element from the last internal-force pass.
+/// The solid mesh as flat arrays, for the element kind `E` ([`crate::dim`]: the CST in 2D, the
+/// default, or the TET4 in 3D). Node vectors are `E::Vector`s (`[x, y]` or `[x, y, z]`);
+/// `elem_force` holds every element's nodal force components from the last internal-force pass.
+/// The edge, joint and motion arrays are the 2D fracture's; they stay empty in 3D.
 #[derive(Clone, Default, serde::Serialize, serde::Deserialize)]
-pub struct SolidView {
+#[serde(bound = "")]
+pub struct SolidView<E: Element = Cst> {
     /// Topology generation this view was built from.
     pub generation: u64,
     pub node_entity: Vec<Entity>,
     pub node_id: Vec<u64>,
     /// Reference positions, m.
-    pub x0: Vec<[f64; 2]>,
+    pub x0: Vec<E::Vector>,
     /// Displacements, m.
-    pub u: Vec<[f64; 2]>,
+    pub u: Vec<E::Vector>,
     /// Velocities at the last half step, m/s.
-    pub v: Vec<[f64; 2]>,
-    /// Unbalanced force (internal + external), N/m.
-    pub force: Vec<[f64; 2]>,
-    /// Damping force, N/m (stays zero when the damping system is off).
-    pub f_damp: Vec<[f64; 2]>,
-    /// Constant external load (tractions, body forces), N/m.
-    pub load: Vec<[f64; 2]>,
-    /// Lumped mass, kg/m, and its inverse.
+    pub v: Vec<E::Vector>,
+    /// Unbalanced force (internal + external), N/m in 2D, N in 3D.
+    pub force: Vec<E::Vector>,
+    /// Damping force (stays zero when the damping system is off).
+    pub f_damp: Vec<E::Vector>,
+    /// Constant external load (tractions, body forces).
+    pub load: Vec<E::Vector>,
+    /// Lumped mass (kg/m in 2D, kg in 3D) and its inverse.
     pub mass: Vec<f64>,
     pub inv_mass: Vec<f64>,
     /// Bit d set: displacement component d is prescribed to `presc[i][d]`.
     pub fixed: Vec<u8>,
-    pub presc: Vec<[f64; 2]>,
+    pub presc: Vec<E::Vector>,
     pub elem_entity: Vec<Entity>,
     pub elem_id: Vec<u64>,
     /// Dense node indices of each element.
-    pub conn: Vec<[u32; 3]>,
-    /// Element geometry packed as [area, dN0/dx, dN1/dx, dN2/dx, dN0/dy, dN1/dy, dN2/dy].
-    pub geom: Vec<[f64; 7]>,
-    /// Element stress [sxx, syy, sxy], Pa.
-    pub stress: Vec<[f64; 3]>,
-    /// Element nodal forces [f0x, f0y, f1x, f1y, f2x, f2y], N/m.
-    pub elem_force: Vec<[f64; 6]>,
-    /// Node -> (element * 6 + 2 * local node) incidence, CSR, ascending element order.
+    pub conn: Vec<E::Conn>,
+    /// Element geometry: the measure, then the shape-function gradients (2D: [area,
+    /// dN0/dx, dN1/dx, dN2/dx, dN0/dy, dN1/dy, dN2/dy]; 3D: [volume, grad N0, .., grad N3]).
+    pub geom: Vec<E::Geom>,
+    /// Element stress (Voigt), Pa.
+    pub stress: Vec<E::Stress>,
+    /// Element nodal forces, node by node ([f0x, f0y, f1x, ..]).
+    pub elem_force: Vec<E::Forces>,
+    /// Node -> (element * D * NODES + D * local node) incidence, CSR, ascending element order.
     pub inc_ptr: Vec<u32>,
     pub inc: Vec<u32>,
     /// Internal edges (two elements), ordered by stable id: entity, the dense indices of the two
@@ -98,9 +103,18 @@ pub fn incidence<const K: usize>(
     items: &[[u32; K]],
     code: impl Fn(usize, usize) -> u32,
 ) -> (Vec<u32>, Vec<u32>) {
+    incidence_of(n, items, code)
+}
+
+/// [`incidence`] for items of any fixed shape (an element kind's connectivity).
+pub fn incidence_of<C: AsRef<[u32]>>(
+    n: usize,
+    items: &[C],
+    code: impl Fn(usize, usize) -> u32,
+) -> (Vec<u32>, Vec<u32>) {
     let mut ptr = vec![0u32; n + 1];
     for it in items {
-        for &a in it {
+        for &a in it.as_ref() {
             ptr[a as usize + 1] += 1;
         }
     }
@@ -110,7 +124,7 @@ pub fn incidence<const K: usize>(
     let mut fill = ptr.clone();
     let mut inc = vec![0u32; ptr[n] as usize];
     for (e, it) in items.iter().enumerate() {
-        for (k, &a) in it.iter().enumerate() {
+        for (k, &a) in it.as_ref().iter().enumerate() {
             inc[fill[a as usize] as usize] = code(e, k);
             fill[a as usize] += 1;
         }
@@ -151,6 +165,43 @@ fn internal_edges(world: &hecs::World, dense: &[u32], elem_dense: &[u32]) -> Vec
     edges
 }
 
+impl<E: Element> SolidView<E> {
+    pub fn n_nodes(&self) -> usize {
+        self.node_entity.len()
+    }
+    pub fn n_elems(&self) -> usize {
+        self.elem_entity.len()
+    }
+
+    /// Elements at node i: (element, local index), from the incidence.
+    pub fn elements_at(&self, i: u32) -> impl Iterator<Item = (u32, u8)> + '_ {
+        let (s, e) = (
+            self.inc_ptr[i as usize] as usize,
+            self.inc_ptr[i as usize + 1] as usize,
+        );
+        let per = (E::D * E::NODES) as u32;
+        self.inc[s..e]
+            .iter()
+            .map(move |&c| (c / per, ((c % per) / E::D as u32) as u8))
+    }
+
+    /// Whether any node carries an external load (tractions, body forces).
+    pub fn has_load(&self) -> bool {
+        self.load
+            .iter()
+            .any(|l| l.as_ref().iter().any(|&x| x != 0.0))
+    }
+
+    /// The node incidence of the elements (CSR, for the deterministic gather of element
+    /// forces): codes `element * D * NODES + D * local node`.
+    pub fn set_incidence(&mut self) {
+        let per = E::D * E::NODES;
+        (self.inc_ptr, self.inc) = incidence_of(self.n_nodes(), &self.conn, |e, k| {
+            (per * e + E::D * k) as u32
+        });
+    }
+}
+
 impl SolidView {
     /// Joints whose two faces share one end node, by node then joint: (that node, joint, the
     /// daughter pair at the joint's other end [face p's, face q's]). A node listed once is a
@@ -169,15 +220,6 @@ impl SolidView {
         ends
     }
 
-    /// Elements at node i: (element, local index), from the incidence.
-    pub fn elements_at(&self, i: u32) -> impl Iterator<Item = (u32, u8)> + '_ {
-        let (s, e) = (
-            self.inc_ptr[i as usize] as usize,
-            self.inc_ptr[i as usize + 1] as usize,
-        );
-        self.inc[s..e].iter().map(|&c| (c / 6, ((c % 6) / 2) as u8))
-    }
-
     /// Build the view from the model (nodes in the solid only), ordered by stable id.
     pub fn build(model: &Model) -> Self {
         let world = &model.world;
@@ -194,7 +236,7 @@ impl SolidView {
         v.push_nodes(world, &mut dense);
         v.push_elements(world, &dense);
         // Node incidence (CSR) for the deterministic gather of element forces.
-        (v.inc_ptr, v.inc) = incidence(v.n_nodes(), &v.conn, |e, k| (6 * e + 2 * k) as u32);
+        v.set_incidence();
         // Internal edges for the fracture criterion.
         let mut elem_dense = vec![NONE; max_index];
         for (k, e) in v.elem_entity.iter().enumerate() {
@@ -362,13 +404,6 @@ impl SolidView {
         }
     }
 
-    pub fn n_nodes(&self) -> usize {
-        self.node_entity.len()
-    }
-    pub fn n_elems(&self) -> usize {
-        self.elem_entity.len()
-    }
-
     /// Copy the hot state back into the components: displacement, velocity, the element
     /// stresses at the current displacements (computed here; the view's own `stress` lags by
     /// one step and is left alone), joint and edge state.
@@ -399,11 +434,6 @@ impl SolidView {
                 s.fracture_ready = self.edge_ready[k];
             }
         }
-    }
-
-    /// Whether any node carries an external load (tractions, body forces).
-    pub fn has_load(&self) -> bool {
-        self.load.iter().any(|l| l[0] != 0.0 || l[1] != 0.0)
     }
 
     /// Stress of element k at the current displacements, [sxx, syy, sxy], Pa.

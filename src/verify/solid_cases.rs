@@ -445,7 +445,7 @@ pub fn mms_errors(v: &SolidView, p: &solid::SolidParams, mf: &Manufactured) -> (
 
 /// Largest eigenvalue of M^-1 K of a mesh by power iteration (free-free), 1/s^2.
 pub fn max_eigenvalue(view: &SolidView, p: &solid::SolidParams, iters: usize) -> f64 {
-    let mut v = SolidView {
+    let mut v: SolidView = SolidView {
         x0: view.x0.clone(),
         u: view.u.clone(),
         force: view.force.clone(),

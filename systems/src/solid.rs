@@ -5,6 +5,7 @@
 //! reductions are summed over fixed-size chunks in chunk order, so results are bit-identical
 //! for any number of threads.
 
+use hydrofrac_core::dim::Element;
 pub use hydrofrac_core::element::{SolidParams, cst_forces, cst_strain, cst_stress, hooke};
 use hydrofrac_core::scenario::Damping;
 use hydrofrac_core::view::SolidView;
@@ -14,9 +15,9 @@ use rayon::prelude::*;
 pub const ELEM_GRAIN: usize = 4096;
 pub const NODE_CHUNK: usize = 4096;
 
-/// `internal_force`: element stresses and nodal forces, then a gather by node (no atomics).
-/// Overwrites `force` with the internal force.
-pub fn internal_force(v: &mut SolidView, p: &SolidParams) {
+/// `internal_force`: element stresses and nodal forces (CST or TET4, [`Element`]), then a
+/// gather by node (no atomics). Overwrites `force` with the internal force.
+pub fn internal_force<E: Element>(v: &mut SolidView<E>, p: &SolidParams) {
     let (conn, geom, u) = (&v.conn, &v.geom, &v.u);
     v.stress
         .par_iter_mut()
@@ -24,21 +25,24 @@ pub fn internal_force(v: &mut SolidView, p: &SolidParams) {
         .zip(conn.par_iter().zip(geom.par_iter()))
         .with_min_len(ELEM_GRAIN)
         .for_each(|((s, f), (c, g))| {
-            let ue = [u[c[0] as usize], u[c[1] as usize], u[c[2] as usize]];
-            *s = cst_stress(g, ue, p);
-            *f = cst_forces(g, *s);
+            *s = E::stress(g, c, u, p);
+            *f = E::forces(g, s);
         });
-    let ef = v.elem_force.as_flattened();
+    let ef = &v.elem_force;
+    let per = E::D * E::NODES;
     let (ptr, inc) = (&v.inc_ptr, &v.inc);
     v.force
         .par_iter_mut()
         .enumerate()
         .with_min_len(NODE_CHUNK)
         .for_each(|(i, f)| {
-            let mut acc = [0.0; 2];
+            let mut acc = E::Vector::default();
             for &k in &inc[ptr[i] as usize..ptr[i + 1] as usize] {
-                acc[0] += ef[k as usize];
-                acc[1] += ef[k as usize + 1];
+                let (e, o) = (k as usize / per, k as usize % per);
+                let fe = ef[e].as_ref();
+                for d in 0..E::D {
+                    acc[d] += fe[o + d];
+                }
             }
             *f = acc;
         });
@@ -46,24 +50,25 @@ pub fn internal_force(v: &mut SolidView, p: &SolidParams) {
 
 /// Recompute element stresses from the current displacements (the stress kept by
 /// `internal_force` lags the displacement by one step).
-pub fn update_stress(v: &mut SolidView, p: &SolidParams) {
+pub fn update_stress<E: Element>(v: &mut SolidView<E>, p: &SolidParams) {
     let (conn, geom, u) = (&v.conn, &v.geom, &v.u);
     v.stress
         .par_iter_mut()
         .zip(conn.par_iter().zip(geom.par_iter()))
         .with_min_len(ELEM_GRAIN)
-        .for_each(|(s, (c, g))| *s = cst_stress(g, c.map(|a| u[a as usize]), p));
+        .for_each(|(s, (c, g))| *s = E::stress(g, c, u, p));
 }
 
 /// `external_load`: add the external loads (tractions, body forces) times the load factor.
-pub fn external_load(v: &mut SolidView, lf: f64) {
+pub fn external_load<E: Element>(v: &mut SolidView<E>, lf: f64) {
     v.force
         .par_iter_mut()
         .zip(v.load.par_iter())
         .with_min_len(NODE_CHUNK)
         .for_each(|(f, l)| {
-            f[0] += lf * l[0];
-            f[1] += lf * l[1];
+            for d in 0..E::D {
+                f[d] += lf * l[d];
+            }
         });
 }
 
@@ -89,17 +94,17 @@ pub fn local_damping(alpha: f64, f: f64, s: f64) -> f64 {
 /// `damping`: damping force from the unbalanced force and the velocity.
 /// Local (Cundall): -alpha |F| sign(v_new) per component, with v_new the undamped predictor;
 /// viscous: -c m v.
-pub fn damping(v: &mut SolidView, p: &SolidParams, dt: f64) {
+pub fn damping<E: Element>(v: &mut SolidView<E>, p: &SolidParams, dt: f64) {
     let (force, vel, mass, inv_m) = (&v.force, &v.v, &v.mass, &v.inv_mass);
     match p.damping {
-        Damping::None => v.f_damp.iter_mut().for_each(|f| *f = [0.0; 2]),
+        Damping::None => v.f_damp.iter_mut().for_each(|f| *f = E::Vector::default()),
         Damping::Local(alpha) => v
             .f_damp
             .par_iter_mut()
             .enumerate()
             .with_min_len(NODE_CHUNK)
             .for_each(|(i, fd)| {
-                for d in 0..2 {
+                for d in 0..E::D {
                     // Sign of the undamped predictor v + dt F/m, i.e. of the new velocity: with
                     // the sign of the old velocity the damping force feeds the highest mode
                     // (whose velocity flips every step) and the scheme is unstable near dt_crit.
@@ -113,8 +118,9 @@ pub fn damping(v: &mut SolidView, p: &SolidParams, dt: f64) {
             .enumerate()
             .with_min_len(NODE_CHUNK)
             .for_each(|(i, fd)| {
-                fd[0] = -c * mass[i] * vel[i][0];
-                fd[1] = -c * mass[i] * vel[i][1];
+                for d in 0..E::D {
+                    fd[d] = -c * mass[i] * vel[i][d];
+                }
             }),
     }
 }
@@ -256,27 +262,38 @@ impl StepStats {
 }
 
 /// `integrate`'s data for one node's update.
-struct NodeStep<'a> {
+struct NodeStep<'a, E: Element> {
     dt: f64,
     lf: f64,
-    force: &'a [[f64; 2]],
-    fdamp: &'a [[f64; 2]],
+    force: &'a [E::Vector],
+    fdamp: &'a [E::Vector],
     inv_m: &'a [f64],
     mass: &'a [f64],
     fixed: &'a [u8],
-    presc: &'a [[f64; 2]],
-    load: &'a [[f64; 2]],
+    presc: &'a [E::Vector],
+    load: &'a [E::Vector],
 }
 
-impl NodeStep<'_> {
+/// a . b, summed from the first component on (as the 2D kernels always did: no 0.0 + a).
+#[inline(always)]
+fn dot<V: hydrofrac_core::dim::Numbers>(a: &V, b: &V) -> f64 {
+    let (a, b) = (a.as_ref(), b.as_ref());
+    let mut s = a[0] * b[0];
+    for d in 1..a.len() {
+        s += a[d] * b[d];
+    }
+    s
+}
+
+impl<E: Element> NodeStep<'_, E> {
     /// Node i's central-difference update, adding to the step statistics; returns the
     /// largest change of its displacement components, m.
     #[inline(always)]
-    fn node(&self, i: usize, u: &mut [f64; 2], vel: &mut [f64; 2], st: &mut StepStats) -> f64 {
+    fn node(&self, i: usize, u: &mut E::Vector, vel: &mut E::Vector, st: &mut StepStats) -> f64 {
         let (dt, lf) = (self.dt, self.lf);
         let v_old = *vel;
         let u_old = *u;
-        for d in 0..2 {
+        for d in 0..E::D {
             let f = self.force[i][d];
             let l = lf * self.load[i][d];
             st.strain -= 0.5 * u[d] * (f - l);
@@ -291,24 +308,30 @@ impl NodeStep<'_> {
                 u[d] = flush_tiny(u[d] + dt * vel[d]);
             }
         }
-        let s2 = vel[0] * vel[0] + vel[1] * vel[1];
+        let s2 = dot(vel, vel);
         st.kinetic += 0.5 * self.mass[i] * s2;
-        st.kinetic_mid += 0.5 * self.mass[i] * (v_old[0] * vel[0] + v_old[1] * vel[1]);
-        if !(s2.is_finite() && u[0].is_finite() && u[1].is_finite()) {
+        st.kinetic_mid += 0.5 * self.mass[i] * dot(&v_old, vel);
+        if !(s2.is_finite() && u.as_ref().iter().all(|x| x.is_finite())) {
             st.non_finite.get_or_insert(i);
         } else if s2 > st.vmax * st.vmax {
             st.vmax = s2.sqrt();
             st.vmax_node = i;
         }
-        let (d0, d1) = ((u[0] - u_old[0]).abs(), (u[1] - u_old[1]).abs());
-        if d1 > d0 { d1 } else { d0 }
+        let mut change = (u[0] - u_old[0]).abs();
+        for d in 1..E::D {
+            let c = (u[d] - u_old[d]).abs();
+            if c > change {
+                change = c;
+            }
+        }
+        change
     }
 }
 
 /// `integrate`: central difference, v += dt (F + F_damp)/m, u += dt v; prescribed components
 /// are held at their value with zero velocity. Returns the step statistics.
-pub fn integrate(v: &mut SolidView, dt: f64, lf: f64) -> StepStats {
-    let step = NodeStep {
+pub fn integrate<E: Element>(v: &mut SolidView<E>, dt: f64, lf: f64) -> StepStats {
+    let step = NodeStep::<E> {
         dt,
         lf,
         force: &v.force,
@@ -398,9 +421,9 @@ pub fn integrate(v: &mut SolidView, dt: f64, lf: f64) -> StepStats {
     stats
 }
 
-/// Strain energy 1/2 sum_e A sigma:epsilon, J/m, from the current element stresses
-/// (plane strain: the zz term vanishes because eps_zz = 0).
-pub fn strain_energy(v: &SolidView, p: &SolidParams) -> f64 {
+/// Strain energy 1/2 sum_e measure sigma:epsilon (J/m in plane strain, where the zz term
+/// vanishes because eps_zz = 0; J in 3D), from the current displacements.
+pub fn strain_energy<E: Element>(v: &SolidView<E>, p: &SolidParams) -> f64 {
     let partial: Vec<f64> = v
         .conn
         .par_chunks(ELEM_GRAIN)
@@ -408,10 +431,7 @@ pub fn strain_energy(v: &SolidView, p: &SolidParams) -> f64 {
         .map(|(cc, gc)| {
             let mut e = 0.0;
             for (c, g) in cc.iter().zip(gc) {
-                let ue = [v.u[c[0] as usize], v.u[c[1] as usize], v.u[c[2] as usize]];
-                let eps = cst_strain(g, ue);
-                let s = hooke(eps, p);
-                e += 0.5 * g[0] * (s[0] * eps[0] + s[1] * eps[1] + s[2] * eps[2]);
+                e += E::strain_energy(g, c, &v.u, p);
             }
             e
         })

@@ -1,0 +1,200 @@
+//! Where the dimension enters: the solid element kind of a run, CST (2D, plane strain) or TET4
+//! (3D). The dense solid view ([`crate::view::SolidView`]) and the solid systems
+//! (`hydrofrac_systems::solid`: internal force, external load, damping, central-difference
+//! integration, strain energy) are written once, generic over [`Element`]; the element formulas
+//! stay in their homes ([`crate::element`] for the CST, [`crate::tet4`] for the TET4) and this
+//! module only names them.
+//!
+//! The 2D kind is the default type parameter everywhere, so 2D code reads `SolidView` and its
+//! fields are the concrete arrays they always were; the generic kernels do the same operations
+//! in the same order as the 2D ones did, so 2D results are unchanged to the bit.
+//!
+//! Units: SI. Measures are per unit thickness in 2D (area m^2, forces N/m, masses kg/m) and
+//! absolute in 3D (volume m^3, forces N, masses kg).
+
+use crate::element::{SolidParams, cst_forces, cst_strain, cst_stress, hooke};
+use crate::tet4;
+use serde::Serialize;
+use serde::de::DeserializeOwned;
+use std::fmt::Debug;
+use std::ops::{Index, IndexMut};
+
+/// A small fixed array of numbers (a node vector, an element's stress or nodal forces).
+pub trait Numbers:
+    Copy
+    + Default
+    + Debug
+    + PartialEq
+    + Send
+    + Sync
+    + 'static
+    + Index<usize, Output = f64>
+    + IndexMut<usize>
+    + AsRef<[f64]>
+    + AsMut<[f64]>
+    + Serialize
+    + DeserializeOwned
+{
+}
+
+impl<T> Numbers for T where
+    T: Copy
+        + Default
+        + Debug
+        + PartialEq
+        + Send
+        + Sync
+        + 'static
+        + Index<usize, Output = f64>
+        + IndexMut<usize>
+        + AsRef<[f64]>
+        + AsMut<[f64]>
+        + Serialize
+        + DeserializeOwned
+{
+}
+
+/// A solid element kind: its space dimension, the shapes of its per-node and per-element data,
+/// and the kernels of the explicit step (strain, stress and nodal forces of one element).
+pub trait Element:
+    Copy + Clone + Default + Debug + PartialEq + Send + Sync + 'static + Serialize + DeserializeOwned
+{
+    /// Space dimension (2 or 3).
+    const D: usize;
+    /// Nodes per element.
+    const NODES: usize;
+    /// A node vector (position, displacement, velocity, force): `[f64; D]`.
+    type Vector: Numbers;
+    /// The dense node indices of one element: `[u32; NODES]`.
+    type Conn: Copy
+        + Default
+        + Debug
+        + PartialEq
+        + Send
+        + Sync
+        + 'static
+        + AsRef<[u32]>
+        + Serialize
+        + DeserializeOwned;
+    /// The element's reference geometry (measure and shape-function gradients).
+    type Geom: Copy
+        + Default
+        + Debug
+        + PartialEq
+        + Send
+        + Sync
+        + 'static
+        + Serialize
+        + DeserializeOwned;
+    /// Stress (Pa) in Voigt order: `[xx, yy, xy]` in 2D, `[xx, yy, zz, xy, yz, zx]` in 3D.
+    type Stress: Numbers;
+    /// Nodal forces of one element, node by node: `[f64; D * NODES]`.
+    type Forces: Numbers;
+
+    /// Area (2D, m^2) or volume (3D, m^3) of the element.
+    fn measure(g: &Self::Geom) -> f64;
+    /// Stress of the element `c` from the displacements `u` of every node (m), Pa.
+    fn stress(g: &Self::Geom, c: &Self::Conn, u: &[Self::Vector], p: &SolidParams) -> Self::Stress;
+    /// Nodal internal forces f_a = -measure B_a^T sigma (N/m in 2D, N in 3D).
+    fn forces(g: &Self::Geom, s: &Self::Stress) -> Self::Forces;
+    /// Strain energy of the element, 1/2 measure sigma:epsilon (J/m in 2D, J in 3D).
+    fn strain_energy(g: &Self::Geom, c: &Self::Conn, u: &[Self::Vector], p: &SolidParams) -> f64;
+}
+
+/// The plane-strain constant-strain triangle (2D). Geometry `[A, dN/dx (3), dN/dy (3)]`.
+#[derive(
+    Clone, Copy, Debug, Default, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize,
+)]
+pub struct Cst;
+
+impl Element for Cst {
+    const D: usize = 2;
+    const NODES: usize = 3;
+    type Vector = [f64; 2];
+    type Conn = [u32; 3];
+    type Geom = [f64; 7];
+    type Stress = [f64; 3];
+    type Forces = [f64; 6];
+
+    #[inline(always)]
+    fn measure(g: &[f64; 7]) -> f64 {
+        g[0]
+    }
+    #[inline(always)]
+    fn stress(g: &[f64; 7], c: &[u32; 3], u: &[[f64; 2]], p: &SolidParams) -> [f64; 3] {
+        cst_stress(g, [u[c[0] as usize], u[c[1] as usize], u[c[2] as usize]], p)
+    }
+    #[inline(always)]
+    fn forces(g: &[f64; 7], s: &[f64; 3]) -> [f64; 6] {
+        cst_forces(g, *s)
+    }
+    #[inline(always)]
+    fn strain_energy(g: &[f64; 7], c: &[u32; 3], u: &[[f64; 2]], p: &SolidParams) -> f64 {
+        // Plane strain: the zz term vanishes because eps_zz = 0.
+        let eps = cst_strain(g, [u[c[0] as usize], u[c[1] as usize], u[c[2] as usize]]);
+        let s = hooke(eps, p);
+        0.5 * g[0] * (s[0] * eps[0] + s[1] * eps[1] + s[2] * eps[2])
+    }
+}
+
+/// The linear tetrahedron (3D). Geometry `[V, grad N_0, grad N_1, grad N_2, grad N_3]`
+/// (m^3 and 1/m).
+#[derive(
+    Clone, Copy, Debug, Default, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize,
+)]
+pub struct Tet4;
+
+/// A TET4's packed geometry: volume, then the four shape-function gradients.
+#[inline(always)]
+pub fn tet_geometry(g: &[f64; 13]) -> tet4::TetGeometry {
+    tet4::TetGeometry {
+        volume: g[0],
+        grad: [0, 1, 2, 3].map(|a| [g[1 + 3 * a], g[2 + 3 * a], g[3 + 3 * a]]),
+    }
+}
+
+/// Pack a TET4's geometry as the view holds it.
+pub fn pack_tet_geometry(g: &tet4::TetGeometry) -> [f64; 13] {
+    let mut p = [0.0; 13];
+    p[0] = g.volume;
+    for a in 0..4 {
+        p[1 + 3 * a..4 + 3 * a].copy_from_slice(&g.grad[a]);
+    }
+    p
+}
+
+impl Element for Tet4 {
+    const D: usize = 3;
+    const NODES: usize = 4;
+    type Vector = [f64; 3];
+    type Conn = [u32; 4];
+    type Geom = [f64; 13];
+    type Stress = [f64; 6];
+    type Forces = [f64; 12];
+
+    #[inline(always)]
+    fn measure(g: &[f64; 13]) -> f64 {
+        g[0]
+    }
+    #[inline(always)]
+    fn stress(g: &[f64; 13], c: &[u32; 4], u: &[[f64; 3]], p: &SolidParams) -> [f64; 6] {
+        let ue = c.map(|a| u[a as usize]);
+        tet4::hooke(tet4::strain(&tet_geometry(g), ue), p)
+    }
+    #[inline(always)]
+    fn forces(g: &[f64; 13], s: &[f64; 6]) -> [f64; 12] {
+        let f = tet4::forces(&tet_geometry(g), *s);
+        let mut out = [0.0; 12];
+        for a in 0..4 {
+            out[3 * a..3 * a + 3].copy_from_slice(&f[a]);
+        }
+        out
+    }
+    #[inline(always)]
+    fn strain_energy(g: &[f64; 13], c: &[u32; 4], u: &[[f64; 3]], p: &SolidParams) -> f64 {
+        let eps = tet4::strain(&tet_geometry(g), c.map(|a| u[a as usize]));
+        let s = tet4::hooke(eps, p);
+        // Voigt with engineering shear: sigma:epsilon = sum_k s_k e_k.
+        0.5 * g[0] * (0..6).map(|k| s[k] * eps[k]).sum::<f64>()
+    }
+}
