@@ -25,6 +25,7 @@ pub mod fractures;
 pub mod gmsh;
 pub mod mesh;
 pub mod model;
+pub mod model3;
 pub mod network;
 pub mod output;
 pub mod params;

@@ -13,8 +13,11 @@ use hydrofrac_components::*;
 pub struct Model {
     pub world: World,
     pub material: Material,
-    /// Domain bounding box `[xmin, ymin, xmax, ymax]`, m.
+    /// Domain bounding box `[xmin, ymin, xmax, ymax]`, m (in 3D, the box's x-y extent).
     pub bbox: [f64; 4],
+    /// A 3D model's box `[xmin, ymin, zmin, xmax, ymax, zmax]`, m; `None` in 2D
+    /// ([`Model::from_tet_mesh`], `model3.rs`).
+    pub bbox3: Option<[f64; 6]>,
     /// Nominal mesh size, m.
     pub h: f64,
     /// Smallest triangle altitude, m.
@@ -168,6 +171,7 @@ impl Model {
             world,
             material,
             bbox: mesh.bbox,
+            bbox3: None,
             h: mesh.h,
             min_altitude: mesh.min_altitude(),
             topology_generation: 0,
@@ -189,6 +193,7 @@ impl Model {
                 density: 1.0,
             },
             bbox: [0.0; 4],
+            bbox3: None,
             h: 1.0,
             min_altitude: f64::INFINITY,
             topology_generation: 0,
@@ -415,6 +420,9 @@ impl Model {
                 bottom,
                 top,
             } => [left, right, bottom, top],
+            // A 2D mesh with a 3D box's boundary is refused by the scenario's checks
+            // (`Scenario::validate`); nothing to hold here.
+            Boundary::InSitu3 { .. } | Boundary::Sides3 { .. } => [SideBc::Free; 4],
         };
         let side_index = |s: Side| Side::ALL.iter().position(|&t| t == s).expect("side");
         // Prescribed displacements.

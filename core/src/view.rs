@@ -202,6 +202,101 @@ impl<E: Element> SolidView<E> {
     }
 }
 
+/// The element kinds whose views a [`Model`] builds: the one place the engine chooses between
+/// the 2D ([`SolidView::build`]) and 3D ([`SolidView::build_3d`]) entities.
+pub trait ModelView: Element {
+    /// The view of the model's solid, ordered by stable id.
+    fn build_view(model: &Model) -> SolidView<Self>;
+    /// Copy the view's hot state back into the model's components.
+    fn write_back(v: &SolidView<Self>, model: &mut Model, p: &SolidParams);
+}
+
+impl ModelView for Cst {
+    fn build_view(model: &Model) -> SolidView<Cst> {
+        SolidView::<Cst>::build(model)
+    }
+    fn write_back(v: &SolidView<Cst>, model: &mut Model, p: &SolidParams) {
+        v.write_back(model, p)
+    }
+}
+
+impl ModelView for crate::dim::Tet4 {
+    fn build_view(model: &Model) -> SolidView<Self> {
+        SolidView::build_3d(model)
+    }
+    fn write_back(v: &SolidView<Self>, model: &mut Model, p: &SolidParams) {
+        v.write_back_3d(model, p)
+    }
+}
+
+/// One solid node as the view takes it: stable id, entity, reference position (m),
+/// displacement (m), velocity (m/s), lumped mass, constant load, and the prescribed components
+/// (bit d of `fixed`) with their values (m).
+pub struct NodeRow<E: Element> {
+    pub id: u64,
+    pub entity: Entity,
+    pub x: E::Vector,
+    pub u: E::Vector,
+    pub v: E::Vector,
+    pub mass: f64,
+    pub load: E::Vector,
+    pub fixed: u8,
+    pub presc: E::Vector,
+}
+
+/// Bit d set where component d is prescribed.
+pub fn fixed_mask(prescribed: &[Option<f64>]) -> u8 {
+    let mut mask = 0u8;
+    for (d, p) in prescribed.iter().enumerate() {
+        if p.is_some() {
+            mask |= 1 << d;
+        }
+    }
+    mask
+}
+
+impl<E: Element> SolidView<E> {
+    /// Fill the node arrays from `nodes` (any order; sorted here by stable id) and record
+    /// each node entity's dense index in `dense` (by entity index).
+    pub fn push_node_rows(&mut self, mut nodes: Vec<NodeRow<E>>, dense: &mut [u32]) {
+        nodes.sort_unstable_by_key(|r| r.id);
+        let n = nodes.len();
+        self.node_entity.reserve(n);
+        for (i, r) in nodes.into_iter().enumerate() {
+            dense[r.entity.id() as usize] = i as u32;
+            self.node_entity.push(r.entity);
+            self.node_id.push(r.id);
+            self.x0.push(r.x);
+            self.u.push(r.u);
+            self.v.push(r.v);
+            self.mass.push(r.mass);
+            self.inv_mass
+                .push(if r.mass > 0.0 { 1.0 / r.mass } else { 0.0 });
+            self.load.push(r.load);
+            self.fixed.push(r.fixed);
+            self.presc.push(r.presc);
+        }
+        self.force = vec![E::Vector::default(); n];
+        self.f_damp = vec![E::Vector::default(); n];
+    }
+
+    /// Fill the element arrays from (stable id, entity, dense connectivity, geometry, stress)
+    /// rows (any order; sorted here by stable id).
+    pub fn push_elem_rows(&mut self, mut elems: Vec<(u64, Entity, E::Conn, E::Geom, E::Stress)>) {
+        elems.sort_unstable_by_key(|r| r.0);
+        let ne = elems.len();
+        self.elem_entity.reserve(ne);
+        for (id, e, c, g, s) in elems {
+            self.elem_entity.push(e);
+            self.elem_id.push(id);
+            self.conn.push(c);
+            self.geom.push(g);
+            self.stress.push(s);
+        }
+        self.elem_force = vec![E::Forces::default(); ne];
+    }
+}
+
 impl SolidView {
     /// Joints whose two faces share one end node, by node then joint: (that node, joint, the
     /// daughter pair at the joint's other end [face p's, face q's]). A node listed once is a
@@ -254,7 +349,7 @@ impl SolidView {
     /// prescribed displacements (mask and values, m); `dense` maps each node entity's index to
     /// its dense index.
     fn push_nodes(&mut self, world: &hecs::World, dense: &mut [u32]) {
-        let mut nodes: Vec<(u64, Entity, [f64; 2], NodeState, f64, NodeBc)> = world
+        let nodes: Vec<NodeRow<Cst>> = world
             .query::<(
                 Entity,
                 &StableId,
@@ -266,59 +361,40 @@ impl SolidView {
             )>()
             .iter()
             .filter(|r| r.6.in_solid)
-            .map(|(e, id, x, s, m, bc, _)| (id.0, e, x.0, *s, m.0, *bc))
+            .map(|(e, id, x, s, m, bc, _)| NodeRow {
+                id: id.0,
+                entity: e,
+                x: x.0,
+                u: s.u,
+                v: s.v,
+                mass: m.0,
+                load: bc.load,
+                fixed: fixed_mask(&bc.prescribed),
+                presc: bc.prescribed.map(|p| p.unwrap_or(0.0)),
+            })
             .collect();
-        nodes.sort_unstable_by_key(|r| r.0);
-        let n = nodes.len();
-        let v = self;
-        v.node_entity.reserve(n);
-        for (i, (id, e, x, s, m, bc)) in nodes.into_iter().enumerate() {
-            dense[e.id() as usize] = i as u32;
-            v.node_entity.push(e);
-            v.node_id.push(id);
-            v.x0.push(x);
-            v.u.push(s.u);
-            v.v.push(s.v);
-            v.mass.push(m);
-            v.inv_mass.push(if m > 0.0 { 1.0 / m } else { 0.0 });
-            v.load.push(bc.load);
-            let mut mask = 0u8;
-            let mut p = [0.0; 2];
-            for d in 0..2 {
-                if let Some(val) = bc.prescribed[d] {
-                    mask |= 1 << d;
-                    p[d] = val;
-                }
-            }
-            v.fixed.push(mask);
-            v.presc.push(p);
-        }
-        v.force = vec![[0.0; 2]; n];
-        v.f_damp = vec![[0.0; 2]; n];
+        self.push_node_rows(nodes, dense);
     }
 
     /// The elements by stable id: connectivity (dense node indices), geometry (area m^2 and
     /// shape-function gradients 1/m) and stress (Pa).
     fn push_elements(&mut self, world: &hecs::World, dense: &[u32]) {
-        let mut elems: Vec<(u64, Entity, ElemNodes, ElemGeom, [f64; 3])> = world
+        let elems: Vec<(u64, Entity, [u32; 3], [f64; 7], [f64; 3])> = world
             .query::<(Entity, &StableId, &ElemNodes, &ElemGeom, &ElemStress)>()
             .iter()
-            .map(|(e, id, en, g, s)| (id.0, e, *en, *g, s.0))
+            .map(|(e, id, en, g, s)| {
+                (
+                    id.0,
+                    e,
+                    en.0.map(|n| dense[n.id() as usize]),
+                    [
+                        g.area, g.dndx[0], g.dndx[1], g.dndx[2], g.dndy[0], g.dndy[1], g.dndy[2],
+                    ],
+                    s.0,
+                )
+            })
             .collect();
-        elems.sort_unstable_by_key(|r| r.0);
-        let ne = elems.len();
-        let v = self;
-        v.elem_entity.reserve(ne);
-        for (id, e, en, g, s) in elems {
-            v.elem_entity.push(e);
-            v.elem_id.push(id);
-            v.conn.push(en.0.map(|n| dense[n.id() as usize]));
-            v.geom.push([
-                g.area, g.dndx[0], g.dndx[1], g.dndx[2], g.dndy[0], g.dndy[1], g.dndy[2],
-            ]);
-            v.stress.push(s);
-        }
-        v.elem_force = vec![[0.0; 6]; ne];
+        self.push_elem_rows(elems);
     }
 
     /// Per internal edge (in `edges`' order), the patch of elements around it whose centroids

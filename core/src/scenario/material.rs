@@ -61,6 +61,33 @@ pub enum Boundary {
         #[serde(default)]
         top: SideBc,
     },
+    /// 3D: normal displacements on all six sides of the box by 3D Hooke's law so that the
+    /// unfractured body carries the principal stresses (sxx, syy, szz) along the axes, Pa,
+    /// tension positive. The box's centre stays put; tangential motion is free.
+    InSitu3 { sxx: f64, syy: f64, szz: f64 },
+    /// 3D: one condition per side of the box (`front`/`back`: y = min/max; `bottom`/`top`:
+    /// z = min/max). A traction is normal only (`shear: 0`).
+    Sides3 {
+        #[serde(default)]
+        left: SideBc,
+        #[serde(default)]
+        right: SideBc,
+        #[serde(default)]
+        front: SideBc,
+        #[serde(default)]
+        back: SideBc,
+        #[serde(default)]
+        bottom: SideBc,
+        #[serde(default)]
+        top: SideBc,
+    },
+}
+
+impl Boundary {
+    /// Whether the boundary is a 3D box's (`InSitu3`, `Sides3`).
+    pub fn is_3d(&self) -> bool {
+        matches!(self, Boundary::InSitu3 { .. } | Boundary::Sides3 { .. })
+    }
 }
 
 impl Default for Boundary {
@@ -221,6 +248,38 @@ impl Boundary {
                     ("top", top),
                 ] {
                     bc.validate(name)?;
+                }
+            }
+            Boundary::InSitu3 { sxx, syy, szz } => {
+                finite("boundary.sxx", *sxx)?;
+                finite("boundary.syy", *syy)?;
+                finite("boundary.szz", *szz)?;
+            }
+            Boundary::Sides3 {
+                left,
+                right,
+                front,
+                back,
+                bottom,
+                top,
+            } => {
+                for (name, bc) in [
+                    ("left", left),
+                    ("right", right),
+                    ("front", front),
+                    ("back", back),
+                    ("bottom", bottom),
+                    ("top", top),
+                ] {
+                    bc.validate(name)?;
+                    if let SideBc::Traction { shear, .. } = bc
+                        && *shear != 0.0
+                    {
+                        return Err(SetupError::invalid(
+                            &format!("boundary.{name}.shear"),
+                            "a shear traction on a 3D side has no direction yet: use 0",
+                        ));
+                    }
                 }
             }
         }

@@ -1,0 +1,356 @@
+//! The 3D rock as entities: nodes, tetrahedra and faces spawned from a [`TetMesh`], its
+//! boundary conditions, the in-situ initial state, and the dense TET4 view built from them.
+//! The 3D counterparts of [`Model::from_mesh`], [`Model::apply_boundary`] and
+//! [`SolidView::build`]; the view's node and element filling is shared with 2D
+//! ([`SolidView::push_node_rows`], [`SolidView::push_elem_rows`]).
+//!
+//! Units: m, Pa, kg, N; tension positive. The vertical axis is z (`Bottom`, `Top`); y is
+//! `Front` (min) and `Back` (max).
+
+use crate::dim::{Tet4, pack_tet_geometry};
+use crate::error::SetupError;
+use crate::model::Model;
+use crate::scenario::{Boundary, Material, SideBc};
+use crate::tet4;
+use crate::tetmesh::TetMesh;
+use crate::view::{NONE, NodeRow, SolidView, fixed_mask};
+use hecs::{Entity, World};
+use hydrofrac_components::*;
+
+/// 3D node components.
+pub type NodeRef3 = NodeRef<[f64; 3]>;
+pub type NodeState3 = NodeState<[f64; 3]>;
+pub type NodeBc3 = NodeBc<[f64; 3], [Option<f64>; 3]>;
+pub type TetNodes = ElemNodes<[Entity; 4]>;
+pub type TetStress = ElemStress<[f64; 6]>;
+
+impl Material {
+    /// Strains (exx, eyy, ezz) that give the principal stresses (sxx, syy, szz) along the axes,
+    /// Pa, by 3D Hooke's law: exx = (sxx - nu (syy + szz)) / E, and cyclically.
+    pub fn strain_3d(&self, s: [f64; 3]) -> [f64; 3] {
+        let (e, nu) = (self.young, self.poisson);
+        [
+            (s[0] - nu * (s[1] + s[2])) / e,
+            (s[1] - nu * (s[2] + s[0])) / e,
+            (s[2] - nu * (s[0] + s[1])) / e,
+        ]
+    }
+}
+
+impl Model {
+    /// Spawn nodes (lumped mass rho V / 4 from every tetrahedron around them), tetrahedra and
+    /// faces (each triangle once, with the one or two tetrahedra on its sides and, on the
+    /// boundary, the side of the box it lies on). Stable ids follow the mesh's numbering; faces
+    /// are numbered by sorted node triples. Errors name a degenerate or inverted tetrahedron.
+    pub fn from_tet_mesh(mesh: &TetMesh, material: Material) -> Result<Self, SetupError> {
+        let mut world = World::new();
+        let mut geoms = Vec::with_capacity(mesh.tets.len());
+        let mut min_edge = f64::INFINITY;
+        for t in 0..mesh.tets.len() {
+            let x = mesh.corners(t);
+            let g = tet4::geometry(x).ok_or_else(|| {
+                SetupError::invalid(
+                    "mesh",
+                    format!("tetrahedron {t} is degenerate or inverted (nodes {:?})", mesh.tets[t]),
+                )
+            })?;
+            for a in 0..4 {
+                for b in a + 1..4 {
+                    let d = (0..3).map(|k| (x[b][k] - x[a][k]).powi(2)).sum::<f64>();
+                    min_edge = min_edge.min(d.sqrt());
+                }
+            }
+            geoms.push(g);
+        }
+        let mut mass = vec![0.0; mesh.nodes.len()];
+        for (t, g) in mesh.tets.iter().zip(&geoms) {
+            for &n in t {
+                mass[n as usize] += tet4::lumped_mass(g, material.density);
+            }
+        }
+        let nodes: Vec<Entity> = mesh
+            .nodes
+            .iter()
+            .zip(&mass)
+            .enumerate()
+            .map(|(i, (&x, &m))| {
+                let bundle: Node3Bundle = (
+                    StableId(i as u64),
+                    NodeRef(x),
+                    NodeState::default(),
+                    NodeMass(m),
+                    NodeBc::default(),
+                    NodeLink {
+                        in_solid: true,
+                        mother: None,
+                    },
+                );
+                world.spawn(bundle)
+            })
+            .collect();
+        let elems: Vec<Entity> = mesh
+            .tets
+            .iter()
+            .zip(&geoms)
+            .enumerate()
+            .map(|(i, (t, g))| {
+                let bundle: Tet4Bundle = (
+                    StableId(i as u64),
+                    ElemNodes(t.map(|n| nodes[n as usize])),
+                    TetGeom(pack_tet_geometry(g)),
+                    ElemStress::default(),
+                );
+                world.spawn(bundle)
+            })
+            .collect();
+        // Faces: sorted node triples with their tetrahedra, in triple order.
+        let mut faces: Vec<([u32; 3], Vec<u32>)> = mesh.faces().into_iter().collect();
+        faces.sort_unstable_by_key(|f| f.0);
+        let [x0, y0, z0, x1, y1, z1] = mesh.bbox;
+        let tol = 1e-9 * min_edge;
+        let side_of = |f: [u32; 3]| -> Option<Side> {
+            let p = f.map(|n| mesh.nodes[n as usize]);
+            let on = |d: usize, c: f64| p.iter().all(|q| (q[d] - c).abs() < tol);
+            [
+                (0, x0, Side::Left),
+                (0, x1, Side::Right),
+                (1, y0, Side::Front),
+                (1, y1, Side::Back),
+                (2, z0, Side::Bottom),
+                (2, z1, Side::Top),
+            ]
+            .into_iter()
+            .find(|&(d, c, _)| on(d, c))
+            .map(|s| s.2)
+        };
+        for (id, (f, ts)) in faces.iter().enumerate() {
+            if ts.len() > 2 {
+                return Err(SetupError::invalid(
+                    "mesh",
+                    format!("face {f:?} is shared by more than two tetrahedra"),
+                ));
+            }
+            let second = ts.get(1).map(|&t| elems[t as usize]);
+            let side = if second.is_none() { side_of(*f) } else { None };
+            let bundle: FaceBundle = (
+                StableId(id as u64),
+                FaceNodes(f.map(|n| nodes[n as usize])),
+                EdgeElems([Some(elems[ts[0] as usize]), second]),
+                EdgeState {
+                    side,
+                    ..Default::default()
+                },
+            );
+            world.spawn(bundle);
+        }
+        Ok(Model {
+            world,
+            material,
+            bbox: [x0, y0, x1, y1],
+            bbox3: Some(mesh.bbox),
+            h: min_edge,
+            min_altitude: f64::INFINITY,
+            topology_generation: 0,
+            next_node_id: mesh.nodes.len() as u64,
+            next_elem_id: mesh.tets.len() as u64,
+            next_edge_id: faces.len() as u64,
+            next_cell_id: 0,
+            next_joint_id: 0,
+        })
+    }
+
+    /// Whether this is a 3D model ([`Model::from_tet_mesh`]).
+    pub fn is_3d(&self) -> bool {
+        self.bbox3.is_some()
+    }
+
+    /// The 3D box, `[xmin, ymin, zmin, xmax, ymax, zmax]`, m.
+    fn box3(&self) -> [f64; 6] {
+        self.bbox3.expect("a 3D model")
+    }
+
+    /// Store a 3D scenario's boundary conditions on the nodes: prescribed normal displacements
+    /// (`Normal`, and `InSitu3`'s Hooke displacements about the box's centre), `Fixed` sides
+    /// and normal tractions (t A / 3 to each node of a boundary face of area A). Previous
+    /// conditions are replaced.
+    pub fn apply_boundary3(&mut self, boundary: &Boundary) -> Result<(), SetupError> {
+        let b = self.box3();
+        let bc_of: [SideBc; 6] = match *boundary {
+            Boundary::InSitu3 { sxx, syy, szz } => {
+                let e = self.material.strain_3d([sxx, syy, szz]);
+                let half = [0, 1, 2].map(|d| 0.5 * (b[d + 3] - b[d]));
+                [0, 0, 1, 1, 2, 2].map(|d| SideBc::Normal(e[d] * half[d]))
+            }
+            Boundary::Sides3 {
+                left,
+                right,
+                front,
+                back,
+                bottom,
+                top,
+            } => [left, right, front, back, bottom, top],
+            Boundary::InSitu { .. } | Boundary::Sides { .. } => {
+                return Err(SetupError::invalid(
+                    "boundary",
+                    "a 3D mesh takes `InSitu3(sxx, syy, szz)` or `Sides3(..)` (six sides)",
+                ));
+            }
+        };
+        let index = |s: Side| Side::ALL3.iter().position(|&t| t == s).expect("side");
+        let mut node_sides: std::collections::HashMap<Entity, Vec<Side>> = Default::default();
+        for (fnodes, st) in self.world.query::<(&FaceNodes, &EdgeState)>().iter() {
+            if let (Some(side), false) = (st.side, st.opened) {
+                for n in fnodes.0 {
+                    let v = node_sides.entry(n).or_default();
+                    if !v.contains(&side) {
+                        v.push(side);
+                    }
+                }
+            }
+        }
+        let mut updates: Vec<(Entity, NodeBc3)> = Vec::new();
+        for (e, link) in self.world.query::<(Entity, &NodeLink)>().iter() {
+            if !link.in_solid {
+                continue;
+            }
+            let mut bc = NodeBc3::default();
+            for &s in node_sides.get(&e).map_or(&[][..], |v| &v[..]) {
+                let (axis, sign) = s.axis(3);
+                match bc_of[index(s)] {
+                    SideBc::Normal(d) => bc.prescribed[axis] = Some(d * sign),
+                    SideBc::Fixed => bc.prescribed = [Some(0.0); 3],
+                    SideBc::Free | SideBc::Traction { .. } => {}
+                }
+            }
+            updates.push((e, bc));
+        }
+        for (e, bc) in updates {
+            *self.world.get::<&mut NodeBc3>(e).expect("node") = bc;
+        }
+        let mut loads: Vec<(Entity, [f64; 3])> = Vec::new();
+        for (fnodes, st) in self.world.query::<(&FaceNodes, &EdgeState)>().iter() {
+            let Some(side) = st.side else { continue };
+            if let SideBc::Traction { normal, shear } = bc_of[index(side)] {
+                if shear != 0.0 {
+                    return Err(SetupError::invalid(
+                        &format!("boundary.{}.shear", side.name()),
+                        "a shear traction on a 3D side has no direction yet: use 0",
+                    ));
+                }
+                let p = fnodes.0.map(|e| self.world.get::<&NodeRef3>(e).expect("node").0);
+                let (u, v) = (sub(p[1], p[0]), sub(p[2], p[0]));
+                let area = 0.5 * norm(cross(u, v));
+                let (axis, sign) = side.axis(3);
+                let mut f = [0.0; 3];
+                f[axis] = normal * sign * area / 3.0;
+                for &e in &fnodes.0 {
+                    loads.push((e, f));
+                }
+            }
+        }
+        for (e, f) in loads {
+            let mut bc = self.world.get::<&mut NodeBc3>(e).expect("node");
+            for d in 0..3 {
+                bc.load[d] += f[d];
+            }
+        }
+        self.topology_generation += 1;
+        Ok(())
+    }
+
+    /// Put every solid node at the homogeneous displacement of the principal in-situ stress
+    /// (sxx, syy, szz), Pa, about the box's centre, at rest: with `Boundary::InSitu3` the
+    /// unfractured body starts in equilibrium.
+    pub fn set_insitu_displacement3(&mut self, s: [f64; 3]) {
+        let e = self.material.strain_3d(s);
+        let b = self.box3();
+        let c = [0, 1, 2].map(|d| 0.5 * (b[d] + b[d + 3]));
+        for (x, st) in self.world.query_mut::<(&NodeRef3, &mut NodeState3)>() {
+            st.u = [0, 1, 2].map(|d| e[d] * (x.0[d] - c[d]));
+            st.v = [0.0; 3];
+        }
+    }
+}
+
+fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+fn norm(a: [f64; 3]) -> f64 {
+    (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt()
+}
+
+impl SolidView<Tet4> {
+    /// Build the TET4 view from a 3D model (nodes in the solid only), ordered by stable id.
+    pub fn build_3d(model: &Model) -> Self {
+        let world = &model.world;
+        let max_index = world
+            .iter()
+            .map(|e| e.entity().id())
+            .max()
+            .map_or(0, |m| m as usize + 1);
+        let mut dense = vec![NONE; max_index];
+        let mut v = SolidView::<Tet4> {
+            generation: model.topology_generation,
+            ..Default::default()
+        };
+        let nodes: Vec<NodeRow<Tet4>> = world
+            .query::<(
+                Entity,
+                &StableId,
+                &NodeRef3,
+                &NodeState3,
+                &NodeMass,
+                &NodeBc3,
+                &NodeLink,
+            )>()
+            .iter()
+            .filter(|r| r.6.in_solid)
+            .map(|(e, id, x, s, m, bc, _)| NodeRow {
+                id: id.0,
+                entity: e,
+                x: x.0,
+                u: s.u,
+                v: s.v,
+                mass: m.0,
+                load: bc.load,
+                fixed: fixed_mask(&bc.prescribed),
+                presc: bc.prescribed.map(|p| p.unwrap_or(0.0)),
+            })
+            .collect();
+        v.push_node_rows(nodes, &mut dense);
+        let elems: Vec<(u64, Entity, [u32; 4], [f64; 13], [f64; 6])> = world
+            .query::<(Entity, &StableId, &TetNodes, &TetGeom, &TetStress)>()
+            .iter()
+            .map(|(e, id, en, g, s)| (id.0, e, en.0.map(|n| dense[n.id() as usize]), g.0, s.0))
+            .collect();
+        v.push_elem_rows(elems);
+        v.set_incidence();
+        v
+    }
+
+    /// Copy the hot state back into the components: displacement, velocity and the element
+    /// stresses at the current displacements.
+    pub fn write_back_3d(&self, model: &mut Model, p: &crate::element::SolidParams) {
+        use crate::dim::Element;
+        let mut view = model.world.view_mut::<&mut NodeState3>();
+        for (i, &e) in self.node_entity.iter().enumerate() {
+            if let Some(s) = view.get_mut(e) {
+                s.u = self.u[i];
+                s.v = self.v[i];
+            }
+        }
+        let mut view = model.world.view_mut::<&mut TetStress>();
+        for (k, &e) in self.elem_entity.iter().enumerate() {
+            if let Some(s) = view.get_mut(e) {
+                s.0 = Tet4::stress(&self.geom[k], &self.conn[k], &self.u, p);
+            }
+        }
+    }
+}
