@@ -110,6 +110,9 @@ pub fn run_scenario(scenario: ValidScenario, opts: &RunOptions) -> Result<RunRep
         .out
         .clone()
         .unwrap_or_else(|| PathBuf::from("out").join(&scenario.name));
+    if scenario.is_3d() {
+        return crate::driver3::run_scenario_3d(scenario, opts, out);
+    }
     check_resources(&scenario, opts)?;
     let loading = NetworkLoading::of(&scenario);
     let sim = Simulation::new(scenario, &opts.disable)?;
@@ -148,12 +151,12 @@ struct Run {
 }
 
 /// What the step loop hands on: its outcome, its wall time and the systems' timing.
-struct Stepped {
-    result: Result<Finish, RunError>,
-    wall: f64,
+pub(crate) struct Stepped {
+    pub(crate) result: Result<Finish, RunError>,
+    pub(crate) wall: f64,
     /// Per system: name, enabled, calls, seconds.
-    rows: Vec<(String, bool, u64, f64)>,
-    timing_table: String,
+    pub(crate) rows: Vec<(String, bool, u64, f64)>,
+    pub(crate) timing_table: String,
     /// The first error writing the trace file, if any.
     trace_error: TraceError,
 }
@@ -170,7 +173,7 @@ enum StageEnd {
 
 /// Check resources: refuse a scenario whose mesh and network need more memory than
 /// `--max-memory` (default: the machine's), estimated before anything is allocated.
-fn check_resources(scenario: &ValidScenario, opts: &RunOptions) -> Result<(), DriverError> {
+pub(crate) fn check_resources(scenario: &ValidScenario, opts: &RunOptions) -> Result<(), DriverError> {
     let (limit, source) = match opts.max_memory {
         Some(b) => (b, "set by --max-memory".to_string()),
         None => crate::resources::default_limit(),
@@ -249,7 +252,7 @@ fn restart(
 /// Open the output folder (and `frames/` in it) with the `--trace` file: every path is
 /// checked before anything in the folder is removed or written. Returns the folder and the
 /// trace file, emptied.
-fn open_folder(
+pub(crate) fn open_folder(
     out: &Path,
     opts: &RunOptions,
 ) -> Result<(crate::output::folder::Folder, Option<std::fs::File>), DriverError> {
@@ -303,10 +306,31 @@ fn setup_outputs(sim: &Simulation, outputs: &Outputs) -> Result<Vec<String>, Dri
 /// the options set them), with a progress bar, each system timed by a tracing layer and,
 /// with `--trace`, traced into the trace file.
 fn step_loop(run: &mut Run, quiet: bool) -> Stepped {
+    let (sim, trace) = (&mut run.sim, run.trace.take());
+    timed_loop(trace, quiet, |bar| {
+        let result = sim.run(|s| {
+            bar.set_position(progress_position(s.params(), s.time(), s.residual()));
+            bar.set_message(format!(
+                "t = {:.4e} s  residual {:.2e}",
+                s.time(),
+                s.residual()
+            ));
+        });
+        (result, sim.schedule().clone())
+    })
+}
+
+/// Run `steps` (a simulation's step loop, given the progress bar) under the timing layer and,
+/// with a trace file, the Chrome trace; the systems' rows follow the schedule it returns.
+pub(crate) fn timed_loop(
+    trace: Option<std::fs::File>,
+    quiet: bool,
+    steps: impl FnOnce(&ProgressBar) -> (Result<Finish, RunError>, crate::schedule::Schedule),
+) -> Stepped {
     let timing = TimingLayer::default();
     let table = timing.table.clone();
     let trace_error = TraceError::default();
-    let (chrome, guard) = match run.trace.take() {
+    let (chrome, guard) = match trace {
         Some(file) => {
             let (layer, guard) = tracing_chrome::ChromeLayerBuilder::new()
                 .writer(TraceWriter {
@@ -322,23 +346,12 @@ fn step_loop(run: &mut Run, quiet: bool) -> Stepped {
     let subscriber = tracing_subscriber::registry().with(timing).with(chrome);
     let bar = progress_bar(quiet);
     let t0 = Instant::now();
-    let result = tracing::subscriber::with_default(subscriber, || {
-        run.sim.run(|s| {
-            bar.set_position(progress_position(s));
-            bar.set_message(format!(
-                "t = {:.4e} s  residual {:.2e}",
-                s.time(),
-                s.residual()
-            ));
-        })
-    });
+    let (result, schedule) = tracing::subscriber::with_default(subscriber, || steps(&bar));
     let wall = t0.elapsed().as_secs_f64();
     bar.finish_and_clear();
     drop(guard);
     let times = table.lock().expect("timing table").clone();
-    let rows: Vec<(String, bool, u64, f64)> = run
-        .sim
-        .schedule()
+    let rows: Vec<(String, bool, u64, f64)> = schedule
         .entries
         .iter()
         .map(|(s, st)| {
@@ -903,13 +916,14 @@ fn production_bar(quiet: bool) -> ProgressBar {
     bar
 }
 
-/// Progress in per mille: by time for timed runs, by residual decades for static ones.
-fn progress_position(s: &Simulation) -> u64 {
-    match s.params().time.end {
-        crate::scenario::End::Time(te) => (1000.0 * s.time() / te) as u64,
+/// Progress in per mille at time `time` (s) with static residual `residual`: by time for
+/// timed runs, by residual decades for static ones.
+pub(crate) fn progress_position(p: &crate::params::RunParams, time: f64, residual: f64) -> u64 {
+    match p.time.end {
+        crate::scenario::End::Time(te) => (1000.0 * time / te) as u64,
         crate::scenario::End::SteadyDirect => 1000,
         crate::scenario::End::Static { tol, .. } => {
-            let done = (s.residual().max(tol).log10() / tol.log10()).clamp(0.0, 1.0);
+            let done = (residual.max(tol).log10() / tol.log10()).clamp(0.0, 1.0);
             (1000.0 * done) as u64
         }
     }
@@ -959,7 +973,7 @@ fn summary_json(
         "stress_mean": stress(mean),
         "stress_min": stress(min),
         "stress_max": stress(max),
-        "systems": systems_json(sim, rows),
+        "systems": systems_json(sim.schedule(), rows),
     });
     omit_if_null(&mut s, OPTIONAL);
     if let Some(flow) = s.get_mut("flow") {
@@ -969,8 +983,11 @@ fn summary_json(
 }
 
 /// `summary.json` `systems`: per system of the schedule, its status and timing (`rows`).
-fn systems_json(sim: &Simulation, rows: &[(String, bool, u64, f64)]) -> Vec<serde_json::Value> {
-    sim.schedule()
+pub(crate) fn systems_json(
+    schedule: &crate::schedule::Schedule,
+    rows: &[(String, bool, u64, f64)],
+) -> Vec<serde_json::Value> {
+    schedule
         .entries
         .iter()
         .zip(rows)

@@ -19,15 +19,16 @@
 
 pub use hydrofrac_components as components;
 pub use hydrofrac_core::{
-    atomic, conforming, element, error, flow, fractures, gmsh, mesh, model, network, output,
+    atomic, conforming, dim, element, error, flow, fractures, gmsh, mesh, model, model3, network, output,
     params, plot, reservoir, resources, scenario, snap, sparse, split, stability, tet4, tetmesh,
     timing, union_find, view,
 };
-pub use hydrofrac_engine::{checkpoint, schedule, setup, sim};
+pub use hydrofrac_engine::{checkpoint, schedule, setup, sim, sim3};
 pub use hydrofrac_systems as systems;
 
 pub mod catalogue;
 pub mod driver;
+pub mod driver3;
 pub mod pipeline;
 pub mod production_stage;
 pub mod reference;

@@ -185,6 +185,39 @@ impl<E: Element> SolidView<E> {
             .map(move |&c| (c / per, ((c % per) / E::D as u32) as u8))
     }
 
+    /// Mean element stress (Voigt: [sxx, syy, sxy] in 2D, six components in 3D) at the
+    /// current displacements, weighted by area or volume, Pa, with the element minimum and
+    /// maximum (zeros without elements).
+    pub fn stress_summary(&self, p: &SolidParams) -> (E::Stress, E::Stress, E::Stress) {
+        let zero = E::Stress::default();
+        let mut mean = zero;
+        let mut min = zero;
+        let mut max = zero;
+        let n = zero.as_ref().len();
+        for k in 0..n {
+            min[k] = f64::INFINITY;
+            max[k] = f64::NEG_INFINITY;
+        }
+        let mut measure = 0.0;
+        for (e, g) in self.geom.iter().enumerate() {
+            let s = E::stress(g, &self.conn[e], &self.u, p);
+            let m = E::measure(g);
+            for k in 0..n {
+                mean[k] += m * s[k];
+                min[k] = min[k].min(s[k]);
+                max[k] = max[k].max(s[k]);
+            }
+            measure += m;
+        }
+        if measure == 0.0 {
+            return (zero, zero, zero);
+        }
+        for k in 0..n {
+            mean[k] /= measure;
+        }
+        (mean, min, max)
+    }
+
     /// Whether any node carries an external load (tractions, body forces).
     pub fn has_load(&self) -> bool {
         self.load
@@ -515,28 +548,6 @@ impl SolidView {
     /// Stress of element k at the current displacements, [sxx, syy, sxy], Pa.
     pub fn current_stress(&self, k: usize, p: &SolidParams) -> [f64; 3] {
         cst_stress(&self.geom[k], self.conn[k].map(|a| self.u[a as usize]), p)
-    }
-
-    /// Mean element stress [sxx, syy, sxy] at the current displacements, weighted by area, Pa,
-    /// with the element minimum and maximum (zeros without elements).
-    pub fn stress_summary(&self, p: &SolidParams) -> ([f64; 3], [f64; 3], [f64; 3]) {
-        let mut mean = [0.0; 3];
-        let mut min = [f64::INFINITY; 3];
-        let mut max = [f64::NEG_INFINITY; 3];
-        let mut area = 0.0;
-        for (e, g) in self.geom.iter().enumerate() {
-            let s = self.current_stress(e, p);
-            for k in 0..3 {
-                mean[k] += g[0] * s[k];
-                min[k] = min[k].min(s[k]);
-                max[k] = max[k].max(s[k]);
-            }
-            area += g[0];
-        }
-        if area == 0.0 {
-            return ([0.0; 3], [0.0; 3], [0.0; 3]);
-        }
-        (mean.map(|m| m / area), min, max)
     }
 
     /// Deformed position of node i, m.

@@ -10,3 +10,4 @@ pub mod checkpoint;
 pub mod schedule;
 pub mod setup;
 pub mod sim;
+pub mod sim3;

@@ -105,6 +105,10 @@ pub fn build_mesh_around(
             Ok(TriMesh::from_triangles(g.nodes, g.triangles))
         }
         MeshSpec::Conforming { .. } => unreachable!("handled above"),
+        MeshSpec::Box { .. } | MeshSpec::GradedBox { .. } => Err(SetupError::invalid(
+            "mesh",
+            "a 3D mesh (tetrahedra) is not a triangle mesh: it is built by the 3D setup",
+        )),
     }?;
     Ok((mesh, None))
 }
@@ -211,9 +215,9 @@ pub fn quasi_static(
 
 /// The schedule of a scene: the literal order minus the systems in `disabled` and those whose
 /// data the scene lacks.
-pub fn schedule(
+pub fn schedule<E: hydrofrac_core::dim::Element>(
     disabled: &[String],
-    view: &hydrofrac_core::view::SolidView,
+    view: &hydrofrac_core::view::SolidView<E>,
     p: &RunParams,
     has_flow: bool,
 ) -> Result<crate::schedule::Schedule, SetupError> {

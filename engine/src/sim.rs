@@ -10,6 +10,7 @@
 
 use crate::checkpoint::CheckpointStats;
 use crate::schedule::{Schedule, Status};
+use hydrofrac_core::dim::{Cst, Element};
 use hydrofrac_core::error::SetupError;
 use hydrofrac_core::fractures::Placed;
 use hydrofrac_core::model::Model;
@@ -35,12 +36,12 @@ pub use crate::setup::FLOW_ONLY_SUBSTEPS;
 /// every step.
 pub use hydrofrac_systems::StopFlag;
 
-pub struct Simulation {
+pub struct Simulation<E: Element = Cst> {
     /// The scenario as given (read by reports only; the step reads `params`).
     pub(crate) scenario: Scenario,
     pub(crate) model: Model,
     pub(crate) params: RunParams,
-    pub(crate) solid: SolidPart,
+    pub(crate) solid: SolidPart<E>,
     pub(crate) flow: Option<FlowPart>,
     pub(crate) fracture: FractureState,
     pub(crate) clock: Clock,
@@ -76,6 +77,104 @@ enum Pass {
     /// A quasi-static re-solve at `t1` after a split (zero-length: `solve`, the flow's
     /// commit, the criterion and `split`; the other systems do nothing).
     Resolve { t1: f64 },
+}
+
+impl<E: Element> Simulation<E> {
+    /// Check `stop` before every step of [`Simulation::run`]: when it is set (non-zero) the run
+    /// ends after the step in progress, as [`Finish::Interrupted`], with a last frame and series
+    /// row of the state reached.
+    pub fn set_stop(&mut self, stop: StopFlag) {
+        self.stop = Some(stop);
+    }
+
+    /// The signal number that stopped the run ([`Simulation::set_stop`]), if one did.
+    pub fn interrupted_by(&self) -> Option<usize> {
+        self.interrupted_by
+    }
+
+    /// The signal that asked the run to stop ([`Simulation::set_stop`]), if one has, whether
+    /// or not a run has acted on it (the production stage's equilibria check it between
+    /// steps).
+    pub fn stop_signal(&self) -> Option<usize> {
+        let sig = self
+            .stop
+            .as_ref()?
+            .load(std::sync::atomic::Ordering::SeqCst);
+        (sig != 0).then_some(sig)
+    }
+
+    /// Attach an output folder: frames, series rows and figures are written there.
+    pub fn set_output(&mut self, out: Outputs) {
+        self.output = Some(out);
+    }
+
+    pub fn output(&self) -> Option<&Outputs> {
+        self.output.as_ref()
+    }
+
+    pub fn scenario(&self) -> &Scenario {
+        &self.scenario
+    }
+
+    pub fn model(&self) -> &Model {
+        &self.model
+    }
+
+    pub fn params(&self) -> &RunParams {
+        &self.params
+    }
+
+    /// The rock's dense view (state between syncs).
+    pub fn solid(&self) -> &SolidView<E> {
+        &self.solid.view
+    }
+
+    pub fn clock(&self) -> &Clock {
+        &self.clock
+    }
+
+    pub fn schedule(&self) -> &Schedule {
+        &self.schedule
+    }
+
+    /// The rock mesh's kind and quality statistics.
+    pub fn mesh_info(&self) -> &crate::setup::MeshInfo {
+        &self.mesh_info
+    }
+
+    /// Statistics of the last solid step.
+    pub fn stats(&self) -> &StepStats {
+        &self.solid.stats
+    }
+
+    /// Critical solid step of the current topology, s.
+    pub fn dt_crit(&self) -> f64 {
+        self.solid.dt_crit
+    }
+
+    /// Time step, s.
+    pub fn dt(&self) -> f64 {
+        self.clock.dt
+    }
+
+    /// Steps taken.
+    pub fn step(&self) -> u64 {
+        self.clock.step
+    }
+
+    /// Simulated time, s.
+    pub fn time(&self) -> f64 {
+        self.clock.time
+    }
+
+    /// Static residual after the last step.
+    pub fn residual(&self) -> f64 {
+        self.clock.residual
+    }
+
+    pub fn finish(&self) -> Option<Finish> {
+        self.clock.finish
+    }
 }
 
 impl Simulation {
@@ -197,28 +296,8 @@ impl Simulation {
         Ok(self.clock.finish.expect("loop ends with a finish"))
     }
 
-    /// Check `stop` before every step of [`Simulation::run`]: when it is set (non-zero) the run
-    /// ends after the step in progress, as [`Finish::Interrupted`], with a last frame and series
-    /// row of the state reached.
-    pub fn set_stop(&mut self, stop: StopFlag) {
-        self.stop = Some(stop);
-    }
 
-    /// The signal number that stopped the run ([`Simulation::set_stop`]), if one did.
-    pub fn interrupted_by(&self) -> Option<usize> {
-        self.interrupted_by
-    }
 
-    /// The signal that asked the run to stop ([`Simulation::set_stop`]), if one has, whether
-    /// or not a run has acted on it (the production stage's equilibria check it between
-    /// steps).
-    pub fn stop_signal(&self) -> Option<usize> {
-        let sig = self
-            .stop
-            .as_ref()?
-            .load(std::sync::atomic::Ordering::SeqCst);
-        (sig != 0).then_some(sig)
-    }
 
     /// End the run now (between steps) on signal `sig`: the last frame and series row of the
     /// state reached, unless the step just taken wrote them already.
@@ -531,22 +610,6 @@ impl Simulation {
         }
     }
 
-    /// Attach an output folder: frames, series rows and figures are written there.
-    pub fn set_output(&mut self, out: Outputs) {
-        self.output = Some(out);
-    }
-    pub fn output(&self) -> Option<&Outputs> {
-        self.output.as_ref()
-    }
-    pub fn scenario(&self) -> &Scenario {
-        &self.scenario
-    }
-    pub fn model(&self) -> &Model {
-        &self.model
-    }
-    pub fn params(&self) -> &RunParams {
-        &self.params
-    }
     /// The run continued from its state under another damping (`damping` in the scenario): a
     /// new simulation of the scenario with `damping`, which adopts this one's state (a study's
     /// second phase, e.g. relaxed, then free; the run parameters of a simulation do not change
@@ -576,10 +639,6 @@ impl Simulation {
     pub fn set_inertia(&mut self, inertia: hydrofrac_core::scenario::Inertia) {
         self.params.time.inertia = inertia;
     }
-    /// The rock's dense view (state between syncs).
-    pub fn solid(&self) -> &SolidView {
-        &self.solid.view
-    }
     /// For tests and benchmarks that drive a kernel on the view directly.
     pub fn solid_mut(&mut self) -> &mut SolidView {
         &mut self.solid.view
@@ -589,12 +648,6 @@ impl Simulation {
     }
     pub fn flow_mut(&mut self) -> Option<&mut FlowPart> {
         self.flow.as_mut()
-    }
-    pub fn clock(&self) -> &Clock {
-        &self.clock
-    }
-    pub fn schedule(&self) -> &Schedule {
-        &self.schedule
     }
     pub fn fracture(&self) -> &FractureState {
         &self.fracture
@@ -608,14 +661,6 @@ impl Simulation {
         &self.placed
     }
 
-    /// The rock mesh's kind and quality statistics.
-    pub fn mesh_info(&self) -> &crate::setup::MeshInfo {
-        &self.mesh_info
-    }
-    /// Statistics of the last solid step.
-    pub fn stats(&self) -> &StepStats {
-        &self.solid.stats
-    }
     /// What the quasi-static solver did (`None` with the explicit scheme).
     pub fn quasi_static_counts(&self) -> Option<quasi_static::QsCounts> {
         self.solid.quasi_static.as_ref().map(|q| q.counts)
@@ -646,29 +691,6 @@ impl Simulation {
             }
         }
         out
-    }
-    /// Critical solid step of the current topology, s.
-    pub fn dt_crit(&self) -> f64 {
-        self.solid.dt_crit
-    }
-    /// Time step, s.
-    pub fn dt(&self) -> f64 {
-        self.clock.dt
-    }
-    /// Steps taken.
-    pub fn step(&self) -> u64 {
-        self.clock.step
-    }
-    /// Simulated time, s.
-    pub fn time(&self) -> f64 {
-        self.clock.time
-    }
-    /// Static residual after the last step.
-    pub fn residual(&self) -> f64 {
-        self.clock.residual
-    }
-    pub fn finish(&self) -> Option<Finish> {
-        self.clock.finish
     }
     /// Label of flow boundary `index`.
     pub fn bc_name(&self, index: usize) -> &str {

@@ -98,10 +98,10 @@ pub fn step_end(t0: f64, clock: &Clock) -> f64 {
 }
 
 /// `monitor`: the step [t0, t0 + dt] is done; check it and decide whether the run ends.
-pub fn monitor(
+pub fn monitor<E: hydrofrac_core::dim::Element>(
     clock: &mut Clock,
     t0: f64,
-    solid: &SolidPart,
+    solid: &SolidPart<E>,
     flow: Option<&FlowPart>,
     p: &RunParams,
 ) -> Result<(), RunError> {
@@ -120,12 +120,19 @@ pub fn monitor(
         }
     };
     let node = |i: usize| {
-        let x = v.x0[i];
-        format!("node {} at ({:.4}, {:.4}) m", v.node_id[i], x[0], x[1])
+        let x: Vec<String> = v.x0[i].as_ref().iter().map(|c| format!("{c:.4}")).collect();
+        format!("node {} at ({}) m", v.node_id[i], x.join(", "))
     };
     if let Some(i) = st.non_finite {
+        // The first non-finite velocity component (the last one when all are finite: the
+        // displacement went first).
         let vel = v.v[i];
-        let value = if vel[0].is_finite() { vel[1] } else { vel[0] };
+        let vel = vel.as_ref();
+        let value = vel
+            .iter()
+            .copied()
+            .find(|c| !c.is_finite())
+            .unwrap_or(vel[vel.len() - 1]);
         return Err(blow(
             node(i),
             "velocity",

@@ -189,11 +189,20 @@ fn resolves_column(p: &RunParams) -> bool {
         && p.time.solid_scheme == hydrofrac_core::scenario::SolidScheme::QuasiStatic
 }
 
+/// The rock's time-series columns (2D and 3D): kinetic and strain energy (J/m in 2D, J in
+/// 3D), the static residual, the largest speed (m/s). Values: [`solid_values`].
+pub const SOLID_COLUMNS: [&str; 4] = ["kinetic_energy", "strain_energy", "residual", "max_speed"];
+
+/// The values of [`SOLID_COLUMNS`] after the step of `st`.
+pub fn solid_values(st: &crate::solid::StepStats) -> [f64; 4] {
+    [st.kinetic, st.strain, st.residual(), st.vmax]
+}
+
 /// Names of the time-series columns of a scene.
 pub fn series_columns(solid: &SolidView, flow: Option<&FlowPart>, p: &RunParams) -> Vec<String> {
     let mut c: Vec<String> = vec!["step".into(), "time".into()];
     if solid.n_nodes() > 0 {
-        for n in ["kinetic_energy", "strain_energy", "residual", "max_speed"] {
+        for n in SOLID_COLUMNS {
             c.push(n.into());
         }
     }
@@ -232,7 +241,7 @@ pub fn series_values(scene: &Scene, flow: Option<&FlowPart>) -> Vec<f64> {
     let (st, clock) = (&scene.solid.stats, scene.clock);
     let mut v = vec![clock.step as f64, clock.time];
     if scene.solid.view.n_nodes() > 0 {
-        v.extend([st.kinetic, st.strain, st.residual(), st.vmax]);
+        v.extend(solid_values(st));
     }
     let view = &scene.solid.view;
     if scene.params.has_fractures {

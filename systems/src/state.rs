@@ -3,17 +3,18 @@
 
 use crate::quasi_static::QuasiStatic;
 use crate::solid::StepStats;
+use hydrofrac_core::dim::{Cst, Element};
 use hydrofrac_core::view::SolidView;
 
 /// The rock's part of the state: the dense view, the last step's statistics and the critical
-/// step of the current topology.
-pub struct SolidPart {
-    pub view: SolidView,
+/// step of the current topology. `E` is the element kind (2D CST by default, or TET4).
+pub struct SolidPart<E: Element = Cst> {
+    pub view: SolidView<E>,
     /// Statistics of the last `integrate`.
     pub stats: StepStats,
     /// Critical solid step (elements, joints, fluid stiffness; [`hydrofrac_core::stability::solid`]), s;
     /// infinite without a solid.
     pub dt_crit: f64,
-    /// `time.solid_scheme: QuasiStatic`: the equilibrium solver.
+    /// `time.solid_scheme: QuasiStatic`: the equilibrium solver (2D only so far: `None` in 3D).
     pub quasi_static: Option<QuasiStatic>,
 }

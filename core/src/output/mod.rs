@@ -340,7 +340,74 @@ impl Outputs {
         self.frames += 1;
         Ok(())
     }
+
+    /// Write one ParaView frame of the 3D rock: tetrahedra with displacement and velocity (m,
+    /// m/s) at the nodes and the six stress components (Pa, tension positive) per element.
+    pub fn write_frame_3d(
+        &mut self,
+        v: &SolidView<crate::dim::Tet4>,
+        p: &SolidParams,
+        time: f64,
+    ) -> std::io::Result<()> {
+        use crate::dim::{Element, Tet4};
+        let conn: Vec<u32> = v.conn.as_flattened().to_vec();
+        let disp: Vec<f64> = v.u.as_flattened().to_vec();
+        let vel: Vec<f64> = v.v.as_flattened().to_vec();
+        let node_id: Vec<f64> = v.node_id.iter().map(|&i| i as f64).collect();
+        let elem_id: Vec<f64> = v.elem_id.iter().map(|&i| i as f64).collect();
+        let stress: Vec<[f64; 6]> = (0..v.n_elems())
+            .map(|k| Tet4::stress(&v.geom[k], &v.conn[k], &v.u, p))
+            .collect();
+        let comp: Vec<Vec<f64>> = (0..6)
+            .map(|k| stress.iter().map(|s| s[k]).collect())
+            .collect();
+        let arr = |name, components, values| vtk::DataArray {
+            name,
+            components,
+            values,
+        };
+        let mut point_data = vec![arr("node_id", 1, &node_id[..])];
+        if self.fields.contains(&Field::Displacement) {
+            point_data.push(arr("displacement", 3, &disp[..]));
+        }
+        if self.fields.contains(&Field::Velocity) {
+            point_data.push(arr("velocity", 3, &vel[..]));
+        }
+        let mut cell_data = vec![arr("element_id", 1, &elem_id[..])];
+        if self.fields.contains(&Field::Stress) {
+            for (name, values) in STRESS_NAMES.iter().zip(&comp) {
+                cell_data.push(arr(name, 1, &values[..]));
+            }
+        }
+        let name = format!("solid_{:05}.vtu", self.frames);
+        if self.frames == 0 {
+            self.claim("solid.pvd")?;
+        }
+        vtk::write_vtu(
+            &self.claim(&format!("frames/{name}"))?,
+            &vtk::VtuPiece {
+                points: &v.x0,
+                kind: vtk::CellKind::Tetra,
+                connectivity: &conn,
+                point_data,
+                cell_data,
+            },
+        )?;
+        self.pvd.add(time, &format!("frames/{name}"))?;
+        self.frames += 1;
+        Ok(())
+    }
 }
+
+/// The 3D frame's stress arrays, in Voigt order.
+const STRESS_NAMES: [&str; 6] = [
+    "stress_xx",
+    "stress_yy",
+    "stress_zz",
+    "stress_xy",
+    "stress_yz",
+    "stress_zx",
+];
 
 #[cfg(test)]
 mod tests {

@@ -21,6 +21,8 @@ pub enum CellKind {
     Line,
     /// 4-node quadrilateral (corners in order around it), VTK type 9.
     Quad,
+    /// 4-node tetrahedron, VTK type 10.
+    Tetra,
 }
 
 impl CellKind {
@@ -29,7 +31,7 @@ impl CellKind {
         match self {
             CellKind::Triangle => 3,
             CellKind::Line => 2,
-            CellKind::Quad => 4,
+            CellKind::Quad | CellKind::Tetra => 4,
         }
     }
 
@@ -39,6 +41,7 @@ impl CellKind {
             CellKind::Triangle => 5,
             CellKind::Line => 3,
             CellKind::Quad => 9,
+            CellKind::Tetra => 10,
         }
     }
 }

@@ -71,6 +71,25 @@ pub enum MeshSpec {
         #[serde(default)]
         follow: Vec<PreFracture>,
     },
+    /// 3D: a box of `size` = (x, y, z) (m, each a whole number of `h`) from `origin`, cubes of
+    /// side `h` (m) each split into six tetrahedra (TET4) around the diagonal from the lowest
+    /// to the highest corner. z is vertical. A 3D mesh makes the run 3D (`docs/three_d.md`).
+    Box {
+        size: [f64; 3],
+        h: f64,
+        #[serde(default)]
+        origin: [f64; 3],
+    },
+    /// 3D: the box with cubes of side `h` inside `fine` = (x0, y0, z0, x1, y1, z1), m, growing
+    /// by `ratio` (>= 1) per cell towards the domain's faces, each split into six tetrahedra.
+    GradedBox {
+        size: [f64; 3],
+        h: f64,
+        #[serde(default)]
+        origin: [f64; 3],
+        fine: [f64; 6],
+        ratio: f64,
+    },
 }
 
 fn default_grading() -> f64 {
@@ -126,6 +145,16 @@ impl MeshSpec {
                 Some(MeshCounts::from_triangles(len / GMSH_BYTES_PER_TRIANGLE))
             }
             MeshSpec::Conforming { .. } => Some(self.counts_around(&[])),
+            MeshSpec::Box { size, h, .. } | MeshSpec::GradedBox { size, h, .. } => {
+                // Graded: at most the uniform box's cells at the fine size.
+                let n = size.map(|l| (l / h).ceil());
+                let cells = n[0] * n[1] * n[2];
+                Some(MeshCounts {
+                    nodes: (n[0] + 1.0) * (n[1] + 1.0) * (n[2] + 1.0),
+                    triangles: 6.0 * cells,
+                    edges: 12.0 * cells + 2.0 * (n[0] * n[1] + n[1] * n[2] + n[2] * n[0]),
+                })
+            }
         }
     }
 
@@ -196,6 +225,8 @@ impl MeshSpec {
             MeshSpec::Graded { .. } => "Graded",
             MeshSpec::Gmsh { .. } => "Gmsh",
             MeshSpec::Conforming { .. } => "Conforming",
+            MeshSpec::Box { .. } => "Box",
+            MeshSpec::GradedBox { .. } => "GradedBox",
         }
     }
 
@@ -205,19 +236,82 @@ impl MeshSpec {
             MeshSpec::Regular { h, .. }
             | MeshSpec::Perturbed { h, .. }
             | MeshSpec::Graded { h, .. }
-            | MeshSpec::Conforming { h, .. } => Some(*h),
+            | MeshSpec::Conforming { h, .. }
+            | MeshSpec::Box { h, .. }
+            | MeshSpec::GradedBox { h, .. } => Some(*h),
             MeshSpec::Gmsh { .. } => None,
         }
     }
-    /// Domain size, m (`None` for an imported mesh).
+    /// A 2D domain's size, m (`None` for an imported or a 3D mesh).
     pub fn size(&self) -> Option<(f64, f64)> {
         match self {
             MeshSpec::Regular { width, height, .. }
             | MeshSpec::Perturbed { width, height, .. }
             | MeshSpec::Graded { width, height, .. }
             | MeshSpec::Conforming { width, height, .. } => Some((*width, *height)),
-            MeshSpec::Gmsh { .. } => None,
+            MeshSpec::Gmsh { .. } | MeshSpec::Box { .. } | MeshSpec::GradedBox { .. } => None,
         }
+    }
+
+    /// Whether the mesh is 3D (tetrahedra): the run's dimension follows from it.
+    pub fn is_3d(&self) -> bool {
+        matches!(self, MeshSpec::Box { .. } | MeshSpec::GradedBox { .. })
+    }
+
+    /// A 3D box's sizes, cell size, origin and grading: positive and finite, a whole number of
+    /// cells of `h` per side of a uniform box, the fine box inside the domain, the count within
+    /// the engine's limit; errors name `mesh.<field>`.
+    fn validate_3d(&self) -> Result<(), SetupError> {
+        let (MeshSpec::Box { size, h, origin } | MeshSpec::GradedBox { size, h, origin, .. }) =
+            *self
+        else {
+            return Ok(());
+        };
+        for (d, l) in size.iter().enumerate() {
+            positive(&format!("mesh.size[{d}]"), *l, "the box's side")?;
+            finite(&format!("mesh.origin[{d}]"), origin[d])?;
+            finite(&format!("mesh.origin[{d}]"), origin[d] + l)?;
+        }
+        positive("mesh.h", h, "the cell size")?;
+        let smallest = size.iter().fold(f64::INFINITY, |m, &l| m.min(l));
+        if h >= smallest {
+            return Err(SetupError::invalid(
+                "mesh.h",
+                format!("the cell size {h} m must be smaller than the box ({size:?} m)"),
+            ));
+        }
+        if let MeshSpec::GradedBox { fine, ratio, .. } = *self {
+            finite("mesh.ratio", ratio)?;
+            if !(1.0..=10.0).contains(&ratio) {
+                return Err(SetupError::invalid(
+                    "mesh.ratio",
+                    format!("the growth ratio must be in [1, 10] (1: uniform), got {ratio}"),
+                ));
+            }
+            for d in 0..3 {
+                let (lo, hi) = (origin[d], origin[d] + size[d]);
+                let tol = 1e-9 * size[d];
+                finite("mesh.fine", fine[d])?;
+                finite("mesh.fine", fine[d + 3])?;
+                if !(fine[d] < fine[d + 3] && fine[d] >= lo - tol && fine[d + 3] <= hi + tol) {
+                    return Err(SetupError::invalid(
+                        "mesh.fine",
+                        format!(
+                            "the fine box (x0, y0, z0, x1, y1, z1) = {fine:?} m must lie inside \
+                             the domain with x0 < x1, y0 < y1 and z0 < z1"
+                        ),
+                    ));
+                }
+            }
+        }
+        let cells = self.counts().map_or(0.0, |c| c.triangles);
+        if cells > MAX_TRIANGLES {
+            return Err(SetupError::invalid(
+                "mesh.h",
+                format!("{cells:.3e} tetrahedra is more than this engine's 5e7 limit"),
+            ));
+        }
+        Ok(())
     }
 }
 
@@ -257,6 +351,9 @@ impl MeshSpec {
     /// The sizes, the origin, the kind's own parameters and the size limit; errors name
     /// `mesh.<field>`. An imported (Gmsh) mesh has none of these to check.
     pub(super) fn validate(&self) -> Result<(), SetupError> {
+        if self.is_3d() {
+            return self.validate_3d();
+        }
         let (Some((w, hgt)), Some(h)) = (self.size(), self.h()) else {
             return Ok(());
         };
@@ -304,7 +401,7 @@ impl MeshSpec {
             | MeshSpec::Perturbed { origin, .. }
             | MeshSpec::Graded { origin, .. }
             | MeshSpec::Conforming { origin, .. } => origin,
-            MeshSpec::Gmsh { .. } => [0.0; 2],
+            MeshSpec::Gmsh { .. } | MeshSpec::Box { .. } | MeshSpec::GradedBox { .. } => [0.0; 2],
         };
         finite("mesh.origin", origin[0])?;
         finite("mesh.origin", origin[1])?;

@@ -1,0 +1,218 @@
+//! The 3D simulation: a [`Simulation`] of linear tetrahedra ([`Tet4`]). Setup builds the 3D
+//! model (`hydrofrac_core::model3`), its TET4 view and the schedule from the same scenario
+//! format (the dimension follows from the mesh: `Box`, `GradedBox`); the step runs the same
+//! systems in the same order through the same generic kernels (`systems/solid.rs`:
+//! internal force, external load, damping, central-difference integration; `monitor`).
+//!
+//! What 3D has so far (issue 38, first part): the rock with the explicit scheme, box
+//! boundaries (`InSitu3`, `Sides3`), the in-situ initial state, frames, series rows and the
+//! summary. The systems the 3D scene has no data for (contact, fluid pressure, flow,
+//! criterion, split, seismicity) are off in its schedule, as in any 2D scene without them;
+//! the scenario's checks refuse what 3D cannot do yet (`Scenario::check_3d`).
+
+use crate::schedule::Status;
+use crate::sim::Simulation;
+use hydrofrac_core::dim::Tet4;
+use hydrofrac_core::error::SetupError;
+use hydrofrac_core::model::Model;
+use hydrofrac_core::params::RunParams;
+use hydrofrac_core::scenario::{Boundary, InitialState, MeshSpec, schedule_factor};
+use hydrofrac_core::tetmesh::TetMesh;
+use hydrofrac_core::view::SolidView;
+use hydrofrac_systems::fracture::FractureState;
+use hydrofrac_systems::monitor::{Clock, Finish};
+use hydrofrac_systems::solid::StepStats;
+use hydrofrac_systems::state::SolidPart;
+use hydrofrac_systems::{RunError, SystemId, monitor, output, solid};
+
+/// The tetrahedral mesh of a 3D mesh spec.
+pub fn build_tet_mesh(spec: &MeshSpec) -> Result<TetMesh, SetupError> {
+    match *spec {
+        MeshSpec::Box { size, h, origin } => TetMesh::regular_box(origin, size, h),
+        MeshSpec::GradedBox {
+            size,
+            h,
+            origin,
+            fine,
+            ratio,
+        } => TetMesh::graded_box(origin, size, h, fine, ratio),
+        _ => Err(SetupError::invalid("mesh", "not a 3D mesh")),
+    }
+}
+
+/// The 3D model of a validated scenario with a 3D mesh: the rock, its boundary conditions and
+/// its initial state.
+pub fn build_model_3d(
+    sc: &hydrofrac_core::scenario::Scenario,
+) -> Result<(Model, crate::setup::MeshInfo), SetupError> {
+    let (Some(spec), Some(mat)) = (&sc.mesh, &sc.material) else {
+        return Err(SetupError::invalid("mesh", "a 3D run needs a mesh and a material"));
+    };
+    let mesh = build_tet_mesh(spec)?;
+    let mut m = Model::from_tet_mesh(&mesh, *mat)?;
+    m.apply_boundary3(&sc.boundary)?;
+    if let (InitialState::InSitu, Boundary::InSitu3 { sxx, syy, szz }) =
+        (sc.initial_state, &sc.boundary)
+    {
+        m.set_insitu_displacement3([*sxx, *syy, *szz]);
+    }
+    let info = crate::setup::MeshInfo {
+        kind: spec.kind().to_string(),
+        ..Default::default()
+    };
+    Ok((m, info))
+}
+
+/// The critical step of central difference on the TET4 mesh, s: the smallest element's exact
+/// critical step with the lumped mass ([`hydrofrac_core::tet4::critical_step`]), which bounds
+/// the mesh's from below (Irons' element eigenvalue theorem).
+pub fn critical_step_3d(view: &SolidView<Tet4>, p: &RunParams) -> f64 {
+    (0..view.n_elems())
+        .map(|k| {
+            let g = hydrofrac_core::dim::tet_geometry(&view.geom[k]);
+            hydrofrac_core::tet4::critical_step(&g, &p.solid, p.material.density)
+        })
+        .fold(f64::INFINITY, f64::min)
+}
+
+impl Simulation<Tet4> {
+    /// Set up a validated scenario with a 3D mesh; `extra_disable` adds system names to
+    /// switch off.
+    pub fn new_3d(
+        scenario: hydrofrac_core::scenario::ValidScenario,
+        extra_disable: &[String],
+    ) -> Result<Self, SetupError> {
+        let scenario = scenario.into_inner();
+        let (model, mesh_info) = build_model_3d(&scenario)?;
+        let p = RunParams::resolve(&scenario, model.material);
+        let view = SolidView::<Tet4>::build_3d(&model);
+        let dt_crit = critical_step_3d(&view, &p);
+        let (dt, steps_to_end) =
+            crate::setup::time_step(&p.time, &scenario.time, true, dt_crit, None)?;
+        let mut disabled = scenario.systems.disable.clone();
+        disabled.extend(extra_disable.iter().cloned());
+        let schedule = crate::setup::schedule(&disabled, &view, &p, false)?;
+        Ok(Simulation {
+            scenario,
+            model,
+            params: p,
+            solid: SolidPart {
+                view,
+                stats: StepStats::default(),
+                dt_crit,
+                quasi_static: None,
+            },
+            flow: None,
+            fracture: FractureState::default(),
+            clock: Clock::start(dt, steps_to_end),
+            schedule,
+            output: None,
+            placed: Vec::new(),
+            mesh_info,
+            effort: monitor::Effort::default(),
+            cells_at_start: 0,
+            stop: None,
+            interrupted_by: None,
+            extra_disable: extra_disable.to_vec(),
+            next_checkpoint_time: f64::INFINITY,
+            checkpoints: Default::default(),
+            seismicity: None,
+        })
+    }
+
+    /// Run to the end. `progress` is called every 256 steps.
+    pub fn run(&mut self, mut progress: impl FnMut(&Self)) -> Result<Finish, RunError> {
+        if self.clock.step == 0 && self.schedule.is_enabled(SystemId::Output) {
+            self.write(true, true)?;
+        }
+        while self.clock.finish.is_none() {
+            if let Some(sig) = self.stop_signal() {
+                self.interrupted_by = Some(sig);
+                self.clock.finish = Some(Finish::Interrupted);
+                if self.schedule.is_enabled(SystemId::Output) {
+                    self.write(true, true)?;
+                }
+                break;
+            }
+            self.step_once()?;
+            if self.clock.step.is_multiple_of(256) {
+                progress(self);
+            }
+        }
+        self.sync();
+        Ok(self.clock.finish.expect("loop ends with a finish"))
+    }
+
+    /// One step: every enabled system of the schedule in order, each in its span.
+    pub fn step_once(&mut self) -> Result<(), RunError> {
+        let t0 = self.clock.time;
+        self.clock.load_factor =
+            schedule_factor(&self.params.boundary_schedule, t0 + self.clock.dt);
+        for k in 0..self.schedule.entries.len() {
+            let (sys, status) = self.schedule.entries[k];
+            if status != Status::Enabled {
+                continue;
+            }
+            let _span = sys.span().entered();
+            let (p, v, clock) = (&self.params, &mut self.solid.view, &mut self.clock);
+            match sys {
+                SystemId::InternalForce => solid::internal_force(v, &p.solid),
+                SystemId::ExternalLoad => solid::external_load(v, clock.load_factor),
+                SystemId::Damping => solid::damping(v, &p.solid, clock.dt),
+                SystemId::Integrate => {
+                    self.solid.stats = solid::integrate(v, clock.dt, clock.load_factor)
+                }
+                SystemId::Monitor => monitor::monitor(clock, t0, &self.solid, None, p)?,
+                SystemId::Output => {
+                    let every = p.output.frame_every;
+                    let finished = clock.finish.is_some();
+                    let frame = finished || (every > 0 && clock.step.is_multiple_of(every));
+                    let row = finished || clock.step.is_multiple_of(p.output.series_every);
+                    if frame || row {
+                        self.write(frame, row)?;
+                    }
+                }
+                // Not in a 3D scene's schedule (no data): `Scenario::check_3d`.
+                SystemId::Contact
+                | SystemId::FluidPressure
+                | SystemId::Solve
+                | SystemId::FlowSubsteps
+                | SystemId::FractureCriterion
+                | SystemId::Split
+                | SystemId::Seismicity => {}
+            }
+        }
+        Ok(())
+    }
+
+    /// A frame and/or a series row of the current state.
+    fn write(&mut self, frame: bool, row: bool) -> Result<(), RunError> {
+        let Some(out) = self.output.as_mut() else {
+            return Ok(());
+        };
+        if row {
+            let mut values = vec![self.clock.step as f64, self.clock.time];
+            values.extend(output::solid_values(&self.solid.stats));
+            out.write_series(&values)?;
+        }
+        if frame {
+            out.write_frame_3d(&self.solid.view, &self.params.solid, self.clock.time)?;
+        }
+        Ok(())
+    }
+
+    /// The time-series columns of the 3D scene.
+    pub fn series_columns_3d(&self) -> Vec<String> {
+        let mut c: Vec<String> = vec!["step".into(), "time".into()];
+        c.extend(output::SOLID_COLUMNS.iter().map(|s| s.to_string()));
+        c
+    }
+
+    /// Copy the hot state into the ECS components, and bring the view's element stresses to
+    /// the current displacements.
+    pub fn sync(&mut self) {
+        use hydrofrac_core::view::ModelView;
+        Tet4::write_back(&self.solid.view, &mut self.model, &self.params.solid);
+        solid::update_stress(&mut self.solid.view, &self.params.solid);
+    }
+}

@@ -1,0 +1,165 @@
+//! `hydrofrac run` of a 3D scenario (a `Box` or `GradedBox` mesh): the same stages as 2D
+//! ([`crate::driver`]: resources, the output folder and its manifest, the timed step loop
+//! with its progress bar and trace, `summary.json`), on a [`Simulation<Tet4>`]. What 3D does
+//! not have yet is refused by the scenario's checks (`docs/three_d.md`); a checkpoint to
+//! restart from is refused here.
+
+use crate::dim::Tet4;
+use crate::driver::{
+    DriverError, RunOptions, RunReport, Stepped, check_resources, open_folder, progress_position,
+    systems_json, timed_loop,
+};
+use crate::output::{Outputs, write_atomic};
+use crate::scenario::ValidScenario;
+use crate::sim::Simulation;
+use serde_json::json;
+use std::path::{Path, PathBuf};
+
+/// Run a validated 3D scenario into `out`.
+pub fn run_scenario_3d(
+    scenario: ValidScenario,
+    opts: &RunOptions,
+    out: PathBuf,
+) -> Result<RunReport, DriverError> {
+    check_resources(&scenario, opts)?;
+    if let Some(path) = &opts.restart {
+        return Err(DriverError::Output(std::io::Error::other(format!(
+            "--restart {}: checkpoints are not in 3D yet",
+            path.display()
+        ))));
+    }
+    let mut sim = Simulation::new_3d(scenario, &opts.disable)?;
+    if let Some(stop) = &opts.stop {
+        sim.set_stop(stop.clone());
+    }
+    if let Some(armed) = &opts.exit_until_output {
+        armed.store(false, std::sync::atomic::Ordering::SeqCst);
+    }
+    let disk = check_disk(&sim, opts, &out)?;
+    let (folder, trace) = open_folder(&out, opts)?;
+    let outputs = Outputs::new(
+        folder,
+        &sim.params().output.fields,
+        &sim.series_columns_3d(),
+    )
+    .map_err(DriverError::Output)?;
+    sim.set_output(outputs);
+    let stepped = timed_loop(trace, opts.quiet, |bar| {
+        let result = sim.run(|s| {
+            bar.set_position(progress_position(s.params(), s.time(), s.residual()));
+            bar.set_message(format!(
+                "t = {:.4e} s  residual {:.2e}",
+                s.time(),
+                s.residual()
+            ));
+        });
+        (result, sim.schedule().clone())
+    });
+    let mut summary = summary_3d(&sim, &stepped);
+    summary["output_estimate_bytes"] = json!(disk);
+    crate::output::json::finite_summary(&mut summary);
+    let o = sim.output().expect("outputs set");
+    let path = o.claim("summary.json").map_err(DriverError::Output)?;
+    let text = serde_json::to_string_pretty(&summary).expect("json");
+    write_atomic(&path, text.as_bytes()).map_err(DriverError::Output)?;
+    o.folder().remove_temporaries();
+    if let Err(e) = stepped.result {
+        return Err(DriverError::Run {
+            error: e,
+            out: out.display().to_string(),
+        });
+    }
+    let b = sim.model().bbox;
+    Ok(RunReport {
+        out,
+        summary,
+        timing_table: stepped.timing_table,
+        interrupted_by: sim.interrupted_by(),
+        networks: None,
+        mesh_box: [b[0], b[2], b[1], b[3]],
+        residual_aperture: sim.params().residual_aperture,
+    })
+}
+
+/// The outputs' size against `--max-disk` (or the disk's free space), bytes.
+fn check_disk(
+    sim: &Simulation<Tet4>,
+    opts: &RunOptions,
+    out: &Path,
+) -> Result<f64, DriverError> {
+    crate::resources::check_output_place(out).map_err(|why| {
+        DriverError::Output(std::io::Error::other(format!(
+            "cannot create output folder {}: {why}",
+            out.display()
+        )))
+    })?;
+    let (limit, source) = match opts.max_disk {
+        Some(b) => (b, "set by --max-disk".to_string()),
+        None => crate::resources::default_disk_limit(out),
+    };
+    let p = sim.params();
+    let end = match p.time.end {
+        crate::scenario::End::Time(te) => Some(te - sim.time()),
+        _ => None,
+    };
+    let left = p.time.max_steps.saturating_sub(sim.step());
+    let (steps, steps_from) = crate::resources::planned_steps(end, sim.dt(), left);
+    let plan = crate::resources::OutputPlan {
+        nodes: sim.solid().n_nodes() as f64,
+        // A tetrahedron writes six stress components where a triangle writes four.
+        triangles: 1.5 * sim.solid().n_elems() as f64,
+        cells: 0.0,
+        fields: p.output.fields.clone(),
+        frame_every: p.output.frame_every,
+        series_every: p.output.series_every,
+        series_columns: sim.series_columns_3d().len(),
+        figures: 0,
+        steps,
+        steps_from,
+    };
+    Ok(crate::resources::check_disk(&plan, limit, &source)?.total)
+}
+
+/// `summary.json` of a 3D run: its outcome, the mesh, the steps, the stress range (six
+/// components, Pa, tension positive) and the systems' timing.
+fn summary_3d(sim: &Simulation<Tet4>, stepped: &Stepped) -> serde_json::Value {
+    let (mean, min, max) = sim.solid().stress_summary(&sim.params().solid);
+    let (status, finish, error) = match &stepped.result {
+        Ok(f) => ("ok", Some(*f), None),
+        Err(e) => ("failed", None, Some(e.to_string())),
+    };
+    let stress = |s: [f64; 6]| {
+        json!({"xx": s[0], "yy": s[1], "zz": s[2], "xy": s[3], "yz": s[4], "zx": s[5]})
+    };
+    let mut s = json!({
+        "scenario": sim.params().name,
+        "dimension": 3,
+        "solid_scheme": "explicit",
+        "status": status,
+        "finish": finish,
+        "elements": sim.solid().n_elems(),
+        "nodes": sim.solid().n_nodes(),
+        "faces": sim.model().next_edge_id,
+        "steps": sim.step(),
+        "time": sim.time(),
+        "dt": sim.dt(),
+        "dt_critical": sim.dt_crit(),
+        "wall_s": stepped.wall,
+        "residual": sim.residual(),
+        "kinetic_energy": sim.stats().kinetic,
+        "frames": sim.output().map_or(0, |o| o.frames),
+        "mesh": sim.mesh_info(),
+        "stress_mean": stress(mean),
+        "stress_min": stress(min),
+        "stress_max": stress(max),
+        "systems": systems_json(sim.schedule(), &stepped.rows),
+    });
+    if let Some(e) = error {
+        s["error"] = json!(e);
+    }
+    if let Some(sig) = sim.interrupted_by() {
+        s["status"] = json!("interrupted");
+        s["interrupted_by"] = json!(crate::driver::signal_name(sig));
+    }
+    s
+}
