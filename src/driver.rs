@@ -173,7 +173,10 @@ enum StageEnd {
 
 /// Check resources: refuse a scenario whose mesh and network need more memory than
 /// `--max-memory` (default: the machine's), estimated before anything is allocated.
-pub(crate) fn check_resources(scenario: &ValidScenario, opts: &RunOptions) -> Result<(), DriverError> {
+pub(crate) fn check_resources(
+    scenario: &ValidScenario,
+    opts: &RunOptions,
+) -> Result<(), DriverError> {
     let (limit, source) = match opts.max_memory {
         Some(b) => (b, "set by --max-memory".to_string()),
         None => crate::resources::default_limit(),

@@ -47,6 +47,7 @@ mod solid_verification;
 mod split;
 mod sweep;
 mod tet_solid;
+mod three_d;
 mod toughness;
 mod vtk_output;
 

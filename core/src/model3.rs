@@ -51,7 +51,10 @@ impl Model {
             let g = tet4::geometry(x).ok_or_else(|| {
                 SetupError::invalid(
                     "mesh",
-                    format!("tetrahedron {t} is degenerate or inverted (nodes {:?})", mesh.tets[t]),
+                    format!(
+                        "tetrahedron {t} is degenerate or inverted (nodes {:?})",
+                        mesh.tets[t]
+                    ),
                 )
             })?;
             for a in 0..4 {
@@ -237,7 +240,9 @@ impl Model {
                         "a shear traction on a 3D side has no direction yet: use 0",
                     ));
                 }
-                let p = fnodes.0.map(|e| self.world.get::<&NodeRef3>(e).expect("node").0);
+                let p = fnodes
+                    .0
+                    .map(|e| self.world.get::<&NodeRef3>(e).expect("node").0);
                 let (u, v) = (sub(p[1], p[0]), sub(p[2], p[0]));
                 let area = 0.5 * norm(cross(u, v));
                 let (axis, sign) = side.axis(3);

@@ -296,9 +296,6 @@ impl Simulation {
         Ok(self.clock.finish.expect("loop ends with a finish"))
     }
 
-
-
-
     /// End the run now (between steps) on signal `sig`: the last frame and series row of the
     /// state reached, unless the step just taken wrote them already.
     fn interrupt(&mut self, sig: usize) -> Result<(), RunError> {

@@ -46,7 +46,10 @@ pub fn build_model_3d(
     sc: &hydrofrac_core::scenario::Scenario,
 ) -> Result<(Model, crate::setup::MeshInfo), SetupError> {
     let (Some(spec), Some(mat)) = (&sc.mesh, &sc.material) else {
-        return Err(SetupError::invalid("mesh", "a 3D run needs a mesh and a material"));
+        return Err(SetupError::invalid(
+            "mesh",
+            "a 3D run needs a mesh and a material",
+        ));
     };
     let mesh = build_tet_mesh(spec)?;
     let mut m = Model::from_tet_mesh(&mesh, *mat)?;

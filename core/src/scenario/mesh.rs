@@ -262,8 +262,10 @@ impl MeshSpec {
     /// cells of `h` per side of a uniform box, the fine box inside the domain, the count within
     /// the engine's limit; errors name `mesh.<field>`.
     fn validate_3d(&self) -> Result<(), SetupError> {
-        let (MeshSpec::Box { size, h, origin } | MeshSpec::GradedBox { size, h, origin, .. }) =
-            *self
+        let (MeshSpec::Box { size, h, origin }
+        | MeshSpec::GradedBox {
+            size, h, origin, ..
+        }) = *self
         else {
             return Ok(());
         };

@@ -418,7 +418,9 @@ impl Scenario {
         let not_yet = |field: &str, what: &str| {
             Err(SetupError::invalid(
                 field,
-                format!("{what} is not in 3D yet (issue 38: the 3D rock runs explicit, unfractured)"),
+                format!(
+                    "{what} is not in 3D yet (issue 38: the 3D rock runs explicit, unfractured)"
+                ),
             ))
         };
         if self.fracture.is_some() {

@@ -1,0 +1,235 @@
+//! 3D through the engine (issue 38): a scenario with a tetrahedral mesh runs from the CLI on
+//! the same systems as 2D (`engine/src/sim3.rs`), writes VTK tetrahedra that read back, and is
+//! checked against closed forms.
+//! - the shipped in-situ block (`scenarios/insitu_block3d.ron`) relaxes to the prescribed
+//!   principal stresses in every element;
+//! - the patch test through the engine: a graded box under a normal traction on its top and
+//!   rollers on three sides carries the uniform uniaxial stress, and its displacement is the
+//!   linear closed form (TET4 holds linear fields exactly; the tolerance is the relaxation's,
+//!   set by its static tolerance);
+//! - the explicit step is stable at 0.9 of the element bound and a step three times the bound
+//!   blows up with the step, the node and the quantity named, the outputs so far kept;
+//! - what 3D cannot do yet, and boundaries of the wrong dimension, are refused by field.
+
+use crate::support_cli as cli;
+use crate::support_vtu as vtu;
+
+const YOUNG: f64 = 20e9;
+const NU: f64 = 0.2;
+
+/// The last solid frame of a run in `dir`.
+fn last_frame(dir: &std::path::Path) -> vtu::VtuData {
+    let frames = vtu::read_pvd(&dir.join("solid.pvd")).expect("solid.pvd");
+    let (_, last) = frames.last().expect("a frame");
+    vtu::read_vtu(&dir.join(last)).expect("frame reads back")
+}
+
+#[test]
+fn the_insitu_block_relaxes_to_the_prescribed_stress_everywhere() {
+    let out = cli::tmp("block");
+    let s = cli::run_ok(cli::scenario("insitu_block3d.ron"), &out, &[]);
+    assert_eq!(s["status"], "ok");
+    assert_eq!(s["finish"], "converged");
+    assert_eq!(s["dimension"], 3);
+    assert_eq!(s["elements"], 48_000);
+    assert_eq!(s["nodes"], 9_261);
+    let f = last_frame(&out);
+    assert_eq!(f.points.len(), 9_261);
+    assert_eq!(f.types.len(), 48_000);
+    assert!(f.types.iter().all(|&t| t == 10), "VTK tetrahedra");
+    assert_eq!(f.connectivity.len(), 4 * 48_000);
+    // Every element at the in-situ stress: the static tolerance 1e-8 on the force residual
+    // leaves a few 1e-8 of the stress (measured 0.94 Pa of 30 MPa at the worst element); the
+    // bound is five times that.
+    for (name, want) in [
+        ("stress_xx", -20e6),
+        ("stress_yy", -10e6),
+        ("stress_zz", -30e6),
+        ("stress_xy", 0.0),
+        ("stress_yz", 0.0),
+        ("stress_zx", 0.0),
+    ] {
+        let v = f.cell_array(name).expect(name);
+        let worst = v.iter().fold(0.0f64, |m, x| m.max((x - want).abs()));
+        assert!(worst < 5.0, "{name}: worst deviation {worst:.3e} Pa");
+    }
+    // The systems a 3D rock without fractures runs, and those it has no data for.
+    let systems = s["systems"].as_array().expect("systems");
+    let enabled = |n: &str| {
+        systems
+            .iter()
+            .find(|x| x["name"] == n)
+            .map(|x| x["enabled"].as_bool().unwrap())
+    };
+    for n in [
+        "internal_force",
+        "damping",
+        "integrate",
+        "monitor",
+        "output",
+    ] {
+        assert_eq!(enabled(n), Some(true), "{n}");
+    }
+    for n in ["contact", "flow_substeps", "split", "solve"] {
+        assert_eq!(enabled(n), Some(false), "{n}");
+    }
+}
+
+/// A graded box (4 x 3 x 2 m) with rollers on its left, front and bottom sides and a normal
+/// traction `sigma` (Pa) on its top.
+fn uniaxial_scene(sigma: f64, extra: &str) -> String {
+    format!(
+        "(name: \"uniaxial3d\",
+          mesh: GradedBox(size: (4.0, 3.0, 2.0), h: 0.25, fine: (1.5, 1.0, 0.5, 2.5, 2.0, 1.5), ratio: 1.3),
+          material: (young: {YOUNG:e}, poisson: {NU}, density: 2700.0),
+          boundary: Sides3(left: Normal(0.0), front: Normal(0.0), bottom: Normal(0.0),
+                           top: Traction(normal: {sigma:e}, shear: 0.0)),
+          time: (end: Static(tol: 1e-10), safety: 0.9, max_steps: 200000 {extra}),
+          damping: Local(0.8),
+          output: (frame_every: 0, series_every: 100, fields: [Displacement, Stress]))"
+    )
+}
+
+#[test]
+fn a_graded_box_under_uniaxial_stress_passes_the_patch_test() {
+    let sigma = -10e6;
+    let dir = cli::tmp_dir("uniaxial");
+    let path = dir.join("uniaxial3d.ron");
+    std::fs::write(&path, uniaxial_scene(sigma, "")).unwrap();
+    let out = dir.join("out");
+    let s = cli::run_ok(&path, &out, &[]);
+    assert_eq!(s["finish"], "converged", "{s}");
+    let f = last_frame(&out);
+    // Stress: sigma_zz = sigma, the others zero.
+    for (name, want) in [
+        ("stress_xx", 0.0),
+        ("stress_yy", 0.0),
+        ("stress_zz", sigma),
+        ("stress_xy", 0.0),
+        ("stress_yz", 0.0),
+        ("stress_zx", 0.0),
+    ] {
+        let v = f.cell_array(name).expect(name);
+        let worst = v.iter().fold(0.0f64, |m, x| m.max((x - want).abs()));
+        // Measured 4.9e-4 Pa of 10 MPa (5e-11) at the static tolerance 1e-10.
+        assert!(worst < 1e-8 * sigma.abs(), "{name}: worst {worst:.3e} Pa");
+    }
+    // Displacement: u = (-nu e x, -nu e y, e z) with e = sigma / E, about the rollers' corner.
+    let e = sigma / YOUNG;
+    let u = f.point_array("displacement").expect("displacement");
+    let umax = (e * 2.0_f64).abs();
+    let mut worst = 0.0f64;
+    for (i, x) in f.points.iter().enumerate() {
+        let want = [-NU * e * x[0], -NU * e * x[1], e * x[2]];
+        for d in 0..3 {
+            worst = worst.max((u[3 * i + d] - want[d]).abs());
+        }
+    }
+    // Measured 5.9e-13 m of 1e-3 m (6e-10).
+    assert!(
+        worst < 1e-8 * umax,
+        "displacement off the closed form by {worst:.3e} m (of {umax:.3e} m)"
+    );
+}
+
+#[test]
+fn the_explicit_3d_step_is_stable_below_its_bound_and_blows_up_clearly_above_it() {
+    let dir = cli::tmp_dir("stability");
+    // Undamped, loaded suddenly, for a fixed time.
+    let scene = |dt: &str| {
+        uniaxial_scene(-10e6, dt)
+            .replace("Static(tol: 1e-10)", "Time(2e-3)")
+            .replace("damping: Local(0.8),", "damping: None,")
+    };
+    let stable = dir.join("stable.ron");
+    std::fs::write(&stable, scene("")).unwrap();
+    let out = dir.join("stable");
+    let s = cli::run_ok(&stable, &out, &[]);
+    assert_eq!(s["finish"], "end_time");
+    let dt_crit = s["dt_critical"].as_f64().unwrap();
+    // 0.9 of the bound, shortened so that whole steps reach the end.
+    let ratio = s["dt"].as_f64().unwrap() / dt_crit;
+    assert!(ratio <= 0.9 && ratio > 0.85, "dt / dt_crit = {ratio}");
+    let e = s["kinetic_energy"].as_f64().unwrap();
+    assert!(
+        e > 0.0 && e.is_finite(),
+        "the load sets the block moving: {e}"
+    );
+    // Three times the element bound: above the mesh's (within a factor 2 of the element bound,
+    // tests/tet_solid.rs).
+    let unstable = dir.join("unstable.ron");
+    std::fs::write(
+        &unstable,
+        scene(&format!(", dt: Some({:e})", 3.0 * dt_crit)),
+    )
+    .unwrap();
+    let out = dir.join("unstable");
+    let o = cli::bin()
+        .args(["run", unstable.to_str().unwrap(), "--quiet", "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    let e = cli::stderr(&o);
+    assert!(!o.status.success(), "{e}");
+    assert_ne!(o.status.code(), Some(101), "panic: {e}");
+    for needle in ["blow-up at step", "node", "m/s"] {
+        assert!(e.contains(needle), "`{needle}` not in: {e}");
+    }
+    let s = cli::summary(&out);
+    assert_eq!(s["status"], "failed");
+    assert!(out.join("timeseries.csv").exists());
+}
+
+#[test]
+fn what_3d_lacks_and_boundaries_of_the_wrong_dimension_are_refused_by_field() {
+    let dir = cli::tmp_dir("refused");
+    let base = uniaxial_scene(-1e6, "");
+    let cases: Vec<(String, &[&str])> = vec![
+        (
+            base.replace("boundary: Sides3(", "boundary: Sides(")
+                .replace("front: Normal(0.0), ", ""),
+            &["boundary", "InSitu3"],
+        ),
+        (
+            base.replace("time: (", "time: (solid_scheme: QuasiStatic, "),
+            &["time.solid_scheme", "not in 3D yet"],
+        ),
+        (
+            base.replace("damping:", "fracture: (strength: 5e6), damping:"),
+            &["fracture", "not in 3D yet"],
+        ),
+        (
+            base.replace("ratio: 1.3", "ratio: 1.3").replace(
+                "fine: (1.5, 1.0, 0.5, 2.5, 2.0, 1.5)",
+                "fine: (1.5, 1.0, 0.5, 5.5, 2.0, 1.5)",
+            ),
+            &["mesh.fine"],
+        ),
+        (
+            "(name: \"flat\", mesh: Regular(width: 4.0, height: 4.0, h: 1.0),
+              material: (young: 2e10, poisson: 0.2, density: 2700.0),
+              boundary: InSitu3(sxx: -1e6, syy: -1e6, szz: -1e6),
+              time: (end: Static(tol: 1e-6)))"
+                .to_string(),
+            &["boundary", "this mesh is 2D"],
+        ),
+    ];
+    for (k, (text, needles)) in cases.iter().enumerate() {
+        let path = dir.join(format!("case{k}.ron"));
+        std::fs::write(&path, text).unwrap();
+        let out = dir.join(format!("out{k}"));
+        let o = cli::run(&[
+            "run",
+            path.to_str().unwrap(),
+            "--quiet",
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        cli::assert_refused(&o, needles);
+        assert!(
+            !out.exists(),
+            "case {k}: a refused run wrote {}",
+            out.display()
+        );
+    }
+}
