@@ -128,7 +128,7 @@ fn summary_3d(sim: &Simulation<Tet4>, stepped: &Stepped) -> serde_json::Value {
     let mut s = json!({
         "scenario": sim.params().name,
         "dimension": 3,
-        "solid_scheme": "explicit",
+        "solid_scheme": if sim.solid().n_nodes() > 0 && sim.schedule().is_enabled(crate::systems::SystemId::Solve) { "quasi_static" } else { "explicit" },
         "status": status,
         "finish": finish,
         "elements": sim.solid().n_elems(),

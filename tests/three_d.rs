@@ -3,10 +3,11 @@
 //! checked against closed forms.
 //! - the shipped in-situ block (`scenarios/insitu_block3d.ron`) relaxes to the prescribed
 //!   principal stresses in every element;
-//! - the patch test through the engine: a graded box under a normal traction on its top and
-//!   rollers on three sides carries the uniform uniaxial stress, and its displacement is the
-//!   linear closed form (TET4 holds linear fields exactly; the tolerance is the relaxation's,
-//!   set by its static tolerance);
+//! - the patch test through the engine, with both solid schemes: a graded box under a normal
+//!   traction on its top and rollers on three sides carries the uniform uniaxial stress, and
+//!   its displacement is the linear closed form (TET4 holds linear fields exactly; the
+//!   explicit relaxation's tolerance is set by its static tolerance, the quasi-static solve's
+//!   by round-off); a quasi-static body free to move is refused with the reason;
 //! - the explicit step is stable at 0.9 of the element bound and a step three times the bound
 //!   blows up with the step, the node and the quantity named, the outputs so far kept;
 //! - what 3D cannot do yet, and boundaries of the wrong dimension, are refused by field.
@@ -90,12 +91,13 @@ fn uniaxial_scene(sigma: f64, extra: &str) -> String {
     )
 }
 
-#[test]
-fn a_graded_box_under_uniaxial_stress_passes_the_patch_test() {
+/// The patch test of one solid scheme (`extra`: the scheme's `time` entries): stress and
+/// displacement against the closed form, relative; returns the run's wall time (s) and steps.
+fn patch_test(name: &str, extra: &str, stress_tol: f64, disp_tol: f64) -> (f64, u64) {
     let sigma = -10e6;
-    let dir = cli::tmp_dir("uniaxial");
+    let dir = cli::tmp_dir(name);
     let path = dir.join("uniaxial3d.ron");
-    std::fs::write(&path, uniaxial_scene(sigma, "")).unwrap();
+    std::fs::write(&path, uniaxial_scene(sigma, extra)).unwrap();
     let out = dir.join("out");
     let s = cli::run_ok(&path, &out, &[]);
     assert_eq!(s["finish"], "converged", "{s}");
@@ -111,8 +113,10 @@ fn a_graded_box_under_uniaxial_stress_passes_the_patch_test() {
     ] {
         let v = f.cell_array(name).expect(name);
         let worst = v.iter().fold(0.0f64, |m, x| m.max((x - want).abs()));
-        // Measured 4.9e-4 Pa of 10 MPa (5e-11) at the static tolerance 1e-10.
-        assert!(worst < 1e-8 * sigma.abs(), "{name}: worst {worst:.3e} Pa");
+        assert!(
+            worst < stress_tol * sigma.abs(),
+            "{name}: worst {worst:.3e} Pa"
+        );
     }
     // Displacement: u = (-nu e x, -nu e y, e z) with e = sigma / E, about the rollers' corner.
     let e = sigma / YOUNG;
@@ -125,11 +129,41 @@ fn a_graded_box_under_uniaxial_stress_passes_the_patch_test() {
             worst = worst.max((u[3 * i + d] - want[d]).abs());
         }
     }
-    // Measured 5.9e-13 m of 1e-3 m (6e-10).
     assert!(
-        worst < 1e-8 * umax,
+        worst < disp_tol * umax,
         "displacement off the closed form by {worst:.3e} m (of {umax:.3e} m)"
     );
+    (s["wall_s"].as_f64().unwrap(), s["steps"].as_u64().unwrap())
+}
+
+#[test]
+fn a_graded_box_under_uniaxial_stress_passes_the_patch_test_with_both_schemes() {
+    // Explicit relaxation to the static tolerance 1e-10: measured stress 4.9e-4 Pa of 10 MPa
+    // (5e-11), displacement 5.9e-13 m of 1e-3 m (6e-10).
+    let (_, steps) = patch_test("explicit", "", 1e-8, 1e-8);
+    assert!(steps > 100, "relaxation takes many steps: {steps}");
+    // Quasi-static: one step, one factorisation; measured stress 1e-7 Pa (1e-14), the
+    // residual 1e-14 (round-off).
+    let (_, steps) = patch_test("quasi_static", ", solid_scheme: QuasiStatic", 1e-12, 1e-10);
+    assert_eq!(steps, 1, "a static quasi-static run is one step");
+}
+
+#[test]
+fn a_quasi_static_body_free_to_move_is_refused_clearly() {
+    let dir = cli::tmp_dir("floating");
+    let path = dir.join("floating.ron");
+    let text = uniaxial_scene(-1e6, ", solid_scheme: QuasiStatic")
+        .replace("left: Normal(0.0), front: Normal(0.0), ", "");
+    std::fs::write(&path, text).unwrap();
+    let out = dir.join("out");
+    let o = cli::run(&[
+        "run",
+        path.to_str().unwrap(),
+        "--quiet",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    cli::assert_refused(&o, &["boundary", "not positive definite", "rigid motion"]);
 }
 
 #[test]
@@ -191,8 +225,8 @@ fn what_3d_lacks_and_boundaries_of_the_wrong_dimension_are_refused_by_field() {
             &["boundary", "InSitu3"],
         ),
         (
-            base.replace("time: (", "time: (solid_scheme: QuasiStatic, "),
-            &["time.solid_scheme", "not in 3D yet"],
+            base.replace("time: (", "time: (mass_scaling: true, "),
+            &["time.mass_scaling", "not in 3D yet"],
         ),
         (
             base.replace("damping:", "fracture: (strength: 5e6), damping:"),

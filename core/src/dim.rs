@@ -99,6 +99,11 @@ pub trait Element:
     fn forces(g: &Self::Geom, s: &Self::Stress) -> Self::Forces;
     /// Strain energy of the element, 1/2 measure sigma:epsilon (J/m in 2D, J in 3D).
     fn strain_energy(g: &Self::Geom, c: &Self::Conn, u: &[Self::Vector], p: &SolidParams) -> f64;
+    /// The element stiffness K_e = measure B^T D B (D * NODES square, dofs node by node), N/m
+    /// per m in 2D, N/m in 3D: the internal force is f = -K_e u.
+    fn stiffness(g: &Self::Geom, p: &SolidParams) -> Self::Stiffness;
+    /// The type of [`Element::stiffness`].
+    type Stiffness: Index<(usize, usize), Output = f64>;
 }
 
 /// The plane-strain constant-strain triangle (2D). Geometry `[A, dN/dx (3), dN/dy (3)]`.
@@ -115,6 +120,7 @@ impl Element for Cst {
     type Geom = [f64; 7];
     type Stress = [f64; 3];
     type Forces = [f64; 6];
+    type Stiffness = nalgebra::SMatrix<f64, 6, 6>;
 
     #[inline(always)]
     fn measure(g: &[f64; 7]) -> f64 {
@@ -134,6 +140,9 @@ impl Element for Cst {
         let eps = cst_strain(g, [u[c[0] as usize], u[c[1] as usize], u[c[2] as usize]]);
         let s = hooke(eps, p);
         0.5 * g[0] * (s[0] * eps[0] + s[1] * eps[1] + s[2] * eps[2])
+    }
+    fn stiffness(g: &[f64; 7], p: &SolidParams) -> Self::Stiffness {
+        crate::element::element_stiffness(g, p)
     }
 }
 
@@ -171,6 +180,7 @@ impl Element for Tet4 {
     type Geom = [f64; 13];
     type Stress = [f64; 6];
     type Forces = [f64; 12];
+    type Stiffness = nalgebra::SMatrix<f64, 12, 12>;
 
     #[inline(always)]
     fn measure(g: &[f64; 13]) -> f64 {
@@ -196,5 +206,8 @@ impl Element for Tet4 {
         let s = tet4::hooke(eps, p);
         // Voigt with engineering shear: sigma:epsilon = sum_k s_k e_k.
         0.5 * g[0] * (0..6).map(|k| s[k] * eps[k]).sum::<f64>()
+    }
+    fn stiffness(g: &[f64; 13], p: &SolidParams) -> Self::Stiffness {
+        tet4::stiffness(&tet_geometry(g), p)
     }
 }

@@ -241,6 +241,7 @@ impl Simulation {
                 stats: StepStats::default(),
                 dt_crit,
                 quasi_static: qs,
+                linear: None,
             },
             flow,
             fracture: FractureState::default(),

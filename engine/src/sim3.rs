@@ -4,8 +4,9 @@
 //! systems in the same order through the same generic kernels (`systems/solid.rs`:
 //! internal force, external load, damping, central-difference integration; `monitor`).
 //!
-//! What 3D has so far (issue 38, first part): the rock with the explicit scheme, box
-//! boundaries (`InSitu3`, `Sides3`), the in-situ initial state, frames, series rows and the
+//! What 3D has so far (issue 38, first part): the rock with the explicit scheme or the
+//! quasi-static one (`solve`: [`hydrofrac_systems::linear_static`], the stiffness factorised
+//! once), box boundaries (`InSitu3`, `Sides3`), the in-situ initial state, frames, series rows and the
 //! summary. The systems the 3D scene has no data for (contact, fluid pressure, flow,
 //! criterion, split, seismicity) are off in its schedule, as in any 2D scene without them;
 //! the scenario's checks refuse what 3D cannot do yet (`Scenario::check_3d`).
@@ -95,6 +96,14 @@ impl Simulation<Tet4> {
         let mut disabled = scenario.systems.disable.clone();
         disabled.extend(extra_disable.iter().cloned());
         let schedule = crate::setup::schedule(&disabled, &view, &p, false)?;
+        let linear = if schedule.is_enabled(SystemId::Solve) {
+            let mut l = hydrofrac_systems::linear_static::LinearStatic::build(&view, &p.solid)
+                .map_err(|why| SetupError::invalid("boundary", why))?;
+            l.tol = scenario.time.newton_tol;
+            Some(l)
+        } else {
+            None
+        };
         Ok(Simulation {
             scenario,
             model,
@@ -104,6 +113,7 @@ impl Simulation<Tet4> {
                 stats: StepStats::default(),
                 dt_crit,
                 quasi_static: None,
+                linear,
             },
             flow: None,
             fracture: FractureState::default(),
@@ -165,6 +175,11 @@ impl Simulation<Tet4> {
                 SystemId::Integrate => {
                     self.solid.stats = solid::integrate(v, clock.dt, clock.load_factor)
                 }
+                SystemId::Solve => {
+                    if let Some(l) = self.solid.linear.as_mut() {
+                        self.solid.stats = l.solve(v, &p.solid, clock.load_factor);
+                    }
+                }
                 SystemId::Monitor => monitor::monitor(clock, t0, &self.solid, None, p)?,
                 SystemId::Output => {
                     let every = p.output.frame_every;
@@ -178,7 +193,6 @@ impl Simulation<Tet4> {
                 // Not in a 3D scene's schedule (no data): `Scenario::check_3d`.
                 SystemId::Contact
                 | SystemId::FluidPressure
-                | SystemId::Solve
                 | SystemId::FlowSubsteps
                 | SystemId::FractureCriterion
                 | SystemId::Split

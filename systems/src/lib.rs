@@ -26,6 +26,7 @@ pub mod coupling;
 pub mod criterion;
 pub mod flow;
 pub mod fracture;
+pub mod linear_static;
 pub mod monitor;
 pub mod output;
 pub mod quasi_static;

@@ -15,6 +15,10 @@ pub struct SolidPart<E: Element = Cst> {
     /// Critical solid step (elements, joints, fluid stiffness; [`hydrofrac_core::stability::solid`]), s;
     /// infinite without a solid.
     pub dt_crit: f64,
-    /// `time.solid_scheme: QuasiStatic`: the equilibrium solver (2D only so far: `None` in 3D).
+    /// `time.solid_scheme: QuasiStatic` in 2D: the equilibrium solver with joint contact and
+    /// coupled flow.
     pub quasi_static: Option<QuasiStatic>,
+    /// `time.solid_scheme: QuasiStatic` in 3D (a rock without joints): the factorised linear
+    /// stiffness ([`crate::linear_static`]).
+    pub linear: Option<crate::linear_static::LinearStatic>,
 }

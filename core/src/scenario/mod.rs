@@ -441,9 +441,6 @@ impl Scenario {
         if self.gravity.is_some() {
             return not_yet("gravity", "gravity");
         }
-        if self.time.solid_scheme == SolidScheme::QuasiStatic {
-            return not_yet("time.solid_scheme", "the quasi-static scheme");
-        }
         if self.time.mass_scaling || self.time.selective_mass_scaling.is_some() {
             return not_yet("time.mass_scaling", "mass scaling");
         }

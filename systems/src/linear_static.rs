@@ -1,0 +1,220 @@
+//! The quasi-static step of a rock without joints, for any element kind ([`Element`]: the 2D
+//! CST or the 3D TET4): equilibrium K u = f of linear elasticity at the end of the step, with
+//! the prescribed displacements and loads times the step's load factor. The stiffness of the
+//! free dofs is assembled once per topology on a fixed pattern, its symbolic analysis (AMD
+//! ordering) and numeric Cholesky factorisation (faer) are kept while the topology stands, so
+//! a step is a residual and two triangular solves, refined until the residual is at round-off.
+//!
+//! This is the `solve` system of the 3D rock (`engine/src/sim3.rs`). The 2D rock's `solve` is
+//! [`crate::quasi_static`], the semi-smooth Newton with joint contact and coupled flow; the
+//! element stiffness both assemble is [`Element::stiffness`].
+
+use crate::solid::{StepStats, external_load, internal_force, strain_energy};
+use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
+use faer::linalg::cholesky::llt::factor::LltRegularization;
+use faer::sparse::SparseColMatRef;
+use faer::sparse::linalg::cholesky::{
+    LltRef, SymbolicCholesky, SymmetricOrdering, factorize_symbolic_cholesky,
+};
+use faer::{Conj, MatMut, Par, Side};
+use hydrofrac_core::dim::Element;
+use hydrofrac_core::element::SolidParams;
+use hydrofrac_core::sparse::SparsePattern;
+use hydrofrac_core::view::SolidView;
+
+/// No dof (a prescribed component).
+const NONE: usize = usize::MAX;
+
+/// Refinement passes at most: the first solve is exact up to round-off for linear elasticity;
+/// a second one takes the residual of the first to the factorisation's round-off.
+const MAX_PASSES: usize = 3;
+
+/// The factorised stiffness of one topology.
+pub struct LinearStatic {
+    /// Topology generation of the view it was built for.
+    pub generation: u64,
+    /// `dof[D * node + d]`: the free dof of component d, or `NONE`.
+    dof: Vec<usize>,
+    n: usize,
+    symbolic: SymbolicCholesky<usize>,
+    l_values: Vec<f64>,
+    mem: MemBuffer,
+    /// Numeric factorisations done (one per topology).
+    pub factorisations: u64,
+    /// Solves (passes) done.
+    pub solves: u64,
+    /// Relative residual a step refines to (`time.newton_tol`; default
+    /// [`crate::quasi_static::DEFAULT_TOL`]).
+    pub tol: f64,
+}
+
+impl LinearStatic {
+    /// Number the free dofs of `v`, assemble the lower triangle of their stiffness, analyse
+    /// and factorise it. Errors: a stiffness that is not positive definite (a body free to
+    /// move: too few prescribed components to hold it).
+    pub fn build<E: Element>(v: &SolidView<E>, p: &SolidParams) -> Result<Self, String> {
+        let dn = E::D;
+        let mut dof = vec![NONE; dn * v.n_nodes()];
+        let mut n = 0;
+        for i in 0..v.n_nodes() {
+            for d in 0..dn {
+                if v.fixed[i] & (1 << d) == 0 {
+                    dof[dn * i + d] = n;
+                    n += 1;
+                }
+            }
+        }
+        let dof_ref = &dof;
+        let elem_dofs = |c: &E::Conn| -> Vec<usize> {
+            c.as_ref()
+                .iter()
+                .flat_map(|&a| (0..dn).map(move |d| dof_ref[dn * a as usize + d]))
+                .collect()
+        };
+        let mut entries = Vec::new();
+        for c in &v.conn {
+            let d = elem_dofs(c);
+            for &a in &d {
+                for &b in &d {
+                    if a != NONE && b != NONE && a >= b {
+                        entries.push((a, b));
+                    }
+                }
+            }
+        }
+        let pattern = SparsePattern::from_entries(n, entries)?;
+        let mut values = vec![0.0; pattern.nnz()];
+        for (c, g) in v.conn.iter().zip(&v.geom) {
+            let d = elem_dofs(c);
+            let ke = E::stiffness(g, p);
+            for (i, &a) in d.iter().enumerate() {
+                for (j, &b) in d.iter().enumerate() {
+                    if a != NONE && b != NONE && a >= b {
+                        values[pattern.slot(a, b).expect("in pattern")] += ke[(i, j)];
+                    }
+                }
+            }
+        }
+        let symbolic = factorize_symbolic_cholesky(
+            pattern.as_ref(),
+            Side::Lower,
+            SymmetricOrdering::Amd,
+            Default::default(),
+        )
+        .map_err(|e| format!("symbolic analysis: {e:?}"))?;
+        let req = StackReq::any_of(&[
+            symbolic.factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default()),
+            symbolic.solve_in_place_scratch::<f64>(1, Par::Seq),
+        ]);
+        let mut mem = MemBuffer::try_new(req).map_err(|_| "out of memory for the workspace")?;
+        let mut l_values = vec![0.0; symbolic.len_val()];
+        symbolic
+            .factorize_numeric_llt::<f64>(
+                &mut l_values,
+                SparseColMatRef::new(pattern.as_ref(), &values),
+                Side::Lower,
+                LltRegularization::default(),
+                Par::Seq,
+                MemStack::new(&mut mem),
+                Default::default(),
+            )
+            .map_err(|e| {
+                format!(
+                    "the stiffness is not positive definite ({e:?}): the body can move without \
+                     straining (hold enough displacement components to stop every rigid motion)"
+                )
+            })?;
+        Ok(LinearStatic {
+            generation: v.generation,
+            dof,
+            n,
+            symbolic,
+            l_values,
+            mem,
+            factorisations: 1,
+            solves: 0,
+            tol: crate::quasi_static::DEFAULT_TOL,
+        })
+    }
+
+    /// Equilibrium at load factor `lf`: the prescribed components at `lf` times their values,
+    /// the free ones solved from K du = f_int(u) + lf f_ext, refined until the relative
+    /// residual is below [`LinearStatic::tol`]; velocities zero. Returns the step's statistics
+    /// (residual, reactions and loads, strain energy).
+    pub fn solve<E: Element>(
+        &mut self,
+        v: &mut SolidView<E>,
+        p: &SolidParams,
+        lf: f64,
+    ) -> StepStats {
+        let tol = self.tol;
+        let dn = E::D;
+        for i in 0..v.n_nodes() {
+            for d in 0..dn {
+                if v.fixed[i] & (1 << d) != 0 {
+                    v.u[i][d] = lf * v.presc[i][d];
+                }
+                v.v[i][d] = 0.0;
+            }
+        }
+        let mut rhs = vec![0.0; self.n];
+        let mut stats = self.residual(v, p, lf, &mut rhs);
+        for _ in 0..MAX_PASSES {
+            if stats.residual() <= tol || self.n == 0 {
+                break;
+            }
+            let llt = LltRef::<usize, f64>::new(&self.symbolic, &self.l_values);
+            llt.solve_in_place_with_conj(
+                Conj::No,
+                MatMut::from_column_major_slice_mut(&mut rhs, self.n, 1),
+                Par::Seq,
+                MemStack::new(&mut self.mem),
+            );
+            self.solves += 1;
+            for i in 0..v.n_nodes() {
+                for d in 0..dn {
+                    let k = self.dof[dn * i + d];
+                    if k != NONE {
+                        v.u[i][d] += rhs[k];
+                    }
+                }
+            }
+            stats = self.residual(v, p, lf, &mut rhs);
+        }
+        stats
+    }
+
+    /// The unbalanced force at the current displacements into `rhs` (free dofs) and the step
+    /// statistics of that state.
+    fn residual<E: Element>(
+        &self,
+        v: &mut SolidView<E>,
+        p: &SolidParams,
+        lf: f64,
+        rhs: &mut [f64],
+    ) -> StepStats {
+        internal_force(v, p);
+        external_load(v, lf);
+        let dn = E::D;
+        let mut st = StepStats::default();
+        for i in 0..v.n_nodes() {
+            for d in 0..dn {
+                let f = v.force[i][d];
+                let l = lf * v.load[i][d];
+                st.ref2 += l * l;
+                match self.dof[dn * i + d] {
+                    NONE => st.ref2 += f * f,
+                    k => {
+                        st.res2 += f * f;
+                        rhs[k] = f;
+                    }
+                }
+            }
+        }
+        st.strain = strain_energy(v, p);
+        st.non_finite =
+            v.u.iter()
+                .position(|u| !u.as_ref().iter().all(|x| x.is_finite()));
+        st
+    }
+}
