@@ -203,6 +203,11 @@ pub fn cases() -> Vec<Case> {
             run: solid3d_cases::mms3d,
         },
         Case {
+            name: "insitu3d",
+            about: "3D engine: a box of tetrahedra under the principal in-situ stress (-20/-10/-30 MPa), explicit relaxation and quasi-static solve side by side, h = 2 to 0.5 m",
+            run: solid3d_cases::insitu3d,
+        },
+        Case {
             name: "penny3d",
             about: "3D: Sneddon's penny-shaped crack under pressure, TET4 on a graded box (static, faer Cholesky), a/h = 4 to 20: centre opening, opened volume (2.5 % at 20)",
             run: solid3d_cases::penny3d,
