@@ -2,8 +2,9 @@
 //! (issue 38's target: TET4 under 12 ns per element per step on 1 thread, the CST about 11).
 //! Both kernels on flat arrays (`core/src/tet4.rs`, `core/src/element.rs`): gather the nodal
 //! displacements, strain, Hooke, nodal forces, scatter; serial, one thread; element geometry
-//! precomputed as the engine keeps it. The 3D engine's whole step (schedule, spans, damping,
-//! integration) is not built yet, so this is the kernel alone.
+//! precomputed as the engine keeps it. Beside them (`engine/...`), the engine's system itself,
+//! `systems::solid::internal_force` on the dense views of a 3D and a 2D model (generic over
+//! the element kind: per-element forces, then the gather by node), in a one-thread pool.
 //!
 //! Run: `cargo bench --bench tet4_force` (criterion reports Melem/s; ns/element = 1000 / that).
 //! Set HYDROFRAC_BENCH_TETS=12,24 to pick the boxes (cubes per side; 6 tetrahedra per cube).
@@ -12,12 +13,15 @@
 mod common;
 
 use criterion::{BenchmarkId, Criterion, Throughput};
+use hydrofrac::dim::Tet4;
 use hydrofrac::element::{SolidParams, cst_forces, cst_stress};
 use hydrofrac::mesh::TriMesh;
 use hydrofrac::scenario::Damping;
+use hydrofrac::systems::solid::internal_force;
 use hydrofrac::tet4::{self, TetGeometry};
 use hydrofrac::tetmesh::TetMesh;
 use hydrofrac::verify::solid3d_cases::{NU, YOUNG, params};
+use hydrofrac::view::SolidView;
 
 struct Tets {
     tets: Vec<[u32; 4]>,
@@ -100,7 +104,7 @@ fn tet4_force(c: &mut Criterion) {
                 .collect(),
             u: t2.nodes.iter().map(|q| q.map(|x| 1e-4 * x * x)).collect(),
             f: vec![[0.0; 2]; t2.nodes.len()],
-            tris: t2.triangles,
+            tris: t2.triangles.clone(),
         };
         group.throughput(Throughput::Elements(elems as u64));
         group.bench_function(BenchmarkId::new("tet4/1t", elems), |b| {
@@ -109,6 +113,32 @@ fn tet4_force(c: &mut Criterion) {
         group.throughput(Throughput::Elements(tris.tris.len() as u64));
         group.bench_function(BenchmarkId::new("cst/1t", tris.tris.len()), |b| {
             b.iter(|| tris.force(&sp2))
+        });
+        // The engine's system on the views of models built from the same meshes.
+        let rock = hydrofrac::scenario::Material {
+            young: YOUNG,
+            poisson: NU,
+            density: 2700.0,
+        };
+        let m3 = TetMesh::regular_box([0.0; 3], [1.0; 3], h).unwrap();
+        let model3 = hydrofrac::model::Model::from_tet_mesh(&m3, rock).unwrap();
+        let mut v3 = SolidView::<Tet4>::build_3d(&model3);
+        v3.u.iter_mut()
+            .zip(&v3.x0.clone())
+            .for_each(|(u, x)| *u = x.map(|c| 1e-4 * c * c));
+        let model2 = hydrofrac::model::Model::from_mesh(&t2, rock).unwrap();
+        let mut v2 = SolidView::build(&model2);
+        v2.u.iter_mut()
+            .zip(&v2.x0.clone())
+            .for_each(|(u, x)| *u = x.map(|c| 1e-4 * c * c));
+        let one = common::pool(1);
+        group.throughput(Throughput::Elements(v3.n_elems() as u64));
+        group.bench_function(BenchmarkId::new("engine_tet4/1t", v3.n_elems()), |b| {
+            one.install(|| b.iter(|| internal_force(&mut v3, &p)))
+        });
+        group.throughput(Throughput::Elements(v2.n_elems() as u64));
+        group.bench_function(BenchmarkId::new("engine_cst/1t", v2.n_elems()), |b| {
+            one.install(|| b.iter(|| internal_force(&mut v2, &p)))
         });
     }
     group.finish();

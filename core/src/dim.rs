@@ -146,8 +146,8 @@ impl Element for Cst {
     }
 }
 
-/// The linear tetrahedron (3D). Geometry `[V, grad N_0, grad N_1, grad N_2, grad N_3]`
-/// (m^3 and 1/m).
+/// The linear tetrahedron (3D). Geometry: [`tet4::TetGeometry`], the volume (m^3) and the four
+/// shape-function gradients (1/m); the component packs it (`TetGeom`).
 #[derive(
     Clone, Copy, Debug, Default, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize,
 )]
@@ -177,37 +177,32 @@ impl Element for Tet4 {
     const NODES: usize = 4;
     type Vector = [f64; 3];
     type Conn = [u32; 4];
-    type Geom = [f64; 13];
+    type Geom = tet4::TetGeometry;
     type Stress = [f64; 6];
     type Forces = [f64; 12];
     type Stiffness = nalgebra::SMatrix<f64, 12, 12>;
 
     #[inline(always)]
-    fn measure(g: &[f64; 13]) -> f64 {
-        g[0]
+    fn measure(g: &tet4::TetGeometry) -> f64 {
+        g.volume
     }
     #[inline(always)]
-    fn stress(g: &[f64; 13], c: &[u32; 4], u: &[[f64; 3]], p: &SolidParams) -> [f64; 6] {
+    fn stress(g: &tet4::TetGeometry, c: &[u32; 4], u: &[[f64; 3]], p: &SolidParams) -> [f64; 6] {
         let ue = c.map(|a| u[a as usize]);
-        tet4::hooke(tet4::strain(&tet_geometry(g), ue), p)
+        tet4::hooke(tet4::strain(g, ue), p)
     }
     #[inline(always)]
-    fn forces(g: &[f64; 13], s: &[f64; 6]) -> [f64; 12] {
-        let f = tet4::forces(&tet_geometry(g), *s);
-        let mut out = [0.0; 12];
-        for a in 0..4 {
-            out[3 * a..3 * a + 3].copy_from_slice(&f[a]);
-        }
-        out
+    fn forces(g: &tet4::TetGeometry, s: &[f64; 6]) -> [f64; 12] {
+        tet4::forces_flat(g, *s)
     }
     #[inline(always)]
-    fn strain_energy(g: &[f64; 13], c: &[u32; 4], u: &[[f64; 3]], p: &SolidParams) -> f64 {
-        let eps = tet4::strain(&tet_geometry(g), c.map(|a| u[a as usize]));
+    fn strain_energy(g: &tet4::TetGeometry, c: &[u32; 4], u: &[[f64; 3]], p: &SolidParams) -> f64 {
+        let eps = tet4::strain(g, c.map(|a| u[a as usize]));
         let s = tet4::hooke(eps, p);
         // Voigt with engineering shear: sigma:epsilon = sum_k s_k e_k.
-        0.5 * g[0] * (0..6).map(|k| s[k] * eps[k]).sum::<f64>()
+        0.5 * g.volume * (0..6).map(|k| s[k] * eps[k]).sum::<f64>()
     }
-    fn stiffness(g: &[f64; 13], p: &SolidParams) -> Self::Stiffness {
-        tet4::stiffness(&tet_geometry(g), p)
+    fn stiffness(g: &tet4::TetGeometry, p: &SolidParams) -> Self::Stiffness {
+        tet4::stiffness(g, p)
     }
 }

@@ -7,7 +7,7 @@
 //! Units: m, Pa, kg, N; tension positive. The vertical axis is z (`Bottom`, `Top`); y is
 //! `Front` (min) and `Back` (max).
 
-use crate::dim::{Tet4, pack_tet_geometry};
+use crate::dim::{Tet4, pack_tet_geometry, tet_geometry};
 use crate::error::SetupError;
 use crate::model::Model;
 use crate::scenario::{Boundary, Material, SideBc};
@@ -330,10 +330,13 @@ impl SolidView<Tet4> {
             })
             .collect();
         v.push_node_rows(nodes, &mut dense);
-        let elems: Vec<(u64, Entity, [u32; 4], [f64; 13], [f64; 6])> = world
+        let elems: Vec<(u64, Entity, [u32; 4], tet4::TetGeometry, [f64; 6])> = world
             .query::<(Entity, &StableId, &TetNodes, &TetGeom, &TetStress)>()
             .iter()
-            .map(|(e, id, en, g, s)| (id.0, e, en.0.map(|n| dense[n.id() as usize]), g.0, s.0))
+            .map(|(e, id, en, g, s)| {
+                let c = en.0.map(|n| dense[n.id() as usize]);
+                (id.0, e, c, tet_geometry(&g.0), s.0)
+            })
             .collect();
         v.push_elem_rows(elems);
         v.set_incidence();

@@ -17,7 +17,7 @@ use nalgebra::{Matrix3, SMatrix, SVector, SymmetricEigen};
 
 /// Geometry of one tetrahedron: its volume (m^3) and the gradients of its four shape functions
 /// (1/m), `grad[a] = [dN_a/dx, dN_a/dy, dN_a/dz]`.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct TetGeometry {
     pub volume: f64,
     pub grad: [[f64; 3]; 4],
@@ -97,12 +97,19 @@ pub fn hooke(e: [f64; 6], p: &SolidParams) -> [f64; 6] {
 /// Nodal internal forces of one element, f_a = -V B_a^T sigma, N.
 #[inline(always)]
 pub fn forces(g: &TetGeometry, s: [f64; 6]) -> [[f64; 3]; 4] {
+    let f = forces_flat(g, s);
+    std::array::from_fn(|a| [f[3 * a], f[3 * a + 1], f[3 * a + 2]])
+}
+
+/// [`forces`] node by node in one array `[f0x, f0y, f0z, f1x, ..]` (the engine's layout).
+#[inline(always)]
+pub fn forces_flat(g: &TetGeometry, s: [f64; 6]) -> [f64; 12] {
     let v = g.volume;
-    let mut f = [[0.0; 3]; 4];
-    for (fa, b) in f.iter_mut().zip(&g.grad) {
-        fa[0] = -v * (b[0] * s[0] + b[1] * s[3] + b[2] * s[5]);
-        fa[1] = -v * (b[0] * s[3] + b[1] * s[1] + b[2] * s[4]);
-        fa[2] = -v * (b[0] * s[5] + b[1] * s[4] + b[2] * s[2]);
+    let mut f = [0.0; 12];
+    for (a, b) in g.grad.iter().enumerate() {
+        f[3 * a] = -v * (b[0] * s[0] + b[1] * s[3] + b[2] * s[5]);
+        f[3 * a + 1] = -v * (b[0] * s[3] + b[1] * s[1] + b[2] * s[4]);
+        f[3 * a + 2] = -v * (b[0] * s[5] + b[1] * s[4] + b[2] * s[2]);
     }
     f
 }

@@ -72,10 +72,7 @@ pub fn build_model_3d(
 /// the mesh's from below (Irons' element eigenvalue theorem).
 pub fn critical_step_3d(view: &SolidView<Tet4>, p: &RunParams) -> f64 {
     (0..view.n_elems())
-        .map(|k| {
-            let g = hydrofrac_core::dim::tet_geometry(&view.geom[k]);
-            hydrofrac_core::tet4::critical_step(&g, &p.solid, p.material.density)
-        })
+        .map(|k| hydrofrac_core::tet4::critical_step(&view.geom[k], &p.solid, p.material.density))
         .fold(f64::INFINITY, f64::min)
 }
 
