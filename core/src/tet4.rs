@@ -9,8 +9,9 @@
 //! `[a, b, c, d]` is positively oriented when (b - a) x (c - a) . (d - a) > 0; its volume is a
 //! sixth of that.
 //!
-//! Not yet part of the engine (issue 38, first part): the ECS, the schedule and the scenarios are
-//! still 2D. Used by [`crate::tetmesh`] and the 3D tests (`tests/tet_solid.rs`).
+//! In the engine through [`crate::dim::Tet4`] (the 3D element kind of the generic solid
+//! systems); also used by [`crate::tetmesh`] and the 3D tests (`tests/tet_solid.rs`,
+//! `tests/three_d.rs`).
 
 use crate::element::SolidParams;
 use nalgebra::{Matrix3, SMatrix, SVector, SymmetricEigen};

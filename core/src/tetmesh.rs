@@ -7,7 +7,8 @@
 //! both sides and the mesh is conforming. Planes of the grid (x, y or z constant) are unions of
 //! mesh faces, so a planar fracture on such a plane lies on faces.
 //!
-//! Not yet part of the engine (issue 38, first part): see [`crate::tet4`].
+//! The engine's 3D meshes (`MeshSpec::Box`, `GradedBox`) are built here; the entities from them by
+//! `Model::from_tet_mesh` (`crate::model3`).
 
 use crate::error::SetupError;
 use crate::mesh::graded_axis;
