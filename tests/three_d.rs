@@ -233,7 +233,7 @@ fn what_3d_lacks_and_boundaries_of_the_wrong_dimension_are_refused_by_field() {
             &["fracture", "not in 3D yet"],
         ),
         (
-            base.replace("ratio: 1.3", "ratio: 1.3").replace(
+            base.replace(
                 "fine: (1.5, 1.0, 0.5, 2.5, 2.0, 1.5)",
                 "fine: (1.5, 1.0, 0.5, 5.5, 2.0, 1.5)",
             ),

@@ -13,7 +13,7 @@ use crate::model::Model;
 use crate::scenario::{Boundary, Material, SideBc};
 use crate::tet4;
 use crate::tetmesh::TetMesh;
-use crate::view::{NONE, NodeRow, SolidView, fixed_mask};
+use crate::view::{ElemRow, NONE, NodeRow, SolidView, fixed_mask};
 use hecs::{Entity, World};
 use hydrofrac_components::*;
 
@@ -330,7 +330,7 @@ impl SolidView<Tet4> {
             })
             .collect();
         v.push_node_rows(nodes, &mut dense);
-        let elems: Vec<(u64, Entity, [u32; 4], tet4::TetGeometry, [f64; 6])> = world
+        let elems: Vec<ElemRow<Tet4>> = world
             .query::<(Entity, &StableId, &TetNodes, &TetGeom, &TetStress)>()
             .iter()
             .map(|(e, id, en, g, s)| {

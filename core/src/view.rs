@@ -277,6 +277,15 @@ pub struct NodeRow<E: Element> {
     pub presc: E::Vector,
 }
 
+/// One element as the view takes it: stable id, entity, dense connectivity, geometry, stress.
+pub type ElemRow<E> = (
+    u64,
+    Entity,
+    <E as Element>::Conn,
+    <E as Element>::Geom,
+    <E as Element>::Stress,
+);
+
 /// Bit d set where component d is prescribed.
 pub fn fixed_mask(prescribed: &[Option<f64>]) -> u8 {
     let mut mask = 0u8;
@@ -315,7 +324,7 @@ impl<E: Element> SolidView<E> {
 
     /// Fill the element arrays from (stable id, entity, dense connectivity, geometry, stress)
     /// rows (any order; sorted here by stable id).
-    pub fn push_elem_rows(&mut self, mut elems: Vec<(u64, Entity, E::Conn, E::Geom, E::Stress)>) {
+    pub fn push_elem_rows(&mut self, mut elems: Vec<ElemRow<E>>) {
         elems.sort_unstable_by_key(|r| r.0);
         let ne = elems.len();
         self.elem_entity.reserve(ne);
@@ -412,7 +421,7 @@ impl SolidView {
     /// The elements by stable id: connectivity (dense node indices), geometry (area m^2 and
     /// shape-function gradients 1/m) and stress (Pa).
     fn push_elements(&mut self, world: &hecs::World, dense: &[u32]) {
-        let elems: Vec<(u64, Entity, [u32; 3], [f64; 7], [f64; 3])> = world
+        let elems: Vec<ElemRow<Cst>> = world
             .query::<(Entity, &StableId, &ElemNodes, &ElemGeom, &ElemStress)>()
             .iter()
             .map(|(e, id, en, g, s)| {
