@@ -1,4 +1,4 @@
-//! `hydrofrac run` of a 3D scenario (a `Box` or `GradedBox` mesh): the same stages as 2D
+//! `hydrofrac run` of a 3D scenario (a `Box`, `GradedBox` or `Gmsh3` mesh): the same stages as 2D
 //! ([`crate::driver`]: resources, the output folder and its manifest, the timed step loop
 //! with its progress bar and trace, `summary.json`), on a [`Simulation<Tet4>`]. What 3D does
 //! not have yet is refused by the scenario's checks (`docs/three_d.md`); a checkpoint to

@@ -220,7 +220,7 @@ pub fn check(sc: &ValidScenario, limit: u64, source: &str) -> Result<(), SetupEr
     {
         let bytes = mesh_bytes(&c, sc.time.solid_scheme);
         if bytes.is_nan() || bytes > limit as f64 {
-            let field = if matches!(mesh, MeshSpec::Gmsh { .. }) {
+            let field = if matches!(mesh, MeshSpec::Gmsh { .. } | MeshSpec::Gmsh3 { .. }) {
                 "mesh.file"
             } else {
                 "mesh.h"

@@ -105,10 +105,12 @@ pub fn build_mesh_around(
             Ok(TriMesh::from_triangles(g.nodes, g.triangles))
         }
         MeshSpec::Conforming { .. } => unreachable!("handled above"),
-        MeshSpec::Box { .. } | MeshSpec::GradedBox { .. } => Err(SetupError::invalid(
-            "mesh",
-            "a 3D mesh (tetrahedra) is not a triangle mesh: it is built by the 3D setup",
-        )),
+        MeshSpec::Box { .. } | MeshSpec::GradedBox { .. } | MeshSpec::Gmsh3 { .. } => {
+            Err(SetupError::invalid(
+                "mesh",
+                "a 3D mesh (tetrahedra) is not a triangle mesh: it is built by the 3D setup",
+            ))
+        }
     }?;
     Ok((mesh, None))
 }

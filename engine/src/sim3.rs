@@ -1,6 +1,6 @@
 //! The 3D simulation: a [`Simulation`] of linear tetrahedra ([`Tet4`]). Setup builds the 3D
 //! model (`hydrofrac_core::model3`), its TET4 view and the schedule from the same scenario
-//! format (the dimension follows from the mesh: `Box`, `GradedBox`); the step runs the same
+//! format (the dimension follows from the mesh: `Box`, `GradedBox`, `Gmsh3`); the step runs the same
 //! systems in the same order through the same generic kernels (`systems/solid.rs`:
 //! internal force, external load, damping, central-difference integration; `monitor`).
 //!
@@ -37,6 +37,9 @@ pub fn build_tet_mesh(spec: &MeshSpec) -> Result<TetMesh, SetupError> {
             fine,
             ratio,
         } => TetMesh::graded_box(origin, size, h, fine, ratio),
+        MeshSpec::Gmsh3 { ref file } => hydrofrac_core::gmsh::read_msh3(std::path::Path::new(file))
+            .map(|g| g.mesh)
+            .map_err(|e| SetupError::invalid("mesh.file", e.to_string())),
         _ => Err(SetupError::invalid("mesh", "not a 3D mesh")),
     }
 }

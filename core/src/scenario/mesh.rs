@@ -90,6 +90,10 @@ pub enum MeshSpec {
         fine: [f64; 6],
         ratio: f64,
     },
+    /// 3D: a tetrahedral mesh from a Gmsh `.msh` file (ASCII 2.2 or 4.1, 4-node tetrahedra),
+    /// path relative to the scenario file. The box's sides are the bounding box's faces: a
+    /// boundary face on one of its planes takes that side's condition, the others are free.
+    Gmsh3 { file: String },
 }
 
 fn default_grading() -> f64 {
@@ -145,6 +149,15 @@ impl MeshSpec {
                 Some(MeshCounts::from_triangles(len / GMSH_BYTES_PER_TRIANGLE))
             }
             MeshSpec::Conforming { .. } => Some(self.counts_around(&[])),
+            MeshSpec::Gmsh3 { ref file } => {
+                // A tetrahedron takes 20 or more bytes of text with its share of the nodes.
+                let tets = std::fs::metadata(file).ok()?.len() as f64 / GMSH_BYTES_PER_TRIANGLE;
+                Some(MeshCounts {
+                    nodes: 0.25 * tets + 4.0,
+                    triangles: tets,
+                    edges: 2.0 * tets + 4.0,
+                })
+            }
             MeshSpec::Box { size, h, .. } | MeshSpec::GradedBox { size, h, .. } => {
                 // Graded: at most the uniform box's cells at the fine size.
                 let n = size.map(|l| (l / h).ceil());
@@ -227,6 +240,7 @@ impl MeshSpec {
             MeshSpec::Conforming { .. } => "Conforming",
             MeshSpec::Box { .. } => "Box",
             MeshSpec::GradedBox { .. } => "GradedBox",
+            MeshSpec::Gmsh3 { .. } => "Gmsh3",
         }
     }
 
@@ -239,7 +253,7 @@ impl MeshSpec {
             | MeshSpec::Conforming { h, .. }
             | MeshSpec::Box { h, .. }
             | MeshSpec::GradedBox { h, .. } => Some(*h),
-            MeshSpec::Gmsh { .. } => None,
+            MeshSpec::Gmsh { .. } | MeshSpec::Gmsh3 { .. } => None,
         }
     }
     /// A 2D domain's size, m (`None` for an imported or a 3D mesh).
@@ -249,13 +263,19 @@ impl MeshSpec {
             | MeshSpec::Perturbed { width, height, .. }
             | MeshSpec::Graded { width, height, .. }
             | MeshSpec::Conforming { width, height, .. } => Some((*width, *height)),
-            MeshSpec::Gmsh { .. } | MeshSpec::Box { .. } | MeshSpec::GradedBox { .. } => None,
+            MeshSpec::Gmsh { .. }
+            | MeshSpec::Gmsh3 { .. }
+            | MeshSpec::Box { .. }
+            | MeshSpec::GradedBox { .. } => None,
         }
     }
 
     /// Whether the mesh is 3D (tetrahedra): the run's dimension follows from it.
     pub fn is_3d(&self) -> bool {
-        matches!(self, MeshSpec::Box { .. } | MeshSpec::GradedBox { .. })
+        matches!(
+            self,
+            MeshSpec::Box { .. } | MeshSpec::GradedBox { .. } | MeshSpec::Gmsh3 { .. }
+        )
     }
 
     /// A 3D box's sizes, cell size, origin and grading: positive and finite, a whole number of
@@ -403,7 +423,10 @@ impl MeshSpec {
             | MeshSpec::Perturbed { origin, .. }
             | MeshSpec::Graded { origin, .. }
             | MeshSpec::Conforming { origin, .. } => origin,
-            MeshSpec::Gmsh { .. } | MeshSpec::Box { .. } | MeshSpec::GradedBox { .. } => [0.0; 2],
+            MeshSpec::Gmsh { .. }
+            | MeshSpec::Gmsh3 { .. }
+            | MeshSpec::Box { .. }
+            | MeshSpec::GradedBox { .. } => [0.0; 2],
         };
         finite("mesh.origin", origin[0])?;
         finite("mesh.origin", origin[1])?;

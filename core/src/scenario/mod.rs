@@ -389,7 +389,7 @@ impl Scenario {
         Ok(())
     }
 
-    /// Whether the scene is 3D: its mesh is (`Box`, `GradedBox`).
+    /// Whether the scene is 3D: its mesh is (`Box`, `GradedBox`, `Gmsh3`).
     pub fn is_3d(&self) -> bool {
         self.mesh.as_ref().is_some_and(MeshSpec::is_3d)
     }
@@ -403,7 +403,7 @@ impl Scenario {
             return Err(SetupError::invalid(
                 "boundary",
                 if three {
-                    "a 3D mesh (Box, GradedBox) takes a 3D box's boundary: `InSitu3(sxx: .., \
+                    "a 3D mesh (Box, GradedBox, Gmsh3) takes a 3D box's boundary: `InSitu3(sxx: .., \
                      syy: .., szz: ..)` or `Sides3(left: .., right: .., front: .., back: .., \
                      bottom: .., top: ..)`"
                 } else {

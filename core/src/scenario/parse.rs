@@ -105,7 +105,7 @@ impl Scenario {
         })?;
         let mut sc = Self::parse(&text, &path.display().to_string())?;
         // Mesh files are relative to the scenario file.
-        if let Some(MeshSpec::Gmsh { file }) = &mut sc.mesh
+        if let Some(MeshSpec::Gmsh { file } | MeshSpec::Gmsh3 { file }) = &mut sc.mesh
             && Path::new(file.as_str()).is_relative()
             && let Some(dir) = path.parent()
         {
