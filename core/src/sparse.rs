@@ -7,6 +7,9 @@
 
 use faer::Par;
 use faer::dyn_stack::{MemBuffer, StackReq};
+use faer::sparse::linalg::cholesky::{
+    SymbolicCholesky, SymmetricOrdering, factorize_symbolic_cholesky,
+};
 use faer::sparse::linalg::lu::{SymbolicLu, factorize_symbolic_lu};
 use faer::sparse::{Pair, SymbolicSparseColMat, SymbolicSparseColMatRef};
 
@@ -61,6 +64,25 @@ impl SparsePattern {
             symbolic.solve_in_place_scratch::<f64>(1, Par::Seq),
         ]);
         let mem = MemBuffer::try_new(req).map_err(|_| "out of memory for the LU workspace")?;
+        Ok((symbolic, mem))
+    }
+
+    /// The symbolic Cholesky factorisation of the pattern's lower triangle (AMD ordering) and a
+    /// workspace for one sequential numeric factorisation and one-column solves: the set-up of
+    /// both solid solvers (`systems::quasi_static`, `systems::linear_static`).
+    pub fn symbolic_cholesky(&self) -> Result<(SymbolicCholesky<usize>, MemBuffer), String> {
+        let symbolic = factorize_symbolic_cholesky(
+            self.as_ref(),
+            faer::Side::Lower,
+            SymmetricOrdering::Amd,
+            Default::default(),
+        )
+        .map_err(|e| format!("symbolic analysis: {e:?}"))?;
+        let req = StackReq::any_of(&[
+            symbolic.factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default()),
+            symbolic.solve_in_place_scratch::<f64>(1, Par::Seq),
+        ]);
+        let mem = MemBuffer::try_new(req).map_err(|_| "out of memory for the workspace")?;
         Ok((symbolic, mem))
     }
 

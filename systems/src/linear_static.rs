@@ -10,12 +10,10 @@
 //! element stiffness both assemble is [`Element::stiffness`].
 
 use crate::solid::{StepStats, external_load, internal_force, strain_energy};
-use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
+use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::llt::factor::LltRegularization;
 use faer::sparse::SparseColMatRef;
-use faer::sparse::linalg::cholesky::{
-    LltRef, SymbolicCholesky, SymmetricOrdering, factorize_symbolic_cholesky,
-};
+use faer::sparse::linalg::cholesky::{LltRef, SymbolicCholesky};
 use faer::{Conj, MatMut, Par, Side};
 use hydrofrac_core::dim::Element;
 use hydrofrac_core::element::SolidParams;
@@ -95,18 +93,7 @@ impl LinearStatic {
                 }
             }
         }
-        let symbolic = factorize_symbolic_cholesky(
-            pattern.as_ref(),
-            Side::Lower,
-            SymmetricOrdering::Amd,
-            Default::default(),
-        )
-        .map_err(|e| format!("symbolic analysis: {e:?}"))?;
-        let req = StackReq::any_of(&[
-            symbolic.factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default()),
-            symbolic.solve_in_place_scratch::<f64>(1, Par::Seq),
-        ]);
-        let mut mem = MemBuffer::try_new(req).map_err(|_| "out of memory for the workspace")?;
+        let (symbolic, mut mem) = pattern.symbolic_cholesky()?;
         let mut l_values = vec![0.0; symbolic.len_val()];
         symbolic
             .factorize_numeric_llt::<f64>(

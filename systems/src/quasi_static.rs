@@ -36,12 +36,10 @@ use crate::fracture::{contact, fluid_pressure, joint_frame};
 use crate::quasi_static_flow::{FlowRows, FlowStep};
 use crate::quasi_static_lu::{Direction, FullTangent, JointTangent};
 use crate::solid::{StepStats, external_load, internal_force, strain_energy};
-use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
+use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::llt::factor::LltRegularization;
 use faer::sparse::SparseColMatRef;
-use faer::sparse::linalg::cholesky::{
-    LltRef, SymbolicCholesky, SymmetricOrdering, factorize_symbolic_cholesky,
-};
+use faer::sparse::linalg::cholesky::{LltRef, SymbolicCholesky};
 use faer::{Conj, MatMut, Par, Side};
 use hydrofrac_core::element::element_stiffness;
 use hydrofrac_core::params::RunParams;
@@ -411,18 +409,7 @@ impl QuasiStatic {
         };
         let (k_el, joint_slots) = rock_stiffness(v, p, &dof, pattern.nnz(), slot);
         let mass_slots = mass_slots(&dof, slot);
-        let symbolic = factorize_symbolic_cholesky(
-            pattern.as_ref(),
-            Side::Lower,
-            SymmetricOrdering::Amd,
-            Default::default(),
-        )
-        .map_err(|e| format!("symbolic analysis: {e:?}"))?;
-        let req = StackReq::any_of(&[
-            symbolic.factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default()),
-            symbolic.solve_in_place_scratch::<f64>(1, Par::Seq),
-        ]);
-        let mem = MemBuffer::try_new(req).map_err(|_| "out of memory for the workspace")?;
+        let (symbolic, mem) = pattern.symbolic_cholesky()?;
         let joint_dofs = v
             .joint_nodes
             .iter()

@@ -303,18 +303,6 @@ impl Outputs {
         let comp = |k: usize| -> Vec<f64> { stress.iter().map(|s| s[k]).collect() };
         let (sxx, syy, sxy) = (comp(0), comp(1), comp(2));
         let szz: Vec<f64> = stress.iter().map(|s| poisson * (s[0] + s[1])).collect();
-        let arr = |name, components, values| vtk::DataArray {
-            name,
-            components,
-            values,
-        };
-        let mut point_data = vec![arr("node_id", 1, &node_id[..])];
-        if self.fields.contains(&Field::Displacement) {
-            point_data.push(arr("displacement", 3, &disp[..]));
-        }
-        if self.fields.contains(&Field::Velocity) {
-            point_data.push(arr("velocity", 3, &vel[..]));
-        }
         let mut cell_data = vec![arr("element_id", 1, &elem_id[..])];
         if self.fields.contains(&Field::Stress) {
             cell_data.push(arr("stress_xx", 1, &sxx[..]));
@@ -322,20 +310,44 @@ impl Outputs {
             cell_data.push(arr("stress_xy", 1, &sxy[..]));
             cell_data.push(arr("stress_zz", 1, &szz[..]));
         }
+        self.write_solid_piece(
+            vtk::VtuPiece {
+                points: &points,
+                kind: vtk::CellKind::Triangle,
+                connectivity: &conn,
+                point_data: self.solid_point_data(&node_id, &disp, &vel),
+                cell_data,
+            },
+            time,
+        )
+    }
+
+    /// A solid frame's point data: the node ids, and the displacement and velocity (three
+    /// components each, m and m/s) when the scenario's fields ask for them.
+    fn solid_point_data<'a>(
+        &self,
+        node_id: &'a [f64],
+        disp: &'a [f64],
+        vel: &'a [f64],
+    ) -> Vec<vtk::DataArray<'a>> {
+        let mut point_data = vec![arr("node_id", 1, node_id)];
+        if self.fields.contains(&Field::Displacement) {
+            point_data.push(arr("displacement", 3, disp));
+        }
+        if self.fields.contains(&Field::Velocity) {
+            point_data.push(arr("velocity", 3, vel));
+        }
+        point_data
+    }
+
+    /// Write the next solid frame `frames/solid_NNNNN.vtu` and list it in `solid.pvd` at
+    /// `time` (s).
+    fn write_solid_piece(&mut self, piece: vtk::VtuPiece, time: f64) -> std::io::Result<()> {
         let name = format!("solid_{:05}.vtu", self.frames);
         if self.frames == 0 {
             self.claim("solid.pvd")?;
         }
-        vtk::write_vtu(
-            &self.claim(&format!("frames/{name}"))?,
-            &vtk::VtuPiece {
-                points: &points,
-                kind: vtk::CellKind::Triangle,
-                connectivity: &conn,
-                point_data,
-                cell_data,
-            },
-        )?;
+        vtk::write_vtu(&self.claim(&format!("frames/{name}"))?, &piece)?;
         self.pvd.add(time, &format!("frames/{name}"))?;
         self.frames += 1;
         Ok(())
@@ -361,41 +373,31 @@ impl Outputs {
         let comp: Vec<Vec<f64>> = (0..6)
             .map(|k| stress.iter().map(|s| s[k]).collect())
             .collect();
-        let arr = |name, components, values| vtk::DataArray {
-            name,
-            components,
-            values,
-        };
-        let mut point_data = vec![arr("node_id", 1, &node_id[..])];
-        if self.fields.contains(&Field::Displacement) {
-            point_data.push(arr("displacement", 3, &disp[..]));
-        }
-        if self.fields.contains(&Field::Velocity) {
-            point_data.push(arr("velocity", 3, &vel[..]));
-        }
         let mut cell_data = vec![arr("element_id", 1, &elem_id[..])];
         if self.fields.contains(&Field::Stress) {
             for (name, values) in STRESS_NAMES.iter().zip(&comp) {
                 cell_data.push(arr(name, 1, &values[..]));
             }
         }
-        let name = format!("solid_{:05}.vtu", self.frames);
-        if self.frames == 0 {
-            self.claim("solid.pvd")?;
-        }
-        vtk::write_vtu(
-            &self.claim(&format!("frames/{name}"))?,
-            &vtk::VtuPiece {
+        self.write_solid_piece(
+            vtk::VtuPiece {
                 points: &v.x0,
                 kind: vtk::CellKind::Tetra,
                 connectivity: &conn,
-                point_data,
+                point_data: self.solid_point_data(&node_id, &disp, &vel),
                 cell_data,
             },
-        )?;
-        self.pvd.add(time, &format!("frames/{name}"))?;
-        self.frames += 1;
-        Ok(())
+            time,
+        )
+    }
+}
+
+/// A named array of `components` values per point or cell.
+fn arr<'a>(name: &'a str, components: usize, values: &'a [f64]) -> vtk::DataArray<'a> {
+    vtk::DataArray {
+        name,
+        components,
+        values,
     }
 }
 
