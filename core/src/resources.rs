@@ -31,6 +31,15 @@ pub const BYTES_PER_EDGE: f64 = 250.0;
 /// Extra bytes per node with the quasi-static scheme (the stiffness matrix and its sparse
 /// Cholesky factor).
 pub const BYTES_PER_NODE_QUASI_STATIC: f64 = 2500.0;
+/// 3D quasi-static scheme: extra bytes per node are this times the cube root of the node
+/// count. The sparse Cholesky factor of 3D elasticity fills in as about n^(4/3). Measured peaks
+/// on Kuhn boxes (`insitu_block3d.ron`, commit c6bb4ef) were:
+/// - 9,261 nodes: 241 MB, 26 kB per node;
+/// - 35,937 nodes: 1.63 GB, 45 kB per node.
+///
+/// This coefficient bounds both: 1,400 x 21.0 = 29 kB and 1,400 x 33.0 = 46 kB per node, with
+/// the tetrahedra's and faces' bytes on top.
+pub const BYTES_PER_NODE_QUASI_STATIC_3D: f64 = 1400.0;
 /// Bytes per network cell (cells, nodes, pairs, flow state, the implicit scheme's matrix).
 pub const BYTES_PER_CELL: f64 = 1500.0;
 pub use crate::scenario::GMSH_BYTES_PER_TRIANGLE;
@@ -179,11 +188,15 @@ pub fn format_size(bytes: f64) -> String {
     }
 }
 
-/// Estimated memory of a mesh, bytes.
-pub fn mesh_bytes(c: &MeshCounts, scheme: SolidScheme) -> f64 {
-    let qs = match scheme {
-        SolidScheme::QuasiStatic => BYTES_PER_NODE_QUASI_STATIC,
-        SolidScheme::Explicit => 0.0,
+/// Estimated memory of a mesh, bytes. In 3D (`three_d`) `triangles` counts tetrahedra and
+/// `edges` faces, at the same bytes each (measured: the explicit 48,000-tetrahedron block peaks
+/// at 56 MB against 68 MB estimated); the quasi-static factor grows faster
+/// ([`BYTES_PER_NODE_QUASI_STATIC_3D`]).
+pub fn mesh_bytes(c: &MeshCounts, scheme: SolidScheme, three_d: bool) -> f64 {
+    let qs = match (scheme, three_d) {
+        (SolidScheme::QuasiStatic, false) => BYTES_PER_NODE_QUASI_STATIC,
+        (SolidScheme::QuasiStatic, true) => BYTES_PER_NODE_QUASI_STATIC_3D * c.nodes.cbrt(),
+        (SolidScheme::Explicit, _) => 0.0,
     };
     c.nodes * (BYTES_PER_NODE + qs) + c.triangles * BYTES_PER_TRIANGLE + c.edges * BYTES_PER_EDGE
 }
@@ -193,7 +206,7 @@ pub fn mesh_bytes(c: &MeshCounts, scheme: SolidScheme) -> f64 {
 pub fn estimate(sc: &Scenario) -> (f64, f64) {
     let mesh = sc
         .mesh_counts()
-        .map_or(0.0, |c| mesh_bytes(&c, sc.time.solid_scheme));
+        .map_or(0.0, |c| mesh_bytes(&c, sc.time.solid_scheme, sc.is_3d()));
     let network = sc
         .network
         .as_ref()
@@ -218,7 +231,7 @@ pub fn check(sc: &ValidScenario, limit: u64, source: &str) -> Result<(), SetupEr
     if let Some(mesh) = &sc.mesh
         && let Some(c) = sc.mesh_counts()
     {
-        let bytes = mesh_bytes(&c, sc.time.solid_scheme);
+        let bytes = mesh_bytes(&c, sc.time.solid_scheme, sc.is_3d());
         if bytes.is_nan() || bytes > limit as f64 {
             let field = if matches!(mesh, MeshSpec::Gmsh { .. } | MeshSpec::Gmsh3 { .. }) {
                 "mesh.file"
