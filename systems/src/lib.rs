@@ -82,7 +82,7 @@ macro_rules! systems {
 }
 
 systems! {
-    InternalForce => "internal_force", "CST stresses and nodal internal forces, gathered by node";
+    InternalForce => "internal_force", "CST (2D) or TET4 (3D) stresses and nodal internal forces, gathered by node";
     ExternalLoad => "external_load", "adds constant boundary tractions and body forces";
     Contact => "contact", "joint contact: penalty normal and shear forces between sister faces, Coulomb friction";
     FluidPressure => "fluid_pressure", "fluid pressure (mean of the last step's flow sub-steps) as traction on both faces of every fracture cell";
