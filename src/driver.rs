@@ -311,14 +311,7 @@ fn setup_outputs(sim: &Simulation, outputs: &Outputs) -> Result<Vec<String>, Dri
 fn step_loop(run: &mut Run, quiet: bool) -> Stepped {
     let (sim, trace) = (&mut run.sim, run.trace.take());
     timed_loop(trace, quiet, |bar| {
-        let result = sim.run(|s| {
-            bar.set_position(progress_position(s.params(), s.time(), s.residual()));
-            bar.set_message(format!(
-                "t = {:.4e} s  residual {:.2e}",
-                s.time(),
-                s.residual()
-            ));
-        });
+        let result = sim.run(|s| show_progress(bar, s.params(), s.time(), s.residual()));
         (result, sim.schedule().clone())
     })
 }
@@ -919,9 +912,21 @@ fn production_bar(quiet: bool) -> ProgressBar {
     bar
 }
 
+/// Show the run's progress on the bar: where it is in per mille, the time (s) and the static
+/// residual.
+pub(crate) fn show_progress(
+    bar: &ProgressBar,
+    p: &crate::params::RunParams,
+    time: f64,
+    residual: f64,
+) {
+    bar.set_position(progress_position(p, time, residual));
+    bar.set_message(format!("t = {time:.4e} s  residual {residual:.2e}"));
+}
+
 /// Progress in per mille at time `time` (s) with static residual `residual`: by time for
 /// timed runs, by residual decades for static ones.
-pub(crate) fn progress_position(p: &crate::params::RunParams, time: f64, residual: f64) -> u64 {
+fn progress_position(p: &crate::params::RunParams, time: f64, residual: f64) -> u64 {
     match p.time.end {
         crate::scenario::End::Time(te) => (1000.0 * time / te) as u64,
         crate::scenario::End::SteadyDirect => 1000,

@@ -6,7 +6,7 @@
 
 use crate::dim::Tet4;
 use crate::driver::{
-    DriverError, RunOptions, RunReport, Stepped, check_resources, open_folder, progress_position,
+    DriverError, RunOptions, RunReport, Stepped, check_resources, open_folder, show_progress,
     systems_json, timed_loop,
 };
 use crate::output::{Outputs, write_atomic};
@@ -45,14 +45,7 @@ pub fn run_scenario_3d(
     .map_err(DriverError::Output)?;
     sim.set_output(outputs);
     let stepped = timed_loop(trace, opts.quiet, |bar| {
-        let result = sim.run(|s| {
-            bar.set_position(progress_position(s.params(), s.time(), s.residual()));
-            bar.set_message(format!(
-                "t = {:.4e} s  residual {:.2e}",
-                s.time(),
-                s.residual()
-            ));
-        });
+        let result = sim.run(|s| show_progress(bar, s.params(), s.time(), s.residual()));
         (result, sim.schedule().clone())
     });
     let mut summary = summary_3d(&sim, &stepped);
