@@ -130,7 +130,11 @@ fn summary_3d(sim: &Simulation<Tet4>, stepped: &Stepped) -> serde_json::Value {
         "steps": sim.step(),
         "time": sim.time(),
         "dt": sim.dt(),
-        "dt_critical": sim.dt_crit(),
+        "dt_critical": sim.dt_crit().is_finite().then_some(sim.dt_crit()),
+        "quasi_static": sim.linear_static().map(|l| json!({
+            "factorisations": l.factorisations,
+            "solves": l.solves,
+        })),
         "wall_s": stepped.wall,
         "residual": sim.residual(),
         "kinetic_energy": sim.stats().kinetic,
@@ -141,6 +145,11 @@ fn summary_3d(sim: &Simulation<Tet4>, stepped: &Stepped) -> serde_json::Value {
         "stress_max": stress(max),
         "systems": systems_json(sim.schedule(), &stepped.rows),
     });
+    for key in ["dt_critical", "quasi_static"] {
+        if s[key].is_null() {
+            s.as_object_mut().expect("object").remove(key);
+        }
+    }
     if let Some(e) = error {
         s["error"] = json!(e);
     }

@@ -92,8 +92,8 @@ fn uniaxial_scene(sigma: f64, extra: &str) -> String {
 }
 
 /// The patch test of one solid scheme (`extra`: the scheme's `time` entries): stress and
-/// displacement against the closed form, relative; returns the run's wall time (s) and steps.
-fn patch_test(name: &str, extra: &str, stress_tol: f64, disp_tol: f64) -> (f64, u64) {
+/// displacement against the closed form, relative; returns the run's `summary.json`.
+fn patch_test(name: &str, extra: &str, stress_tol: f64, disp_tol: f64) -> serde_json::Value {
     let sigma = -10e6;
     let dir = cli::tmp_dir(name);
     let path = dir.join("uniaxial3d.ron");
@@ -133,19 +133,28 @@ fn patch_test(name: &str, extra: &str, stress_tol: f64, disp_tol: f64) -> (f64, 
         worst < disp_tol * umax,
         "displacement off the closed form by {worst:.3e} m (of {umax:.3e} m)"
     );
-    (s["wall_s"].as_f64().unwrap(), s["steps"].as_u64().unwrap())
+    s
 }
 
 #[test]
 fn a_graded_box_under_uniaxial_stress_passes_the_patch_test_with_both_schemes() {
     // Explicit relaxation to the static tolerance 1e-10: measured stress 4.9e-4 Pa of 10 MPa
     // (5e-11), displacement 5.9e-13 m of 1e-3 m (6e-10).
-    let (_, steps) = patch_test("explicit", "", 1e-8, 1e-8);
-    assert!(steps > 100, "relaxation takes many steps: {steps}");
+    let s = patch_test("explicit", "", 1e-8, 1e-8);
+    assert!(
+        s["steps"].as_u64().unwrap() > 100,
+        "relaxation takes many steps: {s}"
+    );
+    assert!(s["dt_critical"].as_f64().unwrap() > 0.0, "{s}");
     // Quasi-static: one step, one factorisation; measured stress 1e-7 Pa (1e-14), the
     // residual 1e-14 (round-off).
-    let (_, steps) = patch_test("quasi_static", ", solid_scheme: QuasiStatic", 1e-12, 1e-10);
-    assert_eq!(steps, 1, "a static quasi-static run is one step");
+    let s = patch_test("quasi_static", ", solid_scheme: QuasiStatic", 1e-12, 1e-10);
+    assert_eq!(s["steps"], 1, "a static quasi-static run is one step");
+    // One factorisation; the first solve is at round-off or one refinement takes it there.
+    assert_eq!(s["quasi_static"]["factorisations"], 1, "{s}");
+    let solves = s["quasi_static"]["solves"].as_u64().unwrap();
+    assert!((1..=2).contains(&solves), "{s}");
+    assert!(s.get("dt_critical").is_none(), "no stability bound: {s}");
 }
 
 #[test]

@@ -175,8 +175,9 @@ impl Model {
     /// Store a 3D scenario's boundary conditions on the nodes: prescribed normal displacements
     /// (`Normal`, and `InSitu3`'s Hooke displacements about the box's centre), `Fixed` sides
     /// and normal tractions (t A / 3 to each node of a boundary face of area A). Previous
-    /// conditions are replaced.
-    pub fn apply_boundary3(&mut self, boundary: &Boundary) -> Result<(), SetupError> {
+    /// conditions are replaced. A 2D boundary, and a 3D side's shear traction, are refused by
+    /// the scenario's checks (`Scenario::validate`): the sides are then free, the shear unused.
+    pub fn apply_boundary3(&mut self, boundary: &Boundary) {
         let b = self.box3();
         let bc_of: [SideBc; 6] = match *boundary {
             Boundary::InSitu3 { sxx, syy, szz } => {
@@ -192,12 +193,7 @@ impl Model {
                 bottom,
                 top,
             } => [left, right, front, back, bottom, top],
-            Boundary::InSitu { .. } | Boundary::Sides { .. } => {
-                return Err(SetupError::invalid(
-                    "boundary",
-                    "a 3D mesh takes `InSitu3(sxx, syy, szz)` or `Sides3(..)` (six sides)",
-                ));
-            }
+            Boundary::InSitu { .. } | Boundary::Sides { .. } => [SideBc::Free; 6],
         };
         let index = |s: Side| Side::ALL3.iter().position(|&t| t == s).expect("side");
         let mut node_sides: std::collections::HashMap<Entity, Vec<Side>> = Default::default();
@@ -233,13 +229,7 @@ impl Model {
         let mut loads: Vec<(Entity, [f64; 3])> = Vec::new();
         for (fnodes, st) in self.world.query::<(&FaceNodes, &EdgeState)>().iter() {
             let Some(side) = st.side else { continue };
-            if let SideBc::Traction { normal, shear } = bc_of[index(side)] {
-                if shear != 0.0 {
-                    return Err(SetupError::invalid(
-                        &format!("boundary.{}.shear", side.name()),
-                        "a shear traction on a 3D side has no direction yet: use 0",
-                    ));
-                }
+            if let SideBc::Traction { normal, .. } = bc_of[index(side)] {
                 let p = fnodes
                     .0
                     .map(|e| self.world.get::<&NodeRef3>(e).expect("node").0);
@@ -260,7 +250,6 @@ impl Model {
             }
         }
         self.topology_generation += 1;
-        Ok(())
     }
 
     /// Put every solid node at the homogeneous displacement of the principal in-situ stress

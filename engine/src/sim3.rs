@@ -17,7 +17,7 @@ use hydrofrac_core::dim::Tet4;
 use hydrofrac_core::error::SetupError;
 use hydrofrac_core::model::Model;
 use hydrofrac_core::params::RunParams;
-use hydrofrac_core::scenario::{Boundary, InitialState, MeshSpec, schedule_factor};
+use hydrofrac_core::scenario::{Boundary, InitialState, MeshSpec, SolidScheme, schedule_factor};
 use hydrofrac_core::tetmesh::TetMesh;
 use hydrofrac_core::view::SolidView;
 use hydrofrac_systems::fracture::FractureState;
@@ -57,7 +57,7 @@ pub fn build_model_3d(
     };
     let mesh = build_tet_mesh(spec)?;
     let mut m = Model::from_tet_mesh(&mesh, *mat)?;
-    m.apply_boundary3(&sc.boundary)?;
+    m.apply_boundary3(&sc.boundary);
     if let (InitialState::InSitu, Boundary::InSitu3 { sxx, syy, szz }) =
         (sc.initial_state, &sc.boundary)
     {
@@ -90,7 +90,11 @@ impl Simulation<Tet4> {
         let (model, mesh_info) = build_model_3d(&scenario)?;
         let p = RunParams::resolve(&scenario, model.material);
         let view = SolidView::<Tet4>::build_3d(&model);
-        let dt_crit = critical_step_3d(&view, &p);
+        // The quasi-static scheme has no stability bound (and the element eigenvalues cost).
+        let dt_crit = match scenario.time.solid_scheme {
+            SolidScheme::Explicit => critical_step_3d(&view, &p),
+            SolidScheme::QuasiStatic => f64::INFINITY,
+        };
         let (dt, steps_to_end) =
             crate::setup::time_step(&p.time, &scenario.time, true, dt_crit, None)?;
         let mut disabled = scenario.systems.disable.clone();
@@ -216,6 +220,11 @@ impl Simulation<Tet4> {
             out.write_frame_3d(&self.solid.view, &self.params.solid, self.clock.time)?;
         }
         Ok(())
+    }
+
+    /// The quasi-static scheme's factorised stiffness (`time.solid_scheme: QuasiStatic`).
+    pub fn linear_static(&self) -> Option<&hydrofrac_systems::linear_static::LinearStatic> {
+        self.solid.linear.as_ref()
     }
 
     /// The time-series columns of the 3D scene.

@@ -29,17 +29,17 @@ const MAX_PASSES: usize = 3;
 
 /// The factorised stiffness of one topology.
 pub struct LinearStatic {
-    /// Topology generation of the view it was built for.
-    pub generation: u64,
     /// `dof[D * node + d]`: the free dof of component d, or `NONE`.
     dof: Vec<usize>,
     n: usize,
     symbolic: SymbolicCholesky<usize>,
     l_values: Vec<f64>,
     mem: MemBuffer,
-    /// Numeric factorisations done (one per topology).
+    /// The residual and update on the free dofs (kept: no allocation per step).
+    rhs: Vec<f64>,
+    /// Numeric factorisations done (one per topology; `summary.json` `quasi_static`).
     pub factorisations: u64,
-    /// Solves (passes) done.
+    /// Solves (passes) done (`summary.json` `quasi_static`).
     pub solves: u64,
     /// Relative residual a step refines to (`time.newton_tol`; default
     /// [`crate::quasi_static::DEFAULT_TOL`]).
@@ -112,7 +112,7 @@ impl LinearStatic {
                 )
             })?;
         Ok(LinearStatic {
-            generation: v.generation,
+            rhs: vec![0.0; n],
             dof,
             n,
             symbolic,
@@ -144,7 +144,7 @@ impl LinearStatic {
                 v.v[i][d] = 0.0;
             }
         }
-        let mut rhs = vec![0.0; self.n];
+        let mut rhs = std::mem::take(&mut self.rhs);
         let mut stats = self.residual(v, p, lf, &mut rhs);
         for _ in 0..MAX_PASSES {
             if stats.residual() <= tol || self.n == 0 {
@@ -168,6 +168,7 @@ impl LinearStatic {
             }
             stats = self.residual(v, p, lf, &mut rhs);
         }
+        self.rhs = rhs;
         stats
     }
 
