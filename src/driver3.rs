@@ -97,7 +97,8 @@ fn check_disk(sim: &Simulation<Tet4>, opts: &RunOptions, out: &Path) -> Result<f
         nodes: sim.solid().n_nodes() as f64,
         // A tetrahedron writes six stress components where a triangle writes four.
         triangles: 1.5 * sim.solid().n_elems() as f64,
-        cells: 0.0,
+        // The fracture surfaces' frames: one triangle per joint.
+        cells: sim.solid().joint_nodes.len() as f64,
         fields: p.output.fields.clone(),
         frame_every: p.output.frame_every,
         series_every: p.output.series_every,
@@ -139,13 +140,14 @@ fn summary_3d(sim: &Simulation<Tet4>, stepped: &Stepped) -> serde_json::Value {
         "residual": sim.residual(),
         "kinetic_energy": sim.stats().kinetic,
         "frames": sim.output().map_or(0, |o| o.frames),
-        "mesh": {"kind": sim.mesh_info().kind},
+        "mesh": sim.mesh_info(),
+        "fracture": fracture_3d(sim),
         "stress_mean": stress(mean),
         "stress_min": stress(min),
         "stress_max": stress(max),
         "systems": systems_json(sim.schedule(), &stepped.rows),
     });
-    for key in ["dt_critical", "quasi_static"] {
+    for key in ["dt_critical", "quasi_static", "fracture"] {
         if s[key].is_null() {
             s.as_object_mut().expect("object").remove(key);
         }
@@ -158,4 +160,48 @@ fn summary_3d(sim: &Simulation<Tet4>, stepped: &Stepped) -> serde_json::Value {
         s["interrupted_by"] = json!(crate::driver::signal_name(sig));
     }
     s
+}
+
+/// `summary.json` `fracture` of a 3D run with joints (null without): the joints, the node
+/// copies, face p's area (m^2), the opened volume sum A0 max(delta_n, 0) (m^3), the largest
+/// opening and the largest interpenetration of closed joints (m, the penalty's), and the
+/// joints in contact and sliding at the end.
+fn fracture_3d(sim: &Simulation<Tet4>) -> Option<serde_json::Value> {
+    let v = sim.solid();
+    if v.joint_nodes.is_empty() {
+        return None;
+    }
+    let (mut area, mut volume, mut max_open, mut min_open) = (0.0, 0.0, 0.0f64, 0.0f64);
+    let (mut closed, mut sliding) = (0, 0);
+    for k in 0..v.joint_nodes.len() {
+        let a = crate::model3::joint_area0_3d(v, k);
+        let f = crate::model3::joint_frame_3d(v, k);
+        area += a;
+        volume += a * f.dn.max(0.0);
+        max_open = max_open.max(f.dn);
+        min_open = min_open.min(f.dn);
+        let st = &v.joint_state[k];
+        closed += usize::from(st.normal_force > 0.0);
+        sliding += usize::from(st.sliding);
+    }
+    let daughters = v
+        .node_entity
+        .iter()
+        .filter(|&&e| {
+            sim.model()
+                .world
+                .get::<&crate::components::NodeLink>(e)
+                .is_ok_and(|l| l.mother.is_some())
+        })
+        .count();
+    Some(json!({
+        "joints": v.joint_nodes.len(),
+        "daughters": daughters,
+        "area": area,
+        "opened_volume": volume,
+        "max_opening": max_open,
+        "max_interpenetration": -min_open,
+        "joints_closed": closed,
+        "joints_sliding": sliding,
+    }))
 }

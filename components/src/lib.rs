@@ -285,14 +285,16 @@ pub struct Joint {
     pub cell: Entity,
 }
 
-/// Contact state of a joint (seed (8)-(11)): normal force F_n (N/m, compression positive),
-/// tangential force F_t (N/m, on face q along face p's tangent), the last tangential offset
-/// (m, for the incremental update), whether it slid at the last step, and the opening (m).
+/// Contact state of a joint (seed (8)-(11)): normal force F_n (N/m in 2D, N in 3D,
+/// compression positive), tangential force F_t (on face q along face p's tangent: a number in
+/// 2D, `T = f64`; its two components along face p's tangents t1, t2 in 3D, `T = [f64; 2]`), the
+/// last tangential offset (m, for the incremental update; the same shape), whether it slid at
+/// the last step, and the opening (m).
 #[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
-pub struct JointState {
+pub struct JointState<T = f64> {
     pub normal_force: f64,
-    pub shear_force: f64,
-    pub last_shear_offset: f64,
+    pub shear_force: T,
+    pub last_shear_offset: T,
     pub sliding: bool,
     pub opening: f64,
     /// Slid at some step since the last frame (output: "slid during the output interval";
@@ -305,6 +307,18 @@ pub struct JointState {
 
 /// Joint bundle.
 pub type JointBundle = (StableId, Joint, JointState);
+
+/// A 3D joint: the two sister faces of a planar fracture opened by node splitting, face p
+/// (`faces[0]`) and face q, each listing its nodes in the same order (sister nodes at the same
+/// places), ordered so that (x1 - x0) x (x2 - x0) of face p points out of p's tetrahedron
+/// towards q.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct FaceJoint {
+    pub faces: [Entity; 2],
+}
+
+/// 3D joint bundle.
+pub type FaceJointBundle = (StableId, FaceJoint, JointState<[f64; 2]>);
 
 /// Flow boundary bundle.
 pub type FlowBcBundle = (StableId, FlowBc);

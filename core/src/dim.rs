@@ -104,6 +104,28 @@ pub trait Element:
     fn stiffness(g: &Self::Geom, p: &SolidParams) -> Self::Stiffness;
     /// The type of [`Element::stiffness`].
     type Stiffness: Index<(usize, usize), Output = f64>;
+    /// A joint's dense nodes, face p's then face q's: `[u32; 4]` (two edges) in 2D, `[u32; 6]`
+    /// (two triangles) in 3D.
+    type JointNodes: Copy
+        + Default
+        + Debug
+        + PartialEq
+        + Send
+        + Sync
+        + 'static
+        + AsRef<[u32]>
+        + Serialize
+        + DeserializeOwned;
+    /// A joint's tangential force and offset: one component in 2D, two in 3D.
+    type Shear: Copy
+        + Default
+        + Debug
+        + PartialEq
+        + Send
+        + Sync
+        + 'static
+        + Serialize
+        + DeserializeOwned;
 }
 
 /// The plane-strain constant-strain triangle (2D). Geometry `[A, dN/dx (3), dN/dy (3)]`.
@@ -121,6 +143,8 @@ impl Element for Cst {
     type Stress = [f64; 3];
     type Forces = [f64; 6];
     type Stiffness = nalgebra::SMatrix<f64, 6, 6>;
+    type JointNodes = [u32; 4];
+    type Shear = f64;
 
     #[inline(always)]
     fn measure(g: &[f64; 7]) -> f64 {
@@ -181,6 +205,8 @@ impl Element for Tet4 {
     type Stress = [f64; 6];
     type Forces = [f64; 12];
     type Stiffness = nalgebra::SMatrix<f64, 12, 12>;
+    type JointNodes = [u32; 6];
+    type Shear = [f64; 2];
 
     #[inline(always)]
     fn measure(g: &tet4::TetGeometry) -> f64 {

@@ -266,6 +266,85 @@ impl Model {
     }
 }
 
+impl Model {
+    /// Record a split made on the mesh before it became entities ([`TetMesh::split_along`],
+    /// oriented by [`TetMesh::orient_sisters`]): each daughter node's mother link, and one
+    /// joint ([`FaceJoint`]) per sister face pair, numbered in the split's order. Returns the
+    /// joints' count.
+    pub fn add_face_joints(&mut self, split: &crate::tetmesh::TetSplit) -> usize {
+        let by_id: std::collections::HashMap<u64, Entity> = self
+            .world
+            .query::<(Entity, &StableId, &NodeRef3)>()
+            .iter()
+            .map(|(e, id, _)| (id.0, e))
+            .collect();
+        for &(m, d) in &split.daughters {
+            let (me, de) = (by_id[&(m as u64)], by_id[&(d as u64)]);
+            self.world.get::<&mut NodeLink>(de).expect("node").mother = Some(me);
+        }
+        let mut face_of: std::collections::HashMap<[Entity; 3], Entity> = Default::default();
+        for (e, f) in self.world.query::<(Entity, &FaceNodes)>().iter() {
+            let mut k = f.0;
+            k.sort_unstable();
+            face_of.insert(k, e);
+        }
+        let mut spawned = 0;
+        for s in &split.sisters {
+            let faces = s.map(|tri| {
+                let mut k = tri.map(|n| by_id[&(n as u64)]);
+                k.sort_unstable();
+                face_of[&k]
+            });
+            // The face entities list their nodes sorted; the joint's order is the split's.
+            for (side, &fe) in s.iter().zip(&faces) {
+                self.world.get::<&mut FaceNodes>(fe).expect("face").0 =
+                    side.map(|n| by_id[&(n as u64)]);
+            }
+            let bundle: FaceJointBundle = (
+                StableId(self.next_joint_id),
+                FaceJoint { faces },
+                JointState::default(),
+            );
+            self.world.spawn(bundle);
+            self.next_joint_id += 1;
+            spawned += 1;
+        }
+        self.topology_generation += 1;
+        spawned
+    }
+
+    /// A uniform pressure p (Pa) on both faces of every 3D joint, as constant nodal loads in
+    /// the reference geometry: face p's nodes get -p A n / 3 each, face q's +p A n / 3 (n face
+    /// p's unit normal towards q, A its area), N. Returns the loaded area, m^2 (each joint
+    /// once).
+    pub fn apply_face_pressure3(&mut self, p: f64) -> f64 {
+        let joints: Vec<FaceJoint> = self.world.query::<&FaceJoint>().iter().copied().collect();
+        let mut area_sum = 0.0;
+        let mut loads: Vec<(Entity, [f64; 3])> = Vec::new();
+        for j in joints {
+            let nodes = j
+                .faces
+                .map(|f| self.world.get::<&FaceNodes>(f).expect("face").0);
+            let x = nodes[0].map(|e| self.world.get::<&NodeRef3>(e).expect("node").0);
+            let an = cross(sub(x[1], x[0]), sub(x[2], x[0])).map(|c| 0.5 * c);
+            area_sum += norm(an);
+            for (side, sign) in [(0, -1.0), (1, 1.0)] {
+                for &e in &nodes[side] {
+                    loads.push((e, an.map(|c| sign * p * c / 3.0)));
+                }
+            }
+        }
+        for (e, f) in loads {
+            let mut bc = self.world.get::<&mut NodeBc3>(e).expect("node");
+            for d in 0..3 {
+                bc.load[d] += f[d];
+            }
+        }
+        self.topology_generation += 1;
+        area_sum
+    }
+}
+
 fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
 }
@@ -329,6 +408,26 @@ impl SolidView<Tet4> {
             .collect();
         v.push_elem_rows(elems);
         v.set_incidence();
+        let mut joints: Vec<(u64, Entity, FaceJoint, JointState<[f64; 2]>)> = world
+            .query::<(Entity, &StableId, &FaceJoint, &JointState<[f64; 2]>)>()
+            .iter()
+            .map(|(e, id, j, st)| (id.0, e, *j, *st))
+            .collect();
+        joints.sort_unstable_by_key(|j| j.0);
+        for (_, e, j, st) in joints {
+            let f = j.faces.map(|f| world.get::<&FaceNodes>(f).expect("face").0);
+            let d = |e: Entity| dense[e.id() as usize];
+            v.joint_entity.push(e);
+            v.joint_nodes.push([
+                d(f[0][0]),
+                d(f[0][1]),
+                d(f[0][2]),
+                d(f[1][0]),
+                d(f[1][1]),
+                d(f[1][2]),
+            ]);
+            v.joint_state.push(st);
+        }
         v
     }
 
@@ -349,5 +448,61 @@ impl SolidView<Tet4> {
                 s.0 = Tet4::stress(&self.geom[k], &self.conn[k], &self.u, p);
             }
         }
+        let mut view = model.world.view_mut::<&mut JointState<[f64; 2]>>();
+        for (k, &e) in self.joint_entity.iter().enumerate() {
+            if let Some(s) = view.get_mut(e) {
+                *s = self.joint_state[k];
+            }
+        }
     }
+}
+
+/// A 3D joint's frame in the current geometry: face p's unit normal n (towards face q) and
+/// tangents t1 (along its first edge), t2 = n x t1; the offsets of face q's centroid from face
+/// p's along n (opening delta_n, m, positive when the faces separate) and along t1, t2 (m).
+#[derive(Clone, Copy, Debug)]
+pub struct JointFrame3 {
+    pub n: [f64; 3],
+    pub t: [[f64; 3]; 2],
+    pub dn: f64,
+    pub dt: [f64; 2],
+}
+
+/// The frame of joint `k` ([`JointFrame3`]).
+#[inline]
+pub fn joint_frame_3d(v: &SolidView<Tet4>, k: usize) -> JointFrame3 {
+    let nodes = v.joint_nodes[k];
+    let x = nodes.map(|i| {
+        let (a, b) = (v.x0[i as usize], v.u[i as usize]);
+        [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
+    });
+    let e1 = sub(x[1], x[0]);
+    let nn = cross(e1, sub(x[2], x[0]));
+    let n = nn.map(|c| c / norm(nn));
+    let t1 = e1.map(|c| c / norm(e1));
+    let t2 = cross(n, t1);
+    let c = |o: usize| [0, 1, 2].map(|d| (x[o][d] + x[o + 1][d] + x[o + 2][d]) / 3.0);
+    let d = sub(c(3), c(0));
+    let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    JointFrame3 {
+        n,
+        t: [t1, t2],
+        dn: dot(d, n),
+        dt: [dot(d, t1), dot(d, t2)],
+    }
+}
+
+/// Face p's area of joint `k` in the reference positions, m^2.
+pub fn joint_area0_3d(v: &SolidView<Tet4>, k: usize) -> f64 {
+    let x = [0, 1, 2].map(|a| v.x0[v.joint_nodes[k][a] as usize]);
+    0.5 * norm(cross(sub(x[1], x[0]), sub(x[2], x[0])))
+}
+
+/// The length a 3D joint's penalty force is taken over, m: l = A0 / h = sqrt(A0 / 2), with A0
+/// face p's reference area and h = sqrt(2 A0) the leg of a right isosceles triangle of that
+/// area (the cell size on a box's grid). The 2D joint carries K delta per unit thickness over
+/// an edge of length L, an interface stiffness K / L (Pa/m); the 3D joint carries
+/// F = K l delta (N), the interface stiffness K / h over the area A0.
+pub fn joint_len0_3d(v: &SolidView<Tet4>, k: usize) -> f64 {
+    (0.5 * joint_area0_3d(v, k)).sqrt()
 }

@@ -267,3 +267,102 @@ impl TetMesh {
         Ok(out)
     }
 }
+
+impl TetMesh {
+    /// The interior faces that make up the planar disc: all three nodes on its plane (within
+    /// `tol`, m) and the centroid inside its radius, in sorted-triple order. Empty when the
+    /// disc does not lie on mesh faces.
+    pub fn faces_on_disc(&self, disc: &crate::scenario::Disc, tol: f64) -> Vec<[u32; 3]> {
+        let n = disc.unit_normal();
+        let c = disc.center;
+        let rel = |q: [f64; 3]| [q[0] - c[0], q[1] - c[1], q[2] - c[2]];
+        let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+        let mut out: Vec<[u32; 3]> = self
+            .faces()
+            .into_iter()
+            .filter(|(f, ts)| {
+                if ts.len() != 2 {
+                    return false;
+                }
+                let p = f.map(|k| rel(self.nodes[k as usize]));
+                if p.iter().any(|q| dot(*q, n).abs() > tol) {
+                    return false;
+                }
+                let g = [0, 1, 2].map(|d| (p[0][d] + p[1][d] + p[2][d]) / 3.0);
+                let along = dot(g, n);
+                let r2 = dot(g, g) - along * along;
+                r2 < disc.radius * disc.radius
+            })
+            .map(|(f, _)| f)
+            .collect();
+        out.sort_unstable();
+        out
+    }
+
+    /// Turn each sister pair of a split so that face p's (x1 - x0) x (x2 - x0) points out of
+    /// its tetrahedron `ts[0]` (towards face q), keeping sister nodes in matching places.
+    pub fn orient_sisters(&self, split: &mut TetSplit) {
+        let faces = self.faces();
+        for s in &mut split.sisters {
+            let mut key = s[0];
+            key.sort_unstable();
+            let Some(ts) = faces.get(&key) else { continue };
+            let tet = self.tets[ts[0] as usize];
+            let Some(&opp) = tet.iter().find(|x| !s[0].contains(x)) else {
+                continue;
+            };
+            let x = s[0].map(|k| self.nodes[k as usize]);
+            let d = |a: [f64; 3], b: [f64; 3]| [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
+            let (u, v, w) = (
+                d(x[0], x[1]),
+                d(x[0], x[2]),
+                d(x[0], self.nodes[opp as usize]),
+            );
+            let n = [
+                u[1] * v[2] - u[2] * v[1],
+                u[2] * v[0] - u[0] * v[2],
+                u[0] * v[1] - u[1] * v[0],
+            ];
+            if n[0] * w[0] + n[1] * w[1] + n[2] * w[2] > 0.0 {
+                s[0].swap(1, 2);
+                s[1].swap(1, 2);
+            }
+        }
+    }
+
+    /// Bend the grid about a vertical axis so that squares become circles: in every z plane a
+    /// node at (dx, dy) from `center` with square radius s = max(|dx|, |dy|) and radius
+    /// rho = |(dx, dy)| moves along its ray to radius s while s <= R (the square of half-side
+    /// R becomes the circle of radius R, and every smaller square a circle), and by the blend
+    /// t s + (1 - t) rho, t = (2R - s) / R, for R < s < 2R; nodes at s >= 2R stay. The radius
+    /// after the map grows strictly along each ray, so no cell folds. Errors name a
+    /// tetrahedron the map inverted.
+    pub fn round_about(&mut self, center: [f64; 2], radius: f64) -> Result<(), SetupError> {
+        for q in &mut self.nodes {
+            let (dx, dy) = (q[0] - center[0], q[1] - center[1]);
+            let s = dx.abs().max(dy.abs());
+            if s == 0.0 || s >= 2.0 * radius {
+                continue;
+            }
+            let rho = dx.hypot(dy);
+            let f = if s <= radius {
+                s / rho
+            } else {
+                let t = (2.0 * radius - s) / radius;
+                t * s / rho + (1.0 - t)
+            };
+            q[0] = center[0] + dx * f;
+            q[1] = center[1] + dy * f;
+        }
+        for t in 0..self.tets.len() {
+            let x = self.corners(t);
+            if tet4::signed_volume(x[0], x[1], x[2], x[3]) <= 0.0 {
+                return Err(SetupError::invalid(
+                    "mesh.round",
+                    format!("bending the grid inverted tetrahedron {t}: use a finer grid"),
+                ));
+            }
+        }
+        Ok(())
+    }
+}

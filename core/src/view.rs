@@ -70,13 +70,14 @@ pub struct SolidView<E: Element = Cst> {
     /// Normal stress across the edge, Pa (tension positive), and the fracture-ready mark.
     pub edge_sigma_n: Vec<f64>,
     pub edge_ready: Vec<bool>,
-    /// Joints, ordered by stable id: nodes [p_a, p_b, q_a, q_b] (dense; the sister edges list
-    /// their ends in the same order), the sign that makes (t_y, -t_x) face p's outward normal,
-    /// and the contact state.
+    /// Joints, ordered by stable id: nodes [p_a, p_b, q_a, q_b] in 2D (dense; the sister edges
+    /// list their ends in the same order), [p_0, p_1, p_2, q_0, q_1, q_2] in 3D (the sister
+    /// faces likewise, face p's normal (x1 - x0) x (x2 - x0) pointing towards q); in 2D the
+    /// sign that makes (t_y, -t_x) face p's outward normal (empty in 3D); the contact state.
     pub joint_entity: Vec<Entity>,
-    pub joint_nodes: Vec<[u32; 4]>,
+    pub joint_nodes: Vec<E::JointNodes>,
     pub joint_sign: Vec<f64>,
-    pub joint_state: Vec<JointState>,
+    pub joint_state: Vec<JointState<E::Shear>>,
     /// Motion regions, set by the strength test's screen
     /// (`systems::fracture::StrengthScreen`): runs of consecutive nodes in one region (first
     /// node, end, region; covering every node in order), and per region the sum

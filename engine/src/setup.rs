@@ -28,9 +28,27 @@ pub fn build_mesh(spec: &MeshSpec) -> Result<TriMesh, SetupError> {
 #[derive(Clone, Debug, Default, serde::Serialize)]
 pub struct MeshInfo {
     pub kind: String,
+    /// Triangle statistics (2D; not computed for tetrahedra yet).
+    #[serde(skip_serializing_if = "no_triangles")]
     pub quality: hydrofrac_core::conforming::MeshQuality,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub conforming: Option<hydrofrac_core::conforming::ConformingReport>,
+    /// 3D: each disc fracture as the mesh faces that make it up.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub discs: Vec<DiscReport>,
+}
+
+fn no_triangles(q: &hydrofrac_core::conforming::MeshQuality) -> bool {
+    q.triangles == 0
+}
+
+/// A 3D disc fracture on the mesh (`summary.json` `discs`): the faces it took, their area
+/// (m^2) and that area over the disc's, pi R^2 (how well the faces cover it).
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct DiscReport {
+    pub faces: usize,
+    pub area: f64,
+    pub area_ratio: f64,
 }
 
 /// Build the mesh a scenario describes; a conforming mesh follows the fracture segments
@@ -136,6 +154,7 @@ pub fn build_model(
         kind: spec.kind().to_string(),
         quality: hydrofrac_core::conforming::MeshQuality::of(&mesh),
         conforming,
+        discs: Vec::new(),
     };
     let mut m = Model::from_mesh(&mesh, *mat)?;
     let mut placed = Vec::new();

@@ -24,7 +24,7 @@ use hydrofrac_systems::fracture::FractureState;
 use hydrofrac_systems::monitor::{Clock, Finish};
 use hydrofrac_systems::solid::StepStats;
 use hydrofrac_systems::state::SolidPart;
-use hydrofrac_systems::{RunError, SystemId, monitor, output, solid};
+use hydrofrac_systems::{RunError, SystemId, fracture, monitor, output, solid};
 
 /// The tetrahedral mesh of a 3D mesh spec.
 pub fn build_tet_mesh(spec: &MeshSpec) -> Result<TetMesh, SetupError> {
@@ -36,7 +36,14 @@ pub fn build_tet_mesh(spec: &MeshSpec) -> Result<TetMesh, SetupError> {
             origin,
             fine,
             ratio,
-        } => TetMesh::graded_box(origin, size, h, fine, ratio),
+            round,
+        } => {
+            let mut m = TetMesh::graded_box(origin, size, h, fine, ratio)?;
+            if let Some(r) = round {
+                m.round_about(r.center, r.radius)?;
+            }
+            Ok(m)
+        }
         MeshSpec::Gmsh3 { ref file } => hydrofrac_core::gmsh::read_msh3(std::path::Path::new(file))
             .map(|g| g.mesh)
             .map_err(|e| SetupError::invalid("mesh.file", e.to_string())),
@@ -55,28 +62,109 @@ pub fn build_model_3d(
             "a 3D run needs a mesh and a material",
         ));
     };
-    let mesh = build_tet_mesh(spec)?;
+    let mut mesh = build_tet_mesh(spec)?;
+    let discs = sc.fracture.as_ref().map_or(&[][..], |f| &f.discs[..]);
+    let (split, reports) = open_discs(&mut mesh, discs)?;
     let mut m = Model::from_tet_mesh(&mesh, *mat)?;
+    if let Some(split) = &split {
+        m.add_face_joints(split);
+    }
     m.apply_boundary3(&sc.boundary);
     if let (InitialState::InSitu, Boundary::InSitu3 { sxx, syy, szz }) =
         (sc.initial_state, &sc.boundary)
     {
         m.set_insitu_displacement3([*sxx, *syy, *szz]);
     }
+    if let Some(p) = sc.fracture.as_ref().and_then(|f| f.pressure) {
+        m.apply_face_pressure3(p);
+    }
     let info = crate::setup::MeshInfo {
         kind: spec.kind().to_string(),
+        discs: reports,
         ..Default::default()
     };
     Ok((m, info))
+}
+
+/// Open the disc fractures on the mesh before it becomes entities: each disc's faces
+/// ([`TetMesh::faces_on_disc`]: on its plane, centroid inside), split together
+/// ([`TetMesh::split_along`]) and oriented ([`TetMesh::orient_sisters`]). Errors name a disc
+/// that lies on no mesh faces.
+pub fn open_discs(
+    mesh: &mut TetMesh,
+    discs: &[hydrofrac_core::scenario::Disc],
+) -> Result<
+    (
+        Option<hydrofrac_core::tetmesh::TetSplit>,
+        Vec<crate::setup::DiscReport>,
+    ),
+    SetupError,
+> {
+    if discs.is_empty() {
+        return Ok((None, Vec::new()));
+    }
+    let b = mesh.bbox;
+    let extent = (0..3).map(|d| b[d + 3] - b[d]).fold(0.0, f64::max);
+    let tol = 1e-9 * extent;
+    let mut all: Vec<[u32; 3]> = Vec::new();
+    let mut reports = Vec::new();
+    for (i, d) in discs.iter().enumerate() {
+        let faces = mesh.faces_on_disc(d, tol);
+        if faces.is_empty() {
+            return Err(SetupError::invalid(
+                &format!("fracture.discs[{i}]"),
+                "no interior mesh face lies on the disc's plane inside its radius: on a Box or \
+                 GradedBox put the centre on a grid plane with the normal along an axis (and \
+                 inside the box); on a Gmsh3 mesh embed the disc in the mesh",
+            ));
+        }
+        let area: f64 = faces
+            .iter()
+            .map(|f| hydrofrac_core::tet4::triangle_area(f.map(|k| mesh.nodes[k as usize])))
+            .sum();
+        reports.push(crate::setup::DiscReport {
+            faces: faces.len(),
+            area,
+            area_ratio: area / (std::f64::consts::PI * d.radius * d.radius),
+        });
+        all.extend(faces);
+    }
+    all.sort_unstable();
+    all.dedup();
+    let mut split = mesh.split_along(&all)?;
+    mesh.orient_sisters(&mut split);
+    Ok((Some(split), reports))
 }
 
 /// The critical step of central difference on the TET4 mesh, s: the smallest element's exact
 /// critical step with the lumped mass ([`hydrofrac_core::tet4::critical_step`]), which bounds
 /// the mesh's from below (Irons' element eigenvalue theorem).
 pub fn critical_step_3d(view: &SolidView<Tet4>, p: &RunParams) -> f64 {
-    (0..view.n_elems())
+    let elements = (0..view.n_elems())
         .map(|k| hydrofrac_core::tet4::critical_step(&view.geom[k], &p.solid, p.material.density))
-        .fold(f64::INFINITY, f64::min)
+        .fold(f64::INFINITY, f64::min);
+    if view.joint_nodes.is_empty() {
+        return elements;
+    }
+    // The joints' penalty springs stiffen the system: the highest frequency squared is at
+    // most the elements' (2 / dt_e)^2 plus the largest row sum of the joints' stiffness
+    // scaled by the masses, M^-1/2 K_j M^-1/2 (Gershgorin). Joint k couples its six nodes
+    // with K l / 9 (normal or tangential, the stiffer) between each pair.
+    let k = p.joint.k_max();
+    let mut row = vec![0.0; view.n_nodes()];
+    for j in 0..view.joint_nodes.len() {
+        let nodes = view.joint_nodes[j];
+        let w = k * hydrofrac_core::model3::joint_len0_3d(view, j) / 9.0;
+        for &a in &nodes {
+            let ma = view.mass[a as usize];
+            for &b in &nodes {
+                row[a as usize] += w / (ma * view.mass[b as usize]).sqrt();
+            }
+        }
+    }
+    let joints = row.iter().copied().fold(0.0, f64::max);
+    let w2 = (2.0 / elements).powi(2) + joints;
+    2.0 / w2.sqrt()
 }
 
 impl Simulation<Tet4> {
@@ -181,9 +269,34 @@ impl Simulation<Tet4> {
                 }
                 SystemId::Solve => {
                     if let Some(l) = self.solid.linear.as_mut() {
-                        self.solid.stats = l.solve(v, &p.solid, clock.load_factor);
+                        // The joints' forces from the step's start state at every residual.
+                        let start = v.joint_state.clone();
+                        let contact = self.schedule.is_enabled(SystemId::Contact);
+                        self.solid.stats = l
+                            .solve_with(
+                                v,
+                                &p.solid,
+                                clock.load_factor,
+                                |v| {
+                                    if contact {
+                                        v.joint_state.copy_from_slice(&start);
+                                        fracture::contact_3d(v, &p.joint);
+                                    }
+                                },
+                                |v, k| fracture::contact_tangent_3d(v, k, &p.joint),
+                            )
+                            .map_err(|why| RunError::QuasiStatic {
+                                step: clock.step + 1,
+                                time: t0,
+                                why,
+                            })?;
                     }
                 }
+                // Under the quasi-static scheme the solve runs the joints' contact itself.
+                SystemId::Contact if self.solid.linear.is_none() => {
+                    fracture::contact_3d(v, &p.joint)
+                }
+                SystemId::Contact => {}
                 SystemId::Monitor => monitor::monitor(clock, t0, &self.solid, None, p)?,
                 SystemId::Output => {
                     let every = p.output.frame_every;
@@ -195,8 +308,7 @@ impl Simulation<Tet4> {
                     }
                 }
                 // Not in a 3D scene's schedule (no data): `Scenario::check_3d`.
-                SystemId::Contact
-                | SystemId::FluidPressure
+                SystemId::FluidPressure
                 | SystemId::FlowSubsteps
                 | SystemId::FractureCriterion
                 | SystemId::Split
@@ -218,6 +330,10 @@ impl Simulation<Tet4> {
         }
         if frame {
             out.write_frame_3d(&self.solid.view, &self.params.solid, self.clock.time)?;
+            if !self.solid.view.joint_nodes.is_empty() {
+                let p = self.scenario.fracture.as_ref().and_then(|f| f.pressure);
+                out.write_fracture_3d(&self.solid.view, p.unwrap_or(0.0), self.clock.time)?;
+            }
         }
         Ok(())
     }

@@ -59,17 +59,7 @@ pub fn solve(m: &TetMesh, p: &SolidParams, dof: &[usize], f: &faer::Col<f64>) ->
         .solve(f)
 }
 
-/// Area of a triangle in space, m^2.
-pub fn triangle_area(p: [[f64; 3]; 3]) -> f64 {
-    let u: [f64; 3] = std::array::from_fn(|d| p[1][d] - p[0][d]);
-    let v: [f64; 3] = std::array::from_fn(|d| p[2][d] - p[0][d]);
-    let c = [
-        u[1] * v[2] - u[2] * v[1],
-        u[2] * v[0] - u[0] * v[2],
-        u[0] * v[1] - u[1] * v[0],
-    ];
-    0.5 * (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt()
-}
+pub use hydrofrac_core::tet4::triangle_area;
 
 /// Assemble the stiffness of the free dofs (`dof[3 n + d]`, `usize::MAX` prescribed at zero)
 /// as lower-triangle triplets.

@@ -2,8 +2,11 @@
 //! fracture-ready when the normal stress across it, from the mean stress of its two elements,
 //! reaches lambda*T0 (tension positive). It only marks edges; topology changes belong to the
 //! split system. `contact` (joint penalty forces with Coulomb friction) and `fluid_pressure`
-//! (the fracture fluid's pressure on the faces) add to the nodal forces.
+//! (the fracture fluid's pressure on the faces) add to the nodal forces; `contact_3d` is
+//! `contact` on the sister triangles of a 3D fracture.
 
+use hydrofrac_core::dim::Tet4;
+use hydrofrac_core::model3::{JointFrame3, joint_frame_3d, joint_len0_3d};
 pub use hydrofrac_core::params::JointParams;
 use hydrofrac_core::view::SolidView;
 use rayon::prelude::*;
@@ -539,6 +542,94 @@ pub fn contact(v: &mut SolidView, p: &JointParams) {
             v.force[i][0] += sgn * fq[0];
             v.force[i][1] += sgn * fq[1];
         }
+    }
+}
+
+/// `contact` in 3D: the 2D joint model ([`contact`]) on sister triangles. For each joint,
+/// the offsets of face q's centroid from face p's along p's normal and two tangents
+/// (`joint_frame_3d`). In contact (delta_n < 0): F_n = -K_n l delta_n; F_t (two components)
+/// += -K_t l (change of delta_t), scaled back onto the Coulomb disc |F_t| <= mu F_n where it
+/// lies outside (sliding), with l = sqrt(A0 / 2) (`joint_len0_3d`; N). Open: both zero. Face q
+/// gets F_n n + F_t1 t1 + F_t2 t2, face p the opposite, a third to each node. Adds to `force`.
+/// Serial, fixed scatter order.
+pub fn contact_3d(v: &mut SolidView<Tet4>, p: &JointParams) {
+    for k in 0..v.joint_nodes.len() {
+        let nodes = v.joint_nodes[k];
+        let JointFrame3 { n, t, dn, dt } = joint_frame_3d(v, k);
+        let l = joint_len0_3d(v, k);
+        let st = &mut v.joint_state[k];
+        st.opening = dn;
+        if dn < 0.0 {
+            st.normal_force = -p.kn * l * dn;
+            let mut ft =
+                [0, 1].map(|a| st.shear_force[a] - p.kt * l * (dt[a] - st.last_shear_offset[a]));
+            let cap = p.mu_at(st.slip) * st.normal_force;
+            let mag = ft[0].hypot(ft[1]);
+            st.sliding = mag > cap;
+            st.slid |= st.sliding;
+            if st.sliding {
+                if p.weakening.is_some() {
+                    st.slip += (mag - cap) / (p.kt * l);
+                }
+                ft = ft.map(|c| c * cap / mag);
+            }
+            st.shear_force = ft;
+        } else {
+            st.normal_force = 0.0;
+            st.shear_force = [0.0; 2];
+            st.sliding = false;
+        }
+        st.last_shear_offset = dt;
+        let (fnn, fs) = (st.normal_force, st.shear_force);
+        let fq = [0, 1, 2].map(|d| (fnn * n[d] + fs[0] * t[0][d] + fs[1] * t[1][d]) / 3.0);
+        for (j, &i) in nodes.iter().enumerate() {
+            let sgn = if j < 3 { -1.0 } else { 1.0 };
+            for d in 0..3 {
+                v.force[i as usize][d] += sgn * fq[d];
+            }
+        }
+    }
+}
+
+/// Joint k's stiffness for the quasi-static matrix, from the state [`contact_3d`] left: open,
+/// none; sticking, C = l (K_n n n^T + K_t (I - n n^T)); sliding, C = l (K_n n n^T + K_t s s^T)
+/// with s the tangent across the slip (the shear stiffness along the slip, which the Coulomb
+/// cap holds, left out: the tangent stays symmetric). l = sqrt(A0 / 2), N/m.
+pub fn contact_tangent_3d(
+    v: &SolidView<Tet4>,
+    k: usize,
+    p: &JointParams,
+) -> crate::linear_static::JointTangent {
+    let st = &v.joint_state[k];
+    if st.normal_force <= 0.0 {
+        return crate::linear_static::JointTangent::Open;
+    }
+    let JointFrame3 { n, t, .. } = joint_frame_3d(v, k);
+    let l = joint_len0_3d(v, k);
+    let mut c = [[0.0; 3]; 3];
+    let shear: Vec<[f64; 3]> = if st.sliding {
+        let f = st.shear_force;
+        let m = f[0].hypot(f[1]);
+        // Across the slip: the in-plane direction normal to F_t.
+        let e = [0, 1, 2].map(|d| (f[0] * t[0][d] + f[1] * t[1][d]) / m);
+        let s = [
+            n[1] * e[2] - n[2] * e[1],
+            n[2] * e[0] - n[0] * e[2],
+            n[0] * e[1] - n[1] * e[0],
+        ];
+        vec![s]
+    } else {
+        vec![t[0], t[1]]
+    };
+    for a in 0..3 {
+        for b in 0..3 {
+            c[a][b] =
+                l * p.kn * n[a] * n[b] + l * p.kt * shear.iter().map(|s| s[a] * s[b]).sum::<f64>();
+        }
+    }
+    crate::linear_static::JointTangent::Closed {
+        c,
+        code: if st.sliding { 2 } else { 1 },
     }
 }
 

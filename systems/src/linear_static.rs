@@ -1,9 +1,17 @@
-//! The quasi-static step of a rock without joints, for any element kind ([`Element`]: the 2D
-//! CST or the 3D TET4): equilibrium K u = f of linear elasticity at the end of the step, with
-//! the prescribed displacements and loads times the step's load factor. The stiffness of the
-//! free dofs is assembled once per topology on a fixed pattern, its symbolic analysis (AMD
-//! ordering) and numeric Cholesky factorisation (faer) are kept while the topology stands, so
-//! a step is a residual and two triangular solves, refined until the residual is at round-off.
+//! The quasi-static step of a rock with or without joints, for any element kind ([`Element`]:
+//! the 2D CST or the 3D TET4): equilibrium K u = f of linear elasticity at the end of the step,
+//! with the prescribed displacements and loads times the step's load factor. The stiffness of
+//! the free dofs is assembled once per topology on a fixed pattern (which also holds every
+//! joint's couplings), its symbolic analysis (AMD ordering) and numeric Cholesky factorisation
+//! (faer) are kept while the topology stands, so a step without joints in contact is a
+//! residual and two triangular solves, refined until the residual is at round-off.
+//!
+//! Joints (contact with Coulomb friction) enter by an active set: their forces are in every
+//! residual ([`LinearStatic::solve_with`]'s `extra`), and each joint's stiffness as its state
+//! gives it ([`JointTangent`]: open nothing, sticking normal and shear, sliding normal and the
+//! shear across the slip) is in the factorised matrix. The matrix is factorised again, on the
+//! kept analysis, only when a joint changes state; a step whose joints keep theirs costs no
+//! factorisation.
 //!
 //! This is the `solve` system of the 3D rock (`engine/src/sim3.rs`). The 2D rock's `solve` is
 //! [`crate::quasi_static`], the semi-smooth Newton with joint contact and coupled flow; the
@@ -27,6 +35,28 @@ const NONE: usize = usize::MAX;
 /// a second one takes the residual of the first to the factorisation's round-off.
 const MAX_PASSES: usize = 3;
 
+/// Passes at most with joints: each change of a joint's state costs one.
+pub const MAX_CONTACT_PASSES: usize = 40;
+
+/// A joint's stiffness in the quasi-static matrix: none while open; closed, the 3 x 3 (2 x 2
+/// in 2D, the rest zero) block C (N/m) between the mean motions of its two faces, with `code`
+/// telling states apart (1 sticking, 2 sliding).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum JointTangent {
+    Open,
+    Closed { c: [[f64; 3]; 3], code: u8 },
+}
+
+impl JointTangent {
+    /// 0 open, else the closed state's code.
+    pub fn code(&self) -> u8 {
+        match self {
+            JointTangent::Open => 0,
+            JointTangent::Closed { code, .. } => *code,
+        }
+    }
+}
+
 /// The factorised stiffness of one topology.
 pub struct LinearStatic {
     /// `dof[D * node + d]`: the free dof of component d, or `NONE`.
@@ -34,6 +64,12 @@ pub struct LinearStatic {
     n: usize,
     symbolic: SymbolicCholesky<usize>,
     l_values: Vec<f64>,
+    /// The pattern and the elastic stiffness on it (lower triangle), kept to factorise again
+    /// with the joints' blocks.
+    pattern: SparsePattern,
+    elastic: Vec<f64>,
+    /// The joints' states in the present factorisation ([`JointTangent::code`]).
+    joint_codes: Vec<u8>,
     mem: MemBuffer,
     /// The residual and update on the free dofs (kept: no allocation per step).
     rhs: Vec<f64>,
@@ -80,6 +116,21 @@ impl LinearStatic {
                 }
             }
         }
+        // Every joint couples all its nodes (its block is zero while it is open).
+        for j in &v.joint_nodes {
+            let d: Vec<usize> = j
+                .as_ref()
+                .iter()
+                .flat_map(|&a| (0..dn).map(move |d| dof_ref[dn * a as usize + d]))
+                .collect();
+            for &a in &d {
+                for &b in &d {
+                    if a != NONE && b != NONE && a >= b {
+                        entries.push((a, b));
+                    }
+                }
+            }
+        }
         let pattern = SparsePattern::from_entries(n, entries)?;
         let mut values = vec![0.0; pattern.nnz()];
         for (c, g) in v.conn.iter().zip(&v.geom) {
@@ -112,6 +163,9 @@ impl LinearStatic {
                 )
             })?;
         Ok(LinearStatic {
+            elastic: values,
+            pattern,
+            joint_codes: vec![0; v.joint_nodes.len()],
             rhs: vec![0.0; n],
             dof,
             n,
@@ -134,6 +188,24 @@ impl LinearStatic {
         p: &SolidParams,
         lf: f64,
     ) -> StepStats {
+        self.solve_with(v, p, lf, |_| {}, |_, _| JointTangent::Open)
+            .expect("no joint blocks, no refactorisation")
+    }
+
+    /// [`LinearStatic::solve`] with joints: `extra` adds their forces to the unbalanced force
+    /// at each residual (from the step's start state, so it can be called again), and
+    /// `tangent(v, k)` gives joint k's stiffness in the state that residual left it in. The
+    /// matrix is factorised again when a joint's [`JointTangent::code`] changes. Passes: at
+    /// most [`MAX_PASSES`] without joints, [`MAX_CONTACT_PASSES`] with. Errors: a matrix that
+    /// is not positive definite.
+    pub fn solve_with<E: Element>(
+        &mut self,
+        v: &mut SolidView<E>,
+        p: &SolidParams,
+        lf: f64,
+        mut extra: impl FnMut(&mut SolidView<E>),
+        tangent: impl Fn(&SolidView<E>, usize) -> JointTangent,
+    ) -> Result<StepStats, String> {
         let tol = self.tol;
         let dn = E::D;
         for i in 0..v.n_nodes() {
@@ -145,10 +217,24 @@ impl LinearStatic {
             }
         }
         let mut rhs = std::mem::take(&mut self.rhs);
-        let mut stats = self.residual(v, p, lf, &mut rhs);
-        for _ in 0..MAX_PASSES {
+        let mut stats = self.residual(v, p, lf, &mut rhs, &mut extra);
+        let passes = if v.joint_nodes.is_empty() {
+            MAX_PASSES
+        } else {
+            MAX_CONTACT_PASSES
+        };
+        for _ in 0..passes {
             if stats.residual() <= tol || self.n == 0 {
                 break;
+            }
+            let tangents: Vec<JointTangent> =
+                (0..v.joint_nodes.len()).map(|k| tangent(v, k)).collect();
+            if tangents
+                .iter()
+                .zip(&self.joint_codes)
+                .any(|(t, &c)| t.code() != c)
+            {
+                self.factorise(v, &tangents)?;
             }
             let llt = LltRef::<usize, f64>::new(&self.symbolic, &self.l_values);
             llt.solve_in_place_with_conj(
@@ -166,10 +252,64 @@ impl LinearStatic {
                     }
                 }
             }
-            stats = self.residual(v, p, lf, &mut rhs);
+            stats = self.residual(v, p, lf, &mut rhs, &mut extra);
         }
         self.rhs = rhs;
-        stats
+        Ok(stats)
+    }
+
+    /// Factorise K + the joints' blocks again on the kept analysis. Joint k's block couples
+    /// its nodes a, b (face p's weighted -1/m, face q's +1/m, m nodes a face) by
+    /// w_a w_b C_k, C_k its D x D [`JointTangent`] stiffness (N/m).
+    fn factorise<E: Element>(
+        &mut self,
+        v: &SolidView<E>,
+        tangents: &[JointTangent],
+    ) -> Result<(), String> {
+        let dn = E::D;
+        let mut values = self.elastic.clone();
+        for (k, t) in tangents.iter().enumerate() {
+            let c = match t {
+                JointTangent::Open => continue,
+                JointTangent::Closed { c, .. } => c,
+            };
+            let nodes = v.joint_nodes[k];
+            let nodes = nodes.as_ref();
+            let m = nodes.len() / 2;
+            let w = |i: usize| if i < m { -1.0 } else { 1.0 } / m as f64;
+            for (i, &a) in nodes.iter().enumerate() {
+                for (j, &b) in nodes.iter().enumerate() {
+                    for da in 0..dn {
+                        for db in 0..dn {
+                            let (ra, rb) = (
+                                self.dof[dn * a as usize + da],
+                                self.dof[dn * b as usize + db],
+                            );
+                            if ra != NONE && rb != NONE && ra >= rb {
+                                let slot = self.pattern.slot(ra, rb).expect("joint in pattern");
+                                values[slot] += w(i) * w(j) * c[da][db];
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        self.symbolic
+            .factorize_numeric_llt::<f64>(
+                &mut self.l_values,
+                SparseColMatRef::new(self.pattern.as_ref(), &values),
+                Side::Lower,
+                LltRegularization::default(),
+                Par::Seq,
+                MemStack::new(&mut self.mem),
+                Default::default(),
+            )
+            .map_err(|e| {
+                format!("the stiffness with the joints in contact is not positive definite ({e:?})")
+            })?;
+        self.factorisations += 1;
+        self.joint_codes = tangents.iter().map(|t| t.code()).collect();
+        Ok(())
     }
 
     /// The unbalanced force at the current displacements into `rhs` (free dofs) and the step
@@ -180,9 +320,11 @@ impl LinearStatic {
         p: &SolidParams,
         lf: f64,
         rhs: &mut [f64],
+        extra: &mut impl FnMut(&mut SolidView<E>),
     ) -> StepStats {
         internal_force(v, p);
         external_load(v, lf);
+        extra(v);
         let dn = E::D;
         let mut st = StepStats::default();
         for i in 0..v.n_nodes() {

@@ -392,6 +392,75 @@ impl Outputs {
     }
 }
 
+impl Outputs {
+    /// Write one ParaView frame of the 3D fracture surfaces, `frames/network_NNNNN.vtu` in
+    /// `network.pvd` (the 2D network's files): one triangle per joint at face p's reference
+    /// place, with the joint's opening delta_n and slip |delta_t| (m), its normal and shear
+    /// stress (compression positive, |F_t|; Pa: the force over A0), whether it slides, and
+    /// the face pressure `pressure` (Pa).
+    pub fn write_fracture_3d(
+        &mut self,
+        v: &SolidView<crate::dim::Tet4>,
+        pressure: f64,
+        time: f64,
+    ) -> std::io::Result<()> {
+        use crate::model3::{joint_area0_3d, joint_frame_3d};
+        let nj = v.joint_nodes.len();
+        let mut points = Vec::with_capacity(3 * nj);
+        let mut cols: [Vec<f64>; 6] = Default::default();
+        for k in 0..nj {
+            for a in 0..3 {
+                points.push(v.x0[v.joint_nodes[k][a] as usize]);
+            }
+            let f = joint_frame_3d(v, k);
+            let a0 = joint_area0_3d(v, k);
+            let st = &v.joint_state[k];
+            let row = [
+                f.dn,
+                f.dt[0].hypot(f.dt[1]),
+                st.normal_force / a0,
+                st.shear_force[0].hypot(st.shear_force[1]) / a0,
+                f64::from(u8::from(st.sliding)),
+                pressure,
+            ];
+            for (c, x) in cols.iter_mut().zip(row) {
+                c.push(x);
+            }
+        }
+        let conn: Vec<u32> = (0..3 * nj as u32).collect();
+        let names = [
+            "opening",
+            "slip",
+            "joint_normal_stress",
+            "joint_shear_stress",
+            "sliding",
+            "pressure",
+        ];
+        let cell_data = names
+            .iter()
+            .zip(&cols)
+            .map(|(n, c)| arr(n, 1, &c[..]))
+            .collect();
+        let name = format!("network_{:05}.vtu", self.network_frames);
+        if self.network_frames == 0 {
+            self.claim("network.pvd")?;
+        }
+        vtk::write_vtu(
+            &self.claim(&format!("frames/{name}"))?,
+            &vtk::VtuPiece {
+                points: &points,
+                kind: vtk::CellKind::Triangle,
+                connectivity: &conn,
+                point_data: vec![],
+                cell_data,
+            },
+        )?;
+        self.network_pvd.add(time, &format!("frames/{name}"))?;
+        self.network_frames += 1;
+        Ok(())
+    }
+}
+
 /// A named array of `components` values per point or cell.
 fn arr<'a>(name: &'a str, components: usize, values: &'a [f64]) -> vtk::DataArray<'a> {
     vtk::DataArray {

@@ -43,6 +43,11 @@ pub struct FractureSpec {
     /// Fractures present at the start, snapped to mesh edges and opened by node splitting.
     #[serde(default)]
     pub preexisting: Vec<PreFracture>,
+    /// 3D only: planar disc fractures present at the start, each made of the mesh faces that
+    /// lie on its plane with their centroid inside it, opened by node splitting at setup. On a
+    /// `Box` or `GradedBox` put the disc on a grid plane (its normal along an axis).
+    #[serde(default)]
+    pub discs: Vec<Disc>,
     /// A seeded random network of pre-existing fractures (added to `preexisting`), snapped and
     /// opened as they are; written to `preexisting_fractures.csv` with each one's snapping
     /// error.
@@ -92,6 +97,7 @@ impl FractureSpec {
             tip_handover: None,
             residual_aperture,
             preexisting,
+            discs: Vec::new(),
             pressure: None,
             friction_deg,
             slip_weakening: None,
@@ -145,6 +151,40 @@ fn default_residual_aperture() -> f64 {
 pub struct PreFracture {
     pub from: [f64; 2],
     pub to: [f64; 2],
+}
+
+/// A planar disc fracture in 3D: centre (m), normal (any length but zero) and radius (m).
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Disc {
+    pub center: [f64; 3],
+    pub normal: [f64; 3],
+    pub radius: f64,
+}
+
+impl Disc {
+    /// The unit normal.
+    pub fn unit_normal(&self) -> [f64; 3] {
+        let n = self.normal;
+        let l = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+        n.map(|c| c / l)
+    }
+
+    /// Centre, normal and radius finite; the normal not zero, the radius positive.
+    fn validate(&self, field: &str) -> Result<(), SetupError> {
+        for v in self.center.iter().chain(&self.normal) {
+            finite(field, *v)?;
+        }
+        positive(&format!("{field}.radius"), self.radius, "the disc's radius")?;
+        let n2: f64 = self.normal.iter().map(|c| c * c).sum();
+        if !(n2.is_finite() && n2 > 0.0) {
+            return Err(SetupError::invalid(
+                &format!("{field}.normal"),
+                "the disc's normal must be a non-zero, finite vector",
+            ));
+        }
+        Ok(())
+    }
 }
 
 /// Most fractures of a random network in the rock (each is snapped by a shortest-path search
@@ -319,6 +359,9 @@ impl FractureSpec {
         }
         if let Some(r) = &self.random {
             r.validate("fracture.random")?;
+        }
+        for (i, d) in self.discs.iter().enumerate() {
+            d.validate(&format!("fracture.discs[{i}]"))?;
         }
         Ok(())
     }

@@ -89,11 +89,26 @@ pub enum MeshSpec {
         origin: [f64; 3],
         fine: [f64; 6],
         ratio: f64,
+        /// For a disc fracture normal to z: the grid is bent, in every z plane, so that the
+        /// square of half-side `radius` about `center` (x, y), m, becomes the circle of that
+        /// radius (`TetMesh::round_about`); a disc of that radius at a grid plane z then has
+        /// its front nodes on its circle instead of a staircase. Identity from twice the radius
+        /// on; the box's x and y sides must lie there or pass through the centre.
+        #[serde(default)]
+        round: Option<Round>,
     },
     /// 3D: a tetrahedral mesh from a Gmsh `.msh` file (ASCII 2.2 or 4.1, 4-node tetrahedra),
     /// path relative to the scenario file. The box's sides are the bounding box's faces: a
     /// boundary face on one of its planes takes that side's condition, the others are free.
     Gmsh3 { file: String },
+}
+
+/// [`MeshSpec::GradedBox`]'s `round`: the centre (x, y) and radius of the circle, m.
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Round {
+    pub center: [f64; 2],
+    pub radius: f64,
 }
 
 fn default_grading() -> f64 {
@@ -159,8 +174,23 @@ impl MeshSpec {
                 })
             }
             MeshSpec::Box { size, h, .. } | MeshSpec::GradedBox { size, h, .. } => {
-                // Graded: at most the uniform box's cells at the fine size.
-                let n = size.map(|l| (l / h).ceil());
+                // Graded: the 2D `Graded` bound on each axis, the fine cells plus at most
+                // ln(1 + l (ratio - 1) / h) / ln(ratio) growing ones each way (at most the
+                // uniform box's).
+                let n: [f64; 3] = match *self {
+                    MeshSpec::GradedBox { fine, ratio, .. } => std::array::from_fn(|d| {
+                        let l = size[d];
+                        let grow = if ratio > 1.0 {
+                            (1.0 + l * (ratio - 1.0) / h).ln() / ratio.ln()
+                        } else {
+                            l / h
+                        };
+                        ((fine[d + 3] - fine[d]) / h + 2.0 * grow)
+                            .ceil()
+                            .min((l / h).ceil())
+                    }),
+                    _ => size.map(|l| (l / h).ceil()),
+                };
                 let cells = n[0] * n[1] * n[2];
                 Some(MeshCounts {
                     nodes: (n[0] + 1.0) * (n[1] + 1.0) * (n[2] + 1.0),
@@ -323,6 +353,28 @@ impl MeshSpec {
                              the domain with x0 < x1, y0 < y1 and z0 < z1"
                         ),
                     ));
+                }
+            }
+        }
+        if let MeshSpec::GradedBox { round: Some(r), .. } = *self {
+            finite("mesh.round.center", r.center[0])?;
+            finite("mesh.round.center", r.center[1])?;
+            positive("mesh.round.radius", r.radius, "the rounded region's radius")?;
+            for d in 0..2 {
+                for side in [origin[d], origin[d] + size[d]] {
+                    let off = (side - r.center[d]).abs();
+                    if off > 1e-9 * size[d] && off < 2.0 * r.radius {
+                        return Err(SetupError::invalid(
+                            "mesh.round",
+                            format!(
+                                "the box's side at {} = {side} m is {off} m from the centre: it \
+                                 must pass through it or lie at least twice the radius ({} m) \
+                                 away, where the grid is not bent",
+                                ["x", "y"][d],
+                                2.0 * r.radius
+                            ),
+                        ));
+                    }
                 }
             }
         }

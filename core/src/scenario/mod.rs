@@ -31,13 +31,13 @@ pub use flow::{
     schedule_factor,
 };
 pub use fracture::{
-    CriterionSpec, DEFAULT_RESIDUAL_APERTURE, FaceStress, FractureSpec, MAX_ROCK_FRACTURES,
+    CriterionSpec, DEFAULT_RESIDUAL_APERTURE, Disc, FaceStress, FractureSpec, MAX_ROCK_FRACTURES,
     PreFracture, RockNetwork, read_fracture_csv,
 };
 pub use material::{
     Boundary, Damping, InitialState, MAX_DENSITY, MAX_YOUNG, Material, Pin, SideBc,
 };
-pub use mesh::{GMSH_BYTES_PER_TRIANGLE, MeshCounts, MeshSpec};
+pub use mesh::{GMSH_BYTES_PER_TRIANGLE, MeshCounts, MeshSpec, Round};
 pub use output::{CheckpointEvery, Field, MAX_NAME_LEN, OutputSpec, SystemsSpec, check_run_name};
 pub use parse::parse_ron;
 pub use production::{ProductionSpec, ProductionStage};
@@ -413,18 +413,43 @@ impl Scenario {
             ));
         }
         if !three {
+            if self.fracture.as_ref().is_some_and(|f| !f.discs.is_empty()) {
+                return Err(SetupError::invalid(
+                    "fracture.discs",
+                    "discs are 3D fractures: this mesh is 2D (use `preexisting` segments)",
+                ));
+            }
             return Ok(());
         }
         let not_yet = |field: &str, what: &str| {
             Err(SetupError::invalid(
                 field,
-                format!(
-                    "{what} is not in 3D yet (issue 38: the 3D rock runs explicit, unfractured)"
-                ),
+                format!("{what} is not in 3D yet (issues 38 and 39)"),
             ))
         };
-        if self.fracture.is_some() {
-            return not_yet("fracture", "fracturing");
+        if let Some(f) = &self.fracture {
+            // The 3D fracture so far: pre-existing discs under a prescribed pressure, with
+            // the joints' contact; no criterion, no segments, no networks.
+            let refuse = |field: &str, what: &str| not_yet(&format!("fracture.{field}"), what);
+            if f.strength.is_some() || f.criterion.is_some() {
+                return refuse("criterion", "fracture growth (issue 39)");
+            }
+            if !f.preexisting.is_empty() || f.file.is_some() || f.random.is_some() {
+                return Err(SetupError::invalid(
+                    "fracture.preexisting",
+                    "segments, fracture files and random networks are 2D; a 3D fracture is a \
+                     disc: `discs: [(center: (x, y, z), normal: (nx, ny, nz), radius: r)]`",
+                ));
+            }
+            if f.slip_weakening.is_some() {
+                return refuse("slip_weakening", "slip-weakening friction");
+            }
+            if f.discs.is_empty() {
+                return Err(SetupError::invalid(
+                    "fracture.discs",
+                    "a 3D fracture block needs at least one disc",
+                ));
+            }
         }
         if !self.flow_boundaries.is_empty() {
             return not_yet("flow_boundaries", "fluid flow");
