@@ -200,7 +200,7 @@ fn fracture_3d(sim: &Simulation<Tet4>) -> Option<serde_json::Value> {
         "area": area,
         "opened_volume": volume,
         "max_opening": max_open,
-        "max_interpenetration": -min_open,
+        "max_interpenetration": if min_open < 0.0 { -min_open } else { 0.0 },
         "joints_closed": closed,
         "joints_sliding": sliding,
     }))

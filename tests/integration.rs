@@ -22,6 +22,7 @@ mod flow_implicit;
 mod flow_scenarios;
 mod flow_substep_bound;
 mod flow_verification;
+mod fracture3d;
 mod fracture_criterion;
 mod fracturing;
 mod friction;

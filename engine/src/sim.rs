@@ -128,6 +128,10 @@ impl<E: Element> Simulation<E> {
     pub fn solid(&self) -> &SolidView<E> {
         &self.solid.view
     }
+    /// For tests and benchmarks that drive a kernel on the view directly.
+    pub fn solid_mut(&mut self) -> &mut SolidView<E> {
+        &mut self.solid.view
+    }
 
     pub fn clock(&self) -> &Clock {
         &self.clock
@@ -636,10 +640,6 @@ impl Simulation {
     /// stage's settling steps (`production_stage::settle`) turn it on, and off again.
     pub fn set_inertia(&mut self, inertia: hydrofrac_core::scenario::Inertia) {
         self.params.time.inertia = inertia;
-    }
-    /// For tests and benchmarks that drive a kernel on the view directly.
-    pub fn solid_mut(&mut self) -> &mut SolidView {
-        &mut self.solid.view
     }
     pub fn flow(&self) -> Option<&FlowPart> {
         self.flow.as_ref()

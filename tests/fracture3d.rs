@@ -1,0 +1,332 @@
+//! 3D fractures through the engine (issue 38, items 4 and 7): disc fractures opened by node
+//! splitting at setup, joints on the sister triangles with the 2D joint model's contact, a
+//! prescribed face pressure, both solid schemes.
+//! - Sneddon's penny-shaped crack (`scenarios/penny.ron`, a quarter): the opened volume at
+//!   R/h = 4 and 8 within bands around the measured errors, first order in h (linear
+//!   tetrahedra at a square-root front), the two schemes agreeing to their tolerances, the
+//!   topology (one copy per inner node) and the fracture frames read back;
+//! - superposition: pressure 3 MPa under a 2 MPa in-situ compression opens the disc exactly as
+//!   1 MPa does in a free box (linear elasticity, open joints carry nothing);
+//! - a disc under a net compression stays closed in every joint, pressed in by the net stress
+//!   over the penalty stiffness, the same with both schemes;
+//! - the 3D Coulomb law on a joint plane: sticking below the limit, sliding at
+//!   |F_t| = mu F_n against the relative motion above it;
+//! - discs that lie on no mesh face, discs in 2D, segments in 3D and a bent grid that would
+//!   move the box's sides are refused by field.
+
+use crate::support_cli as cli;
+use crate::support_vtu as vtu;
+use hydrofrac::scenario::Scenario;
+use hydrofrac::sim::Simulation;
+
+const YOUNG: f64 = 20e9;
+const NU: f64 = 0.2;
+
+/// Sneddon's opened volume of the quarter disc (R = 1 m) under pressure p, m^3.
+fn quarter_volume(p: f64) -> f64 {
+    16.0 * (1.0 - NU * NU) * p / (3.0 * YOUNG) / 4.0
+}
+
+/// The shipped penny at cell size h, with extra `--set`s.
+fn penny(name: &str, h: f64, sets: &[&str]) -> serde_json::Value {
+    let out = cli::tmp(name);
+    let hs = format!("mesh.h={h}");
+    let mut extra = vec!["--set", &hs];
+    for s in sets {
+        extra.push("--set");
+        extra.push(s);
+    }
+    let s = cli::run_ok(cli::scenario("penny.ron"), &out, &extra);
+    assert_eq!(s["status"], "ok", "{s}");
+    s
+}
+
+#[test]
+fn the_penny_crack_opens_as_sneddon_s_at_first_order_with_both_schemes() {
+    let want = quarter_volume(1e6);
+    let s4 = penny("qs4", 0.25, &[]);
+    let f = &s4["fracture"];
+    // R/h = 4: the nodes strictly inside the disc on z = 0 (16 of the quarter) are copied, the
+    // 32 faces inside r < R are joints; the bent grid's faces cover the quarter disc to 1 %.
+    assert_eq!(f["daughters"], 16);
+    assert_eq!(f["joints"], 32);
+    let ratio = 4.0 * s4["mesh"]["discs"][0]["area_ratio"].as_f64().unwrap();
+    assert!((ratio - 1.0).abs() < 0.01, "area ratio {ratio}");
+    assert_eq!(f["joints_closed"], 0);
+    let e4 = f["opened_volume"].as_f64().unwrap() / want - 1.0;
+    // Measured -28.6 % at R/h = 4 and -15.3 % at R/h = 8 (-12.5 % at 10): the
+    // linear tetrahedra hold the square-root opening behind the front as a straight one, an
+    // error of about 1.3 h / R. The bands are a point either side of the measurements.
+    assert!((-0.30..-0.27).contains(&e4), "R/h = 4: volume error {e4}");
+    let s8 = penny("qs8", 0.125, &[]);
+    let e8 = s8["fracture"]["opened_volume"].as_f64().unwrap() / want - 1.0;
+    assert!((-0.165..-0.145).contains(&e8), "R/h = 8: volume error {e8}");
+    // First order: halving h halves the error (0.536 measured).
+    assert!((0.45..0.62).contains(&(e8 / e4)), "order: {e4} -> {e8}");
+    // The centre opening is closer: -16 % and -6.7 % measured.
+    let w0 = 8.0 * (1.0 - NU * NU) * 1e6 / (std::f64::consts::PI * YOUNG);
+    let c8 = s8["fracture"]["max_opening"].as_f64().unwrap() / w0 - 1.0;
+    assert!(
+        (-0.09..-0.05).contains(&c8),
+        "R/h = 8: centre opening error {c8}"
+    );
+
+    // The explicit scheme relaxes to the same static answer: its residual tolerance 1e-8
+    // leaves about 1e-8 of the volume (1.5e-8 measured).
+    let out = cli::tmp("explicit4");
+    let s = cli::run_ok(
+        cli::scenario("penny.ron"),
+        &out,
+        &[
+            "--set",
+            "mesh.h=0.25",
+            "--set",
+            "time.solid_scheme=Explicit",
+            "--set",
+            "time.end=Static(tol: 1e-8)",
+            "--set",
+            "time.max_steps=100000",
+            "--set",
+            "damping=Local(0.8)",
+            "--set",
+            "output.frame_every=0",
+        ],
+    );
+    assert_eq!(s["solid_scheme"], "explicit");
+    let v_ex = s["fracture"]["opened_volume"].as_f64().unwrap();
+    let v_qs = f["opened_volume"].as_f64().unwrap();
+    assert!(
+        ((v_ex - v_qs) / v_qs).abs() < 1e-6,
+        "explicit {v_ex}, quasi-static {v_qs}"
+    );
+    // The fracture frame reads back: one triangle per joint, and the volume from its
+    // openings and areas is the summary's.
+    let frames = vtu::read_pvd(&out.join("network.pvd")).expect("network.pvd");
+    let last = vtu::read_vtu(&out.join(&frames.last().unwrap().1)).expect("frame");
+    assert_eq!(last.types.len(), 32);
+    assert!(last.types.iter().all(|&t| t == 5), "VTK triangles");
+    let opening = last.cell_array("opening").expect("opening");
+    let mut v = 0.0;
+    for (k, w) in opening.iter().enumerate() {
+        let p = [0, 1, 2].map(|a| last.points[3 * k + a]);
+        v += hydrofrac::tet4::triangle_area(p) * w.max(0.0);
+    }
+    assert!(
+        ((v - v_ex) / v_ex).abs() < 1e-9,
+        "frame {v}, summary {v_ex}"
+    );
+}
+
+/// The quarter penny at R/h = 4 under the in-situ stress `s` (Pa, all three components) and
+/// the face pressure `p` (Pa), with the solid scheme `scheme`.
+fn confined(name: &str, s: f64, p: f64, scheme: &str) -> serde_json::Value {
+    let out = cli::tmp(name);
+    let b = format!("boundary=InSitu3(sxx: {s}, syy: {s}, szz: {s})");
+    let pr = format!("fracture.pressure={p}");
+    let scheme = format!("time.solid_scheme={scheme}");
+    let mut sets = vec![
+        "mesh.h=0.25",
+        &b,
+        "initial_state=InSitu",
+        &pr,
+        &scheme,
+        "time.max_steps=100000",
+        "damping=Local(0.8)",
+        "output.frame_every=0",
+    ];
+    if scheme.ends_with("Explicit") {
+        sets.push("time.end=Static(tol: 1e-8)");
+    }
+    let mut extra = Vec::new();
+    for s in &sets {
+        extra.push("--set");
+        extra.push(s);
+    }
+    cli::run_ok(cli::scenario("penny.ron"), &out, &extra)
+}
+
+#[test]
+fn a_confined_disc_opens_by_its_net_pressure_and_stays_shut_below_it() {
+    // Superposition: p = 3 MPa under a 2 MPa compression is p = 1 MPa in a free box, the
+    // joints open; exact in linear elasticity (2e-10 measured: the solve's round-off).
+    let free = penny("free", 0.25, &[]);
+    let v1 = free["fracture"]["opened_volume"].as_f64().unwrap();
+    let s = confined("net", -2e6, 3e6, "QuasiStatic");
+    let v = s["fracture"]["opened_volume"].as_f64().unwrap();
+    assert!(((v - v1) / v1).abs() < 1e-8, "confined {v}, free {v1}");
+    assert_eq!(s["fracture"]["joints_closed"], 0);
+    // Below the compression every joint is shut. Each is pressed in by its share of the net
+    // stress over the interface stiffness K_n / h (K_n = E): at most 1 MPa x 0.25 m / 20 GPa
+    // = 1.25e-5 m, a little less where the intact rock around carries some (1.16e-5 m
+    // measured). Both schemes find the same state (the active set in two factorisations).
+    let bound = 1e6 * 0.25 / YOUNG;
+    let mut seen = Vec::new();
+    for scheme in ["QuasiStatic", "Explicit"] {
+        let s = confined(&format!("shut{scheme}"), -2e6, 1e6, scheme);
+        let f = &s["fracture"];
+        assert_eq!(f["joints_closed"], f["joints"], "{scheme}: {f}");
+        assert_eq!(f["opened_volume"], 0.0, "{scheme}");
+        let d = f["max_interpenetration"].as_f64().unwrap();
+        assert!(
+            (0.8 * bound..=bound).contains(&d),
+            "{scheme}: interpenetration {d} against {bound}"
+        );
+        seen.push(d);
+    }
+    assert!(
+        ((seen[0] - seen[1]) / seen[0]).abs() < 1e-5,
+        "quasi-static {}, explicit {}",
+        seen[0],
+        seen[1]
+    );
+}
+
+#[test]
+fn the_3d_joint_sticks_below_the_coulomb_limit_and_slides_at_it() {
+    // A 1 m cube cut through at z = 0.5 (a disc wider than the box): every node of the plane
+    // is copied, the upper block moved rigidly by (dx, dy, -dz) against the lower one.
+    let text = "(name: \"plane\", mesh: Box(size: (1.0, 1.0, 1.0), h: 0.5),
+        material: (young: 2e10, poisson: 0.2, density: 2700.0),
+        boundary: Sides3(bottom: Fixed),
+        fracture: Some((discs: [(center: (0.5, 0.5, 0.5), normal: (0.0, 0.0, 1.0),
+                                 radius: 10.0)], friction_deg: 30.0)),
+        time: (end: Static(tol: 1e-8)))";
+    let sc = Scenario::parse(text, "plane.ron")
+        .unwrap()
+        .validate()
+        .unwrap();
+    let mut sim = Simulation::new_3d(sc, &[]).unwrap();
+    let p = sim.params().joint;
+    assert_eq!(p.kn, YOUNG);
+    let mu = 30f64.to_radians().tan();
+    let v = sim.solid_mut();
+    assert_eq!(
+        v.joint_nodes.len(),
+        8,
+        "two triangles per cell face, four faces"
+    );
+    // The side of each node: the elements around it lie above or below the plane.
+    let mut above = vec![false; v.n_nodes()];
+    for (c, g) in v.conn.iter().zip(&v.geom) {
+        let _ = g;
+        let z: f64 = c.iter().map(|&a| v.x0[a as usize][2]).sum::<f64>() / 4.0;
+        if z > 0.5 {
+            for &a in c {
+                above[a as usize] = true;
+            }
+        }
+    }
+    let dz = 1e-6;
+    for (dx, dy, sliding) in [(1e-7, 0.0, false), (3e-6, 4e-6, true)] {
+        // Reset the joints and place the upper block.
+        for st in &mut v.joint_state {
+            *st = Default::default();
+        }
+        for i in 0..v.n_nodes() {
+            v.u[i] = if above[i] { [dx, dy, -dz] } else { [0.0; 3] };
+            v.force[i] = [0.0; 3];
+        }
+        hydrofrac::systems::fracture::contact_3d(v, &p);
+        let (mut fn_sum, mut ft_sum) = (0.0, [0.0; 3]);
+        for k in 0..v.joint_nodes.len() {
+            let st = v.joint_state[k];
+            let l = hydrofrac::model3::joint_len0_3d(v, k);
+            // Pressed in by dz: F_n = K_n l dz.
+            assert!((st.normal_force - p.kn * l * dz).abs() < 1e-9 * st.normal_force);
+            let ft = st.shear_force[0].hypot(st.shear_force[1]);
+            let trial = p.kt * l * dx.hypot(dy);
+            assert_eq!(st.sliding, sliding, "joint {k}");
+            let want = if sliding { mu * st.normal_force } else { trial };
+            assert!(
+                (ft - want).abs() < 1e-9 * want,
+                "joint {k}: {ft} against {want}"
+            );
+            fn_sum += st.normal_force;
+        }
+        // The force on the upper block: up by the normal forces, against its motion by the
+        // shear ones.
+        for i in 0..v.n_nodes() {
+            if above[i] {
+                for d in 0..3 {
+                    ft_sum[d] += v.force[i][d];
+                }
+            }
+        }
+        assert!(
+            (ft_sum[2] - fn_sum).abs() < 1e-9 * fn_sum,
+            "normal {ft_sum:?}"
+        );
+        let t = ft_sum[0].hypot(ft_sum[1]);
+        let cos = -(ft_sum[0] * dx + ft_sum[1] * dy) / (t * dx.hypot(dy));
+        assert!(cos > 1.0 - 1e-12, "shear against the motion: {ft_sum:?}");
+        if sliding {
+            assert!(
+                (t - mu * fn_sum).abs() < 1e-9 * t,
+                "Coulomb: {t} against {}",
+                mu * fn_sum
+            );
+        } else {
+            assert!(t < mu * fn_sum, "sticks");
+        }
+    }
+}
+
+#[test]
+fn discs_off_the_mesh_and_fractures_of_the_wrong_dimension_are_refused_by_field() {
+    let dir = cli::tmp("refused");
+    std::fs::create_dir_all(&dir).unwrap();
+    let penny = std::fs::read_to_string(cli::scenario("penny.ron")).unwrap();
+    let cases: Vec<(String, &[&str])> = vec![
+        // Between grid planes.
+        (
+            penny.replace("center: (0.0, 0.0, 0.0)", "center: (0.0, 0.0, 0.05)"),
+            &["fracture.discs[0]", "grid plane"],
+        ),
+        // Not along an axis.
+        (
+            penny.replace("normal: (0.0, 0.0, 1.0)", "normal: (0.0, 1.0, 1.0)"),
+            &["fracture.discs[0]"],
+        ),
+        (
+            penny.replace("radius: 1.0)]", "radius: -1.0)]"),
+            &["fracture.discs[0].radius"],
+        ),
+        (
+            penny.replace("discs: [", "preexisting: [(from: (0.0, 0.0), to: (1.0, 0.0))], discs: ["),
+            &["fracture.preexisting", "disc"],
+        ),
+        // The bent grid would move the far side x = 1.5 m (within 2 R).
+        (
+            penny.replace("size: (10.0, 10.0, 20.0)", "size: (1.5, 10.0, 20.0)")
+                .replace("fine: (0.0, 0.0, -0.5, 1.5, 1.5, 0.5)", "fine: (0.0, 0.0, -0.2, 1.2, 1.2, 0.2)"),
+            &["mesh.round"],
+        ),
+        (
+            "(name: \"flat\", mesh: Regular(width: 4.0, height: 4.0, h: 1.0),
+              material: (young: 2e10, poisson: 0.2, density: 2700.0),
+              boundary: Sides(bottom: Fixed),
+              fracture: Some((discs: [(center: (2.0, 2.0, 0.0), normal: (0.0, 0.0, 1.0), radius: 1.0)])),
+              time: (end: Static(tol: 1e-8)))"
+                .to_string(),
+            &["fracture.discs", "2D"],
+        ),
+    ];
+    for (k, (text, needles)) in cases.iter().enumerate() {
+        let path = dir.join(format!("case{k}.ron"));
+        std::fs::write(&path, text).unwrap();
+        let out = dir.join(format!("out{k}"));
+        let o = cli::run(&[
+            "run",
+            path.to_str().unwrap(),
+            "--quiet",
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        cli::assert_refused(&o, needles);
+        assert!(
+            !out.exists(),
+            "case {k}: a refused run wrote {}",
+            out.display()
+        );
+    }
+}
