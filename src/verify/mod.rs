@@ -208,6 +208,11 @@ pub fn cases() -> Vec<Case> {
             run: solid3d_cases::insitu3d,
         },
         Case {
+            name: "penny",
+            about: "3D engine: scenarios/penny.ron (a quarter penny crack opened by node splitting, front on the circle), R/h = 4 to 16, quasi-static and explicit side by side: opened volume and centre opening (first order)",
+            run: solid3d_cases::penny_engine,
+        },
+        Case {
             name: "penny3d",
             about: "3D: Sneddon's penny-shaped crack under pressure, TET4 on a graded box (static, faer Cholesky), a/h = 4 to 20: centre opening, opened volume (2.5 % at 20)",
             run: solid3d_cases::penny3d,

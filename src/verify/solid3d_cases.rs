@@ -384,3 +384,118 @@ pub fn insitu3d(quick: bool) -> anyhow::Result<CaseResult> {
     }
     Ok(res)
 }
+
+/// `hydrofrac verify penny`: the shipped `scenarios/penny.ron` through the 3D engine (a
+/// quarter of Sneddon's penny crack, R = 1 m, p = 1 MPa; the disc opened by node splitting,
+/// its front nodes on r = R by the bent grid), at R/h = 4, 8, 10 and 16 with the quasi-static
+/// solve, and at R/h = 4 and 8 with the explicit relaxation beside it (quick: R/h = 4 both, 8
+/// quasi-static). Errors: the opened volume and the centre opening against the closed forms.
+/// The linear tetrahedra take the square-root opening behind the front as a straight one, an
+/// error of first order (about 1.25 h / R in the volume); the bounds are the measured values
+/// with a margin of about a tenth. Issue 38's 5 % at R/h = 10 and 2.5 % at 20 are not met.
+pub fn penny_engine(quick: bool) -> anyhow::Result<CaseResult> {
+    let base = include_str!("../../scenarios/penny.ron");
+    let levels: &[(f64, bool)] = if quick {
+        &[(4.0, true), (8.0, false)]
+    } else {
+        &[(4.0, true), (8.0, true), (10.0, false), (16.0, false)]
+    };
+    let (young, nu, p) = (20e9, 0.2, 1e6);
+    let e1 = young / (1.0 - nu * nu);
+    let want_v = 16.0 * p / (3.0 * e1) / 4.0;
+    let want_w = 8.0 * p / (std::f64::consts::PI * e1);
+    let mut res = CaseResult::default();
+    let mut csv = String::from(
+        "cells_per_radius,scheme,elements,unknowns,volume_error,centre_error,wall_s\n",
+    );
+    let mut pts: [Vec<(f64, f64)>; 2] = Default::default();
+    for (level, &(c, explicit)) in levels.iter().enumerate() {
+        let h = 1.0 / c;
+        let schemes: &[&str] = if explicit {
+            &["QuasiStatic", "Explicit"]
+        } else {
+            &["QuasiStatic"]
+        };
+        for (k, scheme) in schemes.iter().enumerate() {
+            let mut text = base
+                .replace("h: 0.1,", &format!("h: {h},"))
+                .replace(
+                    "solid_scheme: QuasiStatic, max_steps: 10",
+                    &format!("solid_scheme: {scheme}, max_steps: 1000000, safety: 0.9"),
+                )
+                .replace(
+                    "frame_every: 1, series_every: 1",
+                    "frame_every: 0, series_every: 1000",
+                );
+            if *scheme == "Explicit" {
+                text = text
+                    .replace("Static(tol: 1e-10)", "Static(tol: 1e-8)")
+                    .replace("output:", "damping: Local(0.8), output:");
+            }
+            let (sim, wall) = run_3d(&text)?;
+            let v = sim.solid();
+            let (mut vol, mut w0) = (0.0, 0.0f64);
+            for j in 0..v.joint_nodes.len() {
+                let f = crate::model3::joint_frame_3d(v, j);
+                vol += crate::model3::joint_area0_3d(v, j) * f.dn.max(0.0);
+                w0 = w0.max(f.dn);
+            }
+            let (ev, ew) = (vol / want_v - 1.0, w0 / want_w - 1.0);
+            let suffix = if k == 0 { "" } else { "_explicit" };
+            for (m, err) in [("volume", ev), ("centre_opening", ew)] {
+                res.rows.push(Row {
+                    case: "penny",
+                    level,
+                    h,
+                    unknowns: 3 * v.n_nodes(),
+                    metric: format!("{m}{suffix}"),
+                    error: err.abs(),
+                    wall_s: wall,
+                });
+            }
+            csv.push_str(&format!(
+                "{c},{scheme},{},{},{ev:.6e},{ew:.6e},{wall:.3}\n",
+                v.n_elems(),
+                3 * v.n_nodes()
+            ));
+            res.notes.push(format!(
+                "R/h = {c}, {scheme}: volume {:+.2} %, centre {:+.2} % ({} tetrahedra, {wall:.2} s)",
+                100.0 * ev,
+                100.0 * ew,
+                v.n_elems()
+            ));
+            pts[k].push((c, 100.0 * ev.abs()));
+            // Measured (2-core VM): -28.6 / -15.3 / -12.5 / -8.0 % at R/h = 4 / 8 / 10 / 16 (the
+            // explicit relaxation the same to 1e-8).
+            let bound = match c as u32 {
+                4 => 0.31,
+                8 => 0.17,
+                10 => 0.14,
+                _ => 0.09,
+            };
+            res.check_max(
+                format!("|volume error| at R/h = {c}, {scheme}"),
+                ev.abs(),
+                bound,
+            );
+        }
+    }
+    res.files.push(("penny.csv".into(), csv));
+    res.plots.push(LinePlot {
+        file: "penny_volume.png".into(),
+        title: "penny: opened volume against Sneddon (engine, TET4, front on the circle)".into(),
+        xlabel: "cells per radius R/h".into(),
+        ylabel: "|volume error| [%]".into(),
+        series: vec![
+            Series {
+                label: "quasi-static".into(),
+                points: pts[0].clone(),
+            },
+            Series {
+                label: "explicit".into(),
+                points: pts[1].clone(),
+            },
+        ],
+    });
+    Ok(res)
+}
