@@ -1,8 +1,8 @@
 //! `hydrofrac run` of a 3D scenario (a `Box`, `GradedBox` or `Gmsh3` mesh): the same stages as 2D
 //! ([`crate::driver`]: resources, the output folder and its manifest, the timed step loop
 //! with its progress bar and trace, `summary.json`), on a [`Simulation<Tet4>`]. What 3D does
-//! not have yet is refused by the scenario's checks (`docs/three_d.md`); a checkpoint to
-//! restart from is refused here.
+//! not have yet is refused by the scenario's checks (`docs/three_d.md`). Checkpoints and
+//! `--restart` work as in 2D.
 
 use crate::dim::Tet4;
 use crate::driver::{
@@ -22,13 +22,21 @@ pub fn run_scenario_3d(
     out: PathBuf,
 ) -> Result<RunReport, DriverError> {
     check_resources(&scenario, opts)?;
-    if let Some(path) = &opts.restart {
-        return Err(DriverError::Output(std::io::Error::other(format!(
-            "--restart {}: checkpoints are not in 3D yet",
-            path.display()
-        ))));
-    }
     let mut sim = Simulation::new_3d(scenario, &opts.disable)?;
+    // Read and checked before the output folder is touched, as in 2D.
+    let restarted_from = match &opts.restart {
+        Some(path) => {
+            let (header, state) = crate::checkpoint::read_as::<Tet4>(path)?;
+            crate::checkpoint::check_scenario(path, &header, sim.scenario(), &opts.disable)?;
+            sim.restore(state)
+                .map_err(|why| crate::checkpoint::CheckpointError::Refused {
+                    path: path.display().to_string(),
+                    why,
+                })?;
+            Some((path.display().to_string(), header.step, header.time))
+        }
+        None => None,
+    };
     if let Some(stop) = &opts.stop {
         sim.set_stop(stop.clone());
     }
@@ -49,6 +57,15 @@ pub fn run_scenario_3d(
         (result, sim.schedule().clone())
     });
     let mut summary = summary_3d(&sim, &stepped);
+    if sim.params().output.checkpoint_every.is_some() {
+        summary["checkpoints"] = json!(sim.checkpoint_stats());
+    }
+    if let Some((path, step, time)) = &restarted_from {
+        // As in 2D: the quasi-static solve factorises again at the restart.
+        let exact = sim.linear_static().is_none();
+        summary["restarted_from"] =
+            json!({"file": path, "step": step, "time": time, "bit_identical": exact});
+    }
     summary["output_estimate_bytes"] = json!(disk);
     crate::output::json::finite_summary(&mut summary);
     let o = sim.output().expect("outputs set");

@@ -330,3 +330,73 @@ fn discs_off_the_mesh_and_fractures_of_the_wrong_dimension_are_refused_by_field(
         );
     }
 }
+
+#[test]
+fn a_3d_run_restarted_from_its_checkpoint_ends_bit_for_bit_as_the_whole_run() {
+    // The explicit penny at R/h = 4 with a checkpoint every 500 steps: the last one before
+    // the end (step 3,500 of 3,6xx) is restarted into another folder.
+    let sets = [
+        "--set",
+        "mesh.h=0.25",
+        "--set",
+        "time.solid_scheme=Explicit",
+        "--set",
+        "time.end=Static(tol: 1e-8)",
+        "--set",
+        "time.max_steps=100000",
+        "--set",
+        "damping=Local(0.8)",
+        "--set",
+        "output.frame_every=0",
+        "--set",
+        "output.checkpoint_every=Steps(500)",
+    ];
+    let whole = cli::tmp("whole");
+    let a = cli::run_ok(cli::scenario("penny.ron"), &whole, &sets);
+    assert!(a["checkpoints"]["written"].as_u64().unwrap() >= 2, "{a}");
+    let ckpt = whole.join("checkpoint.ckpt");
+    let part = cli::tmp("part");
+    let mut extra: Vec<&str> = sets.to_vec();
+    let c = ckpt.to_str().unwrap();
+    extra.extend(["--restart", c]);
+    let b = cli::run_ok(cli::scenario("penny.ron"), &part, &extra);
+    assert_eq!(b["restarted_from"]["bit_identical"], true);
+    let from = b["restarted_from"]["step"].as_u64().unwrap();
+    assert!(from > 0 && from < a["steps"].as_u64().unwrap());
+    for key in ["steps", "time", "residual"] {
+        assert_eq!(a[key], b[key], "{key}");
+    }
+    for key in ["opened_volume", "max_opening"] {
+        assert_eq!(a["fracture"][key], b["fracture"][key], "{key}");
+    }
+    // A 2D checkpoint is refused by a 3D run, naming the dimension, before any output.
+    let dir = cli::tmp("flat");
+    std::fs::create_dir_all(&dir).unwrap();
+    let flat = dir.join("flat.ron");
+    std::fs::write(
+        &flat,
+        "(name: \"flat\", mesh: Regular(width: 4.0, height: 4.0, h: 1.0),
+          material: (young: 2e10, poisson: 0.2, density: 2700.0),
+          boundary: Sides(bottom: Fixed, top: Traction(normal: -1e6, shear: 0.0)),
+          time: (end: Static(tol: 1e-6), max_steps: 100000), damping: Local(0.8),
+          output: (checkpoint_every: Steps(10)))",
+    )
+    .unwrap();
+    let s2 = cli::run_ok(&flat, &dir.join("out"), &[]);
+    assert_eq!(s2["status"], "ok");
+    let wrong = cli::tmp("wrong");
+    let c2 = dir.join("out").join("checkpoint.ckpt");
+    let penny = cli::scenario("penny.ron");
+    let mut args: Vec<&str> = vec!["run", &penny];
+    args.extend(sets);
+    args.extend([
+        "--restart",
+        c2.to_str().unwrap(),
+        "--quiet",
+        "--out",
+        wrong.to_str().unwrap(),
+    ]);
+    let o = cli::run(&args);
+    cli::assert_refused(&o, &["checkpoint", "2D run's checkpoint", "3D"]);
+    assert!(!wrong.exists());
+}

@@ -33,6 +33,7 @@ use hecs::Entity;
 use hydrofrac_components::*;
 
 use crate::sim::Simulation;
+use hydrofrac_core::dim::{Cst, Element};
 pub use hydrofrac_core::flow::implicit::ImplicitCounters;
 use hydrofrac_core::model::Model;
 use hydrofrac_core::scenario::Scenario;
@@ -49,7 +50,7 @@ use std::path::Path;
 /// First bytes of every checkpoint file.
 pub const MAGIC: &[u8; 8] = b"HFCKPT\0\n";
 /// Version of the layout of [`State`]; bumped whenever a saved type changes.
-pub const FORMAT_VERSION: u32 = 5;
+pub const FORMAT_VERSION: u32 = 6;
 /// The latest checkpoint in the output folder, and the one before it.
 pub const FILE: &str = "checkpoint.ckpt";
 pub const PREV_FILE: &str = "checkpoint.prev.ckpt";
@@ -77,6 +78,8 @@ fn refused(path: &Path, why: impl Into<String>) -> CheckpointError {
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Header {
     pub crate_version: String,
+    /// 2 or 3: the element kind's dimension ([`hydrofrac_core::dim::Element::D`]).
+    pub dimension: u8,
     pub scenario_name: String,
     pub fingerprint: u64,
     pub step: u64,
@@ -92,17 +95,24 @@ pub struct WorldRecords {
     pub cells: Vec<(Entity, CellBundle)>,
     pub joints: Vec<(Entity, JointBundle)>,
     pub bcs: Vec<(Entity, FlowBcBundle)>,
+    /// 3D: nodes, tetrahedra, faces and face joints (empty in 2D).
+    pub nodes3: Vec<(Entity, Node3Bundle)>,
+    pub tets: Vec<(Entity, Tet4Bundle)>,
+    pub faces: Vec<(Entity, FaceBundle)>,
+    pub face_joints: Vec<(Entity, FaceJointBundle)>,
 }
 
-/// The state of a simulation between steps.
+/// The state of a simulation between steps, of element kind `E` (2D by default). A 3D state
+/// has no flow, fracture growth, quasi-static Newton or catalogue (their fields are empty).
 #[derive(Clone, Serialize, Deserialize)]
-pub struct State {
+#[serde(bound = "")]
+pub struct State<E: Element = Cst> {
     pub world: WorldRecords,
     pub topology_generation: u64,
     /// next_node_id, next_elem_id, next_edge_id, next_cell_id, next_joint_id.
     pub next_ids: [u64; 5],
     pub clock: Clock,
-    pub solid_view: SolidView,
+    pub solid_view: SolidView<E>,
     pub solid_stats: StepStats,
     pub dt_crit: f64,
     pub qs_counts: Option<QsCounts>,
@@ -161,13 +171,53 @@ impl WorldRecords {
         for (e, a, b) in w.query::<(Entity, &StableId, &FlowBc)>().iter() {
             r.bcs.push((e, (*a, *b)));
         }
+        type N3 = (
+            Entity,
+            &'static StableId,
+            &'static NodeRef<[f64; 3]>,
+            &'static NodeState<[f64; 3]>,
+            &'static NodeMass,
+            &'static NodeBc<[f64; 3], [Option<f64>; 3]>,
+            &'static NodeLink,
+        );
+        for (e, a, b, c, d, f, g) in w.query::<N3>().iter() {
+            r.nodes3.push((e, (*a, *b, *c, *d, *f, *g)));
+        }
+        for (e, a, b, c, d) in w
+            .query::<(
+                Entity,
+                &StableId,
+                &ElemNodes<[Entity; 4]>,
+                &TetGeom,
+                &ElemStress<[f64; 6]>,
+            )>()
+            .iter()
+        {
+            r.tets.push((e, (*a, *b, *c, *d)));
+        }
+        for (e, a, b, c, d) in w
+            .query::<(Entity, &StableId, &FaceNodes, &EdgeElems, &EdgeState)>()
+            .iter()
+        {
+            r.faces.push((e, (*a, *b, *c, *d)));
+        }
+        for (e, a, b, c) in w
+            .query::<(Entity, &StableId, &FaceJoint, &JointState<[f64; 2]>)>()
+            .iter()
+        {
+            r.face_joints.push((e, (*a, *b, *c)));
+        }
         r.check_bundles(w)?;
         let n = r.nodes.len()
             + r.elems.len()
             + r.edges.len()
             + r.cells.len()
             + r.joints.len()
-            + r.bcs.len();
+            + r.bcs.len()
+            + r.nodes3.len()
+            + r.tets.len()
+            + r.faces.len()
+            + r.face_joints.len();
         if n != w.len() as usize {
             return Err(format!(
                 "the world has {} entities, {n} of them in the known bundles",
@@ -195,6 +245,10 @@ impl WorldRecords {
             ids::<CellBundle>(),
             ids::<JointBundle>(),
             ids::<FlowBcBundle>(),
+            ids::<Node3Bundle>(),
+            ids::<Tet4Bundle>(),
+            ids::<FaceBundle>(),
+            ids::<FaceJointBundle>(),
         ];
         for a in w.archetypes().filter(|a| !a.is_empty()) {
             let mut types: Vec<std::any::TypeId> = a.component_types().collect();
@@ -220,6 +274,10 @@ impl WorldRecords {
             C(CellBundle),
             J(JointBundle),
             B(FlowBcBundle),
+            N3(Node3Bundle),
+            T(Tet4Bundle),
+            F(FaceBundle),
+            FJ(FaceJointBundle),
         }
         let mut all: Vec<(Entity, Rec)> = Vec::new();
         all.extend(self.nodes.into_iter().map(|(e, b)| (e, Rec::N(b))));
@@ -228,6 +286,10 @@ impl WorldRecords {
         all.extend(self.cells.into_iter().map(|(e, b)| (e, Rec::C(b))));
         all.extend(self.joints.into_iter().map(|(e, b)| (e, Rec::J(b))));
         all.extend(self.bcs.into_iter().map(|(e, b)| (e, Rec::B(b))));
+        all.extend(self.nodes3.into_iter().map(|(e, b)| (e, Rec::N3(b))));
+        all.extend(self.tets.into_iter().map(|(e, b)| (e, Rec::T(b))));
+        all.extend(self.faces.into_iter().map(|(e, b)| (e, Rec::F(b))));
+        all.extend(self.face_joints.into_iter().map(|(e, b)| (e, Rec::FJ(b))));
         all.sort_by_key(|(e, _)| e.id());
         if all.windows(2).any(|w| w[0].0.id() == w[1].0.id()) {
             return Err("two entities share a handle".into());
@@ -241,6 +303,10 @@ impl WorldRecords {
                 Rec::C(b) => world.spawn_at(e, b),
                 Rec::J(b) => world.spawn_at(e, b),
                 Rec::B(b) => world.spawn_at(e, b),
+                Rec::N3(b) => world.spawn_at(e, b),
+                Rec::T(b) => world.spawn_at(e, b),
+                Rec::F(b) => world.spawn_at(e, b),
+                Rec::FJ(b) => world.spawn_at(e, b),
             }
         }
         Ok(world)
@@ -277,7 +343,7 @@ pub fn fingerprint(scenario: &Scenario, extra_disable: &[String]) -> u64 {
 }
 
 /// The file's bytes for `header` and `state`.
-pub fn encode(header: &Header, state: &State) -> Result<Vec<u8>, String> {
+pub fn encode<E: Element>(header: &Header, state: &State<E>) -> Result<Vec<u8>, String> {
     let payload = postcard::to_stdvec(&(header, state)).map_err(|e| e.to_string())?;
     let mut out = Vec::with_capacity(payload.len() + 28);
     out.extend_from_slice(MAGIC);
@@ -291,15 +357,26 @@ pub fn encode(header: &Header, state: &State) -> Result<Vec<u8>, String> {
 /// Read and check a checkpoint file (layout, version, hash); the scenario is checked by
 /// [`check_scenario`].
 pub fn read(path: &Path) -> Result<(Header, State), CheckpointError> {
+    read_as::<Cst>(path)
+}
+
+/// [`read`] of a checkpoint of element kind `E` (a checkpoint of the other dimension is
+/// refused).
+pub fn read_as<E: Element>(path: &Path) -> Result<(Header, State<E>), CheckpointError> {
     let bytes = std::fs::read(path).map_err(|source| CheckpointError::Io {
         path: path.display().to_string(),
         source,
     })?;
-    decode(&bytes).map_err(|why| refused(path, why))
+    decode_as(&bytes).map_err(|why| refused(path, why))
 }
 
 /// [`read`] on bytes.
 pub fn decode(bytes: &[u8]) -> Result<(Header, State), String> {
+    decode_as::<Cst>(bytes)
+}
+
+/// [`read_as`] on bytes.
+pub fn decode_as<E: Element>(bytes: &[u8]) -> Result<(Header, State<E>), String> {
     if bytes.len() < 8 || &bytes[..8] != MAGIC {
         return Err("not a hydrofrac checkpoint (no checkpoint header)".into());
     }
@@ -328,8 +405,8 @@ pub fn decode(bytes: &[u8]) -> Result<(Header, State), String> {
     if fnv1a(payload) != hash {
         return Err("corrupt: the content does not match its hash".into());
     }
-    let (header, state): (Header, State) =
-        postcard::from_bytes(payload).map_err(|e| format!("corrupt: cannot decode ({e})"))?;
+    let (header, rest): (Header, &[u8]) =
+        postcard::take_from_bytes(payload).map_err(|e| format!("corrupt: cannot decode ({e})"))?;
     if header.crate_version != env!("CARGO_PKG_VERSION") {
         return Err(format!(
             "written by hydrofrac {}, this is hydrofrac {}",
@@ -337,6 +414,15 @@ pub fn decode(bytes: &[u8]) -> Result<(Header, State), String> {
             env!("CARGO_PKG_VERSION")
         ));
     }
+    if header.dimension as usize != E::D {
+        return Err(format!(
+            "a {}D run's checkpoint; this scenario is {}D",
+            header.dimension,
+            E::D
+        ));
+    }
+    let state: State<E> =
+        postcard::from_bytes(rest).map_err(|e| format!("corrupt: cannot decode ({e})"))?;
     Ok((header, state))
 }
 
@@ -372,9 +458,8 @@ pub struct CheckpointStats {
     pub seconds: f64,
 }
 
-/// Checkpoints of a simulation: when one is due, the state taken and written, and a state
-/// taken over.
-impl Simulation {
+/// When a checkpoint is due and its file written, for either element kind.
+impl<E: Element> Simulation<E> {
     /// Whether `output.checkpoint_every` asks for a checkpoint after the step just taken (and
     /// moves the next due time on).
     pub(crate) fn checkpoint_due(&mut self) -> bool {
@@ -392,12 +477,47 @@ impl Simulation {
         }
     }
 
+    /// Write the checkpoint `bytes` into the output folder (`checkpoint.ckpt`, the one before
+    /// renamed to `checkpoint.prev.ckpt`; both listed in the folder's manifest; each written
+    /// atomically), counting the wall time since `t`. Without an output folder nothing is
+    /// written. Returns the file.
+    pub(crate) fn write_checkpoint_bytes(
+        &mut self,
+        bytes: &[u8],
+        t: std::time::Instant,
+    ) -> Result<Option<std::path::PathBuf>, RunError> {
+        let Some(out) = self.output.as_ref() else {
+            return Ok(None);
+        };
+        let path = out.claim(crate::checkpoint::FILE)?;
+        let prev = out.claim(crate::checkpoint::PREV_FILE)?;
+        if path.exists() {
+            std::fs::rename(&path, &prev)?;
+        }
+        hydrofrac_core::output::write_atomic(&path, bytes)?;
+        let c = &mut self.checkpoints;
+        c.written += 1;
+        c.last_step = Some(self.clock.step);
+        c.last_bytes = bytes.len() as u64;
+        c.seconds += t.elapsed().as_secs_f64();
+        Ok(Some(path))
+    }
+
+    /// What writing checkpoints cost so far.
+    pub fn checkpoint_stats(&self) -> CheckpointStats {
+        self.checkpoints
+    }
+}
+
+/// Checkpoints of a 2D simulation: the state taken and written, and a state taken over.
+impl Simulation {
     /// The state between steps as a checkpoint ([`crate::checkpoint`]), read as it is in
     /// memory: nothing is synced, so taking it does not change the run.
     pub fn checkpoint_state(&self) -> Result<(Header, State), String> {
         let m = &self.model;
         let header = Header {
             crate_version: env!("CARGO_PKG_VERSION").to_string(),
+            dimension: 2,
             scenario_name: self.scenario.name.clone(),
             fingerprint: crate::checkpoint::fingerprint(&self.scenario, &self.extra_disable),
             step: self.clock.step,
@@ -498,32 +618,16 @@ impl Simulation {
     /// before renamed to `checkpoint.prev.ckpt`; both listed in the folder's manifest; each
     /// written atomically). Without an output folder nothing is written. Returns the file.
     pub fn write_checkpoint(&mut self) -> Result<Option<std::path::PathBuf>, RunError> {
-        let Some(out) = self.output.as_ref() else {
+        if self.output.is_none() {
             return Ok(None);
-        };
+        }
         let t = std::time::Instant::now();
         let (header, state) = self
             .checkpoint_state()
             .map_err(|e| RunError::Io(std::io::Error::other(format!("checkpoint: {e}"))))?;
         let bytes = crate::checkpoint::encode(&header, &state)
             .map_err(|e| RunError::Io(std::io::Error::other(format!("checkpoint: {e}"))))?;
-        let path = out.claim(crate::checkpoint::FILE)?;
-        let prev = out.claim(crate::checkpoint::PREV_FILE)?;
-        if path.exists() {
-            std::fs::rename(&path, &prev)?;
-        }
-        hydrofrac_core::output::write_atomic(&path, &bytes)?;
-        let c = &mut self.checkpoints;
-        c.written += 1;
-        c.last_step = Some(self.clock.step);
-        c.last_bytes = bytes.len() as u64;
-        c.seconds += t.elapsed().as_secs_f64();
-        Ok(Some(path))
-    }
-
-    /// What writing checkpoints cost so far.
-    pub fn checkpoint_stats(&self) -> CheckpointStats {
-        self.checkpoints
+        self.write_checkpoint_bytes(&bytes, t)
     }
 }
 

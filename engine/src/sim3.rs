@@ -7,9 +7,11 @@
 //! What 3D has so far (issue 38, first part): the rock with the explicit scheme or the
 //! quasi-static one (`solve`: [`hydrofrac_systems::linear_static`], the stiffness factorised
 //! once), box boundaries (`InSitu3`, `Sides3`), the in-situ initial state, frames, series rows and the
-//! summary. The systems the 3D scene has no data for (contact, fluid pressure, flow,
-//! criterion, split, seismicity) are off in its schedule, as in any 2D scene without them;
-//! the scenario's checks refuse what 3D cannot do yet (`Scenario::check_3d`).
+//! summary, checkpoints and restarts; pre-existing disc fractures with their joints' contact
+//! (`contact_3d`) and a prescribed face pressure. The systems the 3D scene has no data for
+//! (fluid pressure, flow, criterion, split, seismicity) are off in its schedule, as in any 2D
+//! scene without them; the scenario's checks refuse what 3D cannot do yet
+//! (`Scenario::check_3d`).
 
 use crate::schedule::Status;
 use crate::sim::Simulation;
@@ -233,6 +235,13 @@ impl Simulation<Tet4> {
         while self.clock.finish.is_none() {
             if let Some(sig) = self.stop_signal() {
                 self.interrupted_by = Some(sig);
+                // The state to resume from, unless the step just taken wrote it.
+                if self.params.output.checkpoint_every.is_some()
+                    && self.clock.step > 0
+                    && self.checkpoints.last_step != Some(self.clock.step)
+                {
+                    self.write_checkpoint()?;
+                }
                 self.clock.finish = Some(Finish::Interrupted);
                 if self.schedule.is_enabled(SystemId::Output) {
                     self.write(true, true)?;
@@ -240,6 +249,9 @@ impl Simulation<Tet4> {
                 break;
             }
             self.step_once()?;
+            if self.clock.finish.is_none() && self.checkpoint_due() {
+                self.write_checkpoint()?;
+            }
             if self.clock.step.is_multiple_of(256) {
                 progress(self);
             }
@@ -336,6 +348,88 @@ impl Simulation<Tet4> {
             }
         }
         Ok(())
+    }
+
+    /// The state between steps as a checkpoint ([`crate::checkpoint`]): the world's 3D
+    /// entities, the clock and the TET4 view (the 2D-only parts empty). Nothing is synced.
+    pub fn checkpoint_state(
+        &self,
+    ) -> Result<(crate::checkpoint::Header, crate::checkpoint::State<Tet4>), String> {
+        let m = &self.model;
+        let header = crate::checkpoint::Header {
+            crate_version: env!("CARGO_PKG_VERSION").to_string(),
+            dimension: 3,
+            scenario_name: self.scenario.name.clone(),
+            fingerprint: crate::checkpoint::fingerprint(&self.scenario, &self.extra_disable),
+            step: self.clock.step,
+            time: self.clock.time,
+        };
+        let state = crate::checkpoint::State {
+            world: crate::checkpoint::WorldRecords::capture(m)?,
+            topology_generation: m.topology_generation,
+            next_ids: [
+                m.next_node_id,
+                m.next_elem_id,
+                m.next_edge_id,
+                m.next_cell_id,
+                m.next_joint_id,
+            ],
+            clock: self.clock.clone(),
+            solid_view: self.solid.view.clone(),
+            solid_stats: self.solid.stats,
+            dt_crit: self.solid.dt_crit,
+            qs_counts: None,
+            flow: None,
+            fracture: FractureState::default(),
+            effort: self.effort,
+            cells_at_start: 0,
+            next_checkpoint_time: self.next_checkpoint_time,
+            seismicity: None,
+        };
+        Ok((header, state))
+    }
+
+    /// Continue from a 3D checkpoint's state: this simulation must be freshly set up from the
+    /// scenario it was written for ([`crate::checkpoint::check_scenario`]). The explicit scheme
+    /// continues bit for bit; the quasi-static solve factorises its matrix again for the joints'
+    /// states, so it continues to its tolerance.
+    pub fn restore(&mut self, state: crate::checkpoint::State<Tet4>) -> Result<(), String> {
+        let m = &mut self.model;
+        m.world = state.world.restore()?;
+        m.topology_generation = state.topology_generation;
+        [
+            m.next_node_id,
+            m.next_elem_id,
+            m.next_edge_id,
+            m.next_cell_id,
+            m.next_joint_id,
+        ] = state.next_ids;
+        if state.solid_view.n_nodes() != self.solid.view.n_nodes()
+            || state.solid_view.n_elems() != self.solid.view.n_elems()
+            || state.solid_view.joint_nodes != self.solid.view.joint_nodes
+        {
+            return Err("its mesh or fractures differ from this scenario's".into());
+        }
+        self.clock = state.clock;
+        self.solid.view = state.solid_view;
+        self.solid.stats = state.solid_stats;
+        self.solid.dt_crit = state.dt_crit;
+        self.effort = state.effort;
+        self.next_checkpoint_time = state.next_checkpoint_time;
+        Ok(())
+    }
+
+    /// Write a checkpoint of the state now into the output folder, as 2D runs do
+    /// (`Simulation::write_checkpoint`).
+    pub fn write_checkpoint(&mut self) -> Result<Option<std::path::PathBuf>, RunError> {
+        if self.output.is_none() {
+            return Ok(None);
+        }
+        let t = std::time::Instant::now();
+        let io = |e: String| RunError::Io(std::io::Error::other(format!("checkpoint: {e}")));
+        let (header, state) = self.checkpoint_state().map_err(io)?;
+        let bytes = crate::checkpoint::encode(&header, &state).map_err(io)?;
+        self.write_checkpoint_bytes(&bytes, t)
     }
 
     /// The quasi-static scheme's factorised stiffness (`time.solid_scheme: QuasiStatic`).

@@ -469,9 +469,6 @@ impl Scenario {
         if self.time.mass_scaling || self.time.selective_mass_scaling.is_some() {
             return not_yet("time.mass_scaling", "mass scaling");
         }
-        if self.output.checkpoint_every.is_some() {
-            return not_yet("output.checkpoint_every", "checkpointing");
-        }
         Ok(())
     }
 
