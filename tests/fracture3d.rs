@@ -207,8 +207,7 @@ fn the_3d_joint_sticks_below_the_coulomb_limit_and_slides_at_it() {
     );
     // The side of each node: the elements around it lie above or below the plane.
     let mut above = vec![false; v.n_nodes()];
-    for (c, g) in v.conn.iter().zip(&v.geom) {
-        let _ = g;
+    for c in &v.conn {
         let z: f64 = c.iter().map(|&a| v.x0[a as usize][2]).sum::<f64>() / 4.0;
         if z > 0.5 {
             for &a in c {
@@ -222,9 +221,9 @@ fn the_3d_joint_sticks_below_the_coulomb_limit_and_slides_at_it() {
         for st in &mut v.joint_state {
             *st = Default::default();
         }
-        for i in 0..v.n_nodes() {
-            v.u[i] = if above[i] { [dx, dy, -dz] } else { [0.0; 3] };
-            v.force[i] = [0.0; 3];
+        for ((u, f), &up) in v.u.iter_mut().zip(&mut v.force).zip(&above) {
+            *u = if up { [dx, dy, -dz] } else { [0.0; 3] };
+            *f = [0.0; 3];
         }
         hydrofrac::systems::fracture::contact_3d(v, &p);
         let (mut fn_sum, mut ft_sum) = (0.0, [0.0; 3]);
@@ -245,11 +244,9 @@ fn the_3d_joint_sticks_below_the_coulomb_limit_and_slides_at_it() {
         }
         // The force on the upper block: up by the normal forces, against its motion by the
         // shear ones.
-        for i in 0..v.n_nodes() {
-            if above[i] {
-                for d in 0..3 {
-                    ft_sum[d] += v.force[i][d];
-                }
+        for (f, _) in v.force.iter().zip(&above).filter(|x| *x.1) {
+            for (s, x) in ft_sum.iter_mut().zip(f) {
+                *s += x;
             }
         }
         assert!(

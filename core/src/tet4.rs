@@ -174,6 +174,18 @@ pub fn element_vector(u: [[f64; 3]; 4]) -> SVector<f64, 12> {
     SVector::<f64, 12>::from_fn(|i, _| u[i / 3][i % 3])
 }
 
+/// Area of a triangle in space, m^2.
+pub fn triangle_area(p: [[f64; 3]; 3]) -> f64 {
+    let u: [f64; 3] = std::array::from_fn(|d| p[1][d] - p[0][d]);
+    let v: [f64; 3] = std::array::from_fn(|d| p[2][d] - p[0][d]);
+    let c = [
+        u[1] * v[2] - u[2] * v[1],
+        u[2] * v[0] - u[0] * v[2],
+        u[0] * v[1] - u[1] * v[0],
+    ];
+    0.5 * (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -290,16 +302,4 @@ mod tests {
         assert!(s[1].abs() < 1e-9 * young && s[2].abs() < 1e-9 * young);
         assert!((young - 30e9).abs() < 1e-3 && (nu - 0.25).abs() < 1e-15);
     }
-}
-
-/// Area of a triangle in space, m^2.
-pub fn triangle_area(p: [[f64; 3]; 3]) -> f64 {
-    let u: [f64; 3] = std::array::from_fn(|d| p[1][d] - p[0][d]);
-    let v: [f64; 3] = std::array::from_fn(|d| p[2][d] - p[0][d]);
-    let c = [
-        u[1] * v[2] - u[2] * v[1],
-        u[2] * v[0] - u[0] * v[2],
-        u[0] * v[1] - u[1] * v[0],
-    ];
-    0.5 * (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt()
 }
