@@ -257,24 +257,7 @@ fn what_3d_lacks_and_boundaries_of_the_wrong_dimension_are_refused_by_field() {
             &["boundary", "this mesh is 2D"],
         ),
     ];
-    for (k, (text, needles)) in cases.iter().enumerate() {
-        let path = dir.join(format!("case{k}.ron"));
-        std::fs::write(&path, text).unwrap();
-        let out = dir.join(format!("out{k}"));
-        let o = cli::run(&[
-            "run",
-            path.to_str().unwrap(),
-            "--quiet",
-            "--out",
-            out.to_str().unwrap(),
-        ]);
-        cli::assert_refused(&o, needles);
-        assert!(
-            !out.exists(),
-            "case {k}: a refused run wrote {}",
-            out.display()
-        );
-    }
+    cli::assert_all_refused(&dir, &cases);
 }
 
 /// A Gmsh 2.2 file of `m` (4-node tetrahedra in physical volume 1).

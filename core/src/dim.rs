@@ -19,46 +19,32 @@ use serde::de::DeserializeOwned;
 use std::fmt::Debug;
 use std::ops::{Index, IndexMut};
 
+/// Plain per-item data a view holds in arrays and checkpoints save: copyable, comparable,
+/// thread-safe, serialisable.
+pub trait Plain:
+    Copy + Default + Debug + PartialEq + Send + Sync + 'static + Serialize + DeserializeOwned
+{
+}
+
+impl<T> Plain for T where
+    T: Copy + Default + Debug + PartialEq + Send + Sync + 'static + Serialize + DeserializeOwned
+{
+}
+
 /// A small fixed array of numbers (a node vector, an element's stress or nodal forces).
 pub trait Numbers:
-    Copy
-    + Default
-    + Debug
-    + PartialEq
-    + Send
-    + Sync
-    + 'static
-    + Index<usize, Output = f64>
-    + IndexMut<usize>
-    + AsRef<[f64]>
-    + AsMut<[f64]>
-    + Serialize
-    + DeserializeOwned
+    Plain + Index<usize, Output = f64> + IndexMut<usize> + AsRef<[f64]> + AsMut<[f64]>
 {
 }
 
 impl<T> Numbers for T where
-    T: Copy
-        + Default
-        + Debug
-        + PartialEq
-        + Send
-        + Sync
-        + 'static
-        + Index<usize, Output = f64>
-        + IndexMut<usize>
-        + AsRef<[f64]>
-        + AsMut<[f64]>
-        + Serialize
-        + DeserializeOwned
+    T: Plain + Index<usize, Output = f64> + IndexMut<usize> + AsRef<[f64]> + AsMut<[f64]>
 {
 }
 
 /// A solid element kind: its space dimension, the shapes of its per-node and per-element data,
 /// and the kernels of the explicit step (strain, stress and nodal forces of one element).
-pub trait Element:
-    Copy + Clone + Default + Debug + PartialEq + Send + Sync + 'static + Serialize + DeserializeOwned
-{
+pub trait Element: Plain {
     /// Space dimension (2 or 3).
     const D: usize;
     /// Nodes per element.
@@ -66,26 +52,9 @@ pub trait Element:
     /// A node vector (position, displacement, velocity, force): `[f64; D]`.
     type Vector: Numbers;
     /// The dense node indices of one element: `[u32; NODES]`.
-    type Conn: Copy
-        + Default
-        + Debug
-        + PartialEq
-        + Send
-        + Sync
-        + 'static
-        + AsRef<[u32]>
-        + Serialize
-        + DeserializeOwned;
+    type Conn: Plain + AsRef<[u32]>;
     /// The element's reference geometry (measure and shape-function gradients).
-    type Geom: Copy
-        + Default
-        + Debug
-        + PartialEq
-        + Send
-        + Sync
-        + 'static
-        + Serialize
-        + DeserializeOwned;
+    type Geom: Plain;
     /// Stress (Pa) in Voigt order: `[xx, yy, xy]` in 2D, `[xx, yy, zz, xy, yz, zx]` in 3D.
     type Stress: Numbers;
     /// Nodal forces of one element, node by node: `[f64; D * NODES]`.
@@ -106,26 +75,9 @@ pub trait Element:
     type Stiffness: Index<(usize, usize), Output = f64>;
     /// A joint's dense nodes, face p's then face q's: `[u32; 4]` (two edges) in 2D, `[u32; 6]`
     /// (two triangles) in 3D.
-    type JointNodes: Copy
-        + Default
-        + Debug
-        + PartialEq
-        + Send
-        + Sync
-        + 'static
-        + AsRef<[u32]>
-        + Serialize
-        + DeserializeOwned;
+    type JointNodes: Plain + AsRef<[u32]>;
     /// A joint's tangential force and offset: one component in 2D, two in 3D.
-    type Shear: Copy
-        + Default
-        + Debug
-        + PartialEq
-        + Send
-        + Sync
-        + 'static
-        + Serialize
-        + DeserializeOwned;
+    type Shear: Plain;
 }
 
 /// The plane-strain constant-strain triangle (2D). Geometry `[A, dN/dx (3), dN/dy (3)]`.

@@ -313,6 +313,37 @@ impl WorldRecords {
     }
 }
 
+/// The model's id counters as a checkpoint keeps them: next node, element, edge (face), cell
+/// and joint id.
+pub fn next_ids(m: &Model) -> [u64; 5] {
+    [
+        m.next_node_id,
+        m.next_elem_id,
+        m.next_edge_id,
+        m.next_cell_id,
+        m.next_joint_id,
+    ]
+}
+
+/// Put a checkpoint's world, topology generation and id counters into `m`.
+pub fn take_world(
+    m: &mut Model,
+    world: WorldRecords,
+    generation: u64,
+    ids: [u64; 5],
+) -> Result<(), String> {
+    m.world = world.restore()?;
+    m.topology_generation = generation;
+    [
+        m.next_node_id,
+        m.next_elem_id,
+        m.next_edge_id,
+        m.next_cell_id,
+        m.next_joint_id,
+    ] = ids;
+    Ok(())
+}
+
 /// FNV-1a, 64 bit.
 pub fn fnv1a(bytes: &[u8]) -> u64 {
     let mut h: u64 = 0xcbf2_9ce4_8422_2325;
@@ -527,13 +558,7 @@ impl Simulation {
         let state = State {
             world: WorldRecords::capture(m)?,
             topology_generation: m.topology_generation,
-            next_ids: [
-                m.next_node_id,
-                m.next_elem_id,
-                m.next_edge_id,
-                m.next_cell_id,
-                m.next_joint_id,
-            ],
+            next_ids: next_ids(m),
             clock: self.clock.clone(),
             solid_view: self.solid.view.clone(),
             solid_stats: self.solid.stats,
@@ -572,16 +597,12 @@ impl Simulation {
         if parts.0 != parts.1 {
             return Err("its flow network or solid scheme differs from this scenario's".into());
         }
-        let m = &mut self.model;
-        m.world = state.world.restore()?;
-        m.topology_generation = state.topology_generation;
-        [
-            m.next_node_id,
-            m.next_elem_id,
-            m.next_edge_id,
-            m.next_cell_id,
-            m.next_joint_id,
-        ] = state.next_ids;
+        take_world(
+            &mut self.model,
+            state.world,
+            state.topology_generation,
+            state.next_ids,
+        )?;
         self.clock = state.clock;
         self.solid.view = state.solid_view;
         self.solid.stats = state.solid_stats;

@@ -367,13 +367,7 @@ impl Simulation<Tet4> {
         let state = crate::checkpoint::State {
             world: crate::checkpoint::WorldRecords::capture(m)?,
             topology_generation: m.topology_generation,
-            next_ids: [
-                m.next_node_id,
-                m.next_elem_id,
-                m.next_edge_id,
-                m.next_cell_id,
-                m.next_joint_id,
-            ],
+            next_ids: crate::checkpoint::next_ids(m),
             clock: self.clock.clone(),
             solid_view: self.solid.view.clone(),
             solid_stats: self.solid.stats,
@@ -394,22 +388,18 @@ impl Simulation<Tet4> {
     /// continues bit for bit; the quasi-static solve factorises its matrix again for the joints'
     /// states, so it continues to its tolerance.
     pub fn restore(&mut self, state: crate::checkpoint::State<Tet4>) -> Result<(), String> {
-        let m = &mut self.model;
-        m.world = state.world.restore()?;
-        m.topology_generation = state.topology_generation;
-        [
-            m.next_node_id,
-            m.next_elem_id,
-            m.next_edge_id,
-            m.next_cell_id,
-            m.next_joint_id,
-        ] = state.next_ids;
         if state.solid_view.n_nodes() != self.solid.view.n_nodes()
             || state.solid_view.n_elems() != self.solid.view.n_elems()
             || state.solid_view.joint_nodes != self.solid.view.joint_nodes
         {
             return Err("its mesh or fractures differ from this scenario's".into());
         }
+        crate::checkpoint::take_world(
+            &mut self.model,
+            state.world,
+            state.topology_generation,
+            state.next_ids,
+        )?;
         self.clock = state.clock;
         self.solid.view = state.solid_view;
         self.solid.stats = state.solid_stats;

@@ -56,6 +56,30 @@ pub fn assert_refused(o: &Output, needles: &[&str]) {
     }
 }
 
+/// Each scenario text of `cases`, written into `dir` and run, is refused with its needles
+/// ([`assert_refused`]) and leaves no output folder.
+pub fn assert_all_refused(dir: &Path, cases: &[(String, &[&str])]) {
+    std::fs::create_dir_all(dir).unwrap();
+    for (k, (text, needles)) in cases.iter().enumerate() {
+        let path = dir.join(format!("case{k}.ron"));
+        std::fs::write(&path, text).unwrap();
+        let out = dir.join(format!("out{k}"));
+        let o = run(&[
+            "run",
+            path.to_str().unwrap(),
+            "--quiet",
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert_refused(&o, needles);
+        assert!(
+            !out.exists(),
+            "case {k}: a refused run wrote {}",
+            out.display()
+        );
+    }
+}
+
 /// The repository's root.
 pub fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))

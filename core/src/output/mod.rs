@@ -127,7 +127,6 @@ impl Outputs {
             components: 1,
             values,
         };
-        let name = format!("network_{:05}.vtu", self.network_frames);
         let joint: Vec<Vec<f64>> = (0..3)
             .map(|k| f.joint_stress.iter().map(|j| j[k]).collect())
             .collect();
@@ -151,19 +150,26 @@ impl Outputs {
             cell_data.push(arr("joint_shear_stress", &joint[1][..]));
             cell_data.push(arr("sliding", &joint[2][..]));
         }
-        if self.network_frames == 0 {
-            self.claim("network.pvd")?;
-        }
-        vtk::write_vtu(
-            &self.claim(&format!("frames/{name}"))?,
-            &vtk::VtuPiece {
+        self.write_network_piece(
+            vtk::VtuPiece {
                 points: &points,
                 kind: vtk::CellKind::Line,
                 connectivity: &conn,
                 point_data: vec![],
                 cell_data,
             },
-        )?;
+            time,
+        )
+    }
+
+    /// Write the next fracture-network frame `frames/network_NNNNN.vtu` and list it in
+    /// `network.pvd` at `time`.
+    fn write_network_piece(&mut self, piece: vtk::VtuPiece, time: f64) -> std::io::Result<()> {
+        let name = format!("network_{:05}.vtu", self.network_frames);
+        if self.network_frames == 0 {
+            self.claim("network.pvd")?;
+        }
+        vtk::write_vtu(&self.claim(&format!("frames/{name}"))?, &piece)?;
         self.network_pvd.add(time, &format!("frames/{name}"))?;
         self.network_frames += 1;
         Ok(())
@@ -441,23 +447,16 @@ impl Outputs {
             .zip(&cols)
             .map(|(n, c)| arr(n, 1, &c[..]))
             .collect();
-        let name = format!("network_{:05}.vtu", self.network_frames);
-        if self.network_frames == 0 {
-            self.claim("network.pvd")?;
-        }
-        vtk::write_vtu(
-            &self.claim(&format!("frames/{name}"))?,
-            &vtk::VtuPiece {
+        self.write_network_piece(
+            vtk::VtuPiece {
                 points: &points,
                 kind: vtk::CellKind::Triangle,
                 connectivity: &conn,
                 point_data: vec![],
                 cell_data,
             },
-        )?;
-        self.network_pvd.add(time, &format!("frames/{name}"))?;
-        self.network_frames += 1;
-        Ok(())
+            time,
+        )
     }
 }
 
