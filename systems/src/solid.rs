@@ -17,7 +17,30 @@ pub const NODE_CHUNK: usize = 4096;
 
 /// `internal_force`: element stresses and nodal forces (CST or TET4, [`Element`]), then a
 /// gather by node (no atomics). Overwrites `force` with the internal force.
+///
+/// On one thread the element forces go straight into the nodes, element by element: each
+/// node then receives its terms in ascending element order starting from 0.0, the order of
+/// the gather's sums (the incidence lists each node's elements in ascending order), so the
+/// bits are the same for any thread count; it skips the element-force array's write and
+/// read.
 pub fn internal_force<E: Element>(v: &mut SolidView<E>, p: &SolidParams) {
+    if rayon::current_num_threads() == 1 {
+        let (conn, geom, u) = (&v.conn, &v.geom, &v.u);
+        let force = &mut v.force;
+        force.fill(E::Vector::default());
+        for ((s, c), g) in v.stress.iter_mut().zip(conn).zip(geom) {
+            *s = E::stress(g, c, u, p);
+            let fe = E::forces(g, s);
+            let fe = fe.as_ref();
+            for (a, &n) in c.as_ref().iter().enumerate() {
+                let f = &mut force[n as usize];
+                for d in 0..E::D {
+                    f[d] += fe[E::D * a + d];
+                }
+            }
+        }
+        return;
+    }
     let (conn, geom, u) = (&v.conn, &v.geom, &v.u);
     v.stress
         .par_iter_mut()
