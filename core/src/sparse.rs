@@ -79,7 +79,7 @@ impl SparsePattern {
         )
         .map_err(|e| format!("symbolic analysis: {e:?}"))?;
         let req = StackReq::any_of(&[
-            symbolic.factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default()),
+            symbolic.factorize_numeric_llt_scratch::<f64>(Par::rayon(0), Default::default()),
             symbolic.solve_in_place_scratch::<f64>(1, Par::Seq),
         ]);
         let mem = MemBuffer::try_new(req).map_err(|_| "out of memory for the workspace")?;

@@ -152,7 +152,7 @@ impl LinearStatic {
                 SparseColMatRef::new(pattern.as_ref(), &values),
                 Side::Lower,
                 LltRegularization::default(),
-                Par::Seq,
+                Par::rayon(0),
                 MemStack::new(&mut mem),
                 Default::default(),
             )
