@@ -71,10 +71,32 @@ impl SparsePattern {
     /// workspace for one sequential numeric factorisation and one-column solves: the set-up of
     /// both solid solvers (`systems::quasi_static`, `systems::linear_static`).
     pub fn symbolic_cholesky(&self) -> Result<(SymbolicCholesky<usize>, MemBuffer), String> {
+        self.symbolic_cholesky_ordered(None)
+    }
+
+    /// [`SparsePattern::symbolic_cholesky`] with a fill-reducing `order` of the unknowns
+    /// (`order[k]`: the unknown eliminated k-th; a permutation of 0..n), or AMD without one.
+    pub fn symbolic_cholesky_ordered(
+        &self,
+        order: Option<&[usize]>,
+    ) -> Result<(SymbolicCholesky<usize>, MemBuffer), String> {
+        let inverse: Option<Vec<usize>> = order.map(|o| {
+            let mut inv = vec![0; o.len()];
+            for (k, &i) in o.iter().enumerate() {
+                inv[i] = k;
+            }
+            inv
+        });
+        let ordering = match (order, &inverse) {
+            (Some(o), Some(inv)) => {
+                SymmetricOrdering::Custom(faer::perm::PermRef::new_checked(o, inv, o.len()))
+            }
+            _ => SymmetricOrdering::Amd,
+        };
         let symbolic = factorize_symbolic_cholesky(
             self.as_ref(),
             faer::Side::Lower,
-            SymmetricOrdering::Amd,
+            ordering,
             Default::default(),
         )
         .map_err(|e| format!("symbolic analysis: {e:?}"))?;
@@ -91,6 +113,68 @@ impl SparsePattern {
         let (a, b) = (self.col_ptr()[col], self.col_ptr()[col + 1]);
         self.row_idx()[a..b].binary_search(&row).ok().map(|k| a + k)
     }
+}
+
+/// A nested-dissection order of the nodes of a mesh, by recursive coordinate bisection: a set
+/// of nodes is split at the median of its longest extent into halves A and B; the nodes of B
+/// with a neighbour in A (`adjacency`: each node's neighbours) separate them and are ordered
+/// last, after A's and the rest of B's, each ordered the same way down to 64 nodes. On a 3D
+/// mesh this gives a Cholesky factor with less fill than minimum degree. Deterministic: ties
+/// in the median are broken by node number.
+pub fn nested_dissection(points: &[[f64; 3]], adjacency: &[Vec<u32>]) -> Vec<u32> {
+    fn split(
+        nodes: &mut [u32],
+        points: &[[f64; 3]],
+        adjacency: &[Vec<u32>],
+        stamp: &mut [u32],
+        next: &mut u32,
+        out: &mut Vec<u32>,
+    ) {
+        if nodes.len() <= 64 {
+            out.extend_from_slice(nodes);
+            return;
+        }
+        let mut lo = [f64::INFINITY; 3];
+        let mut hi = [f64::NEG_INFINITY; 3];
+        for &n in nodes.iter() {
+            for d in 0..3 {
+                lo[d] = lo[d].min(points[n as usize][d]);
+                hi[d] = hi[d].max(points[n as usize][d]);
+            }
+        }
+        let axis = (0..3)
+            .max_by(|&a, &b| (hi[a] - lo[a]).total_cmp(&(hi[b] - lo[b])))
+            .unwrap_or(0);
+        let mid = nodes.len() / 2;
+        nodes.select_nth_unstable_by(mid, |&a, &b| {
+            points[a as usize][axis]
+                .total_cmp(&points[b as usize][axis])
+                .then(a.cmp(&b))
+        });
+        *next += 1;
+        let tag = *next;
+        for &a in &nodes[..mid] {
+            stamp[a as usize] = tag;
+        }
+        let (a, b) = nodes.split_at_mut(mid);
+        let (mut rest, mut sep): (Vec<u32>, Vec<u32>) = b.iter().partition(|&&n| {
+            !adjacency[n as usize]
+                .iter()
+                .any(|&m| stamp[m as usize] == tag)
+        });
+        sep.sort_unstable();
+        split(a, points, adjacency, stamp, next, out);
+        split(&mut rest, points, adjacency, stamp, next, out);
+        out.extend(sep);
+    }
+    let mut nodes: Vec<u32> = (0..points.len() as u32).collect();
+    let mut stamp = vec![0u32; points.len()];
+    let mut next = 0;
+    let mut out = Vec::with_capacity(points.len());
+    split(
+        &mut nodes, points, adjacency, &mut stamp, &mut next, &mut out,
+    );
+    out
 }
 
 #[cfg(test)]
@@ -110,5 +194,47 @@ mod tests {
         let empty = SparsePattern::from_entries(0, []).unwrap();
         assert_eq!((empty.col_ptr(), empty.nnz()), (&[0usize][..], 0));
         assert!(SparsePattern::from_entries(2, [(2, 0)]).is_err());
+    }
+
+    #[test]
+    fn nested_dissection_orders_every_node_once_with_less_fill_than_amd_on_a_box() {
+        // The node graph of a box of 20^3 Kuhn cubes (9,261 nodes), one unknown per node.
+        let m = crate::tetmesh::TetMesh::regular_box([0.0; 3], [20.0; 3], 1.0).unwrap();
+        let n = m.nodes.len();
+        let mut adjacency = vec![Vec::new(); n];
+        let mut entries = Vec::new();
+        for t in &m.tets {
+            for &a in t {
+                for &b in t {
+                    if a != b {
+                        adjacency[a as usize].push(b);
+                    }
+                    if a >= b {
+                        entries.push((a as usize, b as usize));
+                    }
+                }
+            }
+        }
+        for a in &mut adjacency {
+            a.sort_unstable();
+            a.dedup();
+        }
+        let order = nested_dissection(&m.nodes, &adjacency);
+        let mut seen = order.clone();
+        seen.sort_unstable();
+        assert_eq!(seen, (0..n as u32).collect::<Vec<_>>(), "a permutation");
+        // The last node ordered is in the top separator: a plane through the middle.
+        let last = m.nodes[*order.last().unwrap() as usize];
+        assert!(last.iter().any(|&c| (c - 10.0).abs() <= 1.0), "{last:?}");
+        let p = SparsePattern::from_entries(n, entries).unwrap();
+        let nd: Vec<usize> = order.iter().map(|&i| i as usize).collect();
+        let fill_nd = p.symbolic_cholesky_ordered(Some(&nd)).unwrap().0.len_val();
+        let fill_amd = p.symbolic_cholesky().unwrap().0.len_val();
+        // Measured 2,097,215 against 2,482,677 (0.845); on the 3D elasticity of a 32^3 box,
+        // three unknowns a node, 114 against 175 million (0.65).
+        assert!(
+            (fill_nd as f64) < 0.9 * fill_amd as f64,
+            "nested dissection {fill_nd}, AMD {fill_amd}"
+        );
     }
 }

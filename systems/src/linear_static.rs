@@ -2,8 +2,10 @@
 //! the 2D CST or the 3D TET4): equilibrium K u = f of linear elasticity at the end of the step,
 //! with the prescribed displacements and loads times the step's load factor. The stiffness of
 //! the free dofs is assembled once per topology on a fixed pattern (which also holds every
-//! joint's couplings), its symbolic analysis (AMD ordering) and numeric Cholesky factorisation
-//! (faer) are kept while the topology stands, so a step without joints in contact is a
+//! joint's couplings), its symbolic analysis (nested dissection of the nodes in 3D,
+//! [`hydrofrac_core::sparse::nested_dissection`]; AMD in 2D) and numeric Cholesky
+//! factorisation (faer, parallel supernodal on the run's threads) are kept while the topology
+//! stands, so a step without joints in contact is a
 //! residual and two triangular solves, refined until the residual is at round-off.
 //!
 //! Joints (contact with Coulomb friction) enter by an active set: their forces are in every
@@ -144,7 +146,36 @@ impl LinearStatic {
                 }
             }
         }
-        let (symbolic, mut mem) = pattern.symbolic_cholesky()?;
+        // 3D: nested dissection of the nodes (less fill than AMD), the free dofs node by node.
+        let order: Option<Vec<usize>> = (dn == 3).then(|| {
+            let mut adjacency = vec![Vec::new(); v.n_nodes()];
+            for c in &v.conn {
+                for &a in c.as_ref() {
+                    for &b in c.as_ref() {
+                        if a != b {
+                            adjacency[a as usize].push(b);
+                        }
+                    }
+                }
+            }
+            for a in &mut adjacency {
+                a.sort_unstable();
+                a.dedup();
+            }
+            let pts: Vec<[f64; 3]> =
+                v.x0.iter()
+                    .map(|x| {
+                        let x = x.as_ref();
+                        [x[0], x[1], x[2]]
+                    })
+                    .collect();
+            hydrofrac_core::sparse::nested_dissection(&pts, &adjacency)
+                .into_iter()
+                .flat_map(|i| (0..dn).map(move |d| dof_ref[dn * i as usize + d]))
+                .filter(|&k| k != NONE)
+                .collect()
+        });
+        let (symbolic, mut mem) = pattern.symbolic_cholesky_ordered(order.as_deref())?;
         let mut l_values = vec![0.0; symbolic.len_val()];
         symbolic
             .factorize_numeric_llt::<f64>(
