@@ -34,6 +34,21 @@ fn the_insitu_block_relaxes_to_the_prescribed_stress_everywhere() {
     assert_eq!(s["dimension"], 3);
     assert_eq!(s["elements"], 48_000);
     assert_eq!(s["nodes"], 9_261);
+    // Kuhn cubes: dihedral angles of 45, 60 and 90 degrees, all of one volume.
+    let q = &s["mesh"]["tetrahedra"];
+    assert_eq!(q["count"], 48_000);
+    assert!(
+        (q["min_dihedral_deg"].as_f64().unwrap() - 45.0).abs() < 1e-9,
+        "{q}"
+    );
+    assert!(
+        (q["max_dihedral_deg"].as_f64().unwrap() - 90.0).abs() < 1e-9,
+        "{q}"
+    );
+    assert!(
+        (q["volume_ratio"].as_f64().unwrap() - 1.0).abs() < 1e-9,
+        "{q}"
+    );
     let f = last_frame(&out);
     assert_eq!(f.points.len(), 9_261);
     assert_eq!(f.types.len(), 48_000);

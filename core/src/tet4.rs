@@ -174,6 +174,21 @@ pub fn element_vector(u: [[f64; 3]; 4]) -> SVector<f64, 12> {
     SVector::<f64, 12>::from_fn(|i, _| u[i / 3][i % 3])
 }
 
+/// The six dihedral angles of a tetrahedron, degrees: along the edge (i, j) the angle between
+/// the faces opposite the other two vertices k, l, acos(-g_k . g_l / (|g_k| |g_l|)) with g the
+/// shape-function gradients (each normal to the face opposite its vertex, pointing at it).
+/// A regular tetrahedron has 70.5 degrees everywhere; a Kuhn cube's six have 45, 60 and 90.
+pub fn dihedral_angles(g: &TetGeometry) -> [f64; 6] {
+    const PAIRS: [(usize, usize); 6] = [(2, 3), (1, 3), (1, 2), (0, 3), (0, 2), (0, 1)];
+    PAIRS.map(|(k, l)| {
+        let (a, b) = (g.grad[k], g.grad[l]);
+        let dot = a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+        let na = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt();
+        let nb = (b[0] * b[0] + b[1] * b[1] + b[2] * b[2]).sqrt();
+        (-dot / (na * nb)).clamp(-1.0, 1.0).acos().to_degrees()
+    })
+}
+
 /// Area of a triangle in space, m^2.
 pub fn triangle_area(p: [[f64; 3]; 3]) -> f64 {
     let u: [f64; 3] = std::array::from_fn(|d| p[1][d] - p[0][d]);

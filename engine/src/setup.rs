@@ -33,6 +33,9 @@ pub struct MeshInfo {
     pub quality: hydrofrac_core::conforming::MeshQuality,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub conforming: Option<hydrofrac_core::conforming::ConformingReport>,
+    /// 3D: the tetrahedra's quality.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub tetrahedra: Option<TetQuality>,
     /// 3D: each disc fracture as the mesh faces that make it up.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub discs: Vec<DiscReport>,
@@ -40,6 +43,43 @@ pub struct MeshInfo {
 
 fn no_triangles(q: &hydrofrac_core::conforming::MeshQuality) -> bool {
     q.triangles == 0
+}
+
+/// The quality of a tetrahedral mesh (`summary.json` `mesh.tetrahedra`): the count, the
+/// smallest and largest dihedral angle (degrees; a flat or needle-like tetrahedron has angles
+/// near 0 or 180), and the largest over the smallest volume.
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct TetQuality {
+    pub count: usize,
+    pub min_dihedral_deg: f64,
+    pub max_dihedral_deg: f64,
+    pub volume_ratio: f64,
+}
+
+impl TetQuality {
+    /// Of every tetrahedron of `mesh` (those it cannot measure are left out; the model
+    /// refuses them).
+    pub fn of(mesh: &hydrofrac_core::tetmesh::TetMesh) -> Self {
+        let mut q = TetQuality {
+            min_dihedral_deg: 180.0,
+            ..Default::default()
+        };
+        let (mut vmin, mut vmax) = (f64::INFINITY, 0.0f64);
+        for t in 0..mesh.tets.len() {
+            let Some(g) = hydrofrac_core::tet4::geometry(mesh.corners(t)) else {
+                continue;
+            };
+            q.count += 1;
+            for a in hydrofrac_core::tet4::dihedral_angles(&g) {
+                q.min_dihedral_deg = q.min_dihedral_deg.min(a);
+                q.max_dihedral_deg = q.max_dihedral_deg.max(a);
+            }
+            vmin = vmin.min(g.volume);
+            vmax = vmax.max(g.volume);
+        }
+        q.volume_ratio = if q.count > 0 { vmax / vmin } else { 0.0 };
+        q
+    }
 }
 
 /// A 3D disc fracture on the mesh (`summary.json` `discs`): the faces it took, their area
@@ -154,6 +194,7 @@ pub fn build_model(
         kind: spec.kind().to_string(),
         quality: hydrofrac_core::conforming::MeshQuality::of(&mesh),
         conforming,
+        tetrahedra: None,
         discs: Vec::new(),
     };
     let mut m = Model::from_mesh(&mesh, *mat)?;

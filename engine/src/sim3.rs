@@ -82,6 +82,7 @@ pub fn build_model_3d(
     }
     let info = crate::setup::MeshInfo {
         kind: spec.kind().to_string(),
+        tetrahedra: Some(crate::setup::TetQuality::of(&mesh)),
         discs: reports,
         ..Default::default()
     };
