@@ -188,19 +188,13 @@ fn fracture_3d(sim: &Simulation<Tet4>) -> Option<serde_json::Value> {
     if v.joint_nodes.is_empty() {
         return None;
     }
-    let (mut area, mut volume, mut max_open, mut min_open) = (0.0, 0.0, 0.0f64, 0.0f64);
-    let (mut closed, mut sliding) = (0, 0);
-    for k in 0..v.joint_nodes.len() {
-        let a = crate::model3::joint_area0_3d(v, k);
-        let f = crate::model3::joint_frame_3d(v, k);
-        area += a;
-        volume += a * f.dn.max(0.0);
-        max_open = max_open.max(f.dn);
-        min_open = min_open.min(f.dn);
-        let st = &v.joint_state[k];
-        closed += usize::from(st.normal_force > 0.0);
-        sliding += usize::from(st.sliding);
-    }
+    let o = crate::model3::opening_3d(v);
+    let closed = v
+        .joint_state
+        .iter()
+        .filter(|s| s.normal_force > 0.0)
+        .count();
+    let sliding = v.joint_state.iter().filter(|s| s.sliding).count();
     let daughters = v
         .node_entity
         .iter()
@@ -214,10 +208,10 @@ fn fracture_3d(sim: &Simulation<Tet4>) -> Option<serde_json::Value> {
     Some(json!({
         "joints": v.joint_nodes.len(),
         "daughters": daughters,
-        "area": area,
-        "opened_volume": volume,
-        "max_opening": max_open,
-        "max_interpenetration": if min_open < 0.0 { -min_open } else { 0.0 },
+        "area": o.area,
+        "opened_volume": o.volume,
+        "max_opening": o.max,
+        "max_interpenetration": if o.min < 0.0 { -o.min } else { 0.0 },
         "joints_closed": closed,
         "joints_sliding": sliding,
     }))

@@ -7,6 +7,15 @@ use hydrofrac::sim::Simulation;
 use crate::support_cli as cli;
 use crate::support_scenes as scenes;
 
+/// `f` on a rayon pool of `threads` threads.
+fn on_threads<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> T {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap()
+        .install(f)
+}
+
 fn run(threads: usize) -> (Vec<[f64; 2]>, Vec<[f64; 3]>, f64) {
     let text = std::fs::read_to_string("scenarios/insitu_stress.ron").unwrap();
     let sc = Scenario::parse(&text, "insitu_stress.ron")
@@ -17,11 +26,7 @@ fn run(threads: usize) -> (Vec<[f64; 2]>, Vec<[f64; 3]>, f64) {
             "time.end=Time(0.05)".into(),
         ])
         .unwrap();
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .unwrap();
-    pool.install(|| {
+    on_threads(threads, || {
         let mut sim = Simulation::new(sc.validate().unwrap(), &[]).unwrap();
         sim.run(|_| {}).unwrap();
         (
@@ -76,11 +81,7 @@ fn flow_one_and_two_threads_give_identical_bits() {
             WATER,
         );
         sc.time.max_steps = 20;
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap();
-        pool.install(|| {
+        on_threads(threads, || {
             let mut sim = Simulation::new(sc.validate().unwrap(), &[]).unwrap();
             sim.run(|_| {}).unwrap();
             let f = sim.flow().unwrap();
@@ -180,11 +181,7 @@ fn penny3d(threads: usize, c: f64, explicit: bool) -> (Vec<[f64; 3]>, Vec<f64>) 
         .unwrap()
         .with_overrides(&sets)
         .unwrap();
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .unwrap();
-    pool.install(|| {
+    on_threads(threads, || {
         let mut sim = Simulation::new_3d(sc.validate().unwrap(), &[]).unwrap();
         let _ = sim.run(|_| {}).unwrap();
         let v = sim.solid();

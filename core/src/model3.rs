@@ -11,7 +11,7 @@ use crate::dim::{Tet4, pack_tet_geometry, tet_geometry};
 use crate::error::SetupError;
 use crate::model::Model;
 use crate::scenario::{Boundary, Material, SideBc};
-use crate::tet4;
+use crate::tet4::{self, cross, dot, norm, sub, triangle_area};
 use crate::tetmesh::TetMesh;
 use crate::view::{ElemRow, NONE, NodeRow, SolidView, fixed_mask};
 use hecs::{Entity, World};
@@ -233,8 +233,7 @@ impl Model {
                 let p = fnodes
                     .0
                     .map(|e| self.world.get::<&NodeRef3>(e).expect("node").0);
-                let (u, v) = (sub(p[1], p[0]), sub(p[2], p[0]));
-                let area = 0.5 * norm(cross(u, v));
+                let area = triangle_area(p);
                 let (axis, sign) = side.axis(3);
                 let mut f = [0.0; 3];
                 f[axis] = normal * sign * area / 3.0;
@@ -269,9 +268,8 @@ impl Model {
 impl Model {
     /// Record a split made on the mesh before it became entities ([`TetMesh::split_along`],
     /// oriented by [`TetMesh::orient_sisters`]): each daughter node's mother link, and one
-    /// joint ([`FaceJoint`]) per sister face pair, numbered in the split's order. Returns the
-    /// joints' count.
-    pub fn add_face_joints(&mut self, split: &crate::tetmesh::TetSplit) -> usize {
+    /// joint ([`FaceJoint`]) per sister face pair, numbered in the split's order.
+    pub fn add_face_joints(&mut self, split: &crate::tetmesh::TetSplit) {
         let by_id: std::collections::HashMap<u64, Entity> = self
             .world
             .query::<(Entity, &StableId, &NodeRef3)>()
@@ -288,7 +286,6 @@ impl Model {
             k.sort_unstable();
             face_of.insert(k, e);
         }
-        let mut spawned = 0;
         for s in &split.sisters {
             let faces = s.map(|tri| {
                 let mut k = tri.map(|n| by_id[&(n as u64)]);
@@ -307,19 +304,15 @@ impl Model {
             );
             self.world.spawn(bundle);
             self.next_joint_id += 1;
-            spawned += 1;
         }
         self.topology_generation += 1;
-        spawned
     }
 
     /// A uniform pressure p (Pa) on both faces of every 3D joint, as constant nodal loads in
     /// the reference geometry: face p's nodes get -p A n / 3 each, face q's +p A n / 3 (n face
-    /// p's unit normal towards q, A its area), N. Returns the loaded area, m^2 (each joint
-    /// once).
-    pub fn apply_face_pressure3(&mut self, p: f64) -> f64 {
+    /// p's unit normal towards q, A its area), N.
+    pub fn apply_face_pressure3(&mut self, p: f64) {
         let joints: Vec<FaceJoint> = self.world.query::<&FaceJoint>().iter().copied().collect();
-        let mut area_sum = 0.0;
         let mut loads: Vec<(Entity, [f64; 3])> = Vec::new();
         for j in joints {
             let nodes = j
@@ -327,7 +320,6 @@ impl Model {
                 .map(|f| self.world.get::<&FaceNodes>(f).expect("face").0);
             let x = nodes[0].map(|e| self.world.get::<&NodeRef3>(e).expect("node").0);
             let an = cross(sub(x[1], x[0]), sub(x[2], x[0])).map(|c| 0.5 * c);
-            area_sum += norm(an);
             for (side, sign) in [(0, -1.0), (1, 1.0)] {
                 for &e in &nodes[side] {
                     loads.push((e, an.map(|c| sign * p * c / 3.0)));
@@ -341,22 +333,7 @@ impl Model {
             }
         }
         self.topology_generation += 1;
-        area_sum
     }
-}
-
-fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-fn norm(a: [f64; 3]) -> f64 {
-    (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt()
 }
 
 impl SolidView<Tet4> {
@@ -483,7 +460,6 @@ pub fn joint_frame_3d(v: &SolidView<Tet4>, k: usize) -> JointFrame3 {
     let t2 = cross(n, t1);
     let c = |o: usize| [0, 1, 2].map(|d| (x[o][d] + x[o + 1][d] + x[o + 2][d]) / 3.0);
     let d = sub(c(3), c(0));
-    let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
     JointFrame3 {
         n,
         t: [t1, t2],
@@ -494,8 +470,7 @@ pub fn joint_frame_3d(v: &SolidView<Tet4>, k: usize) -> JointFrame3 {
 
 /// Face p's area of joint `k` in the reference positions, m^2.
 pub fn joint_area0_3d(v: &SolidView<Tet4>, k: usize) -> f64 {
-    let x = [0, 1, 2].map(|a| v.x0[v.joint_nodes[k][a] as usize]);
-    0.5 * norm(cross(sub(x[1], x[0]), sub(x[2], x[0])))
+    triangle_area([0, 1, 2].map(|a| v.x0[v.joint_nodes[k][a] as usize]))
 }
 
 /// The length a 3D joint's penalty force is taken over, m: l = A0 / h = sqrt(A0 / 2), with A0
@@ -505,4 +480,29 @@ pub fn joint_area0_3d(v: &SolidView<Tet4>, k: usize) -> f64 {
 /// F = K l delta (N), the interface stiffness K / h over the area A0.
 pub fn joint_len0_3d(v: &SolidView<Tet4>, k: usize) -> f64 {
     (0.5 * joint_area0_3d(v, k)).sqrt()
+}
+
+/// What a 3D fracture's joints open, in the current geometry: face p's total reference area
+/// (m^2), the opened volume sum A0 max(delta_n, 0) (m^3), and the largest and smallest opening
+/// delta_n (m; negative where a closed joint's faces interpenetrate, the penalty's).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Opening3 {
+    pub area: f64,
+    pub volume: f64,
+    pub max: f64,
+    pub min: f64,
+}
+
+/// [`Opening3`] of the view's joints (zeros without joints).
+pub fn opening_3d(v: &SolidView<Tet4>) -> Opening3 {
+    let mut o = Opening3::default();
+    for k in 0..v.joint_nodes.len() {
+        let a = joint_area0_3d(v, k);
+        let dn = joint_frame_3d(v, k).dn;
+        o.area += a;
+        o.volume += a * dn.max(0.0);
+        o.max = o.max.max(dn);
+        o.min = o.min.min(dn);
+    }
+    o
 }

@@ -182,23 +182,40 @@ pub fn dihedral_angles(g: &TetGeometry) -> [f64; 6] {
     const PAIRS: [(usize, usize); 6] = [(2, 3), (1, 3), (1, 2), (0, 3), (0, 2), (0, 1)];
     PAIRS.map(|(k, l)| {
         let (a, b) = (g.grad[k], g.grad[l]);
-        let dot = a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-        let na = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt();
-        let nb = (b[0] * b[0] + b[1] * b[1] + b[2] * b[2]).sqrt();
-        (-dot / (na * nb)).clamp(-1.0, 1.0).acos().to_degrees()
+        (-dot(a, b) / (norm(a) * norm(b)))
+            .clamp(-1.0, 1.0)
+            .acos()
+            .to_degrees()
     })
+}
+
+/// a - b.
+pub fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+/// a . b.
+pub fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+/// a x b.
+pub fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+
+/// |a|.
+pub fn norm(a: [f64; 3]) -> f64 {
+    dot(a, a).sqrt()
 }
 
 /// Area of a triangle in space, m^2.
 pub fn triangle_area(p: [[f64; 3]; 3]) -> f64 {
-    let u: [f64; 3] = std::array::from_fn(|d| p[1][d] - p[0][d]);
-    let v: [f64; 3] = std::array::from_fn(|d| p[2][d] - p[0][d]);
-    let c = [
-        u[1] * v[2] - u[2] * v[1],
-        u[2] * v[0] - u[0] * v[2],
-        u[0] * v[1] - u[1] * v[0],
-    ];
-    0.5 * (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt()
+    0.5 * norm(cross(sub(p[1], p[0]), sub(p[2], p[0])))
 }
 
 #[cfg(test)]

@@ -269,34 +269,38 @@ impl TetMesh {
 }
 
 impl TetMesh {
-    /// The interior faces that make up the planar disc: all three nodes on its plane (within
-    /// `tol`, m) and the centroid inside its radius, in sorted-triple order. Empty when the
-    /// disc does not lie on mesh faces.
-    pub fn faces_on_disc(&self, disc: &crate::scenario::Disc, tol: f64) -> Vec<[u32; 3]> {
-        let n = disc.unit_normal();
-        let c = disc.center;
-        let rel = |q: [f64; 3]| [q[0] - c[0], q[1] - c[1], q[2] - c[2]];
-        let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-        let mut out: Vec<[u32; 3]> = self
+    /// For each disc, the interior faces that make it up: all three nodes on its plane
+    /// (within `tol`, m) and the centroid inside its radius, in sorted-triple order. Empty
+    /// where a disc does not lie on mesh faces.
+    pub fn faces_on_discs(&self, discs: &[crate::scenario::Disc], tol: f64) -> Vec<Vec<[u32; 3]>> {
+        use tet4::{dot, sub};
+        let interior: Vec<[u32; 3]> = self
             .faces()
             .into_iter()
-            .filter(|(f, ts)| {
-                if ts.len() != 2 {
-                    return false;
-                }
-                let p = f.map(|k| rel(self.nodes[k as usize]));
-                if p.iter().any(|q| dot(*q, n).abs() > tol) {
-                    return false;
-                }
-                let g = [0, 1, 2].map(|d| (p[0][d] + p[1][d] + p[2][d]) / 3.0);
-                let along = dot(g, n);
-                let r2 = dot(g, g) - along * along;
-                r2 < disc.radius * disc.radius
-            })
+            .filter(|(_, ts)| ts.len() == 2)
             .map(|(f, _)| f)
             .collect();
-        out.sort_unstable();
-        out
+        discs
+            .iter()
+            .map(|disc| {
+                let n = disc.unit_normal();
+                let mut out: Vec<[u32; 3]> = interior
+                    .iter()
+                    .copied()
+                    .filter(|f| {
+                        let p = f.map(|k| sub(self.nodes[k as usize], disc.center));
+                        if p.iter().any(|q| dot(*q, n).abs() > tol) {
+                            return false;
+                        }
+                        let g = [0, 1, 2].map(|d| (p[0][d] + p[1][d] + p[2][d]) / 3.0);
+                        let along = dot(g, n);
+                        dot(g, g) - along * along < disc.radius * disc.radius
+                    })
+                    .collect();
+                out.sort_unstable();
+                out
+            })
+            .collect()
     }
 
     /// Turn each sister pair of a split so that face p's (x1 - x0) x (x2 - x0) points out of
@@ -311,19 +315,9 @@ impl TetMesh {
             let Some(&opp) = tet.iter().find(|x| !s[0].contains(x)) else {
                 continue;
             };
+            // (x1 - x0) x (x2 - x0) points at the opposite node: p's tetrahedron's side.
             let x = s[0].map(|k| self.nodes[k as usize]);
-            let d = |a: [f64; 3], b: [f64; 3]| [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
-            let (u, v, w) = (
-                d(x[0], x[1]),
-                d(x[0], x[2]),
-                d(x[0], self.nodes[opp as usize]),
-            );
-            let n = [
-                u[1] * v[2] - u[2] * v[1],
-                u[2] * v[0] - u[0] * v[2],
-                u[0] * v[1] - u[1] * v[0],
-            ];
-            if n[0] * w[0] + n[1] * w[1] + n[2] * w[2] > 0.0 {
+            if tet4::signed_volume(x[0], x[1], x[2], self.nodes[opp as usize]) > 0.0 {
                 s[0].swap(1, 2);
                 s[1].swap(1, 2);
             }

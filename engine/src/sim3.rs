@@ -90,7 +90,7 @@ pub fn build_model_3d(
 }
 
 /// Open the disc fractures on the mesh before it becomes entities: each disc's faces
-/// ([`TetMesh::faces_on_disc`]: on its plane, centroid inside), split together
+/// ([`TetMesh::faces_on_discs`]: on its plane, centroid inside), split together
 /// ([`TetMesh::split_along`]) and oriented ([`TetMesh::orient_sisters`]). Errors name a disc
 /// that lies on no mesh faces.
 pub fn open_discs(
@@ -111,8 +111,8 @@ pub fn open_discs(
     let tol = 1e-9 * extent;
     let mut all: Vec<[u32; 3]> = Vec::new();
     let mut reports = Vec::new();
-    for (i, d) in discs.iter().enumerate() {
-        let faces = mesh.faces_on_disc(d, tol);
+    let on_discs = mesh.faces_on_discs(discs, tol);
+    for (i, (d, faces)) in discs.iter().zip(on_discs).enumerate() {
         if faces.is_empty() {
             return Err(SetupError::invalid(
                 &format!("fracture.discs[{i}]"),

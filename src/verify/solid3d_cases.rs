@@ -434,13 +434,8 @@ pub fn penny_engine(quick: bool) -> anyhow::Result<CaseResult> {
             }
             let (sim, wall) = run_3d(&text)?;
             let v = sim.solid();
-            let (mut vol, mut w0) = (0.0, 0.0f64);
-            for j in 0..v.joint_nodes.len() {
-                let f = crate::model3::joint_frame_3d(v, j);
-                vol += crate::model3::joint_area0_3d(v, j) * f.dn.max(0.0);
-                w0 = w0.max(f.dn);
-            }
-            let (ev, ew) = (vol / want_v - 1.0, w0 / want_w - 1.0);
+            let o = crate::model3::opening_3d(v);
+            let (ev, ew) = (o.volume / want_v - 1.0, o.max / want_w - 1.0);
             let suffix = if k == 0 { "" } else { "_explicit" };
             for (m, err) in [("volume", ev), ("centre_opening", ew)] {
                 res.rows.push(Row {

@@ -606,27 +606,22 @@ pub fn contact_tangent_3d(
     }
     let JointFrame3 { n, t, .. } = joint_frame_3d(v, k);
     let l = joint_len0_3d(v, k);
-    let mut c = [[0.0; 3]; 3];
-    let shear: Vec<[f64; 3]> = if st.sliding {
+    // The in-plane directions with shear stiffness: both tangents while sticking; sliding,
+    // the one across the slip (normal to F_t).
+    let shear: [[f64; 3]; 2] = if st.sliding {
         let f = st.shear_force;
         let m = f[0].hypot(f[1]);
-        // Across the slip: the in-plane direction normal to F_t.
         let e = [0, 1, 2].map(|d| (f[0] * t[0][d] + f[1] * t[1][d]) / m);
-        let s = [
-            n[1] * e[2] - n[2] * e[1],
-            n[2] * e[0] - n[0] * e[2],
-            n[0] * e[1] - n[1] * e[0],
-        ];
-        vec![s]
+        [hydrofrac_core::tet4::cross(n, e), [0.0; 3]]
     } else {
-        vec![t[0], t[1]]
+        t
     };
-    for a in 0..3 {
-        for b in 0..3 {
-            c[a][b] =
-                l * p.kn * n[a] * n[b] + l * p.kt * shear.iter().map(|s| s[a] * s[b]).sum::<f64>();
-        }
-    }
+    let c: [[f64; 3]; 3] = std::array::from_fn(|a| {
+        std::array::from_fn(|b| {
+            l * p.kn * n[a] * n[b]
+                + l * p.kt * (shear[0][a] * shear[0][b] + shear[1][a] * shear[1][b])
+        })
+    });
     crate::linear_static::JointTangent::Closed {
         c,
         code: if st.sliding { 2 } else { 1 },

@@ -100,31 +100,20 @@ impl LinearStatic {
                 }
             }
         }
+        // The dofs of a list of nodes, node by node (`NONE` where prescribed).
         let dof_ref = &dof;
-        let elem_dofs = |c: &E::Conn| -> Vec<usize> {
-            c.as_ref()
+        let dofs_of = |nodes: &[u32]| -> Vec<usize> {
+            nodes
                 .iter()
                 .flat_map(|&a| (0..dn).map(move |d| dof_ref[dn * a as usize + d]))
                 .collect()
         };
+        // Every element, and every joint (its block is zero while it is open), couples all
+        // its nodes.
         let mut entries = Vec::new();
-        for c in &v.conn {
-            let d = elem_dofs(c);
-            for &a in &d {
-                for &b in &d {
-                    if a != NONE && b != NONE && a >= b {
-                        entries.push((a, b));
-                    }
-                }
-            }
-        }
-        // Every joint couples all its nodes (its block is zero while it is open).
-        for j in &v.joint_nodes {
-            let d: Vec<usize> = j
-                .as_ref()
-                .iter()
-                .flat_map(|&a| (0..dn).map(move |d| dof_ref[dn * a as usize + d]))
-                .collect();
+        let items = v.conn.iter().map(|c| c.as_ref());
+        for nodes in items.chain(v.joint_nodes.iter().map(|j| j.as_ref())) {
+            let d = dofs_of(nodes);
             for &a in &d {
                 for &b in &d {
                     if a != NONE && b != NONE && a >= b {
@@ -136,7 +125,7 @@ impl LinearStatic {
         let pattern = SparsePattern::from_entries(n, entries)?;
         let mut values = vec![0.0; pattern.nnz()];
         for (c, g) in v.conn.iter().zip(&v.geom) {
-            let d = elem_dofs(c);
+            let d = dofs_of(c.as_ref());
             let ke = E::stiffness(g, p);
             for (i, &a) in d.iter().enumerate() {
                 for (j, &b) in d.iter().enumerate() {
@@ -169,31 +158,12 @@ impl LinearStatic {
                         [x[0], x[1], x[2]]
                     })
                     .collect();
-            hydrofrac_core::sparse::nested_dissection(&pts, &adjacency)
-                .into_iter()
-                .flat_map(|i| (0..dn).map(move |d| dof_ref[dn * i as usize + d]))
-                .filter(|&k| k != NONE)
-                .collect()
+            let nodes = hydrofrac_core::sparse::nested_dissection(&pts, &adjacency);
+            dofs_of(&nodes).into_iter().filter(|&k| k != NONE).collect()
         });
-        let (symbolic, mut mem) = pattern.symbolic_cholesky_ordered(order.as_deref())?;
-        let mut l_values = vec![0.0; symbolic.len_val()];
-        symbolic
-            .factorize_numeric_llt::<f64>(
-                &mut l_values,
-                SparseColMatRef::new(pattern.as_ref(), &values),
-                Side::Lower,
-                LltRegularization::default(),
-                Par::rayon(0),
-                MemStack::new(&mut mem),
-                Default::default(),
-            )
-            .map_err(|e| {
-                format!(
-                    "the stiffness is not positive definite ({e:?}): the body can move without \
-                     straining (hold enough displacement components to stop every rigid motion)"
-                )
-            })?;
-        Ok(LinearStatic {
+        let (symbolic, mem) = pattern.symbolic_cholesky_ordered(order.as_deref())?;
+        let mut l = LinearStatic {
+            l_values: vec![0.0; symbolic.len_val()],
             elastic: values,
             pattern,
             joint_codes: vec![0; v.joint_nodes.len()],
@@ -201,12 +171,19 @@ impl LinearStatic {
             dof,
             n,
             symbolic,
-            l_values,
             mem,
-            factorisations: 1,
+            factorisations: 0,
             solves: 0,
             tol: crate::quasi_static::DEFAULT_TOL,
-        })
+        };
+        let open = vec![JointTangent::Open; v.joint_nodes.len()];
+        l.factorise(v, &open).map_err(|e| {
+            format!(
+                "the stiffness is not positive definite ({e}): the body can move without \
+                 straining (hold enough displacement components to stop every rigid motion)"
+            )
+        })?;
+        Ok(l)
     }
 
     /// Equilibrium at load factor `lf`: the prescribed components at `lf` times their values,
@@ -265,7 +242,11 @@ impl LinearStatic {
                 .zip(&self.joint_codes)
                 .any(|(t, &c)| t.code() != c)
             {
-                self.factorise(v, &tangents)?;
+                self.factorise(v, &tangents).map_err(|e| {
+                    format!(
+                        "the stiffness with the joints in contact is not positive definite ({e})"
+                    )
+                })?;
             }
             let llt = LltRef::<usize, f64>::new(&self.symbolic, &self.l_values);
             llt.solve_in_place_with_conj(
@@ -289,7 +270,8 @@ impl LinearStatic {
         Ok(stats)
     }
 
-    /// Factorise K + the joints' blocks again on the kept analysis. Joint k's block couples
+    /// Factorise K + the joints' blocks on the kept analysis (parallel supernodal, on the
+    /// run's threads; the same bits on any number). Joint k's block couples
     /// its nodes a, b (face p's weighted -1/m, face q's +1/m, m nodes a face) by
     /// w_a w_b C_k, C_k its D x D [`JointTangent`] stiffness (N/m).
     fn factorise<E: Element>(
@@ -331,13 +313,11 @@ impl LinearStatic {
                 SparseColMatRef::new(self.pattern.as_ref(), &values),
                 Side::Lower,
                 LltRegularization::default(),
-                Par::Seq,
+                Par::rayon(0),
                 MemStack::new(&mut self.mem),
                 Default::default(),
             )
-            .map_err(|e| {
-                format!("the stiffness with the joints in contact is not positive definite ({e:?})")
-            })?;
+            .map_err(|e| format!("{e:?}"))?;
         self.factorisations += 1;
         self.joint_codes = tangents.iter().map(|t| t.code()).collect();
         Ok(())

@@ -165,9 +165,8 @@ pub struct Disc {
 impl Disc {
     /// The unit normal.
     pub fn unit_normal(&self) -> [f64; 3] {
-        let n = self.normal;
-        let l = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
-        n.map(|c| c / l)
+        let l = crate::tet4::norm(self.normal);
+        self.normal.map(|c| c / l)
     }
 
     /// Centre, normal and radius finite; the normal not zero, the radius positive.

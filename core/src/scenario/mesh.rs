@@ -111,6 +111,18 @@ pub struct Round {
     pub radius: f64,
 }
 
+/// Cells along an axis of length `l` (m) of a graded mesh: `fine` m of cells of `h`, then
+/// cells growing by `ratio` from h each way, at most ln(1 + l (ratio - 1) / h) / ln(ratio) of
+/// them each way (l / h for ratio 1); rounded up.
+fn graded_cells(fine: f64, l: f64, h: f64, ratio: f64) -> f64 {
+    let grow = if ratio > 1.0 {
+        (1.0 + l * (ratio - 1.0) / h).ln() / ratio.ln()
+    } else {
+        l / h
+    };
+    (fine / h + 2.0 * grow).ceil()
+}
+
 fn default_grading() -> f64 {
     0.1
 }
@@ -146,17 +158,8 @@ impl MeshSpec {
                 ratio,
                 ..
             } => {
-                // Cells that grow by `ratio` from h across a length l: at most
-                // ln(1 + l (ratio - 1) / h) / ln(ratio) (l / h for ratio 1).
-                let grow = |l: f64| {
-                    if ratio > 1.0 {
-                        (1.0 + l * (ratio - 1.0) / h).ln() / ratio.ln()
-                    } else {
-                        l / h
-                    }
-                };
-                let nx = ((fine[2] - fine[0]) / h + 2.0 * grow(width)).ceil();
-                let ny = ((fine[3] - fine[1]) / h + 2.0 * grow(height)).ceil();
+                let nx = graded_cells(fine[2] - fine[0], width, h, ratio);
+                let ny = graded_cells(fine[3] - fine[1], height, h, ratio);
                 Some(MeshCounts::from_grid(nx, ny))
             }
             MeshSpec::Gmsh { ref file } => {
@@ -174,20 +177,11 @@ impl MeshSpec {
                 })
             }
             MeshSpec::Box { size, h, .. } | MeshSpec::GradedBox { size, h, .. } => {
-                // Graded: the 2D `Graded` bound on each axis, the fine cells plus at most
-                // ln(1 + l (ratio - 1) / h) / ln(ratio) growing ones each way (at most the
-                // uniform box's).
+                // Graded: the 2D `Graded` bound on each axis (at most the uniform box's).
                 let n: [f64; 3] = match *self {
                     MeshSpec::GradedBox { fine, ratio, .. } => std::array::from_fn(|d| {
-                        let l = size[d];
-                        let grow = if ratio > 1.0 {
-                            (1.0 + l * (ratio - 1.0) / h).ln() / ratio.ln()
-                        } else {
-                            l / h
-                        };
-                        ((fine[d + 3] - fine[d]) / h + 2.0 * grow)
-                            .ceil()
-                            .min((l / h).ceil())
+                        graded_cells(fine[d + 3] - fine[d], size[d], h, ratio)
+                            .min((size[d] / h).ceil())
                     }),
                     _ => size.map(|l| (l / h).ceil()),
                 };
