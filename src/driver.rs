@@ -1007,7 +1007,7 @@ pub(crate) fn systems_json(
 
 /// `summary.json` `flow` (`None` without a network): the network, the step and scheme, the
 /// boundaries' volumes and the mass balance.
-fn flow_json(sim: &Simulation) -> Option<serde_json::Value> {
+pub(crate) fn flow_json<E: crate::dim::Element>(sim: &Simulation<E>) -> Option<serde_json::Value> {
     let f = sim.flow()?;
     let (inj, prod, stored, err) = sim.flow_balance().unwrap_or_default();
     let bcs: Vec<serde_json::Value> = f

@@ -320,5 +320,15 @@ pub struct FaceJoint {
 /// 3D joint bundle.
 pub type FaceJointBundle = (StableId, FaceJoint, JointState<[f64; 2]>);
 
+/// A 3D flow cell: the fracture face pair of its joint (a [`FaceJoint`] entity). The cell is the
+/// joint's triangle; it exchanges fluid with every cell whose face p shares an edge with its
+/// own (two fractures meeting along a line share that line's edges).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct FaceCell(pub Entity);
+
+/// 3D flow cell bundle: a [`CellBundle`] with the joint in place of the two nodes. Its fluid
+/// state is per cell, not per metre: mass kg, volume a A m^3, flow rate m^3/s.
+pub type FaceCellBundle = (StableId, FaceCell, CellFluid, CellOrigin);
+
 /// Flow boundary bundle.
 pub type FlowBcBundle = (StableId, FlowBc);

@@ -311,6 +311,13 @@ impl Model {
                     };
                     (FlowBcTarget::Cell(c), d, p)
                 }
+                // `Scenario::check_3d` keeps 3D points out of 2D scenes.
+                FlowTarget::Node3(_) | FlowTarget::Cell3(_) => {
+                    return Err(SetupError::invalid(
+                        &format!("flow_boundaries[{i}].at"),
+                        "Node3 and Cell3 are 3D points: this mesh is 2D (use Node or Cell)",
+                    ));
+                }
             };
             // The nearest node or cell centre must be close compared with the cells around it.
             let near = match target {

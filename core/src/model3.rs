@@ -308,6 +308,145 @@ impl Model {
         self.topology_generation += 1;
     }
 
+    /// One flow cell ([`FaceCell`]) per 3D joint, in the joints' stable-id order, pre-existing,
+    /// of hydraulic aperture `aperture` (m) and fluid density `fill` (kg/m^3: full at that
+    /// density) or empty (`None`: the cells fill first, seed (4)).
+    pub fn add_face_cells(&mut self, aperture: f64, fill: Option<f64>) {
+        let mut joints: Vec<(u64, Entity, FaceJoint)> = self
+            .world
+            .query::<(Entity, &StableId, &FaceJoint)>()
+            .iter()
+            .map(|(e, id, j)| (id.0, e, *j))
+            .collect();
+        joints.sort_unstable_by_key(|j| j.0);
+        for (_, je, j) in joints {
+            let nodes = self.world.get::<&FaceNodes>(j.faces[0]).expect("face").0;
+            let x = nodes.map(|e| self.world.get::<&NodeRef3>(e).expect("node").0);
+            let area = crate::tet4::triangle_area(x);
+            let bundle: FaceCellBundle = (
+                StableId(self.next_cell_id),
+                FaceCell(je),
+                CellFluid {
+                    aperture,
+                    mass: fill.map_or(0.0, |rho| rho * aperture * area),
+                    ..Default::default()
+                },
+                CellOrigin {
+                    kind: CellKind::Preexisting,
+                    created_t: 0.0,
+                },
+            );
+            self.world.spawn(bundle);
+            self.next_cell_id += 1;
+        }
+        self.topology_generation += 1;
+    }
+
+    /// Attach the scenario's flow boundaries (`Node3`, `Cell3`) to the nearest fracture node
+    /// (a root of the cells' triangles) or triangle centroid. The point must lie within half
+    /// the largest edge of the triangles there; two boundaries on one node or cell are refused.
+    pub fn add_flow_boundaries3(
+        &mut self,
+        bcs: &[crate::scenario::FlowBoundary],
+    ) -> Result<(), SetupError> {
+        use crate::scenario::FlowTarget;
+        let tc = crate::flow::faces::cell_triangles(self);
+        let geo = crate::flow::faces::triangle_cells(&tc.nodes, &tc.tris);
+        if tc.tris.is_empty() {
+            return Err(SetupError::invalid(
+                "flow_boundaries",
+                "the fractures have no cells",
+            ));
+        }
+        let dist = |a: [f64; 3], b: &[f64]| norm(sub(a, [b[0], b[1], b[2]]));
+        let longest = |t: &[u32; 3]| {
+            (0..3)
+                .map(|k| {
+                    norm(sub(
+                        tc.nodes[t[k] as usize],
+                        tc.nodes[t[(k + 1) % 3] as usize],
+                    ))
+                })
+                .fold(0.0, f64::max)
+        };
+        let mut spawned: Vec<FlowBcTarget> = Vec::new();
+        for (i, bc) in bcs.iter().enumerate() {
+            let field = format!("flow_boundaries[{i}].at");
+            let at = bc.at.point();
+            let (target, d, size, what) = match bc.at {
+                FlowTarget::Node3(_) => {
+                    let (k, d) = (0..tc.nodes.len())
+                        .map(|k| (k, dist(tc.nodes[k], at)))
+                        .min_by(|a, b| a.1.total_cmp(&b.1))
+                        .expect("cells have nodes");
+                    let size = tc
+                        .tris
+                        .iter()
+                        .filter(|t| t.contains(&(k as u32)))
+                        .map(longest)
+                        .fold(0.0, f64::max);
+                    (FlowBcTarget::Node(tc.node_entity[k]), d, size, "node")
+                }
+                FlowTarget::Cell3(_) => {
+                    let (c, d) = (0..tc.tris.len())
+                        .map(|c| (c, dist(geo.centroid[c], at)))
+                        .min_by(|a, b| a.1.total_cmp(&b.1))
+                        .expect("cells");
+                    let size = longest(&tc.tris[c]);
+                    (
+                        FlowBcTarget::Cell(tc.cell_entity[c]),
+                        d,
+                        size,
+                        "cell centroid",
+                    )
+                }
+                FlowTarget::Node(_) | FlowTarget::Cell(_) => {
+                    return Err(SetupError::invalid(
+                        &field,
+                        "a 3D scene places flow boundaries at 3D points: `Node3((x, y, z))` or \
+                         `Cell3((x, y, z))`",
+                    ));
+                }
+            };
+            if d > 0.5 * size + 1e-9 {
+                return Err(SetupError::invalid(
+                    &field,
+                    format!(
+                        "({}, {}, {}) is {d:.3} m from the nearest fracture {what}; put it on a \
+                         fracture",
+                        at[0], at[1], at[2]
+                    ),
+                ));
+            }
+            if let Some(k) = spawned.iter().position(|t| *t == target) {
+                return Err(SetupError::invalid(
+                    &field,
+                    format!(
+                        "it is at the fracture {what} of flow_boundaries[{k}] too: two \
+                         boundaries on one {what} contradict each other"
+                    ),
+                ));
+            }
+            spawned.push(target);
+        }
+        for (i, target) in spawned.into_iter().enumerate() {
+            let bundle: FlowBcBundle = (
+                StableId(i as u64),
+                FlowBc {
+                    index: i,
+                    target,
+                    pressure: 0.0,
+                    rate: 0.0,
+                    volume_in: 0.0,
+                    volume_out: 0.0,
+                },
+            );
+            self.world.spawn(bundle);
+        }
+        self.topology_generation += 1;
+        Ok(())
+    }
+
     /// A uniform pressure p (Pa) on both faces of every 3D joint, as constant nodal loads in
     /// the reference geometry: face p's nodes get -p A n / 3 each, face q's +p A n / 3 (n face
     /// p's unit normal towards q, A its area), N.

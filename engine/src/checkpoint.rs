@@ -50,7 +50,7 @@ use std::path::Path;
 /// First bytes of every checkpoint file.
 pub const MAGIC: &[u8; 8] = b"HFCKPT\0\n";
 /// Version of the layout of [`State`]; bumped whenever a saved type changes.
-pub const FORMAT_VERSION: u32 = 6;
+pub const FORMAT_VERSION: u32 = 7;
 /// The latest checkpoint in the output folder, and the one before it.
 pub const FILE: &str = "checkpoint.ckpt";
 pub const PREV_FILE: &str = "checkpoint.prev.ckpt";
@@ -100,10 +100,12 @@ pub struct WorldRecords {
     pub tets: Vec<(Entity, Tet4Bundle)>,
     pub faces: Vec<(Entity, FaceBundle)>,
     pub face_joints: Vec<(Entity, FaceJointBundle)>,
+    /// 3D flow cells (empty in 2D and in 3D runs without flow).
+    pub face_cells: Vec<(Entity, FaceCellBundle)>,
 }
 
 /// The state of a simulation between steps, of element kind `E` (2D by default). A 3D state
-/// has no flow, fracture growth, quasi-static Newton or catalogue (their fields are empty).
+/// has no fracture growth, quasi-static Newton or catalogue (their fields are empty).
 #[derive(Clone, Serialize, Deserialize)]
 #[serde(bound = "")]
 pub struct State<E: Element = Cst> {
@@ -207,6 +209,12 @@ impl WorldRecords {
         {
             r.face_joints.push((e, (*a, *b, *c)));
         }
+        for (e, a, b, c, d) in w
+            .query::<(Entity, &StableId, &FaceCell, &CellFluid, &CellOrigin)>()
+            .iter()
+        {
+            r.face_cells.push((e, (*a, *b, *c, *d)));
+        }
         r.check_bundles(w)?;
         let n = r.nodes.len()
             + r.elems.len()
@@ -217,7 +225,8 @@ impl WorldRecords {
             + r.nodes3.len()
             + r.tets.len()
             + r.faces.len()
-            + r.face_joints.len();
+            + r.face_joints.len()
+            + r.face_cells.len();
         if n != w.len() as usize {
             return Err(format!(
                 "the world has {} entities, {n} of them in the known bundles",
@@ -249,6 +258,7 @@ impl WorldRecords {
             ids::<Tet4Bundle>(),
             ids::<FaceBundle>(),
             ids::<FaceJointBundle>(),
+            ids::<FaceCellBundle>(),
         ];
         for a in w.archetypes().filter(|a| !a.is_empty()) {
             let mut types: Vec<std::any::TypeId> = a.component_types().collect();
@@ -278,6 +288,7 @@ impl WorldRecords {
             T(Tet4Bundle),
             F(FaceBundle),
             FJ(FaceJointBundle),
+            FC(FaceCellBundle),
         }
         let mut all: Vec<(Entity, Rec)> = Vec::new();
         all.extend(self.nodes.into_iter().map(|(e, b)| (e, Rec::N(b))));
@@ -290,6 +301,7 @@ impl WorldRecords {
         all.extend(self.tets.into_iter().map(|(e, b)| (e, Rec::T(b))));
         all.extend(self.faces.into_iter().map(|(e, b)| (e, Rec::F(b))));
         all.extend(self.face_joints.into_iter().map(|(e, b)| (e, Rec::FJ(b))));
+        all.extend(self.face_cells.into_iter().map(|(e, b)| (e, Rec::FC(b))));
         all.sort_by_key(|(e, _)| e.id());
         if all.windows(2).any(|w| w[0].0.id() == w[1].0.id()) {
             return Err("two entities share a handle".into());
@@ -307,6 +319,7 @@ impl WorldRecords {
                 Rec::T(b) => world.spawn_at(e, b),
                 Rec::F(b) => world.spawn_at(e, b),
                 Rec::FJ(b) => world.spawn_at(e, b),
+                Rec::FC(b) => world.spawn_at(e, b),
             }
         }
         Ok(world)

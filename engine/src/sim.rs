@@ -80,6 +80,18 @@ enum Pass {
 }
 
 impl<E: Element> Simulation<E> {
+    /// The fracture flow part (`None` without flow).
+    pub fn flow(&self) -> Option<&FlowPart> {
+        self.flow.as_ref()
+    }
+    /// Label of flow boundary `index`.
+    pub fn bc_name(&self, index: usize) -> &str {
+        &self.params.bc_names[index]
+    }
+    /// Flow volumes and mass-balance error ([`FlowPart::balance`]).
+    pub fn flow_balance(&self) -> Option<(f64, f64, f64, f64)> {
+        Some(self.flow.as_ref()?.balance(&self.params.fluid))
+    }
     /// Check `stop` before every step of [`Simulation::run`]: when it is set (non-zero) the run
     /// ends after the step in progress, as [`Finish::Interrupted`], with a last frame and series
     /// row of the state reached.
@@ -407,7 +419,14 @@ impl Simulation {
                     }
                     (_, Pass::Step { t0 }) => {
                         let (dt, step) = (clock.dt, clock.step + 1);
-                        flow::flow_substeps(f, &self.solid.view, p, t0, dt, step)?
+                        flow::flow_substeps(
+                            f,
+                            coupling::opening_2d(&self.solid.view),
+                            p,
+                            t0,
+                            dt,
+                            step,
+                        )?
                     }
                     (_, Pass::Resolve { .. }) => {}
                 }
@@ -641,9 +660,6 @@ impl Simulation {
     pub fn set_inertia(&mut self, inertia: hydrofrac_core::scenario::Inertia) {
         self.params.time.inertia = inertia;
     }
-    pub fn flow(&self) -> Option<&FlowPart> {
-        self.flow.as_ref()
-    }
     pub fn flow_mut(&mut self) -> Option<&mut FlowPart> {
         self.flow.as_mut()
     }
@@ -689,14 +705,6 @@ impl Simulation {
             }
         }
         out
-    }
-    /// Label of flow boundary `index`.
-    pub fn bc_name(&self, index: usize) -> &str {
-        &self.params.bc_names[index]
-    }
-    /// Flow volumes and mass-balance error ([`FlowPart::balance`]).
-    pub fn flow_balance(&self) -> Option<(f64, f64, f64, f64)> {
-        Some(self.flow.as_ref()?.balance(&self.params.fluid))
     }
     /// Names of the time-series columns of this scene.
     pub fn series_columns(&self) -> Vec<String> {

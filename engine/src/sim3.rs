@@ -22,11 +22,13 @@ use hydrofrac_core::params::RunParams;
 use hydrofrac_core::scenario::{Boundary, InitialState, MeshSpec, SolidScheme, schedule_factor};
 use hydrofrac_core::tetmesh::TetMesh;
 use hydrofrac_core::view::SolidView;
+use hydrofrac_systems::coupling::Coupling;
+use hydrofrac_systems::flow::FlowPart;
 use hydrofrac_systems::fracture::FractureState;
 use hydrofrac_systems::monitor::{Clock, Finish};
 use hydrofrac_systems::solid::StepStats;
 use hydrofrac_systems::state::SolidPart;
-use hydrofrac_systems::{RunError, SystemId, fracture, monitor, output, solid};
+use hydrofrac_systems::{RunError, SystemId, flow, fracture, monitor, output, solid};
 
 /// The tetrahedral mesh of a 3D mesh spec.
 pub fn build_tet_mesh(spec: &MeshSpec) -> Result<TetMesh, SetupError> {
@@ -70,6 +72,23 @@ pub fn build_model_3d(
     let mut m = Model::from_tet_mesh(&mesh, *mat)?;
     if let Some(split) = &split {
         m.add_face_joints(split);
+    }
+    if !sc.flow_boundaries.is_empty() {
+        // A coupled run: a flow cell on every joint at the residual aperture, filled or empty.
+        let a_r = sc
+            .fracture
+            .as_ref()
+            .map_or(hydrofrac_core::scenario::DEFAULT_RESIDUAL_APERTURE, |f| {
+                f.residual_aperture
+            });
+        let fill = match sc.initial_fluid {
+            hydrofrac_core::scenario::InitialFluid::Full(p0) => {
+                Some(sc.fluid.density * (1.0 + p0 / sc.fluid.bulk_modulus))
+            }
+            hydrofrac_core::scenario::InitialFluid::Empty => None,
+        };
+        m.add_face_cells(a_r, fill);
+        m.add_flow_boundaries3(&sc.flow_boundaries)?;
     }
     m.apply_boundary3(&sc.boundary);
     if let (InitialState::InSitu, Boundary::InSitu3 { sxx, syy, szz }) =
@@ -152,12 +171,17 @@ pub fn critical_step_3d(view: &SolidView<Tet4>, p: &RunParams) -> f64 {
     // The joints' penalty springs stiffen the system: the highest frequency squared is at
     // most the elements' (2 / dt_e)^2 plus the largest row sum of the joints' stiffness
     // scaled by the masses, M^-1/2 K_j M^-1/2 (Gershgorin). Joint k couples its six nodes
-    // with K l / 9 (normal or tangential, the stiffer) between each pair.
+    // with K l / 9 (normal or tangential, the stiffer) between each pair, plus the fluid's.
+    // A full cell at the residual aperture a_r pushes back on an opening change with
+    // K A0 / a_r (N/m; K the fluid's bulk modulus in coupled runs, else 0).
     let k = p.joint.k_max();
+    let k_fluid = p.k_fluid() / p.residual_aperture;
     let mut row = vec![0.0; view.n_nodes()];
     for j in 0..view.joint_nodes.len() {
         let nodes = view.joint_nodes[j];
-        let w = k * hydrofrac_core::model3::joint_len0_3d(view, j) / 9.0;
+        let w = (k * hydrofrac_core::model3::joint_len0_3d(view, j)
+            + k_fluid * hydrofrac_core::model3::joint_area0_3d(view, j))
+            / 9.0;
         for &a in &nodes {
             let ma = view.mass[a as usize];
             for &b in &nodes {
@@ -186,11 +210,23 @@ impl Simulation<Tet4> {
             SolidScheme::Explicit => critical_step_3d(&view, &p),
             SolidScheme::QuasiStatic => f64::INFINITY,
         };
+        let mut flow = p.coupled.then(|| {
+            let fv = hydrofrac_core::flow::FlowView::build_3d(&model, &p.fluid);
+            let mut f = FlowPart::new(fv, &p, Default::default(), true);
+            f.coupling = Some(Coupling::build_3d(
+                &model,
+                &view.joint_entity,
+                &f.view,
+                &p.fluid,
+                p.residual_aperture,
+            ));
+            f
+        });
         let (dt, steps_to_end) =
-            crate::setup::time_step(&p.time, &scenario.time, true, dt_crit, None)?;
+            crate::setup::time_step(&p.time, &scenario.time, true, dt_crit, flow.as_mut())?;
         let mut disabled = scenario.systems.disable.clone();
         disabled.extend(extra_disable.iter().cloned());
-        let schedule = crate::setup::schedule(&disabled, &view, &p, false)?;
+        let schedule = crate::setup::schedule(&disabled, &view, &p, flow.is_some())?;
         let linear = if schedule.is_enabled(SystemId::Solve) {
             let mut l = hydrofrac_systems::linear_static::LinearStatic::build(&view, &p.solid)
                 .map_err(|why| SetupError::invalid("boundary", why))?;
@@ -210,7 +246,7 @@ impl Simulation<Tet4> {
                 quasi_static: None,
                 linear,
             },
-            flow: None,
+            flow,
             fracture: FractureState::default(),
             clock: Clock::start(dt, steps_to_end),
             schedule,
@@ -310,7 +346,20 @@ impl Simulation<Tet4> {
                     fracture::contact_3d(v, &p.joint)
                 }
                 SystemId::Contact => {}
-                SystemId::Monitor => monitor::monitor(clock, t0, &self.solid, None, p)?,
+                SystemId::FluidPressure => {
+                    if let Some(c) = self.flow.as_ref().and_then(|f| f.coupling.as_ref()) {
+                        fracture::fluid_pressure_3d(v, &c.joint_cell, &c.p_mean);
+                    }
+                }
+                SystemId::FlowSubsteps => {
+                    if let Some(f) = self.flow.as_mut() {
+                        let opening = |k| hydrofrac_core::model3::joint_frame_3d(v, k).dn;
+                        flow::flow_substeps(f, opening, p, t0, clock.dt, clock.step + 1)?;
+                    }
+                }
+                SystemId::Monitor => {
+                    monitor::monitor(clock, t0, &self.solid, self.flow.as_ref(), p)?
+                }
                 SystemId::Output => {
                     let every = p.output.frame_every;
                     let finished = clock.finish.is_some();
@@ -321,11 +370,7 @@ impl Simulation<Tet4> {
                     }
                 }
                 // Not in a 3D scene's schedule (no data): `Scenario::check_3d`.
-                SystemId::FluidPressure
-                | SystemId::FlowSubsteps
-                | SystemId::FractureCriterion
-                | SystemId::Split
-                | SystemId::Seismicity => {}
+                SystemId::FractureCriterion | SystemId::Split | SystemId::Seismicity => {}
             }
         }
         Ok(())
@@ -339,13 +384,36 @@ impl Simulation<Tet4> {
         if row {
             let mut values = vec![self.clock.step as f64, self.clock.time];
             values.extend(output::solid_values(&self.solid.stats));
+            if let Some(f) = &self.flow {
+                values.extend(output::flow_values(f, &self.params));
+            }
             out.write_series(&values)?;
         }
         if frame {
             out.write_frame_3d(&self.solid.view, &self.params.solid, self.clock.time)?;
-            if !self.solid.view.joint_nodes.is_empty() {
-                let p = self.scenario.fracture.as_ref().and_then(|f| f.pressure);
-                out.write_fracture_3d(&self.solid.view, p.unwrap_or(0.0), self.clock.time)?;
+            let v = &self.solid.view;
+            if !v.joint_nodes.is_empty() {
+                // Per joint: its cell's pressure and hydraulic aperture, or the prescribed
+                // pressure (no aperture column without flow).
+                let fluid = self
+                    .flow
+                    .as_ref()
+                    .and_then(|f| Some((f, f.coupling.as_ref()?)));
+                let (pressure, aperture): (Vec<f64>, Vec<f64>) = match fluid {
+                    Some((f, c)) => c
+                        .joint_cell
+                        .iter()
+                        .map(|&k| match k {
+                            u32::MAX => (0.0, 0.0),
+                            k => (f.view.pressure[k as usize], f.view.aperture[k as usize]),
+                        })
+                        .unzip(),
+                    None => {
+                        let p = self.scenario.fracture.as_ref().and_then(|f| f.pressure);
+                        (vec![p.unwrap_or(0.0); v.joint_nodes.len()], Vec::new())
+                    }
+                };
+                out.write_fracture_3d(v, &pressure, &aperture, self.clock.time)?;
             }
         }
         Ok(())
@@ -374,7 +442,7 @@ impl Simulation<Tet4> {
             solid_stats: self.solid.stats,
             dt_crit: self.solid.dt_crit,
             qs_counts: None,
-            flow: None,
+            flow: self.flow.clone(),
             fracture: FractureState::default(),
             effort: self.effort,
             cells_at_start: 0,
@@ -401,8 +469,16 @@ impl Simulation<Tet4> {
             state.topology_generation,
             state.next_ids,
         )?;
+        if state.flow.as_ref().map(|f| f.view.n_cells())
+            != self.flow.as_ref().map(|f| f.view.n_cells())
+        {
+            return Err("its fracture flow cells differ from this scenario's".into());
+        }
         self.clock = state.clock;
         self.solid.view = state.solid_view;
+        if let Some(f) = state.flow {
+            self.flow = Some(f);
+        }
         self.solid.stats = state.solid_stats;
         self.solid.dt_crit = state.dt_crit;
         self.effort = state.effort;
@@ -432,6 +508,9 @@ impl Simulation<Tet4> {
     pub fn series_columns_3d(&self) -> Vec<String> {
         let mut c: Vec<String> = vec!["step".into(), "time".into()];
         c.extend(output::SOLID_COLUMNS.iter().map(|s| s.to_string()));
+        if let Some(f) = &self.flow {
+            c.extend(output::flow_columns(f, &self.params));
+        }
         c
     }
 

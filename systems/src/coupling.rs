@@ -51,6 +51,11 @@ pub struct Coupling {
     kappa_sum: Vec<f64>,
 }
 
+/// Joint k's normal opening delta_n in a 2D view, m (the `opening` of [`Coupling::step`]).
+pub fn opening_2d(solid: &SolidView) -> impl Fn(usize) -> f64 + '_ {
+    move |k| joint_frame(solid, k).dn
+}
+
 /// What a coupled flow step did.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct CoupledStep {
@@ -97,6 +102,45 @@ impl Coupling {
                 cell_joint[c as usize] = k as u32;
             }
         }
+        Self::from_map(cell_joint, joint_cell, flow, p, a_r)
+    }
+
+    /// Maps for freshly built 3D views: each cell's [`FaceCell`](hydrofrac_components::FaceCell)
+    /// joint, as a dense joint index of the TET4 view.
+    pub fn build_3d(
+        model: &Model,
+        joint_entity: &[Entity],
+        flow: &FlowView,
+        p: &FlowParams,
+        a_r: f64,
+    ) -> Self {
+        let joint_index: HashMap<Entity, u32> = joint_entity
+            .iter()
+            .enumerate()
+            .map(|(k, &e)| (e, k as u32))
+            .collect();
+        let mut cell_joint = vec![u32::MAX; flow.n_cells()];
+        let mut joint_cell = vec![u32::MAX; joint_entity.len()];
+        for (c, &ce) in flow.cell_entity.iter().enumerate() {
+            let Ok(fc) = model.world.get::<&hydrofrac_components::FaceCell>(ce) else {
+                continue;
+            };
+            if let Some(&k) = joint_index.get(&fc.0) {
+                cell_joint[c] = k;
+                joint_cell[k as usize] = c as u32;
+            }
+        }
+        Self::from_map(cell_joint, joint_cell, flow, p, a_r)
+    }
+
+    /// The coupling of given maps: the mean pressures start from the cells' pressures.
+    fn from_map(
+        cell_joint: Vec<u32>,
+        joint_cell: Vec<u32>,
+        flow: &FlowView,
+        p: &FlowParams,
+        a_r: f64,
+    ) -> Self {
         let nc = flow.n_cells();
         let mut p_mean: Vec<f64> = (0..nc)
             .map(|c| pressure_of(flow.excess[c], flow.volume[c], p))
@@ -115,17 +159,15 @@ impl Coupling {
     }
 
     /// Hydraulic apertures max(delta_n, a_r) of every cell from the solid's current positions
-    /// (cells without a joint keep theirs), m.
-    pub fn apertures_now(&mut self, solid: &SolidView, flow: &FlowView) {
+    /// (cells without a joint keep theirs), m. `opening(k)` is joint k's normal opening
+    /// delta_n, m ([`opening_2d`] in 2D, `joint_frame_3d(..).dn` in 3D).
+    pub fn apertures_now(&mut self, opening: impl Fn(usize) -> f64, flow: &FlowView) {
         for c in 0..flow.n_cells() {
             let k = self.cell_joint[c];
             self.a_end[c] = if k == u32::MAX {
                 flow.aperture[c]
             } else {
-                hydrofrac_core::fractures::hydraulic_aperture(
-                    joint_frame(solid, k as usize).dn,
-                    self.a_r,
-                )
+                hydrofrac_core::fractures::hydraulic_aperture(opening(k as usize), self.a_r)
             };
         }
     }
@@ -144,7 +186,7 @@ impl Coupling {
     #[allow(clippy::too_many_arguments)]
     pub fn step(
         &mut self,
-        solid: &SolidView,
+        opening: impl Fn(usize) -> f64,
         flow: &mut FlowView,
         p: &FlowParams,
         specs: &[FlowBoundary],
@@ -154,7 +196,7 @@ impl Coupling {
         max_substeps: u64,
     ) -> Result<CoupledStep, TooManySubsteps> {
         let nc = flow.n_cells();
-        self.apertures_now(solid, flow);
+        self.apertures_now(opening, flow);
         self.a_start.copy_from_slice(&flow.aperture);
         // Critical step over the step: transmissibilities at the larger aperture of the two,
         // volumes at the smaller (kappa grows and V shrinks monotonically along the path).
@@ -234,7 +276,7 @@ impl Coupling {
     #[allow(clippy::too_many_arguments)]
     pub fn step_implicit(
         &mut self,
-        solid: &SolidView,
+        opening: impl Fn(usize) -> f64,
         flow: &mut FlowView,
         p: &FlowParams,
         specs: &[FlowBoundary],
@@ -243,7 +285,7 @@ impl Coupling {
         solver: &mut hydrofrac_core::flow::implicit::ImplicitSolver,
     ) -> Result<CoupledStep, hydrofrac_core::flow::implicit::ImplicitError> {
         let nc = flow.n_cells();
-        self.apertures_now(solid, flow);
+        self.apertures_now(opening, flow);
         self.a_start.copy_from_slice(&flow.aperture);
         self.mid_step_kappa(flow, p);
         for c in 0..nc {

@@ -16,7 +16,6 @@ use hydrofrac_core::flow::{FlowParams, FlowView, pressure_of};
 use hydrofrac_core::network::CellNetwork;
 use hydrofrac_core::params::RunParams;
 use hydrofrac_core::scenario::FlowScheme;
-use hydrofrac_core::view::SolidView;
 
 /// The fracture-network flow part of the state. A checkpoint saves it as it is (serde), less
 /// the network table, which setup rebuilds from the scenario.
@@ -103,7 +102,8 @@ impl FlowPart {
     }
 }
 
-/// `flow_substeps`: the network's flow over the solid step [t0, t0 + dt]. Explicit: N
+/// `flow_substeps`: the network's flow over the solid step [t0, t0 + dt]. `opening(k)` is
+/// solid joint k's normal opening, m (coupled runs; [`crate::coupling::opening_2d`] in 2D). Explicit: N
 /// sub-steps, stopping at the first cell with negative or non-finite mass (reported by
 /// `monitor`); implicit: one backward-Euler step. Coupled runs exchange apertures and face
 /// pressures with the rock ([`Coupling`]). `step` is the number of the step being taken (for
@@ -112,7 +112,7 @@ impl FlowPart {
 /// ([`check_substep`]: a forced `time.flow_dt`), an implicit step whose Newton iteration fails.
 pub fn flow_substeps(
     f: &mut FlowPart,
-    solid: &SolidView,
+    opening: impl Fn(usize) -> f64,
     p: &RunParams,
     t0: f64,
     dt: f64,
@@ -127,11 +127,11 @@ pub fn flow_substeps(
     if let Some(c) = f.coupling.as_mut() {
         let r = match f.implicit.as_mut() {
             Some(solver) => c
-                .step_implicit(solid, &mut f.view, fp, specs, t0, dt, solver)
+                .step_implicit(opening, &mut f.view, fp, specs, t0, dt, solver)
                 .map_err(implicit_error)?,
             None => c
                 .step(
-                    solid,
+                    opening,
                     &mut f.view,
                     fp,
                     specs,

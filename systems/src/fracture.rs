@@ -545,6 +545,28 @@ pub fn contact(v: &mut SolidView, p: &JointParams) {
     }
 }
 
+/// `fluid_pressure` in 3D: joint k carries cell `joint_cell[k]` (u32::MAX: none) at pressure
+/// `pressure[cell]` (Pa): face q gets p A0 n (N; n the current unit normal of face p, A0 its
+/// reference area, `joint_area0_3d`), face p the opposite, a third to each node. Adds to
+/// `force`. Serial, fixed scatter order.
+pub fn fluid_pressure_3d(v: &mut SolidView<Tet4>, joint_cell: &[u32], pressure: &[f64]) {
+    for k in 0..v.joint_nodes.len() {
+        let c = joint_cell[k];
+        if c == u32::MAX || pressure[c as usize] == 0.0 {
+            continue;
+        }
+        let n = joint_frame_3d(v, k).n;
+        let f = pressure[c as usize] * hydrofrac_core::model3::joint_area0_3d(v, k) / 3.0;
+        let nodes = v.joint_nodes[k];
+        for (j, &i) in nodes.iter().enumerate() {
+            let sgn = if j < 3 { -f } else { f };
+            for d in 0..3 {
+                v.force[i as usize][d] += sgn * n[d];
+            }
+        }
+    }
+}
+
 /// `contact` in 3D: the 2D joint model ([`contact`]) on sister triangles. For each joint,
 /// the offsets of face q's centroid from face p's along p's normal and two tangents
 /// (`joint_frame_3d`). In contact (delta_n < 0): F_n = -K_n l delta_n; F_t (two components)

@@ -218,22 +218,42 @@ pub fn series_columns(solid: &SolidView, flow: Option<&FlowPart>, p: &RunParams)
         c.push("well_opening".into());
     }
     if let Some(f) = flow {
-        for b in &f.view.bcs {
-            let name = &p.bc_names[b.index];
-            c.push(format!("{name}_pressure"));
-            c.push(format!("{name}_rate"));
-        }
-        for n in [
-            "injected_volume",
-            "produced_volume",
-            "stored_volume",
-            "mass_balance_error",
-            "flow_residual",
-        ] {
-            c.push(n.into());
-        }
+        c.extend(flow_columns(f, p));
     }
     c
+}
+
+/// The flow's time-series columns: each boundary's pressure and rate, the volumes, the mass
+/// balance and the steady residual (2D and 3D scenes).
+pub fn flow_columns(f: &FlowPart, p: &RunParams) -> Vec<String> {
+    let mut c = Vec::new();
+    for b in &f.view.bcs {
+        let name = &p.bc_names[b.index];
+        c.push(format!("{name}_pressure"));
+        c.push(format!("{name}_rate"));
+    }
+    for n in [
+        "injected_volume",
+        "produced_volume",
+        "stored_volume",
+        "mass_balance_error",
+        "flow_residual",
+    ] {
+        c.push(n.into());
+    }
+    c
+}
+
+/// The values of [`flow_columns`] now.
+pub fn flow_values(f: &FlowPart, p: &RunParams) -> Vec<f64> {
+    let mut v = Vec::new();
+    for b in &f.view.bcs {
+        v.push(b.pressure);
+        v.push(b.rate);
+    }
+    let (inj, prod, stored, err) = f.balance(&p.fluid);
+    v.extend([inj, prod, stored, err, f.residual]);
+    v
 }
 
 /// Values of the time-series columns now.
@@ -256,12 +276,7 @@ pub fn series_values(scene: &Scene, flow: Option<&FlowPart>) -> Vec<f64> {
         v.push(well_opening(view, c.0, c.1));
     }
     if let Some(f) = flow {
-        for b in &f.view.bcs {
-            v.push(b.pressure);
-            v.push(b.rate);
-        }
-        let (inj, prod, stored, err) = f.balance(&scene.params.fluid);
-        v.extend([inj, prod, stored, err, f.residual]);
+        v.extend(flow_values(f, scene.params));
     }
     v
 }

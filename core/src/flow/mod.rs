@@ -14,6 +14,7 @@
 
 pub mod boundary;
 pub mod explicit;
+pub mod faces;
 pub mod implicit;
 pub mod steady;
 
@@ -186,6 +187,10 @@ pub struct BcView {
     pub cells: Vec<u32>,
     pub kappa: Vec<f64>,
     pub q_cells: Vec<f64>,
+    /// 3D only (empty in 2D): per connected cell its half-cell length l and width w, m
+    /// (`faces::node_connection`, `faces::cell_connection`); the connection is w times the 2D
+    /// half-cell form at l.
+    pub geom: Vec<[f64; 2]>,
     /// Scratch: the connected cells' pressures at the current step (no allocation per step).
     pub p_cells: Vec<f64>,
     /// Boundary pressure (Pa), total rate into the network (m^2/s), cumulative volumes (m^2).
@@ -213,8 +218,10 @@ pub struct FlowView {
     pub generation: u64,
     pub cell_entity: Vec<Entity>,
     pub cell_id: Vec<u64>,
-    /// Dense node indices of each cell's ends.
+    /// Dense node indices of each cell's ends (2D; empty in 3D).
     pub cell_nodes: Vec<[u32; 2]>,
+    /// 3D only (empty in 2D): each cell's triangle centroid in the reference geometry, m.
+    pub centroid: Vec<[f64; 3]>,
     pub node_entity: Vec<Entity>,
     /// Current node positions, m (for output).
     pub node_pos: Vec<[f64; 2]>,
@@ -223,6 +230,8 @@ pub struct FlowView {
     /// pressure of a full cell by 2 MPa).
     pub node_ref: Vec<[f64; 2]>,
     /// Length L (m), aperture a (m), volume a L (m^2), pressure (Pa), throughput (m^2/s).
+    /// In 3D a cell is a triangle and everything is per cell rather than per metre: `length`
+    /// holds its area A (m^2), the volume is a A (m^3), masses are kg and rates m^3/s.
     pub length: Vec<f64>,
     pub aperture: Vec<f64>,
     pub volume: Vec<f64>,
@@ -241,6 +250,11 @@ pub struct FlowView {
     pub pairs: Vec<[u32; 2]>,
     pub kappa: Vec<f64>,
     pub pair_q: Vec<f64>,
+    /// 3D only (empty in 2D): per pair the half-cell lengths l_i, l_j (twice the distance from
+    /// each triangle's centroid to the shared edge, m) and the edge's length w (m). The pair's
+    /// transmissibility is w times the 2D form at l_i, l_j (for `CellMean`
+    /// w / (12 mu (d_i / a_i^3 + d_j / a_j^3)), the cubic law over the two half-cells, m^3/(Pa s)).
+    pub pair_geom: Vec<[f64; 3]>,
     /// Cell -> (pair * 2 + side) incidence, CSR; side 0: the cell is the pair's first.
     pub inc_ptr: Vec<u32>,
     pub inc: Vec<u32>,
@@ -360,6 +374,7 @@ impl FlowView {
                 q_cells: vec![0.0; cells.len()],
                 p_cells: vec![0.0; cells.len()],
                 kappa: vec![0.0; cells.len()],
+                geom: Vec::new(),
                 cells,
                 pressure: b.pressure,
                 rate: b.rate,
@@ -384,11 +399,14 @@ impl FlowView {
         self.cell_entity.len()
     }
 
-    /// Lengths (reference positions) and volumes from the apertures.
+    /// Lengths (reference positions) and volumes from the apertures. A 3D view's areas are set
+    /// once when it is built.
     pub fn update_geometry(&mut self) {
         for c in 0..self.cell_nodes.len() {
             let [a, b] = self.cell_nodes[c].map(|n| self.node_ref[n as usize]);
             self.length[c] = (b[0] - a[0]).hypot(b[1] - a[1]);
+        }
+        for c in 0..self.length.len() {
             self.volume[c] = self.aperture[c] * self.length[c];
         }
     }
@@ -402,6 +420,14 @@ impl FlowView {
     /// The pairs' transmissibilities at the current apertures (see [`FlowView::update_kappa`]).
     pub fn update_pair_kappa(&mut self, p: &FlowParams) {
         self.kappa.resize(self.pairs.len(), 0.0);
+        if !self.pair_geom.is_empty() {
+            for (k, pr) in self.pairs.iter().enumerate() {
+                let (i, j) = (pr[0] as usize, pr[1] as usize);
+                let [li, lj, w] = self.pair_geom[k];
+                self.kappa[k] = w * p.pair_kappa(li, self.aperture[i], lj, self.aperture[j]);
+            }
+            return;
+        }
         for (k, pr) in self.pairs.iter().enumerate() {
             let (i, j) = (pr[0] as usize, pr[1] as usize);
             self.kappa[k] = p.pair_kappa(
@@ -417,8 +443,11 @@ impl FlowView {
     pub fn update_bc_kappa(&mut self, p: &FlowParams) {
         for b in &mut self.bcs {
             for (k, &c) in b.cells.iter().enumerate() {
-                b.kappa[k] =
-                    half_cell_kappa(self.length[c as usize], self.aperture[c as usize], p.mu);
+                let a = self.aperture[c as usize];
+                b.kappa[k] = match b.geom.get(k) {
+                    Some(&[l, w]) => w * half_cell_kappa(l, a, p.mu),
+                    None => half_cell_kappa(self.length[c as usize], a, p.mu),
+                };
             }
         }
     }
@@ -455,8 +484,14 @@ impl FlowView {
             .min_by(|a, b| a.1.total_cmp(&b.1))
     }
 
-    /// "cell ID at (x, y) m" for messages.
+    /// "cell ID at (x, y) m" (3D: (x, y, z)) for messages.
     pub fn cell_label(&self, c: usize) -> String {
+        if let Some(x) = self.centroid.get(c) {
+            return format!(
+                "cell {} at ({:.4}, {:.4}, {:.4}) m",
+                self.cell_id[c], x[0], x[1], x[2]
+            );
+        }
         let [a, b] = self.cell_nodes[c].map(|n| self.node_pos[n as usize]);
         format!(
             "cell {} at ({:.4}, {:.4}) m",

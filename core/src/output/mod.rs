@@ -402,18 +402,20 @@ impl Outputs {
     /// Write one ParaView frame of the 3D fracture surfaces, `frames/network_NNNNN.vtu` in
     /// `network.pvd` (the 2D network's files): one triangle per joint at face p's reference
     /// place, with the joint's opening delta_n and slip |delta_t| (m), its normal and shear
-    /// stress (compression positive, |F_t|; Pa: the force over A0), whether it slides, and
-    /// the face pressure `pressure` (Pa).
+    /// stress (compression positive, |F_t|; Pa: the force over A0), whether it slides, its
+    /// face pressure `pressure[k]` (Pa) and, with flow, its cell's hydraulic aperture
+    /// `aperture[k]` (m; no column when `aperture` is empty).
     pub fn write_fracture_3d(
         &mut self,
         v: &SolidView<crate::dim::Tet4>,
-        pressure: f64,
+        pressure: &[f64],
+        aperture: &[f64],
         time: f64,
     ) -> std::io::Result<()> {
         use crate::model3::{joint_area0_3d, joint_frame_3d};
         let nj = v.joint_nodes.len();
         let mut points = Vec::with_capacity(3 * nj);
-        let mut cols: [Vec<f64>; 6] = Default::default();
+        let mut cols: [Vec<f64>; 7] = Default::default();
         for k in 0..nj {
             for a in 0..3 {
                 points.push(v.x0[v.joint_nodes[k][a] as usize]);
@@ -427,7 +429,8 @@ impl Outputs {
                 st.normal_force / a0,
                 st.shear_force[0].hypot(st.shear_force[1]) / a0,
                 f64::from(u8::from(st.sliding)),
-                pressure,
+                pressure[k],
+                aperture.get(k).copied().unwrap_or(0.0),
             ];
             for (c, x) in cols.iter_mut().zip(row) {
                 c.push(x);
@@ -441,8 +444,11 @@ impl Outputs {
             "joint_shear_stress",
             "sliding",
             "pressure",
+            "aperture",
         ];
-        let cell_data = names
+        // The hydraulic aperture only with flow.
+        let shown = if aperture.is_empty() { 6 } else { 7 };
+        let cell_data = names[..shown]
             .iter()
             .zip(&cols)
             .map(|(n, c)| arr(n, 1, &c[..]))

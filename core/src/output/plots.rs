@@ -96,9 +96,8 @@ fn network_figures(v: &FlowView, p: &RunParams, time: f64, dir: &Folder) -> anyh
         .iter()
         .zip(&names)
         .map(|(b, name)| {
-            let pos = match p.flow_boundaries[b.index].at {
-                crate::scenario::FlowTarget::Node(p) | crate::scenario::FlowTarget::Cell(p) => p,
-            };
+            let at = p.flow_boundaries[b.index].at.point();
+            let pos = [at[0], at[1]];
             (pos, *name)
         })
         .collect();

@@ -114,6 +114,26 @@ pub enum FlowTarget {
     Node([f64; 2]),
     /// The cell whose centre is nearest to this point, m: it connects through half its length.
     Cell([f64; 2]),
+    /// 3D: the fracture node nearest to this point, m: every fracture triangle with a corner
+    /// there connects to the boundary (see `FlowView::build_3d`). Rates are m^3/s.
+    Node3([f64; 3]),
+    /// 3D: the fracture triangle whose centroid is nearest to this point, m.
+    Cell3([f64; 3]),
+}
+
+impl FlowTarget {
+    /// The point, m (two or three coordinates).
+    pub fn point(&self) -> &[f64] {
+        match self {
+            FlowTarget::Node(p) | FlowTarget::Cell(p) => p,
+            FlowTarget::Node3(p) | FlowTarget::Cell3(p) => p,
+        }
+    }
+
+    /// Whether the point has three coordinates.
+    pub fn is_3d(&self) -> bool {
+        matches!(self, FlowTarget::Node3(_) | FlowTarget::Cell3(_))
+    }
 }
 
 /// What a flow boundary imposes.
@@ -198,9 +218,9 @@ impl FlowBoundary {
     /// Finite position and value, a pump's positive parameters, a valid schedule; errors name
     /// `field.<field>` (`field`: `flow_boundaries[i]`).
     fn validate(&self, field: &str) -> Result<(), SetupError> {
-        let (FlowTarget::Node(p) | FlowTarget::Cell(p)) = self.at;
-        finite(&format!("{field}.at"), p[0])?;
-        finite(&format!("{field}.at"), p[1])?;
+        for &x in self.at.point() {
+            finite(&format!("{field}.at"), x)?;
+        }
         match self.kind {
             FlowBcKind::Rate(v) => finite(&format!("{field}.kind"), v)?,
             FlowBcKind::Pressure(v) => {

@@ -321,7 +321,10 @@ impl Scenario {
     fn has_rock_fractures(&self) -> bool {
         self.mesh.is_some()
             && self.fracture.as_ref().is_some_and(|f| {
-                !f.preexisting.is_empty() || f.random.is_some() || f.file.is_some()
+                !f.preexisting.is_empty()
+                    || f.random.is_some()
+                    || f.file.is_some()
+                    || !f.discs.is_empty()
             })
     }
 
@@ -419,6 +422,12 @@ impl Scenario {
                     "discs are 3D fractures: this mesh is 2D (use `preexisting` segments)",
                 ));
             }
+            if let Some(i) = self.flow_boundaries.iter().position(|b| b.at.is_3d()) {
+                return Err(SetupError::invalid(
+                    &format!("flow_boundaries[{i}].at"),
+                    "Node3 and Cell3 are 3D points: this mesh is 2D (use Node or Cell)",
+                ));
+            }
             return Ok(());
         }
         let not_yet = |field: &str, what: &str| {
@@ -451,8 +460,28 @@ impl Scenario {
                 ));
             }
         }
-        if !self.flow_boundaries.is_empty() {
-            return not_yet("flow_boundaries", "fluid flow");
+        if let Some(i) = self.flow_boundaries.iter().position(|b| !b.at.is_3d()) {
+            return Err(SetupError::invalid(
+                &format!("flow_boundaries[{i}].at"),
+                "a 3D scene places flow boundaries at 3D points: `Node3((x, y, z))` or \
+                 `Cell3((x, y, z))`",
+            ));
+        }
+        if !self.flow_boundaries.is_empty()
+            && self.fracture.as_ref().is_some_and(|f| f.pressure.is_some())
+        {
+            return Err(SetupError::invalid(
+                "fracture.pressure",
+                "with flow boundaries the fluid in the fracture sets its face pressure: leave \
+                 out the prescribed pressure",
+            ));
+        }
+        if !self.flow_boundaries.is_empty() && self.time.solid_scheme == SolidScheme::QuasiStatic {
+            return not_yet(
+                "time.solid_scheme",
+                "the quasi-static rock coupled to fracture flow (use the explicit rock, the \
+                 seed's scheme)",
+            );
         }
         if self.production.is_some() {
             return not_yet("production", "the production stage");
