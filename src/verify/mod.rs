@@ -15,6 +15,7 @@ pub mod contact_cases;
 pub mod coupled_cases;
 pub mod example_cases;
 pub mod extreme_cases;
+pub mod flow3d_cases;
 pub mod flow_cases;
 pub mod fracture_cases;
 pub mod heat_continuum_cases;
@@ -211,6 +212,11 @@ pub fn cases() -> Vec<Case> {
             name: "penny",
             about: "3D engine: scenarios/penny.ron (a quarter penny crack opened by node splitting, front on the circle), R/h = 4 to 16, quasi-static and explicit side by side: opened volume and centre opening (first order)",
             run: solid3d_cases::penny_engine,
+        },
+        Case {
+            name: "radial3d",
+            about: "3D flow: constant-rate injection into a rigid disc fracture (a quarter, one cell per triangle) against the line source p = Q E1(r^2/4Dt) / (4 pi T), 10 to 40 cells per radius: pressure L2 error, mass balance",
+            run: flow3d_cases::radial3d,
         },
         Case {
             name: "penny3d",

@@ -76,17 +76,56 @@ pub fn triangle_cells(nodes: &[[f64; 3]], tris: &[[u32; 3]]) -> TriangleCells {
     for (e, cells) in edges {
         let (xa, xb) = (nodes[e[0] as usize], nodes[e[1] as usize]);
         let w = norm(sub(xb, xa));
-        // A triangle's centroid lies a third of its height from each edge: d = 2 A / (3 w).
-        let l = |c: u32| 2.0 * 2.0 * out.area[c as usize] / (3.0 * w);
+        // Signed distance from cell c's circumcentre to the edge's line, positive on the
+        // cell's side, and its centroid's distance (a third of the height: 2 A / (3 w)).
+        let d_circ = |c: u32| {
+            let t = tris[c as usize];
+            let third = *t
+                .iter()
+                .find(|&&n| n != e[0] && n != e[1])
+                .expect("triangle");
+            let x = t.map(|n| nodes[n as usize]);
+            let cc = circumcentre(x);
+            let along = sub(xb, xa).map(|v| v / w);
+            let to3 = sub(nodes[third as usize], xa);
+            let k = crate::tet4::dot(to3, along);
+            let n = sub(to3, along.map(|v| k * v));
+            let nn = norm(n);
+            crate::tet4::dot(sub(cc, xa), n.map(|v| v / nn))
+        };
+        let d_cent = |c: u32| 2.0 * out.area[c as usize] / (3.0 * w);
         for a in 0..cells.len() {
             for b in a + 1..cells.len() {
                 let (i, j) = (cells[a], cells[b]);
+                let (ci, cj) = (d_circ(i), d_circ(j));
+                // Circumcentres a fifth of the centroids' spacing apart or more: the
+                // orthogonal (Voronoi) two-point flux, consistent for any gradient. Closer (the
+                // two halves of a square share their circumcentre): both sample the same
+                // point, so the centroids' distances give a finite coupling that a linear
+                // pressure field does not see.
+                let [li, lj] = if ci + cj > 0.2 * (d_cent(i) + d_cent(j)) {
+                    [2.0 * ci.max(0.0), 2.0 * cj.max(0.0)]
+                } else {
+                    [2.0 * d_cent(i), 2.0 * d_cent(j)]
+                };
                 out.pairs.push([i, j]);
-                out.pair_geom.push([l(i), l(j), w]);
+                out.pair_geom.push([li, lj, w]);
             }
         }
     }
     out
+}
+
+/// The circumcentre of a triangle in space, m.
+pub fn circumcentre(x: [[f64; 3]; 3]) -> [f64; 3] {
+    use crate::tet4::{cross, dot};
+    let (a, b) = (sub(x[1], x[0]), sub(x[2], x[0]));
+    let n = cross(a, b);
+    let nn = dot(n, n);
+    // x0 + (|a|^2 (b x n) + |b|^2 (n x a)) / (2 |n|^2).
+    let (bn, na) = (cross(b, n), cross(n, a));
+    let (aa, bb) = (dot(a, a), dot(b, b));
+    std::array::from_fn(|d| x[0][d] + (aa * bn[d] + bb * na[d]) / (2.0 * nn))
 }
 
 /// A boundary at a node `x` (m) joined to a triangle of area `area` (m^2) with its centroid
@@ -276,6 +315,23 @@ mod tests {
         for (got, want) in g.pair_geom[0].iter().zip([s2 / 3.0, s2 / 3.0, s2]) {
             assert!((got - want).abs() < 1e-15, "{got} vs {want}");
         }
+        // Two squares side by side, each split along its diagonal: across their shared side
+        // x = 1 the circumcentres (0.5, 0.5) and (1.5, 0.5) are half a metre from it each
+        // (the orthogonal two-point flux), not the centroids' third.
+        let two = [
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [1.0, 1.0, 0.0],
+            [2.0, 0.0, 0.0],
+            [2.0, 1.0, 0.0],
+        ];
+        let g2 = triangle_cells(&two, &[[0, 1, 2], [1, 3, 4], [1, 4, 2]]);
+        let k = g2
+            .pairs
+            .iter()
+            .position(|p| *p == [0, 2])
+            .expect("pair across x = 1");
+        assert_eq!(g2.pair_geom[k], [1.0, 1.0, 1.0]);
         let g = triangle_cells(&nodes, &[[0, 1, 2], [0, 2, 3], [0, 2, 4]]);
         assert_eq!(g.pairs, vec![[0, 1], [0, 2], [1, 2]]);
         // A node boundary at the corner (0, 0, 0) of the first triangle: its centroid at
