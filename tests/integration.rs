@@ -18,6 +18,7 @@ mod determinism;
 mod doc_links;
 mod example1;
 mod example2;
+mod flow3d;
 mod flow_implicit;
 mod flow_scenarios;
 mod flow_substep_bound;

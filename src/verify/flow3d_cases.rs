@@ -195,6 +195,160 @@ pub fn radial3d(quick: bool) -> anyhow::Result<CaseResult> {
     Ok(res)
 }
 
+/// A 3D scenario run to its end: the simulation and the wall time, s.
+fn run(text: &str) -> anyhow::Result<(crate::sim::Simulation<crate::dim::Tet4>, f64)> {
+    let t0 = std::time::Instant::now();
+    let sc = crate::scenario::Scenario::parse(text, "penny_flow")?.validate()?;
+    let mut sim = crate::sim::Simulation::new_3d(sc, &[])?;
+    sim.run(|_| {})?;
+    Ok((sim, t0.elapsed().as_secs_f64()))
+}
+
+/// `hydrofrac verify penny_flow`: `scenarios/penny_injection.ron` (water pumped into the
+/// quarter penny, then the well shut) run on to rest with local damping 0.8, against the
+/// static answer on the same mesh. At rest the fluid's pressure p is uniform and the rock is
+/// the static penny under p: each joint opens p delta1_k, delta1_k its opening under 1 MPa from
+/// the quasi-static solve of the same mesh (`fracture.pressure`, no flow), and the fluid mass
+/// fills the cells, (1 + p / K) sum A_k max(p delta1_k, a_r) = V0 + V_injected (volumes at
+/// the reference density). Errors: the rest pressure (area-weighted mean of the cells) against
+/// that equation's root, the cells' pressure spread, the opened volume against p times the
+/// static one. It checks the coupling (apertures from the joints, pressures on the faces,
+/// the fluid's mass), not the mesh: both sides share the penny's discretisation error
+/// (`verify penny`). R/h = 4 (quick) and 6.
+pub fn penny_flow(quick: bool) -> anyhow::Result<CaseResult> {
+    let base = include_str!("../../scenarios/penny_injection.ron");
+    let levels: &[f64] = if quick { &[4.0] } else { &[4.0, 6.0] };
+    let mut res = CaseResult::default();
+    let mut csv = String::from(
+        "cells_per_radius,joints,steps,rest_pressure,predicted_pressure,pressure_error,spread,volume_error,wall_s\n",
+    );
+    for (level, &c) in levels.iter().enumerate() {
+        let h = 1.0 / c;
+        let flow_text = base
+            .replace("h: 0.25,", &format!("h: {h},"))
+            .replace("damping: Local(0.1)", "damping: Local(0.8)")
+            .replace("end: Time(0.03)", "end: Time(0.07)")
+            .replace(
+                "frame_every: 2000, series_every: 50",
+                "frame_every: 0, series_every: 100000",
+            );
+        let (sim, wall) = run(&flow_text)?;
+        let f = sim.flow().expect("flow");
+        let fp = sim.params().fluid;
+        let a_r = sim.params().residual_aperture;
+        let v = &f.view;
+        let area: f64 = v.length.iter().sum();
+        let p_rest: f64 = (0..v.n_cells())
+            .map(|k| v.length[k] * v.pressure[k])
+            .sum::<f64>()
+            / area;
+        let (pmin, pmax) = v
+            .pressure
+            .iter()
+            .fold((f64::INFINITY, 0.0f64), |(a, b), &p| (a.min(p), b.max(p)));
+        let spread = (pmax - pmin) / p_rest;
+        // The fluid held, at reference density (m^3): V0 + V_injected.
+        let held = v.stored_volume(&fp);
+        // The static penny under 1 MPa on the same mesh.
+        let static_text = flow_text
+            .replace(
+                "residual_aperture: 1e-4,",
+                "residual_aperture: 1e-4, pressure: 1e6,",
+            )
+            .replace(
+                "end: Time(0.07)",
+                "end: Static(tol: 1e-10), solid_scheme: QuasiStatic, max_steps: 10",
+            )
+            .replace("damping: Local(0.8),", "");
+        // Without the fluid: from `initial_fluid` to `time` out.
+        let (a, b) = (
+            static_text
+                .find("    initial_fluid")
+                .expect("initial_fluid"),
+            static_text.find("    time:").expect("time"),
+        );
+        let static_text = format!("{}{}", &static_text[..a], &static_text[b..]);
+        let (stat, _) = run(&static_text)?;
+        let sv = stat.solid();
+        let nj = sv.joint_nodes.len();
+        let d1: Vec<f64> = (0..nj)
+            .map(|k| crate::model3::joint_frame_3d(sv, k).dn / 1e6)
+            .collect();
+        let a0: Vec<f64> = (0..nj)
+            .map(|k| crate::model3::joint_area0_3d(sv, k))
+            .collect();
+        let fill = |p: f64| {
+            (1.0 + p / fp.k) * (0..nj).map(|k| a0[k] * (p * d1[k]).max(a_r)).sum::<f64>() - held
+        };
+        let (mut lo, mut hi) = (0.0, 1e9);
+        for _ in 0..200 {
+            let mid = 0.5 * (lo + hi);
+            if fill(mid) > 0.0 {
+                hi = mid;
+            } else {
+                lo = mid;
+            }
+        }
+        let p_pred = 0.5 * (lo + hi);
+        let ep = p_rest / p_pred - 1.0;
+        let sol = sim.solid();
+        let opened: f64 = (0..nj)
+            .map(|k| {
+                crate::model3::joint_area0_3d(sol, k) * crate::model3::joint_frame_3d(sol, k).dn
+            })
+            .sum();
+        let opened_static: f64 = (0..nj).map(|k| a0[k] * d1[k] * p_rest).sum();
+        let ev = opened / opened_static - 1.0;
+        res.rows.push(Row {
+            case: "penny_flow",
+            level,
+            h,
+            unknowns: 3 * sol.n_nodes() + v.n_cells(),
+            metric: "rest_pressure".into(),
+            error: ep.abs(),
+            wall_s: wall,
+        });
+        csv.push_str(&format!(
+            "{c},{nj},{},{p_rest:.6e},{p_pred:.6e},{ep:.4e},{spread:.3e},{ev:.4e},{wall:.2}\n",
+            sim.step()
+        ));
+        res.notes.push(format!(
+            "R/h = {c}: rest pressure {:.4} MPa against {:.4} MPa from the static compliance \
+             ({:+.3} %), spread {:.1e}, opened volume {:+.3} % against p times the static one; \
+             {} steps, {wall:.1} s",
+            p_rest / 1e6,
+            p_pred / 1e6,
+            100.0 * ep,
+            spread,
+            100.0 * ev,
+            sim.step()
+        ));
+        let (inj, _, _, balance) = f.balance(&fp);
+        res.check_max(format!("mass balance at R/h = {c}"), balance, 1e-12);
+        res.check_range(
+            format!("injected volume at R/h = {c} (m^3)"),
+            inj,
+            0.99999e-5 * 2.0,
+            1.00001e-5 * 2.0,
+        );
+        // Measured 3.0e-5, 4.4e-5 and 3.3e-5 at R/h = 4 (the relaxation's residual and the
+        // current normal of the fluid's load against the static load's reference one).
+        res.check_max(
+            format!("|rest pressure error| at R/h = {c}"),
+            ep.abs(),
+            5e-4,
+        );
+        res.check_max(format!("pressure spread at rest, R/h = {c}"), spread, 5e-4);
+        res.check_max(
+            format!("|opened volume error| at R/h = {c}"),
+            ev.abs(),
+            5e-4,
+        );
+    }
+    res.files.push(("penny_flow.csv".into(), csv));
+    Ok(res)
+}
+
 #[cfg(test)]
 mod tests {
     /// E1 against tabulated values (Abramowitz and Stegun, table 5.1): E1(0.1) =

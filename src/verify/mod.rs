@@ -219,6 +219,11 @@ pub fn cases() -> Vec<Case> {
             run: flow3d_cases::radial3d,
         },
         Case {
+            name: "penny_flow",
+            about: "3D coupled: scenarios/penny_injection.ron (water pumped into the quarter penny, explicit TET4 and flow on the triangles) at rest against the static penny on the same mesh: rest pressure from the fluid's mass, pressure spread, opened volume, R/h = 4 and 6",
+            run: flow3d_cases::penny_flow,
+        },
+        Case {
             name: "penny3d",
             about: "3D: Sneddon's penny-shaped crack under pressure, TET4 on a graded box (static, faer Cholesky), a/h = 4 to 20: centre opening, opened volume (2.5 % at 20)",
             run: solid3d_cases::penny3d,

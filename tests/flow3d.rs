@@ -1,0 +1,174 @@
+//! Flow on 3D fracture surfaces (issue 38, item 5): one cell per disc triangle, the cubic law
+//! across shared edges, compressible water, rate boundaries at 3D points, the explicit coupling
+//! with the TET4 rock.
+//! - radial injection into a rigid disc against the line-source solution, first order in h,
+//!   mass conserved to round-off (`hydrofrac verify radial3d`, quick);
+//! - the pumped penny at rest against the static penny of the same mesh: the pressure its
+//!   fluid mass and the mesh's compliance give, uniform, the opened volume
+//!   (`hydrofrac verify penny_flow`, quick);
+//! - `scenarios/penny_injection.ron` as shipped (shortened): the injected volume, the mass
+//!   balance, the well's series columns, the fracture frames' pressure and aperture, a restart
+//!   from a checkpoint bit for bit, the same bits on one and two threads;
+//! - flow boundaries of the wrong dimension or off the fracture, the quasi-static rock with
+//!   flow and a prescribed pressure beside the fluid's are refused by field.
+
+use crate::support_cli as cli;
+use crate::support_vtu as vtu;
+
+fn assert_passed(name: &str, r: &hydrofrac::verify::CaseResult) {
+    for c in &r.checks {
+        assert!(c.pass, "{name}: {} = {:e} ({})", c.what, c.value, c.limit);
+    }
+    assert!(!r.checks.is_empty());
+}
+
+#[test]
+fn radial_flow_in_a_rigid_disc_converges_to_the_line_source() {
+    let r = hydrofrac::verify::flow3d_cases::radial3d(true).unwrap();
+    assert_passed("radial3d", &r);
+    assert_eq!(r.rows.len(), 2);
+    // The error halves with h (first order): 8.9 and 4.5 % measured.
+    assert!(r.rows[1].error < 0.6 * r.rows[0].error, "{:?}", r.rows);
+}
+
+#[test]
+fn the_pumped_penny_rests_at_the_pressure_of_its_fluid_mass_and_compliance() {
+    let r = hydrofrac::verify::flow3d_cases::penny_flow(true).unwrap();
+    assert_passed("penny_flow", &r);
+}
+
+/// `penny_injection.ron` to `end` s with extra `--set`s.
+fn injection(name: &str, end: f64, sets: &[&str]) -> (std::path::PathBuf, serde_json::Value) {
+    let out = cli::tmp(name);
+    let e = format!("time.end=Time({end})");
+    let mut extra = vec!["--set", &e];
+    for s in sets {
+        extra.push("--set");
+        extra.push(s);
+    }
+    let s = cli::run_ok(cli::scenario("penny_injection.ron"), &out, &extra);
+    assert_eq!(s["status"], "ok", "{s}");
+    (out, s)
+}
+
+#[test]
+fn the_shipped_injection_keeps_its_mass_and_writes_pressure_and_aperture() {
+    let (out, s) = injection("pumped", 0.004, &["output.frame_every=300"]);
+    let f = &s["flow"];
+    assert_eq!(f["cells"], 32);
+    // 1e-3 m^3/s for 0.004 s (the schedule's factor is 1 up to 0.02 s).
+    let inj = f["injected_volume"].as_f64().unwrap();
+    assert!((inj / 4e-6 - 1.0).abs() < 1e-9, "{inj}");
+    assert!(f["mass_balance_error"].as_f64().unwrap() < 1e-12, "{f}");
+    assert!(
+        f["boundaries"][0]["pressure"].as_f64().unwrap() > 1e5,
+        "{f}"
+    );
+    assert!(s["fracture"]["opened_volume"].as_f64().unwrap() > 0.0);
+    let series = std::fs::read_to_string(out.join("timeseries.csv")).unwrap();
+    let head = series.lines().next().unwrap();
+    for col in [
+        "well_pressure",
+        "well_rate",
+        "injected_volume",
+        "mass_balance_error",
+    ] {
+        assert!(head.split(',').any(|c| c == col), "{col} in {head}");
+    }
+    let frames = vtu::read_pvd(&out.join("network.pvd")).unwrap();
+    let last = vtu::read_vtu(&out.join(&frames.last().unwrap().1)).unwrap();
+    let p = last.cell_array("pressure").expect("pressure");
+    let a = last.cell_array("aperture").expect("aperture");
+    assert_eq!((p.len(), a.len()), (32, 32));
+    assert!(p.iter().all(|x| x.is_finite() && *x >= 0.0) && p.iter().any(|x| *x > 1e5));
+    // The hydraulic aperture is max(opening, a_r), a_r = 1e-4 m.
+    assert!(a.iter().all(|x| *x >= 1e-4), "{a:?}");
+}
+
+#[test]
+fn the_injection_restarts_bit_for_bit_and_gives_the_same_bits_on_one_thread() {
+    let (whole, a) = injection("whole", 0.004, &["output.checkpoint_every=Steps(300)"]);
+    let ckpt = whole.join("checkpoint.ckpt");
+    let c = ckpt.to_str().unwrap().to_string();
+    let part = cli::tmp("part");
+    let b = cli::run_ok(
+        cli::scenario("penny_injection.ron"),
+        &part,
+        &["--set", "time.end=Time(0.004)", "--restart", &c],
+    );
+    assert_eq!(b["restarted_from"]["bit_identical"], true, "{b}");
+    for key in [
+        "injected_volume",
+        "stored_volume_change",
+        "mass_balance_error",
+    ] {
+        assert_eq!(a["flow"][key], b["flow"][key], "{key}");
+    }
+    assert_eq!(
+        a["fracture"]["opened_volume"],
+        b["fracture"]["opened_volume"]
+    );
+    // One thread against the machine's (two in CI): the same summary figures to the bit.
+    let one = cli::tmp("one");
+    let o = cli::bin()
+        .env("RAYON_NUM_THREADS", "1")
+        .args([
+            "run",
+            &cli::scenario("penny_injection.ron"),
+            "--quiet",
+            "--out",
+        ])
+        .arg(&one)
+        .args(["--set", "time.end=Time(0.004)"])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let t: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(one.join("summary.json")).unwrap()).unwrap();
+    for key in ["injected_volume", "stored_volume_change"] {
+        assert_eq!(a["flow"][key], t["flow"][key], "{key}");
+    }
+    assert_eq!(
+        a["fracture"]["opened_volume"],
+        t["fracture"]["opened_volume"]
+    );
+}
+
+#[test]
+fn flow_boundaries_of_the_wrong_dimension_or_off_the_fracture_are_refused_by_field() {
+    let dir = cli::tmp("refused");
+    std::fs::create_dir_all(&dir).unwrap();
+    let pumped = std::fs::read_to_string(cli::scenario("penny_injection.ron")).unwrap();
+    let cases: Vec<(String, &[&str])> = vec![
+        (
+            pumped.replace("Node3((0.0, 0.0, 0.0))", "Node((0.0, 0.0))"),
+            &["flow_boundaries[0].at", "Node3"],
+        ),
+        (
+            pumped.replace("Node3((0.0, 0.0, 0.0))", "Node3((3.0, 3.0, 0.0))"),
+            &["flow_boundaries[0].at", "nearest fracture node"],
+        ),
+        (
+            pumped.replace("time: (end:", "time: (solid_scheme: QuasiStatic, end:"),
+            &["time.solid_scheme", "quasi-static"],
+        ),
+        (
+            pumped.replace(
+                "residual_aperture: 1e-4,",
+                "residual_aperture: 1e-4, pressure: 1e6,",
+            ),
+            &["fracture.pressure", "fluid"],
+        ),
+        (
+            "(name: \"flat\", mesh: Regular(width: 4.0, height: 4.0, h: 1.0),
+              material: (young: 2e10, poisson: 0.2, density: 2700.0),
+              boundary: Sides(bottom: Fixed),
+              fracture: Some((preexisting: [(from: (1.0, 2.0), to: (3.0, 2.0))])),
+              flow_boundaries: [(at: Node3((2.0, 2.0, 0.0)), kind: Rate(1e-4))],
+              time: (end: Time(0.01)))"
+                .to_string(),
+            &["flow_boundaries[0].at", "2D"],
+        ),
+    ];
+    cli::assert_all_refused(&dir, &cases);
+}
