@@ -67,6 +67,12 @@ pub fn run_scenario_3d(
             json!({"file": path, "step": step, "time": time, "bit_identical": exact});
     }
     summary["output_estimate_bytes"] = json!(disk);
+    if let (Some(f), Some(o)) = (sim.flow(), sim.output())
+        && let Err(e) =
+            crate::output::plots::flow_figures(&f.view, sim.params(), sim.time(), o.folder())
+    {
+        summary["warnings"] = json!([format!("figures not written: {e}")]);
+    }
     crate::output::json::finite_summary(&mut summary);
     let o = sim.output().expect("outputs set");
     let path = o.claim("summary.json").map_err(DriverError::Output)?;

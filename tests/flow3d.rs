@@ -83,6 +83,46 @@ fn the_shipped_injection_keeps_its_mass_and_writes_pressure_and_aperture() {
     assert!(p.iter().all(|x| x.is_finite() && *x >= 0.0) && p.iter().any(|x| *x > 1e5));
     // The hydraulic aperture is max(opening, a_r), a_r = 1e-4 m.
     assert!(a.iter().all(|x| *x >= 1e-4), "{a:?}");
+    // The aperture and pressure maps and the well's curves, as PNG.
+    for png in [
+        "fracture_aperture.png",
+        "fracture_pressure.png",
+        "boundary_pressure.png",
+        "boundary_rate.png",
+    ] {
+        let bytes = std::fs::read(out.join(png)).unwrap();
+        assert_eq!(&bytes[1..4], b"PNG", "{png}");
+    }
+}
+
+#[test]
+fn a_pump_and_the_implicit_flow_step_drive_the_penny_too() {
+    // The pump's operating point lies on its curve q = q_half tan(pi/2 (1 - p / p_max)).
+    let dir = cli::tmp_dir("pump");
+    let text = std::fs::read_to_string(cli::scenario("penny_injection.ron"))
+        .unwrap()
+        .replace("kind: Rate(1e-3)", "kind: Pump(p_max: 5e6, q_half: 1e-3)");
+    let path = dir.join("pump.ron");
+    std::fs::write(&path, text).unwrap();
+    let s = cli::run_ok(&path, &dir.join("out"), &["--set", "time.end=Time(0.004)"]);
+    let b = &s["flow"]["boundaries"][0];
+    let (p, q) = (b["pressure"].as_f64().unwrap(), b["rate"].as_f64().unwrap());
+    let on_curve = 1e-3 * (std::f64::consts::FRAC_PI_2 * (1.0 - p / 5e6)).tan();
+    assert!(
+        p > 1e6 && (q / on_curve - 1.0).abs() < 1e-6,
+        "p {p}, q {q} vs {on_curve}"
+    );
+    assert!(s["flow"]["mass_balance_error"].as_f64().unwrap() < 1e-12);
+    // One backward-Euler flow step per solid step instead of the sub-steps.
+    let (_, s) = injection("implicit", 0.004, &["time.flow_scheme=Implicit"]);
+    assert_eq!(s["flow"]["scheme"], "implicit");
+    assert!(
+        s["flow"]["mass_balance_error"].as_f64().unwrap() < 1e-12,
+        "{}",
+        s["flow"]
+    );
+    let inj = s["flow"]["injected_volume"].as_f64().unwrap();
+    assert!((inj / 4e-6 - 1.0).abs() < 1e-9, "{inj}");
 }
 
 #[test]

@@ -207,6 +207,11 @@ impl FlowView {
             cell_entity: tc.cell_entity.clone(),
             cell_id: tc.cell_id.clone(),
             centroid: geo.centroid,
+            corners: tc
+                .tris
+                .iter()
+                .map(|t| t.map(|n| tc.nodes[n as usize]))
+                .collect(),
             length: geo.area,
             pairs: geo.pairs,
             pair_geom: geo.pair_geom,

@@ -222,6 +222,8 @@ pub struct FlowView {
     pub cell_nodes: Vec<[u32; 2]>,
     /// 3D only (empty in 2D): each cell's triangle centroid in the reference geometry, m.
     pub centroid: Vec<[f64; 3]>,
+    /// 3D only (empty in 2D): each cell's triangle corners in the reference geometry, m.
+    pub corners: Vec<[[f64; 3]; 3]>,
     pub node_entity: Vec<Entity>,
     /// Current node positions, m (for output).
     pub node_pos: Vec<[f64; 2]>,

@@ -10,8 +10,99 @@ use std::path::Path;
 
 /// `network_pressure.png`, `network_flow.png` and `boundaries.png` for a scene with a network.
 pub fn flow_figures(v: &FlowView, p: &RunParams, time: f64, dir: &Folder) -> anyhow::Result<()> {
-    network_figures(v, p, time, dir)?;
-    // Boundary pressures and rates from the time series.
+    if v.corners.is_empty() {
+        network_figures(v, p, time, dir)?;
+    } else {
+        surface_figures(v, p, time, dir)?;
+    }
+    boundary_figures(v, p, dir)
+}
+
+/// 3D: `fracture_aperture.png` and `fracture_pressure.png`, the fracture triangles seen along
+/// their area-weighted mean normal (each triangle's normal turned to one side first; for one
+/// planar disc, the disc itself), coloured by the hydraulic aperture (mm) and the fluid
+/// pressure (MPa), boundaries marked.
+fn surface_figures(v: &FlowView, p: &RunParams, time: f64, dir: &Folder) -> anyhow::Result<()> {
+    use crate::tet4::{cross, dot, norm, sub};
+    let mut n = [0.0; 3];
+    for c in &v.corners {
+        let mut m = cross(sub(c[1], c[0]), sub(c[2], c[0]));
+        let big = (0..3)
+            .max_by(|&a, &b| m[a].abs().total_cmp(&m[b].abs()))
+            .unwrap_or(2);
+        if m[big] < 0.0 {
+            m = m.map(|x| -x);
+        }
+        (0..3).for_each(|d| n[d] += m[d]);
+    }
+    let nn = norm(n);
+    let n = if nn > 0.0 {
+        n.map(|x| x / nn)
+    } else {
+        [0.0, 0.0, 1.0]
+    };
+    // In-plane axes: the world axis least along n, made orthogonal to it, and n x e1.
+    let k = (0..3)
+        .min_by(|&a, &b| n[a].abs().total_cmp(&n[b].abs()))
+        .unwrap_or(0);
+    let mut e1 = [0.0; 3];
+    e1[k] = 1.0;
+    let e1 = sub(e1, n.map(|x| x * n[k]));
+    let e1 = e1.map(|x| x / norm(e1));
+    let e2 = cross(n, e1);
+    let to2 = |x: [f64; 3]| [dot(x, e1), dot(x, e2)];
+    let quads: Vec<[[f64; 2]; 4]> = v
+        .corners
+        .iter()
+        .map(|c| [to2(c[0]), to2(c[1]), to2(c[2]), to2(c[2])])
+        .collect();
+    let names: Vec<&str> = v.bcs.iter().map(|b| p.bc_names[b.index].as_str()).collect();
+    let markers: Vec<([f64; 2], &str)> = v
+        .bcs
+        .iter()
+        .zip(&names)
+        .map(|(b, name)| {
+            let at = p.flow_boundaries[b.index].at.point();
+            (
+                to2([at[0], at[1], at.get(2).copied().unwrap_or(0.0)]),
+                *name,
+            )
+        })
+        .collect();
+    let mm: Vec<f64> = v.aperture.iter().map(|a| a * 1e3).collect();
+    let mpa: Vec<f64> = v.pressure.iter().map(|p| p / 1e6).collect();
+    let t = time;
+    for (file, what, values, label) in [
+        (
+            "fracture_aperture.png",
+            "hydraulic aperture",
+            &mm,
+            "aperture [mm]",
+        ),
+        (
+            "fracture_pressure.png",
+            "fluid pressure",
+            &mpa,
+            "pressure [MPa]",
+        ),
+    ] {
+        fracture_map(
+            &dir.claim(file)?,
+            &format!("{}: {what} at t = {t:.4e} s", p.name),
+            &[],
+            &quads,
+            values,
+            label,
+            None,
+            &markers,
+        )?;
+    }
+    Ok(())
+}
+
+/// `boundary_pressure.png` and `boundary_rate.png`: each boundary's pressure and rate against
+/// time, from the time series.
+fn boundary_figures(v: &FlowView, p: &RunParams, dir: &Folder) -> anyhow::Result<()> {
     let text = std::fs::read_to_string(dir.dir.join("timeseries.csv"))?;
     let mut rows = text.lines();
     let header: Vec<&str> = rows.next().unwrap_or("").split(',').collect();
@@ -53,7 +144,11 @@ pub fn flow_figures(v: &FlowView, p: &RunParams, time: f64, dir: &Folder) -> any
             &dir.claim("boundary_rate.png")?,
             "Boundary rate into the network",
             "time [s]",
-            "rate [m^2/s]",
+            if v.corners.is_empty() {
+                "rate [m^2/s]"
+            } else {
+                "rate [m^3/s]"
+            },
             &rate,
         )?;
     }
