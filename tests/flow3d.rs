@@ -174,6 +174,57 @@ fn the_injection_restarts_bit_for_bit_and_gives_the_same_bits_on_one_thread() {
     );
 }
 
+/// Two discs of the quarter box: A horizontal (z = 0, R = 1 m, the well at its centre) and B
+/// on the plane y = `y` (radius `r`). Returns each B triangle's pressure at the end (Pa) and
+/// the summary.
+fn two_discs(name: &str, y: f64, r: f64) -> (Vec<f64>, serde_json::Value) {
+    let dir = cli::tmp_dir(name);
+    let text = format!(
+        "(name: \"two_discs\",
+          mesh: GradedBox(size: (6.0, 6.0, 12.0), origin: (0.0, 0.0, -6.0), h: 0.25,
+                          fine: (0.0, 0.0, -1.0, 1.5, 1.5, 1.0), ratio: 1.5),
+          material: (young: 20e9, poisson: 0.2, density: 2700.0),
+          boundary: Sides3(left: Normal(0.0), right: Normal(0.0), front: Normal(0.0),
+                           back: Normal(0.0), bottom: Normal(0.0), top: Normal(0.0)),
+          fracture: Some((
+              discs: [(center: (0.0, 0.0, 0.0), normal: (0.0, 0.0, 1.0), radius: 1.0),
+                      (center: (0.0, {y}, 0.0), normal: (0.0, 1.0, 0.0), radius: {r})],
+              residual_aperture: 1e-4)),
+          initial_fluid: Full(0.0),
+          flow_boundaries: [(name: \"well\", at: Node3((0.0, 0.0, 0.0)), kind: Rate(1e-3))],
+          damping: Local(0.1),
+          time: (end: Time(0.01), safety: 0.9),
+          output: (frame_every: 100000, series_every: 100))"
+    );
+    let path = dir.join("two.ron");
+    std::fs::write(&path, text).unwrap();
+    let out = dir.join("out");
+    let s = cli::run_ok(&path, &out, &[]);
+    assert_eq!(s["status"], "ok", "{s}");
+    let frames = vtu::read_pvd(&out.join("network.pvd")).unwrap();
+    let last = vtu::read_vtu(&out.join(&frames.last().unwrap().1)).unwrap();
+    let p = last.cell_array("pressure").unwrap().to_vec();
+    // Disc B's triangles: all three corners on the plane y = `y`.
+    let b: Vec<f64> = (0..p.len())
+        .filter(|&k| (0..3).all(|c| (last.points[3 * k + c][1] - y).abs() < 1e-9))
+        .map(|k| p[k])
+        .collect();
+    assert!(!b.is_empty());
+    (b, s)
+}
+
+#[test]
+fn fluid_crosses_into_a_second_disc_only_where_the_two_intersect() {
+    // B (y = 0.5, R = 0.75) cuts A along the line y = 0.5, z = 0: the well's water reaches
+    // every B triangle through the edges on that line (an edge on four triangles joins every
+    // two). B moved to y = 1.5 (R = 0.4) misses A: its cells keep their zero pressure.
+    let (crossing, s) = two_discs("crossing", 0.5, 0.75);
+    assert!(crossing.iter().all(|&p| p > 1e5), "{crossing:?}");
+    assert!(s["flow"]["mass_balance_error"].as_f64().unwrap() < 1e-12);
+    let (apart, _) = two_discs("apart", 1.5, 0.4);
+    assert!(apart.iter().all(|&p| p == 0.0), "{apart:?}");
+}
+
 #[test]
 fn flow_boundaries_of_the_wrong_dimension_or_off_the_fracture_are_refused_by_field() {
     let dir = cli::tmp("refused");
