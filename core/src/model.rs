@@ -371,12 +371,28 @@ impl Model {
                 volume_out: 0.0,
             });
         }
-        for (k, bc) in spawned.into_iter().enumerate() {
-            let bundle: FlowBcBundle = (StableId(k as u64), bc);
+        self.spawn_flow_boundaries(spawned.into_iter().map(|b| b.target));
+        Ok(())
+    }
+
+    /// Spawn one flow boundary per target, boundary k for `flow_boundaries[k]` at rest (stable
+    /// id k), in both dimensions.
+    pub fn spawn_flow_boundaries(&mut self, targets: impl Iterator<Item = FlowBcTarget>) {
+        for (k, target) in targets.enumerate() {
+            let bundle: FlowBcBundle = (
+                StableId(k as u64),
+                FlowBc {
+                    index: k,
+                    target,
+                    pressure: 0.0,
+                    rate: 0.0,
+                    volume_in: 0.0,
+                    volume_out: 0.0,
+                },
+            );
             self.world.spawn(bundle);
         }
         self.topology_generation += 1;
-        Ok(())
     }
 
     /// Which sides of the domain a reference position lies on (corners are on two).

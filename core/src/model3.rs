@@ -429,21 +429,7 @@ impl Model {
             }
             spawned.push(target);
         }
-        for (i, target) in spawned.into_iter().enumerate() {
-            let bundle: FlowBcBundle = (
-                StableId(i as u64),
-                FlowBc {
-                    index: i,
-                    target,
-                    pressure: 0.0,
-                    rate: 0.0,
-                    volume_in: 0.0,
-                    volume_out: 0.0,
-                },
-            );
-            self.world.spawn(bundle);
-        }
-        self.topology_generation += 1;
+        self.spawn_flow_boundaries(spawned.into_iter());
         Ok(())
     }
 

@@ -213,29 +213,16 @@ impl FlowView {
                 .map(|t| t.map(|n| tc.nodes[n as usize]))
                 .collect(),
             length: geo.area,
-            pairs: geo.pairs,
             pair_geom: geo.pair_geom,
             ..Default::default()
         };
         for &e in &tc.cell_entity {
             let f = *w.get::<&CellFluid>(e).expect("cell");
             let o = *w.get::<&CellOrigin>(e).expect("cell");
-            v.aperture.push(f.aperture);
-            v.excess.push(f.mass);
-            v.pressure.push(f.pressure);
-            v.flow_rate.push(f.flow_rate);
-            v.kind.push(o.kind);
-            v.created_t.push(o.created_t);
+            v.push_cell_state(&f, &o);
         }
-        v.volume = vec![0.0; nc];
-        v.bc_in = vec![0.0; nc];
-        v.excess_comp = vec![0.0; nc];
-        v.update_geometry();
-        for c in 0..nc {
-            v.excess[c] -= p.rho_r * v.volume[c];
-        }
-        (v.inc_ptr, v.inc) = crate::view::incidence(nc, &v.pairs, |k, side| (2 * k + side) as u32);
-        v.pair_q = vec![0.0; v.pairs.len()];
+        v.finish_cells(p);
+        v.set_pairs(geo.pairs);
         let node_index: HashMap<Entity, usize> = tc
             .node_entity
             .iter()
@@ -248,13 +235,7 @@ impl FlowView {
             .enumerate()
             .map(|(i, &e)| (e, i as u32))
             .collect();
-        let mut bcs: Vec<(u64, Entity, FlowBc)> = w
-            .query::<(Entity, &StableId, &FlowBc)>()
-            .iter()
-            .map(|(e, id, b)| (id.0, e, *b))
-            .collect();
-        bcs.sort_unstable_by_key(|b| b.0);
-        for (_, e, b) in bcs {
+        for (e, b) in crate::flow::boundaries(model) {
             let (cells, geom): (Vec<u32>, Vec<[f64; 2]>) = match b.target {
                 FlowBcTarget::Node(n) => {
                     let root = crate::split::root(w, n);
@@ -274,22 +255,7 @@ impl FlowView {
                     None => (Vec::new(), Vec::new()),
                 },
             };
-            v.bcs.push(BcView {
-                entity: e,
-                index: b.index,
-                kind: crate::scenario::FlowBcKind::Pressure(0.0),
-                q_cells: vec![0.0; cells.len()],
-                p_cells: vec![0.0; cells.len()],
-                kappa: vec![0.0; cells.len()],
-                geom,
-                cells,
-                pressure: b.pressure,
-                rate: b.rate,
-                volume_in: b.volume_in,
-                volume_out: b.volume_out,
-                comp_in: 0.0,
-                comp_out: 0.0,
-            });
+            v.bcs.push(BcView::new(e, &b, cells, geom));
         }
         v.update_kappa(p);
         v

@@ -203,6 +203,43 @@ pub struct BcView {
     pub comp_out: f64,
 }
 
+impl BcView {
+    /// The dense form of boundary entity `entity` with state `b`, joined to `cells` (with their
+    /// 3D connection geometry `geom`, empty in 2D); its kind is set by
+    /// [`FlowView::set_bc_kinds`].
+    pub fn new(entity: Entity, b: &FlowBc, cells: Vec<u32>, geom: Vec<[f64; 2]>) -> Self {
+        let n = cells.len();
+        BcView {
+            entity,
+            index: b.index,
+            kind: FlowBcKind::Pressure(0.0),
+            q_cells: vec![0.0; n],
+            p_cells: vec![0.0; n],
+            kappa: vec![0.0; n],
+            geom,
+            cells,
+            pressure: b.pressure,
+            rate: b.rate,
+            volume_in: b.volume_in,
+            volume_out: b.volume_out,
+            comp_in: 0.0,
+            comp_out: 0.0,
+        }
+    }
+}
+
+/// The model's flow boundaries in stable-id order, with their entities.
+pub(crate) fn boundaries(model: &Model) -> Vec<(Entity, FlowBc)> {
+    let mut bcs: Vec<(u64, Entity, FlowBc)> = model
+        .world
+        .query::<(Entity, &StableId, &FlowBc)>()
+        .iter()
+        .map(|(e, id, b)| (id.0, e, *b))
+        .collect();
+    bcs.sort_unstable_by_key(|b| b.0);
+    bcs.into_iter().map(|(_, e, b)| (e, b)).collect()
+}
+
 /// Kahan-compensated `*sum += x` with compensation `c`.
 #[inline(always)]
 pub fn kahan_add(sum: &mut f64, c: &mut f64, x: f64) {
@@ -317,22 +354,11 @@ impl FlowView {
             v.cell_entity.push(*e);
             v.cell_id.push(*id);
             v.cell_nodes.push(n.0.map(|x| dense[x.id() as usize]));
-            v.aperture.push(f.aperture);
-            v.excess.push(f.mass);
-            v.pressure.push(f.pressure);
-            v.flow_rate.push(f.flow_rate);
-            v.kind.push(o.kind);
-            v.created_t.push(o.created_t);
+            v.push_cell_state(f, o);
         }
         let nc = v.cell_entity.len();
         v.length = vec![0.0; nc];
-        v.volume = vec![0.0; nc];
-        v.bc_in = vec![0.0; nc];
-        v.excess_comp = vec![0.0; nc];
-        v.update_geometry();
-        for c in 0..nc {
-            v.excess[c] -= p.rho_r * v.volume[c];
-        }
+        v.finish_cells(p);
         // Pairs: at every node, every two cells that meet there.
         let mut at_node: Vec<Vec<u32>> = vec![Vec::new(); v.node_pos.len()];
         for (c, n) in v.cell_nodes.iter().enumerate() {
@@ -348,16 +374,8 @@ impl FlowView {
                 }
             }
         }
-        (v.inc_ptr, v.inc) = crate::view::incidence(nc, &v.pairs, |k, side| (2 * k + side) as u32);
-        v.pair_q = vec![0.0; v.pairs.len()];
-        // Boundaries, ordered by stable id.
-        let mut bcs: Vec<(u64, Entity, FlowBc)> = world
-            .query::<(Entity, &StableId, &FlowBc)>()
-            .iter()
-            .map(|(e, id, b)| (id.0, e, *b))
-            .collect();
-        bcs.sort_unstable_by_key(|b| b.0);
-        for (_, e, b) in bcs {
+        v.set_pairs(v.pairs.clone());
+        for (e, b) in boundaries(model) {
             let cells: Vec<u32> = match b.target {
                 FlowBcTarget::Node(n) => {
                     let d = dense.get(n.id() as usize).copied().unwrap_or(u32::MAX);
@@ -369,25 +387,42 @@ impl FlowView {
                 }
                 FlowBcTarget::Cell(c) => vec![cell_dense[c.id() as usize]],
             };
-            v.bcs.push(BcView {
-                entity: e,
-                index: b.index,
-                kind: FlowBcKind::Pressure(0.0),
-                q_cells: vec![0.0; cells.len()],
-                p_cells: vec![0.0; cells.len()],
-                kappa: vec![0.0; cells.len()],
-                geom: Vec::new(),
-                cells,
-                pressure: b.pressure,
-                rate: b.rate,
-                volume_in: b.volume_in,
-                volume_out: b.volume_out,
-                comp_in: 0.0,
-                comp_out: 0.0,
-            });
+            v.bcs.push(BcView::new(e, &b, cells, Vec::new()));
         }
         v.update_kappa(p);
         v
+    }
+
+    /// Append a cell's fluid state and origin (its geometry is set apart).
+    pub(crate) fn push_cell_state(&mut self, f: &CellFluid, o: &CellOrigin) {
+        self.aperture.push(f.aperture);
+        self.excess.push(f.mass);
+        self.pressure.push(f.pressure);
+        self.flow_rate.push(f.flow_rate);
+        self.kind.push(o.kind);
+        self.created_t.push(o.created_t);
+    }
+
+    /// With every cell pushed and `length` set: the volumes, the zeroed per-cell scratch, and
+    /// the masses as excess over rho_r V.
+    pub(crate) fn finish_cells(&mut self, p: &FlowParams) {
+        let nc = self.cell_entity.len();
+        self.volume = vec![0.0; nc];
+        self.bc_in = vec![0.0; nc];
+        self.excess_comp = vec![0.0; nc];
+        self.update_geometry();
+        for c in 0..nc {
+            self.excess[c] -= p.rho_r * self.volume[c];
+        }
+    }
+
+    /// Set the pairs, their incidence per cell and their zeroed flows.
+    pub(crate) fn set_pairs(&mut self, pairs: Vec<[u32; 2]>) {
+        let nc = self.cell_entity.len();
+        self.pairs = pairs;
+        (self.inc_ptr, self.inc) =
+            crate::view::incidence(nc, &self.pairs, |k, side| (2 * k + side) as u32);
+        self.pair_q = vec![0.0; self.pairs.len()];
     }
 
     /// Attach the scenario's boundary kinds (kept out of the ECS: they are inputs).

@@ -56,19 +56,9 @@ fn surface_figures(v: &FlowView, p: &RunParams, time: f64, dir: &Folder) -> anyh
         .iter()
         .map(|c| [to2(c[0]), to2(c[1]), to2(c[2]), to2(c[2])])
         .collect();
-    let names: Vec<&str> = v.bcs.iter().map(|b| p.bc_names[b.index].as_str()).collect();
-    let markers: Vec<([f64; 2], &str)> = v
-        .bcs
-        .iter()
-        .zip(&names)
-        .map(|(b, name)| {
-            let at = p.flow_boundaries[b.index].at.point();
-            (
-                to2([at[0], at[1], at.get(2).copied().unwrap_or(0.0)]),
-                *name,
-            )
-        })
-        .collect();
+    let markers = boundary_markers(v, p, |at| {
+        to2([at[0], at[1], at.get(2).copied().unwrap_or(0.0)])
+    });
     let mm: Vec<f64> = v.aperture.iter().map(|a| a * 1e3).collect();
     let mpa: Vec<f64> = v.pressure.iter().map(|p| p / 1e6).collect();
     let t = time;
@@ -98,6 +88,21 @@ fn surface_figures(v: &FlowView, p: &RunParams, time: f64, dir: &Folder) -> anyh
         )?;
     }
     Ok(())
+}
+
+/// Each flow boundary's point, placed on the map by `place`, with its name.
+fn boundary_markers<'a>(
+    v: &FlowView,
+    p: &'a RunParams,
+    place: impl Fn(&[f64]) -> [f64; 2],
+) -> Vec<([f64; 2], &'a str)> {
+    v.bcs
+        .iter()
+        .map(|b| {
+            let at = p.flow_boundaries[b.index].at.point();
+            (place(at), p.bc_names[b.index].as_str())
+        })
+        .collect()
 }
 
 /// `boundary_pressure.png` and `boundary_rate.png`: each boundary's pressure and rate against
@@ -185,17 +190,7 @@ fn network_figures(v: &FlowView, p: &RunParams, time: f64, dir: &Folder) -> anyh
             1.5 + 4.5 * s
         })
         .collect();
-    let names: Vec<&str> = v.bcs.iter().map(|b| p.bc_names[b.index].as_str()).collect();
-    let markers: Vec<([f64; 2], &str)> = v
-        .bcs
-        .iter()
-        .zip(&names)
-        .map(|(b, name)| {
-            let at = p.flow_boundaries[b.index].at.point();
-            let pos = [at[0], at[1]];
-            (pos, *name)
-        })
-        .collect();
+    let markers = boundary_markers(v, p, |at| [at[0], at[1]]);
     let mpa: Vec<f64> = v.pressure.iter().map(|p| p / 1e6).collect();
     let t = time;
     network(
