@@ -271,8 +271,89 @@ fn what_3d_lacks_and_boundaries_of_the_wrong_dimension_are_refused_by_field() {
                 .to_string(),
             &["boundary", "this mesh is 2D"],
         ),
+        (
+            base.replace("damping:", "gravity: Some((0.0, -9.81)), damping:"),
+            &["gravity", "three components"],
+        ),
+        (
+            "(name: \"flat\", mesh: Regular(width: 4.0, height: 4.0, h: 1.0),
+              material: (young: 2e10, poisson: 0.2, density: 2700.0),
+              boundary: Sides(bottom: Fixed), gravity: Some((0.0, -9.81, 0.0)),
+              time: (end: Static(tol: 1e-6)))"
+                .to_string(),
+            &["gravity", "two components"],
+        ),
     ];
     cli::assert_all_refused(&dir, &cases);
+}
+
+/// Gravity in 3D (`gravity: Some((0, 0, -g))`, z up) on a 2 x 2 x 10 m column of tetrahedra,
+/// fixed at its base and on rollers at its sides, solved quasi-statically: uniaxial strain.
+/// - The volume average of sigma_zz is -rho g H / 2 to round-off: for linear elements in
+///   equilibrium sum V_e sigma_e = sum over nodes of x (f_ext + reaction), the base's
+///   reactions act at z = 0 and the consistent loads rho g V / 4 sum to rho g V z_centroid.
+/// - Each element's sigma_zz is the weight above it, -rho g (H - z), within one layer's weight
+///   rho g h (the linear tetrahedra take the strain over a layer's height, not at the centroid).
+/// - The volume averages of sigma_xx and sigma_yy are nu / (1 - nu) of sigma_zz's to round-off
+///   (the rollers make the average lateral strain, the boundary integral of u n, zero); each element's within 1e-2 rho g H: the Kuhn tetrahedra are not
+///   mirror-symmetric, so the nodes move sideways a little, most under the free top (shear
+///   stresses of 4e-4 of the mean appear too).
+#[test]
+fn gravity_loads_the_3d_column_with_its_weight() {
+    use hydrofrac::scenario::Scenario;
+    use hydrofrac::sim::{Finish, Simulation};
+    let text = r#"(
+        name: "column3d",
+        mesh: Box(size: (2.0, 2.0, 10.0), h: 0.5),
+        material: (young: 20e9, poisson: 0.2, density: 2700.0),
+        boundary: Sides3(left: Normal(0.0), right: Normal(0.0), front: Normal(0.0),
+                         back: Normal(0.0), bottom: Fixed, top: Free),
+        gravity: Some((0.0, 0.0, -9.81)),
+        time: (end: Static(tol: 1e-10), solid_scheme: QuasiStatic, max_steps: 10),
+    )"#;
+    let sc = Scenario::parse(text, "column3d.ron")
+        .unwrap()
+        .validate()
+        .unwrap();
+    let mut sim = Simulation::new_3d(sc, &[]).unwrap();
+    assert_eq!(sim.run(|_| {}).unwrap(), Finish::Converged);
+    let (rho_g, height, h) = (2700.0 * 9.81, 10.0, 0.5);
+    let v = sim.solid();
+    let mut mean = [0.0; 3];
+    for (k, c) in v.conn.iter().enumerate() {
+        let zc = c.iter().map(|&a| v.x0[a as usize][2]).sum::<f64>() / 4.0;
+        let s = v.stress[k];
+        for d in 0..3 {
+            mean[d] += s[d] / v.n_elems() as f64;
+        }
+        let exact = -rho_g * (height - zc);
+        assert!(
+            (s[2] - exact).abs() <= rho_g * h,
+            "element {k}: szz {} vs {exact}",
+            s[2]
+        );
+        for lateral in [s[0], s[1]] {
+            assert!(
+                (lateral - 0.25 * s[2]).abs() < 1e-2 * rho_g * height,
+                "element {k}: {lateral} vs nu/(1-nu) szz = {}",
+                0.25 * s[2]
+            );
+        }
+    }
+    // Equal volumes: the element mean is the volume average.
+    let want = -rho_g * height / 2.0;
+    assert!(
+        (mean[2] / want - 1.0).abs() < 1e-9,
+        "mean szz {} vs {want}",
+        mean[2]
+    );
+    for d in 0..2 {
+        assert!(
+            (mean[d] / (0.25 * want) - 1.0).abs() < 1e-9,
+            "mean s{d} {}",
+            mean[d]
+        );
+    }
 }
 
 /// A Gmsh 2.2 file of `m` (4-node tetrahedra in physical volume 1).

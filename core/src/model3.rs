@@ -433,6 +433,27 @@ impl Model {
         Ok(())
     }
 
+    /// The consistent nodal loads of a uniform body force `b` (N/m^3, e.g. rho g): a quarter
+    /// of each tetrahedron's b V at each of its nodes (exact for a constant force).
+    pub fn add_body_force3(&mut self, b: [f64; 3]) {
+        let mut loads: Vec<(Entity, f64)> = Vec::new();
+        for en in self.world.query::<&TetNodes>().iter() {
+            let x =
+                en.0.map(|e| self.world.get::<&NodeRef3>(e).expect("node").0);
+            let v = crate::tet4::signed_volume(x[0], x[1], x[2], x[3]).abs();
+            for &e in &en.0 {
+                loads.push((e, 0.25 * v));
+            }
+        }
+        for (e, w) in loads {
+            let mut bc = self.world.get::<&mut NodeBc3>(e).expect("node");
+            for d in 0..3 {
+                bc.load[d] += w * b[d];
+            }
+        }
+        self.topology_generation += 1;
+    }
+
     /// A uniform pressure p (Pa) on both faces of every 3D joint, as constant nodal loads in
     /// the reference geometry: face p's nodes get -p A n / 3 each, face q's +p A n / 3 (n face
     /// p's unit normal towards q, A its area), N.

@@ -208,7 +208,7 @@ pub fn build_model(
     {
         m.set_insitu_displacement(*sxx, *syy);
     }
-    if let Some(g) = sc.gravity {
+    if let Some(g) = sc.gravity.map(|g| g.xy()) {
         let rho = mat.density;
         m.add_body_force(|_| [rho * g[0], rho * g[1]]);
     }

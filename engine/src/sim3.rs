@@ -99,6 +99,10 @@ pub fn build_model_3d(
     if let Some(p) = sc.fracture.as_ref().and_then(|f| f.pressure) {
         m.apply_face_pressure3(p);
     }
+    if let Some(g) = sc.gravity {
+        let rho = mat.density;
+        m.add_body_force3(g.g.map(|c| rho * c));
+    }
     let info = crate::setup::MeshInfo {
         kind: spec.kind().to_string(),
         tetrahedra: Some(crate::setup::TetQuality::of(&mesh)),

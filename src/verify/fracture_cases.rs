@@ -374,7 +374,7 @@ pub(super) fn block_scenario(phi_deg: f64, h: f64, gravity: [f64; 2]) -> crate::
         },
         Damping::Local(0.8),
     );
-    sc.gravity = Some(gravity);
+    sc.gravity = Some(crate::scenario::Gravity::two(gravity));
     sc.fracture = Some(FractureSpec::joints(
         vec![PreFracture {
             from: [0.0, 1.0],

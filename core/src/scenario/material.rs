@@ -348,11 +348,84 @@ impl Damping {
     }
 }
 
+/// Gravity's acceleration, m/s^2: `(gx, gy)` on a 2D mesh (y up), `(gx, gy, gz)` on a 3D one
+/// (z up). Written and read as a tuple of its two or three components.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Gravity {
+    /// The components, the third 0 in 2D.
+    pub g: [f64; 3],
+    /// How many components the scenario gave (2 or 3).
+    pub components: usize,
+}
+
+impl Gravity {
+    /// A 2D gravity (gx, gy).
+    pub fn two(g: [f64; 2]) -> Self {
+        Gravity {
+            g: [g[0], g[1], 0.0],
+            components: 2,
+        }
+    }
+
+    /// A 3D gravity (gx, gy, gz).
+    pub fn three(g: [f64; 3]) -> Self {
+        Gravity { g, components: 3 }
+    }
+
+    /// The in-plane components (gx, gy).
+    pub fn xy(&self) -> [f64; 2] {
+        [self.g[0], self.g[1]]
+    }
+}
+
+impl Serialize for Gravity {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::SerializeTuple;
+        let mut t = s.serialize_tuple(self.components)?;
+        for c in &self.g[..self.components] {
+            t.serialize_element(c)?;
+        }
+        t.end()
+    }
+}
+
+impl<'de> Deserialize<'de> for Gravity {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl<'de> serde::de::Visitor<'de> for V {
+            type Value = Gravity;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("(gx, gy) in 2D or (gx, gy, gz) in 3D, m/s^2")
+            }
+            fn visit_seq<A: serde::de::SeqAccess<'de>>(
+                self,
+                mut a: A,
+            ) -> Result<Gravity, A::Error> {
+                let mut g = [0.0; 3];
+                let mut n = 0;
+                while let Some(x) = a.next_element::<f64>()? {
+                    if n == 3 {
+                        return Err(serde::de::Error::invalid_length(4, &self));
+                    }
+                    g[n] = x;
+                    n += 1;
+                }
+                if n < 2 {
+                    return Err(serde::de::Error::invalid_length(n, &self));
+                }
+                Ok(Gravity { g, components: n })
+            }
+        }
+        d.deserialize_tuple(3, V)
+    }
+}
+
 /// Gravity (m/s^2) finite; errors name `gravity`.
-pub(super) fn validate_gravity(gravity: Option<[f64; 2]>) -> Result<(), SetupError> {
+pub(super) fn validate_gravity(gravity: Option<Gravity>) -> Result<(), SetupError> {
     if let Some(g) = gravity {
-        finite("gravity", g[0])?;
-        finite("gravity", g[1])?;
+        for x in &g.g[..g.components] {
+            finite("gravity", *x)?;
+        }
     }
     Ok(())
 }

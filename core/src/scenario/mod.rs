@@ -35,7 +35,7 @@ pub use fracture::{
     PreFracture, RockNetwork, read_fracture_csv,
 };
 pub use material::{
-    Boundary, Damping, InitialState, MAX_DENSITY, MAX_YOUNG, Material, Pin, SideBc,
+    Boundary, Damping, Gravity, InitialState, MAX_DENSITY, MAX_YOUNG, Material, Pin, SideBc,
 };
 pub use mesh::{GMSH_BYTES_PER_TRIANGLE, MeshCounts, MeshSpec, Round};
 pub use output::{CheckpointEvery, Field, MAX_NAME_LEN, OutputSpec, SystemsSpec, check_run_name};
@@ -84,9 +84,10 @@ pub struct Scenario {
     /// Flow boundary conditions (pump, rate, pressure) at network nodes or cells.
     #[serde(default)]
     pub flow_boundaries: Vec<FlowBoundary>,
-    /// Gravity, m/s^2 (e.g. (0.0, -9.81)): a body force rho g on the rock.
+    /// Gravity, m/s^2: a body force rho g on the rock; (0.0, -9.81) in 2D (y up),
+    /// (0.0, 0.0, -9.81) in 3D (z up).
     #[serde(default)]
-    pub gravity: Option<[f64; 2]>,
+    pub gravity: Option<Gravity>,
     /// Piecewise-linear multiplier of every boundary load and prescribed displacement against
     /// time, [(t s, factor)], constant beyond the ends (a slow ramp from 0 gives quasi-static
     /// loading). Empty: 1.
@@ -422,6 +423,12 @@ impl Scenario {
                     "discs are 3D fractures: this mesh is 2D (use `preexisting` segments)",
                 ));
             }
+            if self.mesh.is_some() && self.gravity.is_some_and(|g| g.components != 2) {
+                return Err(SetupError::invalid(
+                    "gravity",
+                    "a 2D mesh takes two components, (gx, gy) in m/s^2 with y up",
+                ));
+            }
             if let Some(i) = self.flow_boundaries.iter().position(|b| b.at.is_3d()) {
                 return Err(SetupError::invalid(
                     &format!("flow_boundaries[{i}].at"),
@@ -492,8 +499,11 @@ impl Scenario {
         if !self.pins.is_empty() {
             return not_yet("pins", "pinning single nodes");
         }
-        if self.gravity.is_some() {
-            return not_yet("gravity", "gravity");
+        if self.gravity.is_some_and(|g| g.components != 3) {
+            return Err(SetupError::invalid(
+                "gravity",
+                "a 3D mesh takes three components, (gx, gy, gz) in m/s^2 with z up",
+            ));
         }
         if self.time.mass_scaling || self.time.selective_mass_scaling.is_some() {
             return not_yet("time.mass_scaling", "mass scaling");
