@@ -347,11 +347,10 @@ fn gravity_loads_the_3d_column_with_its_weight() {
         "mean szz {} vs {want}",
         mean[2]
     );
-    for d in 0..2 {
+    for lateral in &mean[..2] {
         assert!(
-            (mean[d] / (0.25 * want) - 1.0).abs() < 1e-9,
-            "mean s{d} {}",
-            mean[d]
+            (lateral / (0.25 * want) - 1.0).abs() < 1e-9,
+            "mean lateral {lateral}"
         );
     }
 }
