@@ -8,7 +8,8 @@
 //!   (`hydrofrac verify penny_flow`, quick);
 //! - `scenarios/penny_injection.ron` as shipped (shortened): the injected volume, the mass
 //!   balance, the well's series columns, the fracture frames' pressure and aperture, a restart
-//!   from a checkpoint bit for bit, the same bits on one and two threads;
+//!   from a checkpoint bit for bit, the same bits on one and two threads; a pump and a
+//!   pressure well at a cell against their closed forms; two discs crossing along a line;
 //! - flow boundaries of the wrong dimension or off the fracture, the quasi-static rock with
 //!   flow and a prescribed pressure beside the fluid's are refused by field.
 
@@ -123,6 +124,27 @@ fn a_pump_and_the_implicit_flow_step_drive_the_penny_too() {
     );
     let inj = s["flow"]["injected_volume"].as_f64().unwrap();
     assert!((inj / 4e-6 - 1.0).abs() < 1e-9, "{inj}");
+}
+
+#[test]
+fn a_pressure_well_at_a_cell_feeds_empty_cells_through_its_connection() {
+    // `Cell3` joins the triangle nearest the point with kappa = a^3 / (6 mu); the cells start
+    // empty (`initial_fluid: Empty`, pressure zero until full), so while the disc fills the
+    // well's rate is kappa times its pressure: 1e-12 / (6 x 8.9e-4) x 2e6 = 3.745e-4 m^3/s.
+    let dir = cli::tmp_dir("cell3");
+    let text = std::fs::read_to_string(cli::scenario("penny_injection.ron"))
+        .unwrap()
+        .replace("Node3((0.0, 0.0, 0.0))", "Cell3((0.1, 0.1, 0.0))")
+        .replace("initial_fluid: Full(0.0),", "initial_fluid: Empty,")
+        .replace("kind: Rate(1e-3)", "kind: Pressure(2e6)");
+    let path = dir.join("cell3.ron");
+    std::fs::write(&path, text).unwrap();
+    let s = cli::run_ok(&path, &dir.join("out"), &["--set", "time.end=Time(0.004)"]);
+    let b = &s["flow"]["boundaries"][0];
+    let want = 1e-12 / (6.0 * 8.9e-4) * 2e6;
+    let q = b["rate"].as_f64().unwrap();
+    assert!((q / want - 1.0).abs() < 1e-12, "rate {q} vs {want}");
+    assert!(s["flow"]["mass_balance_error"].as_f64().unwrap() < 1e-12);
 }
 
 #[test]
