@@ -447,7 +447,7 @@ const CASES: &[Case] = &[
     set(
         INSITU,
         &["--set", "pins=[{\"at\":[0,0]}]"],
-        &["pins[0]", "neither"],
+        &["pins[0]", "none of ux, uy, uz"],
     ),
     edit(
         INSITU,

@@ -276,6 +276,20 @@ fn what_3d_lacks_and_boundaries_of_the_wrong_dimension_are_refused_by_field() {
             &["gravity", "three components"],
         ),
         (
+            base.replace(
+                "damping:",
+                "pins: [(at: (0.0, 0.0), ux: Some(0.0))], damping:",
+            ),
+            &["pins[0].at", "(x, y, z)"],
+        ),
+        (
+            base.replace(
+                "damping:",
+                "pins: [(at: (50.0, 50.0, 50.0), ux: Some(0.0))], damping:",
+            ),
+            &["pins[0].at", "from the nearest node"],
+        ),
+        (
             "(name: \"flat\", mesh: Regular(width: 4.0, height: 4.0, h: 1.0),
               material: (young: 2e10, poisson: 0.2, density: 2700.0),
               boundary: Sides(bottom: Fixed), gravity: Some((0.0, -9.81, 0.0)),
@@ -285,6 +299,43 @@ fn what_3d_lacks_and_boundaries_of_the_wrong_dimension_are_refused_by_field() {
         ),
     ];
     cli::assert_all_refused(&dir, &cases);
+}
+
+/// Pins in 3D: a box with no displacement held anywhere, squeezed by equal tractions on its
+/// top and bottom, is a body free to move (refused by the quasi-static solve); three pins in
+/// the 3-2-1 pattern (a corner held in x, y, z, a second in y and z, a third in z) stop the six
+/// rigid motions without loading it, so the stress is the uniaxial -1 MPa everywhere, to
+/// round-off, and the pinned corner stays put.
+#[test]
+fn three_pins_hold_a_free_box_without_stressing_it() {
+    use hydrofrac::scenario::Scenario;
+    use hydrofrac::sim::{Finish, Simulation};
+    let text = r#"(
+        name: "pinned3d",
+        mesh: Box(size: (2.0, 2.0, 2.0), h: 0.5),
+        material: (young: 20e9, poisson: 0.25, density: 2700.0),
+        boundary: Sides3(bottom: Traction(normal: -1e6, shear: 0.0),
+                         top: Traction(normal: -1e6, shear: 0.0)),
+        pins: [(at: (0.0, 0.0, 0.0), ux: Some(0.0), uy: Some(0.0), uz: Some(0.0)),
+               (at: (2.0, 0.0, 0.0), uy: Some(0.0), uz: Some(0.0)),
+               (at: (0.0, 2.0, 0.0), uz: Some(0.0))],
+        time: (end: Static(tol: 1e-10), solid_scheme: QuasiStatic, max_steps: 10),
+    )"#;
+    let sc = Scenario::parse(text, "pinned3d.ron")
+        .unwrap()
+        .validate()
+        .unwrap();
+    let mut sim = Simulation::new_3d(sc, &[]).unwrap();
+    assert_eq!(sim.run(|_| {}).unwrap(), Finish::Converged);
+    let v = sim.solid();
+    for (k, s) in v.stress.iter().enumerate() {
+        let want = [0.0, 0.0, -1e6, 0.0, 0.0, 0.0];
+        for d in 0..6 {
+            assert!((s[d] - want[d]).abs() < 1e-3, "element {k}: {s:?}");
+        }
+    }
+    let corner = (0..v.n_nodes()).find(|&i| v.x0[i] == [0.0; 3]).unwrap();
+    assert_eq!(v.u[corner], [0.0; 3]);
 }
 
 /// Gravity in 3D (`gravity: Some((0, 0, -g))`, z up) on a 2 x 2 x 10 m column of tetrahedra,

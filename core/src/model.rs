@@ -517,7 +517,7 @@ impl Model {
                 .query::<(Entity, &NodeRef, &NodeLink)>()
                 .iter()
                 .filter(|(_, _, l)| l.in_solid)
-                .map(|(e, x, _)| (e, (x.0[0] - pin.at[0]).hypot(x.0[1] - pin.at[1])))
+                .map(|(e, x, _)| (e, (x.0[0] - pin.at.v[0]).hypot(x.0[1] - pin.at.v[1])))
                 .min_by(|a, b| a.1.total_cmp(&b.1));
             let Some((e, dist)) = nearest else {
                 return Err(SetupError::invalid("pins", "the mesh has no nodes"));
@@ -527,7 +527,7 @@ impl Model {
                     &format!("pins[{i}].at"),
                     format!(
                         "({}, {}) is {dist:.3} m from the nearest node (more than half a cell diagonal)",
-                        pin.at[0], pin.at[1]
+                        pin.at.v[0], pin.at.v[1]
                     ),
                 ));
             }

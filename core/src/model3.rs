@@ -433,6 +433,46 @@ impl Model {
         Ok(())
     }
 
+    /// Prescribe the pins' displacements on the solid's nodes nearest their points, which must
+    /// lie within half the longest edge at that node (`size`, by node stable id:
+    /// [`crate::tetmesh::TetMesh::local_size`]); errors name `pins[i].at`.
+    pub fn apply_pins3(
+        &mut self,
+        pins: &[crate::scenario::Pin],
+        size: &[f64],
+    ) -> Result<(), SetupError> {
+        for (i, pin) in pins.iter().enumerate() {
+            let nearest = self
+                .world
+                .query::<(Entity, &StableId, &NodeRef3, &NodeLink)>()
+                .iter()
+                .filter(|(_, _, _, l)| l.in_solid)
+                .map(|(e, id, x, _)| (e, id.0, norm(sub(x.0, pin.at.v))))
+                .min_by(|a, b| a.2.total_cmp(&b.2).then(a.1.cmp(&b.1)));
+            let Some((e, id, dist)) = nearest else {
+                return Err(SetupError::invalid("pins", "the mesh has no nodes"));
+            };
+            if dist > 0.5 * size.get(id as usize).copied().unwrap_or(0.0) + 1e-12 {
+                let [x, y, z] = pin.at.v;
+                return Err(SetupError::invalid(
+                    &format!("pins[{i}].at"),
+                    format!(
+                        "({x}, {y}, {z}) is {dist:.3} m from the nearest node (more than half \
+                         the longest edge there)"
+                    ),
+                ));
+            }
+            let mut bc = self.world.get::<&mut NodeBc3>(e).expect("node");
+            for (d, u) in [pin.ux, pin.uy, pin.uz].into_iter().enumerate() {
+                if let Some(u) = u {
+                    bc.prescribed[d] = Some(u);
+                }
+            }
+        }
+        self.topology_generation += 1;
+        Ok(())
+    }
+
     /// The consistent nodal loads of a uniform body force `b` (N/m^3, e.g. rho g): a quarter
     /// of each tetrahedron's b V at each of its nodes (exact for a constant force).
     pub fn add_body_force3(&mut self, b: [f64; 3]) {

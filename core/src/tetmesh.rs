@@ -36,6 +36,22 @@ const KUHN: [[usize; 4]; 6] = [
 ];
 
 impl TetMesh {
+    /// The longest edge of the tetrahedra at each node, m (0 for a node in none).
+    pub fn local_size(&self) -> Vec<f64> {
+        let mut out = vec![0.0f64; self.nodes.len()];
+        for t in &self.tets {
+            for a in 0..4 {
+                for b in a + 1..4 {
+                    let (i, j) = (t[a] as usize, t[b] as usize);
+                    let l = tet4::norm(tet4::sub(self.nodes[i], self.nodes[j]));
+                    out[i] = out[i].max(l);
+                    out[j] = out[j].max(l);
+                }
+            }
+        }
+        out
+    }
+
     /// The box spanned by the coordinate lines `xs`, `ys`, `zs` (each strictly increasing, at
     /// least two values), every cell split into six tetrahedra.
     pub fn tensor(xs: &[f64], ys: &[f64], zs: &[f64]) -> Result<Self, SetupError> {

@@ -101,8 +101,9 @@ pub fn build_model_3d(
     }
     if let Some(g) = sc.gravity {
         let rho = mat.density;
-        m.add_body_force3(g.g.map(|c| rho * c));
+        m.add_body_force3(g.v.map(|c| rho * c));
     }
+    m.apply_pins3(&sc.pins, &mesh.local_size())?;
     let info = crate::setup::MeshInfo {
         kind: spec.kind().to_string(),
         tetrahedra: Some(crate::setup::TetQuality::of(&mesh)),

@@ -141,14 +141,17 @@ pub const MAX_DENSITY: f64 = 1e9;
 #[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct Pin {
-    /// Position, m.
-    pub at: [f64; 2],
+    /// Position, m: (x, y), or (x, y, z) on a 3D mesh.
+    pub at: Coords,
     /// Prescribed x displacement, m (`None`: free).
     #[serde(default)]
     pub ux: Option<f64>,
     /// Prescribed y displacement, m (`None`: free).
     #[serde(default)]
     pub uy: Option<f64>,
+    /// Prescribed z displacement, m (`None`: free; 3D only).
+    #[serde(default)]
+    pub uz: Option<f64>,
 }
 
 /// Damping for pseudo-static response.
@@ -305,16 +308,15 @@ impl Pin {
     /// Finite position and displacements, at least one of them prescribed; errors name
     /// `field` (`pins[i]`).
     pub(super) fn validate(&self, field: &str) -> Result<(), SetupError> {
-        for v in [
-            self.at[0],
-            self.at[1],
+        for &v in self.at.given().iter().chain(&[
             self.ux.unwrap_or(0.0),
             self.uy.unwrap_or(0.0),
-        ] {
+            self.uz.unwrap_or(0.0),
+        ]) {
             finite(field, v)?;
         }
-        if self.ux.is_none() && self.uy.is_none() {
-            return Err(SetupError::invalid(field, "prescribes neither ux nor uy"));
+        if self.ux.is_none() && self.uy.is_none() && self.uz.is_none() {
+            return Err(SetupError::invalid(field, "prescribes none of ux, uy, uz"));
         }
         Ok(())
     }
@@ -348,72 +350,77 @@ impl Damping {
     }
 }
 
-/// Gravity's acceleration, m/s^2: `(gx, gy)` on a 2D mesh (y up), `(gx, gy, gz)` on a 3D one
-/// (z up). Written and read as a tuple of its two or three components.
+/// Two or three numbers, read and written as a tuple: a point or a vector, `(x, y)` on a 2D
+/// mesh (y up), `(x, y, z)` on a 3D one (z up). Gravity (m/s^2) and pin positions (m).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Gravity {
+pub struct Coords {
     /// The components, the third 0 in 2D.
-    pub g: [f64; 3],
+    pub v: [f64; 3],
     /// How many components the scenario gave (2 or 3).
     pub components: usize,
 }
 
-impl Gravity {
-    /// A 2D gravity (gx, gy).
-    pub fn two(g: [f64; 2]) -> Self {
-        Gravity {
-            g: [g[0], g[1], 0.0],
+/// Gravity's acceleration, m/s^2: `(gx, gy)` in 2D, `(gx, gy, gz)` in 3D.
+pub type Gravity = Coords;
+
+impl Coords {
+    /// Two components (x, y).
+    pub fn two(v: [f64; 2]) -> Self {
+        Coords {
+            v: [v[0], v[1], 0.0],
             components: 2,
         }
     }
 
-    /// A 3D gravity (gx, gy, gz).
-    pub fn three(g: [f64; 3]) -> Self {
-        Gravity { g, components: 3 }
+    /// Three components (x, y, z).
+    pub fn three(v: [f64; 3]) -> Self {
+        Coords { v, components: 3 }
     }
 
-    /// The in-plane components (gx, gy).
+    /// The in-plane components (x, y).
     pub fn xy(&self) -> [f64; 2] {
-        [self.g[0], self.g[1]]
+        [self.v[0], self.v[1]]
+    }
+
+    /// The components given.
+    pub fn given(&self) -> &[f64] {
+        &self.v[..self.components]
     }
 }
 
-impl Serialize for Gravity {
+impl Serialize for Coords {
     fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
         use serde::ser::SerializeTuple;
         let mut t = s.serialize_tuple(self.components)?;
-        for c in &self.g[..self.components] {
+        for c in self.given() {
             t.serialize_element(c)?;
         }
         t.end()
     }
 }
 
-impl<'de> Deserialize<'de> for Gravity {
+impl<'de> Deserialize<'de> for Coords {
     fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
         struct V;
         impl<'de> serde::de::Visitor<'de> for V {
-            type Value = Gravity;
+            type Value = Coords;
             fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
-                f.write_str("(gx, gy) in 2D or (gx, gy, gz) in 3D, m/s^2")
+                f.write_str("(x, y) in 2D or (x, y, z) in 3D")
             }
-            fn visit_seq<A: serde::de::SeqAccess<'de>>(
-                self,
-                mut a: A,
-            ) -> Result<Gravity, A::Error> {
-                let mut g = [0.0; 3];
+            fn visit_seq<A: serde::de::SeqAccess<'de>>(self, mut a: A) -> Result<Coords, A::Error> {
+                let mut v = [0.0; 3];
                 let mut n = 0;
                 while let Some(x) = a.next_element::<f64>()? {
                     if n == 3 {
                         return Err(serde::de::Error::invalid_length(4, &self));
                     }
-                    g[n] = x;
+                    v[n] = x;
                     n += 1;
                 }
                 if n < 2 {
                     return Err(serde::de::Error::invalid_length(n, &self));
                 }
-                Ok(Gravity { g, components: n })
+                Ok(Coords { v, components: n })
             }
         }
         d.deserialize_tuple(3, V)
@@ -423,7 +430,7 @@ impl<'de> Deserialize<'de> for Gravity {
 /// Gravity (m/s^2) finite; errors name `gravity`.
 pub(super) fn validate_gravity(gravity: Option<Gravity>) -> Result<(), SetupError> {
     if let Some(g) = gravity {
-        for x in &g.g[..g.components] {
+        for x in g.given() {
             finite("gravity", *x)?;
         }
     }

@@ -423,6 +423,16 @@ impl Scenario {
                     "discs are 3D fractures: this mesh is 2D (use `preexisting` segments)",
                 ));
             }
+            if let Some(i) = self
+                .pins
+                .iter()
+                .position(|p| p.at.components != 2 || p.uz.is_some())
+            {
+                return Err(SetupError::invalid(
+                    &format!("pins[{i}]"),
+                    "a 2D mesh takes a point (x, y), m, and no uz",
+                ));
+            }
             if self.mesh.is_some() && self.gravity.is_some_and(|g| g.components != 2) {
                 return Err(SetupError::invalid(
                     "gravity",
@@ -496,8 +506,11 @@ impl Scenario {
         if self.seismicity.is_some() {
             return not_yet("seismicity", "the event catalogue");
         }
-        if !self.pins.is_empty() {
-            return not_yet("pins", "pinning single nodes");
+        if let Some(i) = self.pins.iter().position(|p| p.at.components != 3) {
+            return Err(SetupError::invalid(
+                &format!("pins[{i}].at"),
+                "a 3D mesh takes a point (x, y, z), m",
+            ));
         }
         if self.gravity.is_some_and(|g| g.components != 3) {
             return Err(SetupError::invalid(
