@@ -4,13 +4,15 @@
 //! systems in the same order through the same generic kernels (`systems/solid.rs`:
 //! internal force, external load, damping, central-difference integration; `monitor`).
 //!
-//! What 3D has so far (issue 38, first part): the rock with the explicit scheme or the
-//! quasi-static one (`solve`: [`hydrofrac_systems::linear_static`], the stiffness factorised
-//! once), box boundaries (`InSitu3`, `Sides3`), the in-situ initial state, frames, series rows and the
-//! summary, checkpoints and restarts; pre-existing disc fractures with their joints' contact
-//! (`contact_3d`) and a prescribed face pressure. The systems the 3D scene has no data for
-//! (fluid pressure, flow, criterion, split, seismicity) are off in its schedule, as in any 2D
-//! scene without them; the scenario's checks refuse what 3D cannot do yet
+//! What 3D has so far (issue 38): the rock with the explicit scheme or the quasi-static one
+//! (`solve`: [`hydrofrac_systems::linear_static`], the stiffness factorised once), box
+//! boundaries (`InSitu3`, `Sides3`), pins, gravity, the in-situ initial state, frames, series
+//! rows and the summary, checkpoints and restarts; pre-existing disc fractures with their
+//! joints' contact (`contact_3d`) and a prescribed face pressure, or the fluid in them: one
+//! flow cell per disc triangle (`hydrofrac_core::flow::faces`), stepped by `flow_substeps`
+//! and pushing the faces by `fluid_pressure_3d`, coupled to the explicit rock. The systems the
+//! 3D scene has no data for (criterion, split, seismicity) are off in its schedule, as in any
+//! 2D scene without them; the scenario's checks refuse what 3D cannot do yet
 //! (`Scenario::check_3d`).
 
 use crate::schedule::Status;

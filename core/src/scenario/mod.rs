@@ -398,9 +398,9 @@ impl Scenario {
         self.mesh.as_ref().is_some_and(MeshSpec::is_3d)
     }
 
-    /// The boundary's dimension is the mesh's, and a 3D scene asks only for what 3D has so far
-    /// (the rock, explicit, with box boundaries and the in-situ state; `docs/three_d.md`):
-    /// everything else is refused by name.
+    /// The boundary's, gravity's, pins' and flow boundaries' dimension is the mesh's, and a 3D
+    /// scene asks only for what 3D has so far (`docs/three_d.md`, "What runs"): everything else
+    /// is refused by name.
     fn check_3d(&self) -> Result<(), SetupError> {
         let three = self.is_3d();
         if self.mesh.is_some() && self.boundary.is_3d() != three {
