@@ -314,10 +314,7 @@ pub fn build_flow(
         }
         None if p.coupled => {
             if let InitialFluid::Full(p0) = sc.initial_fluid {
-                hydrofrac_core::fractures::fill_cells(
-                    model,
-                    p.fluid.rho_r * (1.0 + p0 / p.fluid.k),
-                );
+                hydrofrac_core::fractures::fill_cells(model, p.fluid.density_at(p0));
             }
             CellNetwork::default()
         }

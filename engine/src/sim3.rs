@@ -21,7 +21,9 @@ use hydrofrac_core::dim::Tet4;
 use hydrofrac_core::error::SetupError;
 use hydrofrac_core::model::Model;
 use hydrofrac_core::params::RunParams;
-use hydrofrac_core::scenario::{Boundary, InitialState, MeshSpec, SolidScheme, schedule_factor};
+use hydrofrac_core::scenario::{
+    Boundary, InitialFluid, InitialState, MeshSpec, SolidScheme, schedule_factor,
+};
 use hydrofrac_core::tetmesh::TetMesh;
 use hydrofrac_core::view::SolidView;
 use hydrofrac_systems::coupling::Coupling;
@@ -75,21 +77,16 @@ pub fn build_model_3d(
     if let Some(split) = &split {
         m.add_face_joints(split);
     }
-    if !sc.flow_boundaries.is_empty() {
-        // A coupled run: a flow cell on every joint at the residual aperture, filled or empty.
-        let a_r = sc
-            .fracture
-            .as_ref()
-            .map_or(hydrofrac_core::scenario::DEFAULT_RESIDUAL_APERTURE, |f| {
-                f.residual_aperture
-            });
+    // A coupled run (flow boundaries need the discs: `Scenario::check_flow_has_fractures`): a
+    // flow cell on every joint at the residual aperture, filled or empty.
+    if let (Some(f), false) = (&sc.fracture, sc.flow_boundaries.is_empty()) {
         let fill = match sc.initial_fluid {
-            hydrofrac_core::scenario::InitialFluid::Full(p0) => {
-                Some(sc.fluid.density * (1.0 + p0 / sc.fluid.bulk_modulus))
+            InitialFluid::Full(p0) => {
+                Some(hydrofrac_core::flow::FlowParams::from(sc.fluid).density_at(p0))
             }
-            hydrofrac_core::scenario::InitialFluid::Empty => None,
+            InitialFluid::Empty => None,
         };
-        m.add_face_cells(a_r, fill);
+        m.add_face_cells(f.residual_aperture, fill);
         m.add_flow_boundaries3(&sc.flow_boundaries)?;
     }
     m.apply_boundary3(&sc.boundary);
@@ -483,9 +480,7 @@ impl Simulation<Tet4> {
         }
         self.clock = state.clock;
         self.solid.view = state.solid_view;
-        if let Some(f) = state.flow {
-            self.flow = Some(f);
-        }
+        self.flow = state.flow;
         self.solid.stats = state.solid_stats;
         self.solid.dt_crit = state.dt_crit;
         self.effort = state.effort;

@@ -134,7 +134,7 @@ pub fn radial3d(quick: bool) -> anyhow::Result<CaseResult> {
         };
         let (mut num, mut den) = (0.0, 0.0);
         for c in 0..v.n_cells() {
-            let x = v.centroid[c];
+            let x = v.centroid(c).expect("3D cell");
             let r = x[0].hypot(x[1]);
             if r > 2.5 || r < 2.0 * h {
                 continue;
@@ -331,18 +331,19 @@ pub fn penny_flow(quick: bool) -> anyhow::Result<CaseResult> {
             0.99999e-5 * 2.0,
             1.00001e-5 * 2.0,
         );
-        // Measured 3.0e-5, 4.4e-5 and 3.3e-5 at R/h = 4 (the relaxation's residual and the
-        // current normal of the fluid's load against the static load's reference one).
+        // Measured 3.0e-5, 4.4e-5 and 3.3e-5 at R/h = 4, 1.5e-5, 3.1e-5 and 1.2e-5 at 6 (the
+        // relaxation's residual at the end, and the fluid's load along the faces' current
+        // normal against the static load's reference one): bounds of about twice those.
         res.check_max(
             format!("|rest pressure error| at R/h = {c}"),
             ep.abs(),
-            5e-4,
+            1e-4,
         );
-        res.check_max(format!("pressure spread at rest, R/h = {c}"), spread, 5e-4);
+        res.check_max(format!("pressure spread at rest, R/h = {c}"), spread, 1e-4);
         res.check_max(
             format!("|opened volume error| at R/h = {c}"),
             ev.abs(),
-            5e-4,
+            1e-4,
         );
     }
     res.files.push(("penny_flow.csv".into(), csv));

@@ -3,11 +3,13 @@
 //!
 //! The equations are the 2D network's (`crate::flow`), per cell instead of per metre:
 //! - cell i: area A_i (m^2), hydraulic aperture a_i (m), volume a_i A_i (m^3), mass kg;
-//! - two triangles sharing an edge of length w (m), their centroids at distances d_i, d_j from
-//!   the edge's line (m): the cubic law q = w a^3 / (12 mu) dP/ds over the two half-cells in
-//!   series gives kappa_ij = w / (12 mu (d_i / a_i^3 + d_j / a_j^3)) (m^3/(Pa s)), the harmonic
-//!   form of the seed's (1)-(2). It is w times the 2D pair form at lengths l = 2 d, which is how
-//!   the view stores it ([`crate::flow::FlowView::pair_geom`]), so `LinearOpening` carries over;
+//! - two triangles sharing an edge of length w (m), their circumcentres at distances d_i, d_j
+//!   from the edge's line (m): the cubic law q = w a^3 / (12 mu) dP/ds over the two half-cells
+//!   in series gives kappa_ij = w / (12 mu (d_i / a_i^3 + d_j / a_j^3)) (m^3/(Pa s)), the
+//!   harmonic form of the seed's (1)-(2). It is w times the 2D pair form at lengths l = 2 d,
+//!   which is how the view stores it ([`crate::flow::FlowView::pair_geom`]), so
+//!   `LinearOpening` carries over. Where two triangles share their circumcentre (the halves of
+//!   a square) their centroids' distances (a third of each height) give the coupling instead;
 //! - an edge shared by more than two triangles (two fractures meeting along a line) joins
 //!   every two of them, as a 2D junction node does;
 //! - a boundary at a node joins each triangle with a corner there through the third of the
@@ -16,13 +18,15 @@
 //!   width 1 and length 2d has the same form); a boundary at a cell joins that cell through a
 //!   square of its area, kappa = a^3 / (6 mu).
 //!
-//! The distance-to-edge form is the two-point flux of a mesh whose centroid-to-centroid lines
-//! cross the shared edges at right angles; on the bent, graded grids of `GradedBox` they do
-//! not quite, and `hydrofrac verify radial3d` measures what that costs against the closed form.
+//! The line between two circumcentres crosses the shared edge at right angles (the two-point
+//! flux of the Voronoi dual, consistent for any pressure gradient); on the bent, graded grids
+//! of `GradedBox` the triangles are not quite right-angled, and `hydrofrac verify radial3d`
+//! measures what that costs against the closed form.
 
 use crate::flow::{BcView, FlowParams, FlowView};
 use crate::model::Model;
 use crate::model3::NodeRef3;
+use crate::tet4::{cross, dot, norm, sub};
 use hecs::Entity;
 use hydrofrac_components::*;
 use std::collections::HashMap;
@@ -35,18 +39,10 @@ pub struct TriangleCells {
     /// Centroid of each triangle, m.
     pub centroid: Vec<[f64; 3]>,
     /// Pairs of triangles sharing an edge (edges in order of their sorted node pair), and per
-    /// pair [l_i, l_j, w]: twice each centroid's distance to the edge's line and the edge's
-    /// length, m.
+    /// pair [l_i, l_j, w]: twice each cell's distance to the edge's line (circumcentre, or
+    /// centroid where the two share their circumcentre) and the edge's length, m.
     pub pairs: Vec<[u32; 2]>,
     pub pair_geom: Vec<[f64; 3]>,
-}
-
-fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    crate::tet4::sub(a, b)
-}
-
-fn norm(a: [f64; 3]) -> f64 {
-    crate::tet4::norm(a)
 }
 
 /// The flow cells of triangles `tris` (node indices into `nodes`, m). Two triangles are
@@ -88,10 +84,10 @@ pub fn triangle_cells(nodes: &[[f64; 3]], tris: &[[u32; 3]]) -> TriangleCells {
             let cc = circumcentre(x);
             let along = sub(xb, xa).map(|v| v / w);
             let to3 = sub(nodes[third as usize], xa);
-            let k = crate::tet4::dot(to3, along);
+            let k = dot(to3, along);
             let n = sub(to3, along.map(|v| k * v));
             let nn = norm(n);
-            crate::tet4::dot(sub(cc, xa), n.map(|v| v / nn))
+            dot(sub(cc, xa), n.map(|v| v / nn))
         };
         let d_cent = |c: u32| 2.0 * out.area[c as usize] / (3.0 * w);
         for a in 0..cells.len() {
@@ -118,7 +114,6 @@ pub fn triangle_cells(nodes: &[[f64; 3]], tris: &[[u32; 3]]) -> TriangleCells {
 
 /// The circumcentre of a triangle in space, m.
 pub fn circumcentre(x: [[f64; 3]; 3]) -> [f64; 3] {
-    use crate::tet4::{cross, dot};
     let (a, b) = (sub(x[1], x[0]), sub(x[2], x[0]));
     let n = cross(a, b);
     let nn = dot(n, n);
@@ -206,7 +201,6 @@ impl FlowView {
             generation: model.topology_generation,
             cell_entity: tc.cell_entity.clone(),
             cell_id: tc.cell_id.clone(),
-            centroid: geo.centroid,
             corners: tc
                 .tris
                 .iter()
@@ -243,7 +237,7 @@ impl FlowView {
                         Some(&i) => (0..nc)
                             .filter(|&c| tc.tris[c].contains(&(i as u32)))
                             .map(|c| {
-                                let g = node_connection(tc.nodes[i], v.centroid[c], v.length[c]);
+                                let g = node_connection(tc.nodes[i], geo.centroid[c], v.length[c]);
                                 (c as u32, g)
                             })
                             .unzip(),

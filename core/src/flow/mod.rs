@@ -76,6 +76,14 @@ impl FlowParams {
     }
 }
 
+impl FlowParams {
+    /// The density of the fluid at pressure p (Pa), kg/m^3: rho_r (1 + p / K), the inverse of
+    /// [`pressure_of`] for a full cell (a cell filled at p holds this density times its volume).
+    pub fn density_at(&self, p: f64) -> f64 {
+        self.rho_r * (1.0 + p / self.k)
+    }
+}
+
 /// Pressure of a cell from its excess mass e = m - rho_r V (kg/m) and volume V (m^2), Pa:
 /// equation (4) corrected, P = K (rho/rho_r - 1) = K e / (rho_r V) when the cell is full (e > 0),
 /// else 0. Working with the excess keeps full relative precision in P; with the total mass the
@@ -257,8 +265,6 @@ pub struct FlowView {
     pub cell_id: Vec<u64>,
     /// Dense node indices of each cell's ends (2D; empty in 3D).
     pub cell_nodes: Vec<[u32; 2]>,
-    /// 3D only (empty in 2D): each cell's triangle centroid in the reference geometry, m.
-    pub centroid: Vec<[f64; 3]>,
     /// 3D only (empty in 2D): each cell's triangle corners in the reference geometry, m.
     pub corners: Vec<[[f64; 3]; 3]>,
     pub node_entity: Vec<Entity>,
@@ -289,8 +295,8 @@ pub struct FlowView {
     pub pairs: Vec<[u32; 2]>,
     pub kappa: Vec<f64>,
     pub pair_q: Vec<f64>,
-    /// 3D only (empty in 2D): per pair the half-cell lengths l_i, l_j (twice the distance from
-    /// each triangle's centroid to the shared edge, m) and the edge's length w (m). The pair's
+    /// 3D only (empty in 2D): per pair the half-cell lengths l_i, l_j (twice each triangle's
+    /// distance to the shared edge, `faces::triangle_cells`, m) and the edge's length w (m). The pair's
     /// transmissibility is w times the 2D form at l_i, l_j (for `CellMean`
     /// w / (12 mu (d_i / a_i^3 + d_j / a_j^3)), the cubic law over the two half-cells, m^3/(Pa s)).
     pub pair_geom: Vec<[f64; 3]>,
@@ -367,14 +373,15 @@ impl FlowView {
                 at_node[n[1] as usize].push(c as u32);
             }
         }
+        let mut pairs = Vec::new();
         for cs in &at_node {
             for a in 0..cs.len() {
                 for b in a + 1..cs.len() {
-                    v.pairs.push([cs[a], cs[b]]);
+                    pairs.push([cs[a], cs[b]]);
                 }
             }
         }
-        v.set_pairs(v.pairs.clone());
+        v.set_pairs(pairs);
         for (e, b) in boundaries(model) {
             let cells: Vec<u32> = match b.target {
                 FlowBcTarget::Node(n) => {
@@ -521,9 +528,15 @@ impl FlowView {
             .min_by(|a, b| a.1.total_cmp(&b.1))
     }
 
+    /// 3D: cell c's triangle centroid in the reference geometry, m (`None` in 2D).
+    pub fn centroid(&self, c: usize) -> Option<[f64; 3]> {
+        let x = self.corners.get(c)?;
+        Some(std::array::from_fn(|d| (x[0][d] + x[1][d] + x[2][d]) / 3.0))
+    }
+
     /// "cell ID at (x, y) m" (3D: (x, y, z)) for messages.
     pub fn cell_label(&self, c: usize) -> String {
-        if let Some(x) = self.centroid.get(c) {
+        if let Some(x) = self.centroid(c) {
             return format!(
                 "cell {} at ({:.4}, {:.4}, {:.4}) m",
                 self.cell_id[c], x[0], x[1], x[2]
