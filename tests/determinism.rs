@@ -52,7 +52,7 @@ fn one_and_two_threads_give_identical_bits() {
 /// and 2 threads.
 #[test]
 fn flow_one_and_two_threads_give_identical_bits() {
-    use hydrofrac::scenario::{End, FlowBcKind, FlowTarget, InitialFluid};
+    use hydrofrac::scenario::{Coords, End, FlowBcKind, FlowTarget, InitialFluid};
     use hydrofrac::verify::flow_cases::{WATER, bc, flow_scenario, net};
     let run = |threads: usize| {
         let n = 71;
@@ -64,7 +64,7 @@ fn flow_one_and_two_threads_give_identical_bits() {
             vec![
                 bc(
                     "pump",
-                    FlowTarget::Node([0.0, 0.0]),
+                    FlowTarget::Node(Coords::two([0.0, 0.0])),
                     FlowBcKind::Pump {
                         p_max: 18e6,
                         q_half: 1e-3,
@@ -72,7 +72,7 @@ fn flow_one_and_two_threads_give_identical_bits() {
                 ),
                 bc(
                     "out",
-                    FlowTarget::Node([len, len]),
+                    FlowTarget::Node(Coords::two([len, len])),
                     FlowBcKind::Pressure(0.0),
                 ),
             ],

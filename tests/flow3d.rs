@@ -128,13 +128,13 @@ fn a_pump_and_the_implicit_flow_step_drive_the_penny_too() {
 
 #[test]
 fn a_pressure_well_at_a_cell_feeds_empty_cells_through_its_connection() {
-    // `Cell3` joins the triangle nearest the point with kappa = a^3 / (6 mu); the cells start
+    // `Cell` joins the triangle nearest the point with kappa = a^3 / (6 mu); the cells start
     // empty (`initial_fluid: Empty`, pressure zero until full), so while the disc fills the
     // well's rate is kappa times its pressure: 1e-12 / (6 x 8.9e-4) x 2e6 = 3.745e-4 m^3/s.
     let dir = cli::tmp_dir("cell3");
     let text = std::fs::read_to_string(cli::scenario("penny_injection.ron"))
         .unwrap()
-        .replace("Node3((0.0, 0.0, 0.0))", "Cell3((0.1, 0.1, 0.0))")
+        .replace("Node((0.0, 0.0, 0.0))", "Cell((0.1, 0.1, 0.0))")
         .replace("initial_fluid: Full(0.0),", "initial_fluid: Empty,")
         .replace("kind: Rate(1e-3)", "kind: Pressure(2e6)");
     let path = dir.join("cell3.ron");
@@ -213,7 +213,7 @@ fn two_discs(name: &str, y: f64, r: f64) -> (Vec<f64>, serde_json::Value) {
                       (center: (0.0, {y}, 0.0), normal: (0.0, 1.0, 0.0), radius: {r})],
               residual_aperture: 1e-4)),
           initial_fluid: Full(0.0),
-          flow_boundaries: [(name: \"well\", at: Node3((0.0, 0.0, 0.0)), kind: Rate(1e-3))],
+          flow_boundaries: [(name: \"well\", at: Node((0.0, 0.0, 0.0)), kind: Rate(1e-3))],
           damping: Local(0.1),
           time: (end: Time(0.01), safety: 0.9),
           output: (frame_every: 100000, series_every: 100))"
@@ -254,11 +254,11 @@ fn flow_boundaries_of_the_wrong_dimension_or_off_the_fracture_are_refused_by_fie
     let pumped = std::fs::read_to_string(cli::scenario("penny_injection.ron")).unwrap();
     let cases: Vec<(String, &[&str])> = vec![
         (
-            pumped.replace("Node3((0.0, 0.0, 0.0))", "Node((0.0, 0.0))"),
-            &["flow_boundaries[0].at", "Node3"],
+            pumped.replace("Node((0.0, 0.0, 0.0))", "Node((0.0, 0.0))"),
+            &["flow_boundaries[0].at", "(x, y, z)"],
         ),
         (
-            pumped.replace("Node3((0.0, 0.0, 0.0))", "Node3((3.0, 3.0, 0.0))"),
+            pumped.replace("Node((0.0, 0.0, 0.0))", "Node((3.0, 3.0, 0.0))"),
             &["flow_boundaries[0].at", "nearest fracture node"],
         ),
         (
@@ -277,7 +277,7 @@ fn flow_boundaries_of_the_wrong_dimension_or_off_the_fracture_are_refused_by_fie
               material: (young: 2e10, poisson: 0.2, density: 2700.0),
               boundary: Sides(bottom: Fixed),
               fracture: Some((preexisting: [(from: (1.0, 2.0), to: (3.0, 2.0))])),
-              flow_boundaries: [(at: Node3((2.0, 2.0, 0.0)), kind: Rate(1e-4))],
+              flow_boundaries: [(at: Node((2.0, 2.0, 0.0)), kind: Rate(1e-4))],
               time: (end: Time(0.01)))"
                 .to_string(),
             &["flow_boundaries[0].at", "2D"],

@@ -9,7 +9,9 @@ use hydrofrac::flow::implicit::{
 };
 use hydrofrac::flow::pressure_of;
 use hydrofrac::network::Fracture;
-use hydrofrac::scenario::{End, FlowBcKind, FlowScheme, FlowTarget, InitialFluid, Scenario};
+use hydrofrac::scenario::{
+    Coords, End, FlowBcKind, FlowScheme, FlowTarget, InitialFluid, Scenario,
+};
 use hydrofrac::sim::Simulation;
 use hydrofrac::systems::RunError;
 use hydrofrac::verify::{CaseResult, flow_cases as fc};
@@ -34,12 +36,12 @@ fn single_fracture(n: usize, initial: InitialFluid, end: End) -> Scenario {
         vec![
             fc::bc(
                 "in",
-                FlowTarget::Node([0.0, 0.0]),
+                FlowTarget::Node(Coords::two([0.0, 0.0])),
                 FlowBcKind::Pressure(1e6),
             ),
             fc::bc(
                 "out",
-                FlowTarget::Node([10.0, 0.0]),
+                FlowTarget::Node(Coords::two([10.0, 0.0])),
                 FlowBcKind::Pressure(0.0),
             ),
         ],
@@ -367,7 +369,7 @@ fn jacobian_matches_finite_differences() {
         vec![
             fc::bc(
                 "pump",
-                FlowTarget::Node([0.0, 0.0]),
+                FlowTarget::Node(Coords::two([0.0, 0.0])),
                 FlowBcKind::Pump {
                     p_max: 18e6,
                     q_half: 1e-5,
@@ -375,12 +377,12 @@ fn jacobian_matches_finite_differences() {
             ),
             fc::bc(
                 "prod",
-                FlowTarget::Node([10.0, 0.0]),
+                FlowTarget::Node(Coords::two([10.0, 0.0])),
                 FlowBcKind::Rate(-1e-6),
             ),
             fc::bc(
                 "side",
-                FlowTarget::Node([5.0, 5.0]),
+                FlowTarget::Node(Coords::two([5.0, 5.0])),
                 FlowBcKind::Pressure(3e6),
             ),
         ],

@@ -2,7 +2,7 @@
 //! check's tolerance and its reason are in `src/verify/flow_cases.rs`.
 
 use hydrofrac::flow::{FlowParams, pressure_of};
-use hydrofrac::scenario::{End, FlowBcKind, FlowTarget, InitialFluid};
+use hydrofrac::scenario::{Coords, End, FlowBcKind, FlowTarget, InitialFluid};
 use hydrofrac::sim::Simulation;
 use hydrofrac::verify::{CaseResult, flow_cases};
 
@@ -62,7 +62,7 @@ fn over_limit_kernel_violates_the_maximum_principle() {
         ),
         vec![flow_cases::bc(
             "step",
-            FlowTarget::Node([0.0, 0.0]),
+            FlowTarget::Node(Coords::two([0.0, 0.0])),
             FlowBcKind::Pressure(2e6),
         )],
         InitialFluid::Full(1e6),

@@ -6,7 +6,7 @@
 use criterion::measurement::WallTime;
 use criterion::{BenchmarkGroup, Criterion};
 use hydrofrac::network;
-use hydrofrac::scenario::{End, FlowBcKind, FlowTarget, InitialFluid, Material};
+use hydrofrac::scenario::{Coords, End, FlowBcKind, FlowTarget, InitialFluid, Material};
 use hydrofrac::sim::Simulation;
 use hydrofrac::verify::flow_cases::{WATER, bc, flow_scenario, net};
 use std::time::Duration;
@@ -67,13 +67,13 @@ pub fn lattice(n: usize, inlet_schedule: Vec<(f64, f64)>) -> Simulation {
     let fr = network::lattice(n, |k| 1e-4 * (1.0 + 0.5 * ((k * 7919) % 13) as f64 / 13.0));
     let mut inlet = bc(
         "in",
-        FlowTarget::Node([0.0, 0.0]),
+        FlowTarget::Node(Coords::two([0.0, 0.0])),
         FlowBcKind::Pressure(2e6),
     );
     inlet.schedule = inlet_schedule;
     let outlet = bc(
         "out",
-        FlowTarget::Node([len, len]),
+        FlowTarget::Node(Coords::two([len, len])),
         FlowBcKind::Pressure(1e6),
     );
     let sc = flow_scenario(

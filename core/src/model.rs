@@ -281,7 +281,14 @@ impl Model {
         let mut spawned = Vec::new();
         for (i, bc) in bcs.iter().enumerate() {
             let (target, d_near, p) = match bc.at {
+                FlowTarget::Node(_) | FlowTarget::Cell(_) if bc.at.is_3d() => {
+                    return Err(SetupError::invalid(
+                        &format!("flow_boundaries[{i}].at"),
+                        "this mesh is 2D: give the point as (x, y), m",
+                    ));
+                }
                 FlowTarget::Node(p) => {
+                    let p = p.xy();
                     let best = cell_ends
                         .iter()
                         .flat_map(|(_, n)| n.iter().copied())
@@ -296,6 +303,7 @@ impl Model {
                     (FlowBcTarget::Node(n), d, p)
                 }
                 FlowTarget::Cell(p) => {
+                    let p = p.xy();
                     let best = cell_ends
                         .iter()
                         .map(|(c, n)| {
@@ -310,13 +318,6 @@ impl Model {
                         ));
                     };
                     (FlowBcTarget::Cell(c), d, p)
-                }
-                // `Scenario::check_3d` keeps 3D points out of 2D scenes.
-                FlowTarget::Node3(_) | FlowTarget::Cell3(_) => {
-                    return Err(SetupError::invalid(
-                        &format!("flow_boundaries[{i}].at"),
-                        "Node3 and Cell3 are 3D points: this mesh is 2D (use Node or Cell)",
-                    ));
                 }
             };
             // The nearest node or cell centre must be close compared with the cells around it.

@@ -342,7 +342,7 @@ impl Model {
         self.topology_generation += 1;
     }
 
-    /// Attach the scenario's flow boundaries (`Node3`, `Cell3`) to the nearest fracture node
+    /// Attach the scenario's flow boundaries (`Node`, `Cell` at 3D points) to the nearest fracture node
     /// (a root of the cells' triangles) or triangle centroid. The point must lie within half
     /// the largest edge of the triangles there; two boundaries on one node or cell are refused.
     pub fn add_flow_boundaries3(
@@ -374,7 +374,13 @@ impl Model {
             let field = format!("flow_boundaries[{i}].at");
             let at = bc.at.point();
             let (target, d, size, what) = match bc.at {
-                FlowTarget::Node3(_) => {
+                _ if !bc.at.is_3d() => {
+                    return Err(SetupError::invalid(
+                        &field,
+                        "this mesh is 3D: give the point as (x, y, z), m",
+                    ));
+                }
+                FlowTarget::Node(_) => {
                     let (k, d) = (0..tc.nodes.len())
                         .map(|k| (k, dist(tc.nodes[k], at)))
                         .min_by(|a, b| a.1.total_cmp(&b.1))
@@ -387,7 +393,7 @@ impl Model {
                         .fold(0.0, f64::max);
                     (FlowBcTarget::Node(tc.node_entity[k]), d, size, "node")
                 }
-                FlowTarget::Cell3(_) => {
+                FlowTarget::Cell(_) => {
                     let (c, d) = (0..tc.tris.len())
                         .map(|c| (c, dist(geo.centroid[c], at)))
                         .min_by(|a, b| a.1.total_cmp(&b.1))
@@ -399,13 +405,6 @@ impl Model {
                         size,
                         "cell centroid",
                     )
-                }
-                FlowTarget::Node(_) | FlowTarget::Cell(_) => {
-                    return Err(SetupError::invalid(
-                        &field,
-                        "a 3D scene places flow boundaries at 3D points: `Node3((x, y, z))` or \
-                         `Cell3((x, y, z))`",
-                    ));
                 }
             };
             if d > 0.5 * size + 1e-9 {

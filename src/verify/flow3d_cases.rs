@@ -59,7 +59,7 @@ fn rigid_disc(h: f64, rd: f64, a: f64, q: f64) -> anyhow::Result<(FlowView, Flow
           fracture: Some((discs: [(center: (0.0, 0.0, 0.0), normal: (0.0, 0.0, 1.0),
                                    radius: {rd})], residual_aperture: {a})),
           initial_fluid: Full(0.0),
-          flow_boundaries: [(name: \"well\", at: Node3((0.0, 0.0, 0.0)), kind: Rate({q}))],
+          flow_boundaries: [(name: \"well\", at: Node((0.0, 0.0, 0.0)), kind: Rate({q}))],
           time: (end: Time(1.0)))",
         t = 4.0 * h,
         z0 = -2.0 * h,
@@ -99,7 +99,7 @@ pub fn radial3d(quick: bool) -> anyhow::Result<CaseResult> {
         let (mut v, fp) = rigid_disc(h, rd, a, q_quarter)?;
         let specs = [crate::scenario::FlowBoundary {
             name: "well".into(),
-            at: crate::scenario::FlowTarget::Node3([0.0; 3]),
+            at: crate::scenario::FlowTarget::Node(crate::scenario::Coords::three([0.0; 3])),
             kind: crate::scenario::FlowBcKind::Rate(q_quarter),
             schedule: Vec::new(),
         }];

@@ -4,8 +4,8 @@
 use super::{CaseResult, Row, observed_order};
 use crate::network::{Fracture, NetworkSpec, RandomNetwork};
 use crate::scenario::{
-    Boundary, Damping, End, FlowBcKind, FlowBoundary, FlowScheme, FlowTarget, Fluid, InitialFluid,
-    OutputSpec, Scenario, SystemsSpec, TimeControl,
+    Boundary, Coords, Damping, End, FlowBcKind, FlowBoundary, FlowScheme, FlowTarget, Fluid,
+    InitialFluid, OutputSpec, Scenario, SystemsSpec, TimeControl,
 };
 use crate::sim::{Finish, Simulation};
 use crate::systems::RunError;
@@ -256,10 +256,14 @@ fn cubic_law_cases(a: f64, dp: f64, len: f64) -> [CubicLawCase; 3] {
             "single",
             vec![frac([0.0, 0.0], [len, 0.0], a)],
             vec![
-                bc("in", FlowTarget::Node([0.0, 0.0]), FlowBcKind::Pressure(dp)),
+                bc(
+                    "in",
+                    FlowTarget::Node(Coords::two([0.0, 0.0])),
+                    FlowBcKind::Pressure(dp),
+                ),
                 bc(
                     "out",
-                    FlowTarget::Node([len, 0.0]),
+                    FlowTarget::Node(Coords::two([len, 0.0])),
                     FlowBcKind::Pressure(0.0),
                 ),
             ],
@@ -272,10 +276,14 @@ fn cubic_law_cases(a: f64, dp: f64, len: f64) -> [CubicLawCase; 3] {
                 frac([5.0, -5.0], [5.0, 5.0], 2.0 * a),
             ],
             vec![
-                bc("in", FlowTarget::Node([0.0, 0.0]), FlowBcKind::Pressure(dp)),
+                bc(
+                    "in",
+                    FlowTarget::Node(Coords::two([0.0, 0.0])),
+                    FlowBcKind::Pressure(dp),
+                ),
                 bc(
                     "out",
-                    FlowTarget::Node([len, 0.0]),
+                    FlowTarget::Node(Coords::two([len, 0.0])),
                     FlowBcKind::Pressure(0.0),
                 ),
             ],
@@ -289,15 +297,19 @@ fn cubic_law_cases(a: f64, dp: f64, len: f64) -> [CubicLawCase; 3] {
                 frac([5.0, 0.0], [5.0, 5.0], a3),
             ],
             vec![
-                bc("in", FlowTarget::Node([0.0, 0.0]), FlowBcKind::Pressure(dp)),
+                bc(
+                    "in",
+                    FlowTarget::Node(Coords::two([0.0, 0.0])),
+                    FlowBcKind::Pressure(dp),
+                ),
                 bc(
                     "east",
-                    FlowTarget::Node([10.0, 0.0]),
+                    FlowTarget::Node(Coords::two([10.0, 0.0])),
                     FlowBcKind::Pressure(0.0),
                 ),
                 bc(
                     "north",
-                    FlowTarget::Node([5.0, 5.0]),
+                    FlowTarget::Node(Coords::two([5.0, 5.0])),
                     FlowBcKind::Pressure(0.0),
                 ),
             ],
@@ -445,7 +457,7 @@ pub fn diffusion_run(
         net(vec![frac([0.0, 0.0], [len, 0.0], a)], None, len / n as f64),
         vec![bc(
             "step",
-            FlowTarget::Node([0.0, 0.0]),
+            FlowTarget::Node(Coords::two([0.0, 0.0])),
             FlowBcKind::Pressure(p0),
         )],
         InitialFluid::Full(pi),
@@ -595,7 +607,7 @@ pub fn mass_balance_run(
 ) -> anyhow::Result<(Simulation, f64, f64, usize)> {
     let mut pump = bc(
         "pump",
-        FlowTarget::Node([0.0, 10.0]),
+        FlowTarget::Node(Coords::two([0.0, 10.0])),
         FlowBcKind::Pump {
             p_max: 18e6,
             q_half: 1e-4,
@@ -615,7 +627,7 @@ pub fn mass_balance_run(
             pump,
             bc(
                 "production",
-                FlowTarget::Node([30.0, 10.0]),
+                FlowTarget::Node(Coords::two([30.0, 10.0])),
                 FlowBcKind::Pressure(0.0),
             ),
         ],
@@ -755,12 +767,12 @@ pub fn pump_curve(quick: bool) -> anyhow::Result<CaseResult> {
             vec![
                 bc(
                     "pump",
-                    FlowTarget::Node([0.0, 0.0]),
+                    FlowTarget::Node(Coords::two([0.0, 0.0])),
                     FlowBcKind::Pump { p_max, q_half },
                 ),
                 bc(
                     "out",
-                    FlowTarget::Node([len, 0.0]),
+                    FlowTarget::Node(Coords::two([len, 0.0])),
                     FlowBcKind::Pressure(0.0),
                 ),
             ],
@@ -814,12 +826,12 @@ pub fn steady(quick: bool) -> anyhow::Result<CaseResult> {
                 vec![
                     bc(
                         "injection",
-                        FlowTarget::Node([0.0, 10.0]),
+                        FlowTarget::Node(Coords::two([0.0, 10.0])),
                         FlowBcKind::Pressure(15e6),
                     ),
                     bc(
                         "production",
-                        FlowTarget::Node([30.0, 10.0]),
+                        FlowTarget::Node(Coords::two([30.0, 10.0])),
                         FlowBcKind::Pressure(3e6),
                     ),
                 ],
@@ -966,7 +978,7 @@ pub fn flow_stability(_quick: bool) -> anyhow::Result<CaseResult> {
                 ),
                 vec![bc(
                     "step",
-                    FlowTarget::Node([0.0, 0.0]),
+                    FlowTarget::Node(Coords::two([0.0, 0.0])),
                     FlowBcKind::Pressure(2e6),
                 )],
                 InitialFluid::Full(1e6),
@@ -1012,7 +1024,7 @@ pub fn flow_stability(_quick: bool) -> anyhow::Result<CaseResult> {
         net(vec![frac([0.0, 0.0], [10.0, 0.0], 1e-4)], None, 0.5),
         vec![bc(
             "step",
-            FlowTarget::Node([0.0, 0.0]),
+            FlowTarget::Node(Coords::two([0.0, 0.0])),
             FlowBcKind::Pressure(2e6),
         )],
         InitialFluid::Full(1e6),

@@ -22,8 +22,9 @@ use super::flow_cases::{diffusivity, erfc};
 use super::{CaseResult, LinePlot, Row};
 use crate::plot::Series;
 use crate::scenario::{
-    Boundary, Damping, End, FlowBcKind, FlowBoundary, FlowTarget, FractureSpec, InitialFluid,
-    InitialState, LinearSolver, Material, MeshSpec, PreFracture, Scenario, SolidScheme,
+    Boundary, Coords, Damping, End, FlowBcKind, FlowBoundary, FlowTarget, FractureSpec,
+    InitialFluid, InitialState, LinearSolver, Material, MeshSpec, PreFracture, Scenario,
+    SolidScheme,
 };
 use crate::sim::{Finish, Simulation};
 use std::f64::consts::PI;
@@ -243,7 +244,7 @@ impl Setup {
         sc.initial_fluid = InitialFluid::Full(0.0);
         sc.flow_boundaries = vec![FlowBoundary {
             name: "well".into(),
-            at: FlowTarget::Node([0.0, 0.0]),
+            at: FlowTarget::Node(Coords::two([0.0, 0.0])),
             kind: FlowBcKind::Pressure(DP),
             schedule: Vec::new(),
         }];

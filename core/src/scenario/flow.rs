@@ -1,7 +1,7 @@
 //! The fluid and its boundaries (`fluid:`, `initial_fluid:`, `flow_boundaries:`), the
 //! piecewise-linear schedules, and those sections' checks.
 
-use super::{finite, positive};
+use super::{Coords, finite, positive};
 use crate::error::SetupError;
 use serde::{Deserialize, Serialize};
 
@@ -109,30 +109,26 @@ pub enum InitialFluid {
 /// Where a flow boundary acts.
 #[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq)]
 pub enum FlowTarget {
-    /// The network node nearest to this point, m: every cell meeting there connects to the
-    /// boundary through half its length.
-    Node([f64; 2]),
-    /// The cell whose centre is nearest to this point, m: it connects through half its length.
-    Cell([f64; 2]),
-    /// 3D: the fracture node nearest to this point, m: every fracture triangle with a corner
-    /// there connects to the boundary (see `FlowView::build_3d`). Rates are m^3/s.
-    Node3([f64; 3]),
-    /// 3D: the fracture triangle whose centroid is nearest to this point, m.
-    Cell3([f64; 3]),
+    /// The network node nearest to this point, m, `(x, y)` in 2D or `(x, y, z)` in 3D: every
+    /// cell meeting there connects to the boundary through half its length (in 3D every
+    /// fracture triangle with a corner there; see `FlowView::build_3d`; rates are then m^3/s).
+    Node(Coords),
+    /// The cell whose centre (in 3D the triangle whose centroid) is nearest to this point, m:
+    /// it connects through half its length.
+    Cell(Coords),
 }
 
 impl FlowTarget {
     /// The point, m (two or three coordinates).
     pub fn point(&self) -> &[f64] {
         match self {
-            FlowTarget::Node(p) | FlowTarget::Cell(p) => p,
-            FlowTarget::Node3(p) | FlowTarget::Cell3(p) => p,
+            FlowTarget::Node(p) | FlowTarget::Cell(p) => p.given(),
         }
     }
 
     /// Whether the point has three coordinates.
     pub fn is_3d(&self) -> bool {
-        matches!(self, FlowTarget::Node3(_) | FlowTarget::Cell3(_))
+        self.point().len() == 3
     }
 }
 

@@ -35,7 +35,7 @@ pub use fracture::{
     PreFracture, RockNetwork, read_fracture_csv,
 };
 pub use material::{
-    Boundary, Damping, Gravity, InitialState, MAX_DENSITY, MAX_YOUNG, Material, Pin, SideBc,
+    Boundary, Coords, Damping, Gravity, InitialState, MAX_DENSITY, MAX_YOUNG, Material, Pin, SideBc,
 };
 pub use mesh::{GMSH_BYTES_PER_TRIANGLE, MeshCounts, MeshSpec, Round};
 pub use output::{CheckpointEvery, Field, MAX_NAME_LEN, OutputSpec, SystemsSpec, check_run_name};
@@ -442,7 +442,7 @@ impl Scenario {
             if let Some(i) = self.flow_boundaries.iter().position(|b| b.at.is_3d()) {
                 return Err(SetupError::invalid(
                     &format!("flow_boundaries[{i}].at"),
-                    "Node3 and Cell3 are 3D points: this mesh is 2D (use Node or Cell)",
+                    "this mesh is 2D: give the point as (x, y), m",
                 ));
             }
             return Ok(());
@@ -480,8 +480,7 @@ impl Scenario {
         if let Some(i) = self.flow_boundaries.iter().position(|b| !b.at.is_3d()) {
             return Err(SetupError::invalid(
                 &format!("flow_boundaries[{i}].at"),
-                "a 3D scene places flow boundaries at 3D points: `Node3((x, y, z))` or \
-                 `Cell3((x, y, z))`",
+                "this mesh is 3D: give the point as (x, y, z), m",
             ));
         }
         if !self.flow_boundaries.is_empty()
