@@ -189,7 +189,8 @@ fn summary_3d(sim: &Simulation<Tet4>, stepped: &Stepped) -> serde_json::Value {
 /// `summary.json` `fracture` of a 3D run with joints (null without): the joints, the node
 /// copies, face p's area (m^2), the opened volume sum A0 max(delta_n, 0) (m^3), the largest
 /// opening and the largest interpenetration of closed joints (m, the penalty's), and the
-/// joints in contact and sliding at the end.
+/// joints in contact and sliding at the end; the slip's potency sum A0 |delta_t| (m^3), its
+/// area-weighted vector sum A0 delta_t (m^3, x, y, z) and the largest slip (m).
 fn fracture_3d(sim: &Simulation<Tet4>) -> Option<serde_json::Value> {
     let v = sim.solid();
     if v.joint_nodes.is_empty() {
@@ -219,6 +220,9 @@ fn fracture_3d(sim: &Simulation<Tet4>) -> Option<serde_json::Value> {
         "opened_volume": o.volume,
         "max_opening": o.max,
         "max_interpenetration": if o.min < 0.0 { -o.min } else { 0.0 },
+        "slip_potency": o.potency,
+        "slip_vector": o.slip_vector,
+        "max_slip": o.max_slip,
         "joints_closed": closed,
         "joints_sliding": sliding,
     }))

@@ -188,7 +188,7 @@ fn penny3d(threads: usize, c: f64, explicit: bool) -> (Vec<[f64; 3]>, Vec<f64>) 
         let joints = v
             .joint_state
             .iter()
-            .flat_map(|s| [s.opening, s.normal_force, s.shear_force[0]])
+            .flat_map(|s| [s.opening, s.normal_force, s.shear_force[0][0]])
             .collect();
         (v.u.clone(), joints)
     })

@@ -241,7 +241,8 @@ fn the_3d_joint_sticks_below_the_coulomb_limit_and_slides_at_it() {
             let l = hydrofrac::model3::joint_len0_3d(v, k);
             // Pressed in by dz: F_n = K_n l dz.
             assert!((st.normal_force - p.kn * l * dz).abs() < 1e-9 * st.normal_force);
-            let ft = st.shear_force[0].hypot(st.shear_force[1]);
+            let ft = hydrofrac::model3::face_shear(&st);
+            let ft = ft[0].hypot(ft[1]);
             let trial = p.kt * l * dx.hypot(dy);
             assert_eq!(st.sliding, sliding, "joint {k}");
             let want = if sliding { mu * st.normal_force } else { trial };

@@ -287,9 +287,10 @@ pub struct Joint {
 
 /// Contact state of a joint (seed (8)-(11)): normal force F_n (N/m in 2D, N in 3D,
 /// compression positive), tangential force F_t (on face q along face p's tangent: a number in
-/// 2D, `T = f64`; its two components along face p's tangents t1, t2 in 3D, `T = [f64; 2]`), the
-/// last tangential offset (m, for the incremental update; the same shape), whether it slid at
-/// the last step, and the opening (m).
+/// 2D, `T = f64`; in 3D its two components along face p's tangents t1, t2 for each of the
+/// three sister node pairs, `T = [CornerShear]`), the last tangential offset (m, for the
+/// incremental update; the same shape), whether it slid at the last step (in 3D: one of its
+/// pairs), and the opening (m).
 #[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct JointState<T = f64> {
     pub normal_force: f64,
@@ -317,8 +318,13 @@ pub struct FaceJoint {
     pub faces: [Entity; 2],
 }
 
+/// A 3D joint's tangential state, per sister node pair (face p's node a and face q's node a,
+/// a = 0, 1, 2): the components along face p's tangents t1, t2 (N for forces, m for offsets).
+/// The 3D joint takes its contact pair by pair (`contact_3d`).
+pub type CornerShear = [[f64; 2]; 3];
+
 /// 3D joint bundle.
-pub type FaceJointBundle = (StableId, FaceJoint, JointState<[f64; 2]>);
+pub type FaceJointBundle = (StableId, FaceJoint, JointState<CornerShear>);
 
 /// A 3D flow cell: the fracture face pair of its joint (a [`FaceJoint`] entity). The cell is the
 /// joint's triangle; it exchanges fluid with every cell whose face p shares an edge with its

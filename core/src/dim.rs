@@ -158,7 +158,7 @@ impl Element for Tet4 {
     type Forces = [f64; 12];
     type Stiffness = nalgebra::SMatrix<f64, 12, 12>;
     type JointNodes = [u32; 6];
-    type Shear = [f64; 2];
+    type Shear = hydrofrac_components::CornerShear;
 
     #[inline(always)]
     fn measure(g: &tet4::TetGeometry) -> f64 {

@@ -646,6 +646,7 @@ pub fn parse_msh3(text: &str, path_for_messages: &str) -> Result<GmshMesh3, Gmsh
         nodes,
         tets: out,
         bbox: [lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]],
+        frame: None,
     };
     let faces = mesh.faces();
     let (mut surfaces, mut surface_physical) = (Vec::new(), Vec::new());

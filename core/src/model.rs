@@ -18,6 +18,9 @@ pub struct Model {
     /// A 3D model's box `[xmin, ymin, zmin, xmax, ymax, zmax]`, m; `None` in 2D
     /// ([`Model::from_tet_mesh`], `model3.rs`).
     pub bbox3: Option<[f64; 6]>,
+    /// A 3D model on a turned grid: the grid's rotation (`TetMesh::frame`); `bbox3` is then
+    /// in the grid's frame.
+    pub frame3: Option<[[f64; 3]; 3]>,
     /// Nominal mesh size, m.
     pub h: f64,
     /// Smallest triangle altitude, m.
@@ -172,6 +175,7 @@ impl Model {
             material,
             bbox: mesh.bbox,
             bbox3: None,
+            frame3: None,
             h: mesh.h,
             min_altitude: mesh.min_altitude(),
             topology_generation: 0,
@@ -194,6 +198,7 @@ impl Model {
             },
             bbox: [0.0; 4],
             bbox3: None,
+            frame3: None,
             h: 1.0,
             min_altitude: f64::INFINITY,
             topology_generation: 0,

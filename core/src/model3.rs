@@ -112,7 +112,7 @@ impl Model {
         let [x0, y0, z0, x1, y1, z1] = mesh.bbox;
         let tol = 1e-9 * min_edge;
         let side_of = |f: [u32; 3]| -> Option<Side> {
-            let p = f.map(|n| mesh.nodes[n as usize]);
+            let p = f.map(|n| mesh.grid_coords(mesh.nodes[n as usize]));
             let on = |d: usize, c: f64| p.iter().all(|q| (q[d] - c).abs() < tol);
             [
                 (0, x0, Side::Left),
@@ -151,6 +151,7 @@ impl Model {
             material,
             bbox: [x0, y0, x1, y1],
             bbox3: Some(mesh.bbox),
+            frame3: mesh.frame,
             h: min_edge,
             min_altitude: f64::INFINITY,
             topology_generation: 0,
@@ -177,9 +178,21 @@ impl Model {
     /// and normal tractions (t A / 3 to each node of a boundary face of area A). Previous
     /// conditions are replaced. A 2D boundary, and a 3D side's shear traction, are refused by
     /// the scenario's checks (`Scenario::validate`): the sides are then free, the shear unused.
+    ///
+    /// On a turned grid (`frame3`) the sides are oblique: a traction acts along the side's
+    /// normal in the scene, and `InSitu3` holds every boundary node at the homogeneous
+    /// displacement of the in-situ stress about the box's centre, all three components
+    /// ([`Model::set_insitu_displacement3`]'s). `Normal` (an oblique roller) is refused by the
+    /// scenario's checks and left free here.
     pub fn apply_boundary3(&mut self, boundary: &Boundary) {
         let b = self.box3();
+        let frame = self.frame3;
+        let mut held: Option<[f64; 3]> = None;
         let bc_of: [SideBc; 6] = match *boundary {
+            Boundary::InSitu3 { sxx, syy, szz } if frame.is_some() => {
+                held = Some(self.material.strain_3d([sxx, syy, szz]));
+                [SideBc::Free; 6]
+            }
             Boundary::InSitu3 { sxx, syy, szz } => {
                 let e = self.material.strain_3d([sxx, syy, szz]);
                 let half = [0, 1, 2].map(|d| 0.5 * (b[d + 3] - b[d]));
@@ -207,15 +220,21 @@ impl Model {
                 }
             }
         }
+        let c = self.centre3();
         let mut updates: Vec<(Entity, NodeBc3)> = Vec::new();
-        for (e, link) in self.world.query::<(Entity, &NodeLink)>().iter() {
+        for (e, link, x) in self.world.query::<(Entity, &NodeLink, &NodeRef3)>().iter() {
             if !link.in_solid {
                 continue;
             }
             let mut bc = NodeBc3::default();
-            for &s in node_sides.get(&e).map_or(&[][..], |v| &v[..]) {
+            let sides = node_sides.get(&e).map_or(&[][..], |v| &v[..]);
+            if let (Some(e), false) = (held, sides.is_empty()) {
+                bc.prescribed = [0, 1, 2].map(|d| Some(e[d] * (x.0[d] - c[d])));
+            }
+            for &s in sides {
                 let (axis, sign) = s.axis(3);
                 match bc_of[index(s)] {
+                    SideBc::Normal(_) if frame.is_some() => {}
                     SideBc::Normal(d) => bc.prescribed[axis] = Some(d * sign),
                     SideBc::Fixed => bc.prescribed = [Some(0.0); 3],
                     SideBc::Free | SideBc::Traction { .. } => {}
@@ -235,8 +254,10 @@ impl Model {
                     .map(|e| self.world.get::<&NodeRef3>(e).expect("node").0);
                 let area = triangle_area(p);
                 let (axis, sign) = side.axis(3);
-                let mut f = [0.0; 3];
-                f[axis] = normal * sign * area / 3.0;
+                let mut out = [0.0; 3];
+                out[axis] = sign;
+                let out = crate::tetmesh::scene_coords(frame.as_ref(), out);
+                let f = out.map(|o| normal * o * area / 3.0);
                 for &e in &fnodes.0 {
                     loads.push((e, f));
                 }
@@ -251,13 +272,19 @@ impl Model {
         self.topology_generation += 1;
     }
 
+    /// The box's centre in the scene, m (turned with the grid).
+    fn centre3(&self) -> [f64; 3] {
+        let b = self.box3();
+        let c = [0, 1, 2].map(|d| 0.5 * (b[d] + b[d + 3]));
+        crate::tetmesh::scene_coords(self.frame3.as_ref(), c)
+    }
+
     /// Put every solid node at the homogeneous displacement of the principal in-situ stress
     /// (sxx, syy, szz), Pa, about the box's centre, at rest: with `Boundary::InSitu3` the
     /// unfractured body starts in equilibrium.
     pub fn set_insitu_displacement3(&mut self, s: [f64; 3]) {
         let e = self.material.strain_3d(s);
-        let b = self.box3();
-        let c = [0, 1, 2].map(|d| 0.5 * (b[d] + b[d + 3]));
+        let c = self.centre3();
         for (x, st) in self.world.query_mut::<(&NodeRef3, &mut NodeState3)>() {
             st.u = [0, 1, 2].map(|d| e[d] * (x.0[d] - c[d]));
             st.v = [0.0; 3];
@@ -570,8 +597,8 @@ impl SolidView<Tet4> {
             .collect();
         v.push_elem_rows(elems);
         v.set_incidence();
-        let mut joints: Vec<(u64, Entity, FaceJoint, JointState<[f64; 2]>)> = world
-            .query::<(Entity, &StableId, &FaceJoint, &JointState<[f64; 2]>)>()
+        let mut joints: Vec<(u64, Entity, FaceJoint, JointState<CornerShear>)> = world
+            .query::<(Entity, &StableId, &FaceJoint, &JointState<CornerShear>)>()
             .iter()
             .map(|(e, id, j, st)| (id.0, e, *j, *st))
             .collect();
@@ -610,7 +637,7 @@ impl SolidView<Tet4> {
                 s.0 = Tet4::stress(&self.geom[k], &self.conn[k], &self.u, p);
             }
         }
-        let mut view = model.world.view_mut::<&mut JointState<[f64; 2]>>();
+        let mut view = model.world.view_mut::<&mut JointState<CornerShear>>();
         for (k, &e) in self.joint_entity.iter().enumerate() {
             if let Some(s) = view.get_mut(e) {
                 *s = self.joint_state[k];
@@ -653,6 +680,25 @@ pub fn joint_frame_3d(v: &SolidView<Tet4>, k: usize) -> JointFrame3 {
     }
 }
 
+/// The offsets of joint `k`'s sister node pairs, x_q,a - x_p,a for a = 0, 1, 2 (m, current
+/// positions): their mean is the centroids' offset, whose components along the joint's frame
+/// are [`JointFrame3::dn`] and `dt`. Taken as (x0_q - x0_p) + (u_q - u_p), so that a node the
+/// two faces share (on the fracture's front) has exactly none.
+#[inline]
+pub fn corner_offsets_3d(v: &SolidView<Tet4>, k: usize) -> [[f64; 3]; 3] {
+    let nodes = v.joint_nodes[k];
+    [0, 1, 2].map(|a| {
+        let (p, q) = (nodes[a] as usize, nodes[a + 3] as usize);
+        [0, 1, 2].map(|d| (v.x0[q][d] - v.x0[p][d]) + (v.u[q][d] - v.u[p][d]))
+    })
+}
+
+/// A 3D joint's tangential force, its pairs' summed (components along t1, t2, N).
+pub fn face_shear(st: &JointState<CornerShear>) -> [f64; 2] {
+    let f = &st.shear_force;
+    [0, 1].map(|i| f[0][i] + f[1][i] + f[2][i])
+}
+
 /// Face p's area of joint `k` in the reference positions, m^2.
 pub fn joint_area0_3d(v: &SolidView<Tet4>, k: usize) -> f64 {
     triangle_area([0, 1, 2].map(|a| v.x0[v.joint_nodes[k][a] as usize]))
@@ -669,13 +715,19 @@ pub fn joint_len0_3d(v: &SolidView<Tet4>, k: usize) -> f64 {
 
 /// What a 3D fracture's joints open, in the current geometry: face p's total reference area
 /// (m^2), the opened volume sum A0 max(delta_n, 0) (m^3), and the largest and smallest opening
-/// delta_n (m; negative where a closed joint's faces interpenetrate, the penalty's).
+/// delta_n (m; negative where a closed joint's faces interpenetrate, the penalty's); and what
+/// they slip: the potency sum A0 |delta_t| (m^3; times the shear modulus, the seismic
+/// moment), the area-weighted slip vector sum A0 delta_t in the scene's axes (m^3), and the
+/// largest slip |delta_t| (m).
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Opening3 {
     pub area: f64,
     pub volume: f64,
     pub max: f64,
     pub min: f64,
+    pub potency: f64,
+    pub slip_vector: [f64; 3],
+    pub max_slip: f64,
 }
 
 /// [`Opening3`] of the view's joints (zeros without joints).
@@ -683,11 +735,18 @@ pub fn opening_3d(v: &SolidView<Tet4>) -> Opening3 {
     let mut o = Opening3::default();
     for k in 0..v.joint_nodes.len() {
         let a = joint_area0_3d(v, k);
-        let dn = joint_frame_3d(v, k).dn;
+        let f = joint_frame_3d(v, k);
+        let dn = f.dn;
         o.area += a;
         o.volume += a * dn.max(0.0);
         o.max = o.max.max(dn);
         o.min = o.min.min(dn);
+        let slip = f.dt[0].hypot(f.dt[1]);
+        o.potency += a * slip;
+        o.max_slip = o.max_slip.max(slip);
+        for d in 0..3 {
+            o.slip_vector[d] += a * (f.dt[0] * f.t[0][d] + f.dt[1] * f.t[1][d]);
+        }
     }
     o
 }

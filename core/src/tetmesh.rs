@@ -20,8 +20,12 @@ use std::collections::HashMap;
 pub struct TetMesh {
     pub nodes: Vec<[f64; 3]>,
     pub tets: Vec<[u32; 4]>,
-    /// Domain bounding box `[xmin, ymin, zmin, xmax, ymax, zmax]`, m.
+    /// Domain bounding box `[xmin, ymin, zmin, xmax, ymax, zmax]`, m, in the grid's frame.
     pub bbox: [f64; 6],
+    /// A turned grid's rotation ([`TetMesh::tilt`]): the columns are the grid's axes in the
+    /// scene, so a node at grid coordinates g sits at R g. `None`: the grid's axes are the
+    /// scene's.
+    pub frame: Option<[[f64; 3]; 3]>,
 }
 
 /// The six Kuhn tetrahedra of a unit cube, as corner numbers `dx + 2 dy + 4 dz`: each is the path
@@ -34,6 +38,23 @@ const KUHN: [[usize; 4]; 6] = [
     [0, 4, 5, 7],
     [0, 4, 6, 7],
 ];
+
+/// A point's coordinates in a turned grid's frame ([`TetMesh::frame`]): R^T x; x itself
+/// without a frame.
+pub fn grid_coords(frame: Option<&[[f64; 3]; 3]>, x: [f64; 3]) -> [f64; 3] {
+    match frame {
+        Some(r) => std::array::from_fn(|j| (0..3).map(|i| r[i][j] * x[i]).sum()),
+        None => x,
+    }
+}
+
+/// A grid-frame vector in the scene (R g on a turned grid).
+pub fn scene_coords(frame: Option<&[[f64; 3]; 3]>, g: [f64; 3]) -> [f64; 3] {
+    match frame {
+        Some(r) => std::array::from_fn(|i| (0..3).map(|j| r[i][j] * g[j]).sum()),
+        None => g,
+    }
+}
 
 impl TetMesh {
     /// The longest edge of the tetrahedra at each node, m (0 for a node in none).
@@ -98,6 +119,7 @@ impl TetMesh {
             nodes,
             tets,
             bbox: [xs[0], ys[0], zs[0], xs[nx - 1], ys[ny - 1], zs[nz - 1]],
+            frame: None,
         })
     }
 
@@ -147,6 +169,42 @@ impl TetMesh {
             &line(1, "fine y")?,
             &line(2, "fine z")?,
         )
+    }
+
+    /// Turn the mesh about the point (0, 0, 0) by the smallest rotation that takes the z axis
+    /// to `dir` (normalised; Rodrigues' formula about z x dir, a half turn about x for
+    /// dir = -z). Rotations keep every tetrahedron's orientation. The box keeps its grid-frame
+    /// bounds; [`TetMesh::frame`] records the rotation.
+    pub fn tilt(&mut self, dir: [f64; 3]) {
+        let n = dir.map(|c| c / tet4::norm(dir));
+        let k = [-n[1], n[0], 0.0];
+        let s2 = k[0] * k[0] + k[1] * k[1];
+        let r: [[f64; 3]; 3] = if s2 < 1e-30 {
+            if n[2] > 0.0 {
+                [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
+            } else {
+                [[1.0, 0.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, -1.0]]
+            }
+        } else {
+            // R = I + [k]x + [k]x^2 (1 - cos) / sin^2, with sin^2 = |k|^2 and cos = n_z.
+            let kx = [[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]];
+            let f = (1.0 - n[2]) / s2;
+            std::array::from_fn(|i| {
+                std::array::from_fn(|j| {
+                    let kk: f64 = (0..3).map(|m| kx[i][m] * kx[m][j]).sum();
+                    f64::from(u8::from(i == j)) + kx[i][j] + f * kk
+                })
+            })
+        };
+        for q in &mut self.nodes {
+            *q = std::array::from_fn(|i| (0..3).map(|j| r[i][j] * q[j]).sum());
+        }
+        self.frame = Some(r);
+    }
+
+    /// A point's coordinates in the grid's frame (R^T x on a turned grid), m.
+    pub fn grid_coords(&self, x: [f64; 3]) -> [f64; 3] {
+        grid_coords(self.frame.as_ref(), x)
     }
 
     /// The corner coordinates of tetrahedron `t`.

@@ -204,7 +204,7 @@ impl WorldRecords {
             r.faces.push((e, (*a, *b, *c, *d)));
         }
         for (e, a, b, c) in w
-            .query::<(Entity, &StableId, &FaceJoint, &JointState<[f64; 2]>)>()
+            .query::<(Entity, &StableId, &FaceJoint, &JointState<CornerShear>)>()
             .iter()
         {
             r.face_joints.push((e, (*a, *b, *c)));

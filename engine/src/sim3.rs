@@ -45,10 +45,14 @@ pub fn build_tet_mesh(spec: &MeshSpec) -> Result<TetMesh, SetupError> {
             fine,
             ratio,
             round,
+            tilt,
         } => {
             let mut m = TetMesh::graded_box(origin, size, h, fine, ratio)?;
             if let Some(r) = round {
                 m.round_about(r.center, r.radius)?;
+            }
+            if let Some(t) = tilt {
+                m.tilt(t);
             }
             Ok(m)
         }
@@ -174,23 +178,29 @@ pub fn critical_step_3d(view: &SolidView<Tet4>, p: &RunParams) -> f64 {
     }
     // The joints' penalty springs stiffen the system: the highest frequency squared is at
     // most the elements' (2 / dt_e)^2 plus the largest row sum of the joints' stiffness
-    // scaled by the masses, M^-1/2 K_j M^-1/2 (Gershgorin). Joint k couples its six nodes
-    // with K l / 9 (normal or tangential, the stiffer) between each pair, plus the fluid's.
-    // A full cell at the residual aperture a_r pushes back on an opening change with
-    // K A0 / a_r (N/m; K the fluid's bulk modulus in coupled runs, else 0).
-    let k = p.joint.k_max();
+    // scaled by the masses, M^-1/2 K_j M^-1/2 (Gershgorin). Joint k couples each sister pair
+    // with K l / 3 (normal or tangential, the stiffer; `contact_3d`), and its six nodes with
+    // the fluid's K A0 / (9 a_r) between each two: a full cell at the residual aperture a_r
+    // pushes back on an opening change with K A0 / a_r (N/m; K the fluid's bulk modulus in
+    // coupled runs, else 0).
     let k_fluid = p.k_fluid() / p.residual_aperture;
     let mut row = vec![0.0; view.n_nodes()];
+    let m = |a: u32| view.mass[a as usize];
     for j in 0..view.joint_nodes.len() {
         let nodes = view.joint_nodes[j];
-        let w = (k * hydrofrac_core::model3::joint_len0_3d(view, j)
-            + k_fluid * hydrofrac_core::model3::joint_area0_3d(view, j))
-            / 9.0;
+        let l = hydrofrac_core::model3::joint_len0_3d(view, j);
+        let w = k_fluid * hydrofrac_core::model3::joint_area0_3d(view, j) / 9.0;
         for &a in &nodes {
-            let ma = view.mass[a as usize];
             for &b in &nodes {
-                row[a as usize] += w / (ma * view.mass[b as usize]).sqrt();
+                row[a as usize] += w / (m(a) * m(b)).sqrt();
             }
+        }
+        let wc = p.joint.k_max() * l / 3.0;
+        for s in 0..3 {
+            let (a, b) = (nodes[s], nodes[s + 3]);
+            let cross = wc / (m(a) * m(b)).sqrt();
+            row[a as usize] += wc / m(a) + cross;
+            row[b as usize] += wc / m(b) + cross;
         }
     }
     let joints = row.iter().copied().fold(0.0, f64::max);

@@ -325,11 +325,13 @@ pub fn penny_flow(quick: bool) -> anyhow::Result<CaseResult> {
         ));
         let (inj, _, _, balance) = f.balance(&fp);
         res.check_max(format!("mass balance at R/h = {c}"), balance, 1e-12);
+        // 1e-3 m^3/s for 0.02 s, to within the step that straddles the switch-off (q dt).
+        let slack = 1e-3 * sim.dt();
         res.check_range(
             format!("injected volume at R/h = {c} (m^3)"),
             inj,
-            0.99999e-5 * 2.0,
-            1.00001e-5 * 2.0,
+            2e-5 - slack,
+            2e-5 + slack,
         );
         // Measured 3.0e-5, 4.4e-5 and 3.3e-5 at R/h = 4, 1.5e-5, 3.1e-5 and 1.2e-5 at 6 (the
         // relaxation's residual at the end, and the fluid's load along the faces' current

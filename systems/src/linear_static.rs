@@ -10,7 +10,7 @@
 //!
 //! Joints (contact with Coulomb friction) enter by an active set: their forces are in every
 //! residual ([`LinearStatic::solve_with`]'s `extra`), and each joint's stiffness as its state
-//! gives it ([`JointTangent`]: open nothing, sticking normal and shear, sliding normal and the
+//! gives it ([`JointTangent`]: per sister node pair, apart nothing, sticking normal and shear, sliding normal and the
 //! shear across the slip) is in the factorised matrix. The matrix is factorised again, on the
 //! kept analysis, only when a joint changes state; a step whose joints keep theirs costs no
 //! factorisation.
@@ -40,13 +40,17 @@ const MAX_PASSES: usize = 3;
 /// Passes at most with joints: each change of a joint's state costs one.
 pub const MAX_CONTACT_PASSES: usize = 40;
 
-/// A joint's stiffness in the quasi-static matrix: none while open; closed, the 3 x 3 (2 x 2
-/// in 2D, the rest zero) block C (N/m) between the mean motions of its two faces, with `code`
-/// telling states apart (1 sticking, 2 sliding).
+/// A joint's stiffness in the quasi-static matrix: none while open; closed, for each sister
+/// node pair a (face p's node a and face q's node a) the 3 x 3 block `corner[a]` (N/m;
+/// zero for a pair apart) between its two nodes, with `code` telling states apart (two bits
+/// a pair, from bit 2a: 0 apart, 1 sticking, 2 sliding).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum JointTangent {
     Open,
-    Closed { c: [[f64; 3]; 3], code: u8 },
+    Closed {
+        corner: [[[f64; 3]; 3]; 3],
+        code: u8,
+    },
 }
 
 impl JointTangent {
@@ -271,9 +275,8 @@ impl LinearStatic {
     }
 
     /// Factorise K + the joints' blocks on the kept analysis (parallel supernodal, on the
-    /// run's threads; the same bits on any number). Joint k's block couples
-    /// its nodes a, b (face p's weighted -1/m, face q's +1/m, m nodes a face) by
-    /// w_a w_b C_k, C_k its D x D [`JointTangent`] stiffness (N/m).
+    /// run's threads; the same bits on any number). Joint k couples the two nodes of each
+    /// sister pair by its D x D [`JointTangent`] block (N/m).
     fn factorise<E: Element>(
         &mut self,
         v: &SolidView<E>,
@@ -282,29 +285,34 @@ impl LinearStatic {
         let dn = E::D;
         let mut values = self.elastic.clone();
         for (k, t) in tangents.iter().enumerate() {
-            let c = match t {
+            let corner = match t {
                 JointTangent::Open => continue,
-                JointTangent::Closed { c, .. } => c,
+                JointTangent::Closed { corner, .. } => corner,
             };
             let nodes = v.joint_nodes[k];
             let nodes = nodes.as_ref();
             let m = nodes.len() / 2;
-            let w = |i: usize| if i < m { -1.0 } else { 1.0 } / m as f64;
-            for (i, &a) in nodes.iter().enumerate() {
-                for (j, &b) in nodes.iter().enumerate() {
-                    for da in 0..dn {
-                        for db in 0..dn {
-                            let (ra, rb) = (
-                                self.dof[dn * a as usize + da],
-                                self.dof[dn * b as usize + db],
-                            );
-                            if ra != NONE && rb != NONE && ra >= rb {
-                                let slot = self.pattern.slot(ra, rb).expect("joint in pattern");
-                                values[slot] += w(i) * w(j) * c[da][db];
-                            }
+            let mut add = |a: u32, b: u32, w: f64, c: &[[f64; 3]; 3]| {
+                for da in 0..dn {
+                    for db in 0..dn {
+                        let (ra, rb) = (
+                            self.dof[dn * a as usize + da],
+                            self.dof[dn * b as usize + db],
+                        );
+                        if ra != NONE && rb != NONE && ra >= rb {
+                            let slot = self.pattern.slot(ra, rb).expect("joint in pattern");
+                            values[slot] += w * c[da][db];
                         }
                     }
                 }
+            };
+            // Each sister pair: +C on the diagonal blocks, -C between them.
+            for (s, c) in corner.iter().enumerate().take(m) {
+                let (a, b) = (nodes[s], nodes[m + s]);
+                add(a, a, 1.0, c);
+                add(b, b, 1.0, c);
+                add(a, b, -1.0, c);
+                add(b, a, -1.0, c);
             }
         }
         self.symbolic

@@ -427,7 +427,10 @@ impl Outputs {
                 f.dn,
                 f.dt[0].hypot(f.dt[1]),
                 st.normal_force / a0,
-                st.shear_force[0].hypot(st.shear_force[1]) / a0,
+                {
+                    let f = crate::model3::face_shear(st);
+                    f[0].hypot(f[1]) / a0
+                },
                 f64::from(u8::from(st.sliding)),
                 pressure[k],
                 aperture.get(k).copied().unwrap_or(0.0),

@@ -96,6 +96,16 @@ pub enum MeshSpec {
         /// on; the box's x and y sides must lie there or pass through the centre.
         #[serde(default)]
         round: Option<Round>,
+        /// For a disc fracture not normal to an axis: after `round`, the grid is turned about
+        /// the point (0, 0, 0) by the smallest rotation that takes its z axis to this
+        /// direction (normalised; dimensionless). A disc whose normal is this direction, on a
+        /// turned grid plane, lies on mesh faces. The sides keep the grid's names (`bottom`
+        /// and `top` are the grid's z = min and max) and are oblique: they take `Fixed`,
+        /// `Free` and `Traction` (along their normal) and `InSitu3`, which then holds every
+        /// boundary node at the in-situ displacement (all three components); `Normal` is
+        /// refused.
+        #[serde(default)]
+        tilt: Option<[f64; 3]>,
     },
     /// 3D: a tetrahedral mesh from a Gmsh `.msh` file (ASCII 2.2 or 4.1, 4-node tetrahedra),
     /// path relative to the scenario file. The box's sides are the bounding box's faces: a
@@ -348,6 +358,17 @@ impl MeshSpec {
                         ),
                     ));
                 }
+            }
+        }
+        if let MeshSpec::GradedBox { tilt: Some(t), .. } = *self {
+            for c in t {
+                finite("mesh.tilt", c)?;
+            }
+            if t.iter().map(|c| c * c).sum::<f64>() == 0.0 {
+                return Err(SetupError::invalid(
+                    "mesh.tilt",
+                    "the direction the grid's z axis turns to must not be (0, 0, 0)",
+                ));
             }
         }
         if let MeshSpec::GradedBox { round: Some(r), .. } = *self {
