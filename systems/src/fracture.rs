@@ -677,9 +677,9 @@ pub fn contact_tangent_3d(
         code |= (if slides { 2 } else { 1 }) << (2 * a);
     }
     if code == 0 {
-        return crate::linear_static::JointTangent::Open;
+        return crate::linear_static::JointTangent::OPEN;
     }
-    crate::linear_static::JointTangent::Closed { corner, code }
+    crate::linear_static::JointTangent { corner, code }
 }
 
 /// The strength test's hand-over at fracture tips (`fracture.tip_handover`).

@@ -40,27 +40,22 @@ const MAX_PASSES: usize = 3;
 /// Passes at most with joints: each change of a joint's state costs one.
 pub const MAX_CONTACT_PASSES: usize = 40;
 
-/// A joint's stiffness in the quasi-static matrix: none while open; closed, for each sister
-/// node pair a (face p's node a and face q's node a) the 3 x 3 block `corner[a]` (N/m;
-/// zero for a pair apart) between its two nodes, with `code` telling states apart (two bits
-/// a pair, from bit 2a: 0 apart, 1 sticking, 2 sliding).
+/// A joint's stiffness in the quasi-static matrix: for each sister node pair a (face p's
+/// node a and face q's node a) the 3 x 3 block `corner[a]` (N/m; 2 x 2 in 2D, the rest zero;
+/// zero for a pair apart) between its two nodes, and `code` telling states apart (two bits a
+/// pair, from bit 2a: 0 apart, 1 sticking, 2 sliding; 0 for an open joint).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub enum JointTangent {
-    Open,
-    Closed {
-        corner: [[[f64; 3]; 3]; 3],
-        code: u8,
-    },
+pub struct JointTangent {
+    pub corner: [[[f64; 3]; 3]; 3],
+    pub code: u8,
 }
 
 impl JointTangent {
-    /// 0 open, else the closed state's code.
-    pub fn code(&self) -> u8 {
-        match self {
-            JointTangent::Open => 0,
-            JointTangent::Closed { code, .. } => *code,
-        }
-    }
+    /// An open joint: no stiffness.
+    pub const OPEN: JointTangent = JointTangent {
+        corner: [[[0.0; 3]; 3]; 3],
+        code: 0,
+    };
 }
 
 /// The factorised stiffness of one topology.
@@ -180,7 +175,7 @@ impl LinearStatic {
             solves: 0,
             tol: crate::quasi_static::DEFAULT_TOL,
         };
-        let open = vec![JointTangent::Open; v.joint_nodes.len()];
+        let open = vec![JointTangent::OPEN; v.joint_nodes.len()];
         l.factorise(v, &open).map_err(|e| {
             format!(
                 "the stiffness is not positive definite ({e}): the body can move without \
@@ -200,7 +195,7 @@ impl LinearStatic {
         p: &SolidParams,
         lf: f64,
     ) -> StepStats {
-        self.solve_with(v, p, lf, |_| {}, |_, _| JointTangent::Open)
+        self.solve_with(v, p, lf, |_| {}, |_, _| JointTangent::OPEN)
             .expect("no joint blocks, no refactorisation")
     }
 
@@ -244,7 +239,7 @@ impl LinearStatic {
             if tangents
                 .iter()
                 .zip(&self.joint_codes)
-                .any(|(t, &c)| t.code() != c)
+                .any(|(t, &c)| t.code != c)
             {
                 self.factorise(v, &tangents).map_err(|e| {
                     format!(
@@ -285,10 +280,10 @@ impl LinearStatic {
         let dn = E::D;
         let mut values = self.elastic.clone();
         for (k, t) in tangents.iter().enumerate() {
-            let corner = match t {
-                JointTangent::Open => continue,
-                JointTangent::Closed { corner, .. } => corner,
-            };
+            if t.code == 0 {
+                continue;
+            }
+            let corner = &t.corner;
             let nodes = v.joint_nodes[k];
             let nodes = nodes.as_ref();
             let m = nodes.len() / 2;
@@ -327,7 +322,7 @@ impl LinearStatic {
             )
             .map_err(|e| format!("{e:?}"))?;
         self.factorisations += 1;
-        self.joint_codes = tangents.iter().map(|t| t.code()).collect();
+        self.joint_codes = tangents.iter().map(|t| t.code).collect();
         Ok(())
     }
 
