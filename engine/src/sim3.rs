@@ -145,7 +145,8 @@ pub fn open_discs(
                 &format!("fracture.discs[{i}]"),
                 "no interior mesh face lies on the disc's plane inside its radius: on a Box or \
                  GradedBox put the centre on a grid plane with the normal along an axis (and \
-                 inside the box); on a Gmsh3 mesh embed the disc in the mesh",
+                 inside the box), or along the grid's turned z axis (`mesh.tilt`); on a Gmsh3 \
+                 mesh embed the disc in the mesh",
             ));
         }
         let area: f64 = faces

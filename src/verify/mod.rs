@@ -21,6 +21,7 @@ pub mod fracture_cases;
 pub mod heat_continuum_cases;
 pub mod heat_discrete_cases;
 pub mod heat_models_cases;
+pub mod inclined3d_cases;
 pub mod seismicity_cases;
 pub mod shear_crack_cases;
 pub mod sif_cases;
@@ -212,6 +213,11 @@ pub fn cases() -> Vec<Case> {
             name: "penny",
             about: "3D engine: scenarios/penny.ron (a quarter penny crack opened by node splitting, front on the circle), R/h = 4 to 16, quasi-static and explicit side by side: opened volume and centre opening (first order)",
             run: solid3d_cases::penny_engine,
+        },
+        Case {
+            name: "penny_inclined",
+            about: "3D engine: scenarios/penny_inclined.ron (a disc dipping 45 degrees on a turned grid), R/h = 3 to 6: under 1 MPa beside the horizontal disc (Sneddon's volume; the same to round-off), and slipping under the in-situ stress without and with friction against a penny's slip under a uniform stress drop (potency, friction's ratio, direction)",
+            run: inclined3d_cases::penny_inclined,
         },
         Case {
             name: "radial3d",

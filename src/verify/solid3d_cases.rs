@@ -323,7 +323,9 @@ pub fn mms3d(quick: bool) -> anyhow::Result<CaseResult> {
 
 /// One 3D scenario through the engine ([`crate::sim::Simulation<crate::dim::Tet4>`]), relaxed
 /// or solved to static equilibrium; returns it and its wall time (s).
-fn run_3d(text: &str) -> anyhow::Result<(crate::sim::Simulation<crate::dim::Tet4>, f64)> {
+pub(super) fn run_3d(
+    text: &str,
+) -> anyhow::Result<(crate::sim::Simulation<crate::dim::Tet4>, f64)> {
     let t0 = std::time::Instant::now();
     let sc = crate::scenario::Scenario::parse(text, "insitu3d")?.validate()?;
     let mut sim = crate::sim::Simulation::new_3d(sc, &[])?;
