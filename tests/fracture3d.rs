@@ -314,7 +314,7 @@ fn the_shipped_inclined_penny_slips_down_the_dip_by_its_potency() {
         .collect();
     let norm = (sv[0] * sv[0] + sv[1] * sv[1] + sv[2] * sv[2]).sqrt();
     let cos = (sv[0] - sv[2]) / (2f64.sqrt() * norm);
-    assert!(cos > 0.9998, "down the dip: {sv:?}");
+    assert!(cos > 0.99985, "down the dip (within 1 degree): {sv:?}");
     // Every joint but the two whose corners all lie on the front slides.
     assert_eq!(f["joints"], 128);
     assert!(f["joints_sliding"].as_u64().unwrap() >= 126, "{f}");
