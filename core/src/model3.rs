@@ -198,14 +198,7 @@ impl Model {
                 let half = [0, 1, 2].map(|d| 0.5 * (b[d + 3] - b[d]));
                 [0, 0, 1, 1, 2, 2].map(|d| SideBc::Normal(e[d] * half[d]))
             }
-            Boundary::Sides3 {
-                left,
-                right,
-                front,
-                back,
-                bottom,
-                top,
-            } => [left, right, front, back, bottom, top],
+            Boundary::Sides3 { .. } => boundary.sides3().expect("3D sides").map(|s| s.1),
             Boundary::InSitu { .. } | Boundary::Sides { .. } => [SideBc::Free; 6],
         };
         let index = |s: Side| Side::ALL3.iter().position(|&t| t == s).expect("side");

@@ -258,25 +258,11 @@ impl Boundary {
                 finite("boundary.syy", *syy)?;
                 finite("boundary.szz", *szz)?;
             }
-            Boundary::Sides3 {
-                left,
-                right,
-                front,
-                back,
-                bottom,
-                top,
-            } => {
-                for (name, bc) in [
-                    ("left", left),
-                    ("right", right),
-                    ("front", front),
-                    ("back", back),
-                    ("bottom", bottom),
-                    ("top", top),
-                ] {
+            Boundary::Sides3 { .. } => {
+                for (name, bc) in self.sides3().into_iter().flatten() {
                     bc.validate(name)?;
                     if let SideBc::Traction { shear, .. } = bc
-                        && *shear != 0.0
+                        && shear != 0.0
                     {
                         return Err(SetupError::invalid(
                             &format!("boundary.{name}.shear"),
@@ -287,6 +273,31 @@ impl Boundary {
             }
         }
         Ok(())
+    }
+}
+
+impl Boundary {
+    /// A `Sides3` boundary's sides with their names, in the order left, right, front, back,
+    /// bottom, top (`Side::ALL3`'s); `None` for the other boundaries.
+    pub fn sides3(&self) -> Option<[(&'static str, SideBc); 6]> {
+        match *self {
+            Boundary::Sides3 {
+                left,
+                right,
+                front,
+                back,
+                bottom,
+                top,
+            } => Some([
+                ("left", left),
+                ("right", right),
+                ("front", front),
+                ("back", back),
+                ("bottom", bottom),
+                ("top", top),
+            ]),
+            _ => None,
+        }
     }
 }
 

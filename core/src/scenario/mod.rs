@@ -416,30 +416,17 @@ impl Scenario {
                 },
             ));
         }
-        if let (
-            Some(MeshSpec::GradedBox { tilt: Some(_), .. }),
-            Boundary::Sides3 {
-                left,
-                right,
-                front,
-                back,
-                bottom,
-                top,
-            },
-        ) = (&self.mesh, &self.boundary)
+        let turned = matches!(self.mesh, Some(MeshSpec::GradedBox { tilt: Some(_), .. }));
+        let sides = self.boundary.sides3().into_iter().flatten();
+        if let Some((name, _)) = sides
+            .filter(|_| turned)
+            .find(|s| matches!(s.1, SideBc::Normal(_)))
         {
-            let sides = [left, right, front, back, bottom, top];
-            if let Some(k) = sides.iter().position(|s| matches!(s, SideBc::Normal(_))) {
-                return Err(SetupError::invalid(
-                    &format!(
-                        "boundary.{}",
-                        ["left", "right", "front", "back", "bottom", "top"][k]
-                    ),
-                    "a turned grid's sides are oblique and take no roller (`Normal`): hold \
-                     them `Fixed`, load them by `Traction`, leave them `Free`, or use \
-                     `InSitu3`",
-                ));
-            }
+            return Err(SetupError::invalid(
+                &format!("boundary.{name}"),
+                "a turned grid's sides are oblique and take no roller (`Normal`): hold them \
+                 `Fixed`, load them by `Traction`, leave them `Free`, or use `InSitu3`",
+            ));
         }
         if !three {
             if self.fracture.as_ref().is_some_and(|f| !f.discs.is_empty()) {
