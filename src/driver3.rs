@@ -73,6 +73,16 @@ pub fn run_scenario_3d(
     {
         summary["warnings"] = json!([format!("figures not written: {e}")]);
     }
+    if let Some(o) = sim.output()
+        && let Err(e) = crate::output::plots::joint_figures(
+            sim.solid(),
+            &sim.params().name,
+            sim.time(),
+            o.folder(),
+        )
+    {
+        summary["warnings"] = json!([format!("fracture figures not written: {e}")]);
+    }
     crate::output::json::finite_summary(&mut summary);
     let o = sim.output().expect("outputs set");
     let path = o.claim("summary.json").map_err(DriverError::Output)?;

@@ -333,6 +333,11 @@ fn the_shipped_inclined_penny_slips_down_the_dip_by_its_potency() {
     assert_eq!(slip.len(), 128);
     let max = slip.iter().copied().fold(0.0, f64::max);
     assert!((max - f["max_slip"].as_f64().unwrap()).abs() < 1e-12 * max);
+    // The opening and slip maps, as PNG.
+    for png in ["fracture_opening.png", "fracture_slip.png"] {
+        let bytes = std::fs::read(out.join(png)).unwrap();
+        assert_eq!(&bytes[1..4], b"PNG", "{png}");
+    }
 }
 
 /// The inclined penny under 1 MPa at R/h = 3 in a free cube held by three pins (3-2-1 at

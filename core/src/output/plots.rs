@@ -18,14 +18,16 @@ pub fn flow_figures(v: &FlowView, p: &RunParams, time: f64, dir: &Folder) -> any
     boundary_figures(v, p, dir)
 }
 
-/// 3D: `fracture_aperture.png` and `fracture_pressure.png`, the fracture triangles seen along
-/// their area-weighted mean normal (each triangle's normal turned to one side first; for one
-/// planar disc, the disc itself), coloured by the hydraulic aperture (mm) and the fluid
-/// pressure (MPa), boundaries marked.
-fn surface_figures(v: &FlowView, p: &RunParams, time: f64, dir: &Folder) -> anyhow::Result<()> {
+/// Map cells as quadrilaterals in the plane of a figure, m.
+type Quads = Vec<[[f64; 2]; 4]>;
+
+/// 3D fracture triangles seen along their area-weighted mean normal (each triangle's normal
+/// turned to one side first; for one planar disc, the disc itself): each triangle as a
+/// degenerate quadrilateral in the view's plane, and the map from a point to that plane.
+fn surface_view(corners: &[[[f64; 3]; 3]]) -> (Quads, impl Fn([f64; 3]) -> [f64; 2]) {
     use crate::tet4::{cross, dot, norm, sub};
     let mut n = [0.0; 3];
-    for c in &v.corners {
+    for c in corners {
         let mut m = cross(sub(c[1], c[0]), sub(c[2], c[0]));
         let big = (0..3)
             .max_by(|&a, &b| m[a].abs().total_cmp(&m[b].abs()))
@@ -50,12 +52,19 @@ fn surface_figures(v: &FlowView, p: &RunParams, time: f64, dir: &Folder) -> anyh
     let e1 = sub(e1, n.map(|x| x * n[k]));
     let e1 = e1.map(|x| x / norm(e1));
     let e2 = cross(n, e1);
-    let to2 = |x: [f64; 3]| [dot(x, e1), dot(x, e2)];
-    let quads: Vec<[[f64; 2]; 4]> = v
-        .corners
+    let to2 = move |x: [f64; 3]| [dot(x, e1), dot(x, e2)];
+    let quads = corners
         .iter()
         .map(|c| [to2(c[0]), to2(c[1]), to2(c[2]), to2(c[2])])
         .collect();
+    (quads, to2)
+}
+
+/// 3D: `fracture_aperture.png` and `fracture_pressure.png`, the fracture triangles seen along
+/// their mean normal ([`surface_view`]), coloured by the hydraulic aperture (mm) and the fluid
+/// pressure (MPa), boundaries marked.
+fn surface_figures(v: &FlowView, p: &RunParams, time: f64, dir: &Folder) -> anyhow::Result<()> {
+    let (quads, to2) = surface_view(&v.corners);
     let markers = boundary_markers(v, p, |at| {
         to2([at[0], at[1], at.get(2).copied().unwrap_or(0.0)])
     });
@@ -85,6 +94,50 @@ fn surface_figures(v: &FlowView, p: &RunParams, time: f64, dir: &Folder) -> anyh
             label,
             None,
             &markers,
+        )?;
+    }
+    Ok(())
+}
+
+/// 3D runs with joints: `fracture_opening.png` and `fracture_slip.png`, the fracture triangles
+/// (face p of each joint, in the reference positions) seen along their mean normal
+/// ([`surface_view`]), coloured by the opening delta_n and the slip |delta_t| (mm) at the end.
+pub fn joint_figures(
+    v: &SolidView<crate::dim::Tet4>,
+    name: &str,
+    time: f64,
+    dir: &Folder,
+) -> anyhow::Result<()> {
+    if v.joint_nodes.is_empty() {
+        return Ok(());
+    }
+    let corners: Vec<[[f64; 3]; 3]> = v
+        .joint_nodes
+        .iter()
+        .map(|j| [0, 1, 2].map(|a| v.x0[j[a] as usize]))
+        .collect();
+    let (quads, _) = surface_view(&corners);
+    let frames: Vec<_> = (0..v.joint_nodes.len())
+        .map(|k| crate::model3::joint_frame_3d(v, k))
+        .collect();
+    let opening: Vec<f64> = frames.iter().map(|f| f.dn * 1e3).collect();
+    let slip: Vec<f64> = frames
+        .iter()
+        .map(|f| f.dt[0].hypot(f.dt[1]) * 1e3)
+        .collect();
+    for (file, what, values, label) in [
+        ("fracture_opening.png", "opening", &opening, "opening [mm]"),
+        ("fracture_slip.png", "slip", &slip, "slip [mm]"),
+    ] {
+        fracture_map(
+            &dir.claim(file)?,
+            &format!("{name}: {what} at t = {time:.4e} s"),
+            &[],
+            &quads,
+            values,
+            label,
+            None,
+            &[],
         )?;
     }
     Ok(())
