@@ -221,8 +221,8 @@ impl Model {
             }
             let mut bc = NodeBc3::default();
             let sides = node_sides.get(&e).map_or(&[][..], |v| &v[..]);
-            if let (Some(e), false) = (held, sides.is_empty()) {
-                bc.prescribed = [0, 1, 2].map(|d| Some(e[d] * (x.0[d] - c[d])));
+            if let (Some(strain), false) = (held, sides.is_empty()) {
+                bc.prescribed = [0, 1, 2].map(|d| Some(strain[d] * (x.0[d] - c[d])));
             }
             for &s in sides {
                 let (axis, sign) = s.axis(3);

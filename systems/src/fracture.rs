@@ -581,10 +581,9 @@ pub fn fluid_pressure_3d(v: &mut SolidView<Tet4>, joint_cell: &[u32], pressure: 
 /// Serial, fixed scatter order.
 ///
 /// Why pairs: a force from the faces' centroid offset, one per triangle, is about twice as
-/// many constraints as there are node pairs. Under a uniform compression such faces' forces
-/// scatter (6 to 71 MPa for 20 MPa on the penny's grid), and so do their Coulomb caps: a
-/// frictional disc then slid about a third more than its friction allows. Pair by pair, each
-/// node pair's normal force is what the rock delivers to it, and its friction mu times that.
+/// many constraints as there are node pairs. Pair by pair (node-to-node contact on the split
+/// mesh), each node pair's normal force is what the rock delivers to it, and its friction mu
+/// times that (`docs/three_d.md`, "Why pairs", for what was measured).
 pub fn contact_3d(v: &mut SolidView<Tet4>, p: &JointParams) {
     for k in 0..v.joint_nodes.len() {
         let nodes = v.joint_nodes[k];

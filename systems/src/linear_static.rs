@@ -107,11 +107,19 @@ impl LinearStatic {
                 .flat_map(|&a| (0..dn).map(move |d| dof_ref[dn * a as usize + d]))
                 .collect()
         };
-        // Every element, and every joint (its block is zero while it is open), couples all
-        // its nodes.
+        // Every element couples all its nodes; a joint couples the two nodes of each sister
+        // pair (its blocks are zero while they are apart; `factorise`).
+        let pairs: Vec<[u32; 2]> = v
+            .joint_nodes
+            .iter()
+            .flat_map(|j| {
+                let (j, m) = (j.as_ref(), j.as_ref().len() / 2);
+                (0..m).map(move |s| [j[s], j[m + s]])
+            })
+            .collect();
         let mut entries = Vec::new();
         let items = v.conn.iter().map(|c| c.as_ref());
-        for nodes in items.chain(v.joint_nodes.iter().map(|j| j.as_ref())) {
+        for nodes in items.chain(pairs.iter().map(|p| &p[..])) {
             let d = dofs_of(nodes);
             for &a in &d {
                 for &b in &d {
