@@ -168,7 +168,7 @@ fn conforming_mesh_is_the_same_in_every_process() {
 /// and the joints' states.
 fn penny3d(threads: usize, c: f64, explicit: bool) -> (Vec<[f64; 3]>, Vec<f64>) {
     let text = std::fs::read_to_string("scenarios/penny.ron").unwrap();
-    let mut sets = vec![format!("mesh.h={}", 1.0 / c)];
+    let mut sets = vec![format!("mesh.h={}", 1.0 / c), "mesh.refine=[]".into()];
     if explicit {
         sets.extend([
             "time.solid_scheme=Explicit".into(),

@@ -4,7 +4,9 @@
 //! - Sneddon's penny-shaped crack (`scenarios/penny.ron`, a quarter): the opened volume at
 //!   R/h = 4 and 8 within bands around the measured errors, first order in h (linear
 //!   tetrahedra at a square-root front), the two schemes agreeing to their tolerances, the
-//!   topology (one copy per inner node) and the fracture frames read back;
+//!   topology (one copy per inner node) and the fracture frames read back; the shipped mesh,
+//!   graded towards the front, four times closer on the volume and K_I along the front within
+//!   5 % by displacement correlation;
 //! - superposition: pressure 3 MPa under a 2 MPa in-situ compression opens the disc exactly as
 //!   1 MPa does in a free box (linear elasticity, open joints carry nothing);
 //! - a disc under a net compression stays closed in every joint, pressed in by the net stress
@@ -17,8 +19,8 @@
 //!   quick), and as shipped: down the dip, by its potency, the rock around at the in-situ
 //!   stress;
 //! - discs that lie on no mesh face, discs in 2D, segments in 3D, a bent grid that would
-//!   move the box's sides, rollers on a turned grid and a turn to nowhere are refused by
-//!   field.
+//!   move the box's sides, rollers on a turned grid, a turn to nowhere and refinement planes
+//!   off the grid are refused by field.
 
 use crate::support_cli as cli;
 use crate::support_vtu as vtu;
@@ -34,9 +36,11 @@ fn quarter_volume(p: f64) -> f64 {
 }
 
 /// The shipped penny at R/h = 4 relaxed by the explicit scheme to its static tolerance.
-const EXPLICIT4: [&str; 12] = [
+const EXPLICIT4: [&str; 14] = [
     "--set",
     "mesh.h=0.25",
+    "--set",
+    "mesh.refine=[]",
     "--set",
     "time.solid_scheme=Explicit",
     "--set",
@@ -49,11 +53,11 @@ const EXPLICIT4: [&str; 12] = [
     "output.frame_every=0",
 ];
 
-/// The shipped penny at cell size h, with extra `--set`s.
+/// The shipped penny at cell size h without its front refinement, with extra `--set`s.
 fn penny(name: &str, h: f64, sets: &[&str]) -> serde_json::Value {
     let out = cli::tmp(name);
     let hs = format!("mesh.h={h}");
-    let mut extra = vec!["--set", &hs];
+    let mut extra = vec!["--set", &hs, "--set", "mesh.refine=[]"];
     for s in sets {
         extra.push("--set");
         extra.push(s);
@@ -132,6 +136,67 @@ fn the_penny_crack_opens_as_sneddon_s_at_first_order_with_both_schemes() {
     );
 }
 
+/// The shipped penny at R/h = 4, with or without its `refine`, solved through the library:
+/// its view's opened volume, disc area, tetrahedra and K_I along the front (six stretches,
+/// fitted 2 to 5 cells behind it).
+fn penny_lib(refined: bool) -> (f64, f64, usize, Vec<f64>) {
+    let text = std::fs::read_to_string(cli::scenario("penny.ron")).unwrap();
+    let mut sets = vec!["mesh.h=0.25".to_string(), "output.frame_every=0".into()];
+    if !refined {
+        sets.push("mesh.refine=[]".into());
+    }
+    let sc = Scenario::parse(&text, "penny.ron")
+        .unwrap()
+        .with_overrides(&sets)
+        .unwrap();
+    let mut sim = Simulation::new_3d(sc.validate().unwrap(), &[]).unwrap();
+    let _ = sim.run(|_| {}).unwrap();
+    let v = sim.solid();
+    let o = hydrofrac::model3::opening_3d(v);
+    let disc = hydrofrac::scenario::Disc {
+        center: [0.0; 3],
+        normal: [0.0, 0.0, 1.0],
+        radius: 1.0,
+    };
+    let e1 = YOUNG / (1.0 - NU * NU);
+    let k_i = 2.0 * 1e6 / std::f64::consts::PI.sqrt();
+    let sif = hydrofrac::model3::front_sif_3d(v, &disc, e1, [0.5, 1.25], 6);
+    let ks = sif.iter().map(|f| f.k / k_i - 1.0).collect();
+    (o.volume, o.area, v.n_elems(), ks)
+}
+
+#[test]
+fn the_penny_graded_towards_its_front_is_four_times_closer_to_sneddon_s() {
+    // The shipped penny's `refine`: cells 16 times finer next to the front's lines and the
+    // disc's plane, growing back by 1.5 over about 2 cells. At R/h = 4 the volume error is
+    // -6.93 % (measured; -28.6 % without), -3.75 % at R/h = 8 (`verify penny`). The band is
+    // half a point either side: the mesh is fixed, so only the solve's round-off could move it.
+    let want = quarter_volume(1e6);
+    let (v, a, n, ks) = penny_lib(true);
+    let e = v / want - 1.0;
+    assert!((-0.075..-0.064).contains(&e), "refined R/h = 4: {e}");
+    let (v0, a0, n0, ks0) = penny_lib(false);
+    let e0 = v0 / want - 1.0;
+    assert!(e.abs() < 0.3 * e0.abs(), "refined {e}, plain {e0}");
+    // The refinement adds grid lines, not another disc: the disc's area stays within 1 % of
+    // the quarter disc's and comes closer to it (the new lines' ends on the circle are more
+    // front nodes: 0.9992 of pi R^2 / 4 against 0.9928 without, measured).
+    let quarter = std::f64::consts::PI / 4.0;
+    assert!((a / quarter - 1.0).abs() < 0.01, "area {a}");
+    assert!(
+        (a - quarter).abs() < (a0 - quarter).abs(),
+        "area {a} against {a0}"
+    );
+    // The rule (`TetMesh::refine_axis`) fixes the grid: 127,500 tetrahedra against 32,400.
+    assert_eq!((n, n0), (127_500, 32_400));
+    // K_I = 2 p sqrt(R / pi) along the front, by displacement correlation 2 to 5 cells
+    // behind it: -2.9 to -3.95 % on the three stretches with pairs there (measured; issue
+    // 38's bound 5 %), against -18 to -22 % without the refinement.
+    assert_eq!(ks.len(), 3, "{ks:?}");
+    assert!(ks.iter().all(|k| (-0.05..-0.02).contains(k)), "{ks:?}");
+    assert!(ks0.iter().all(|k| (-0.25..-0.15).contains(k)), "{ks0:?}");
+}
+
 /// The quarter penny at R/h = 4 under the in-situ stress `s` (Pa, all three components) and
 /// the face pressure `p` (Pa), with the solid scheme `scheme`.
 fn confined(name: &str, s: f64, p: f64, scheme: &str) -> serde_json::Value {
@@ -141,6 +206,7 @@ fn confined(name: &str, s: f64, p: f64, scheme: &str) -> serde_json::Value {
     let scheme = format!("time.solid_scheme={scheme}");
     let mut sets = vec![
         "mesh.h=0.25",
+        "mesh.refine=[]",
         &b,
         "initial_state=InSitu",
         &pr,
@@ -472,6 +538,26 @@ fn discs_off_the_mesh_and_fractures_of_the_wrong_dimension_are_refused_by_field(
               time: (end: Static(tol: 1e-8)))"
                 .to_string(),
             &["fracture.discs", "2D"],
+        ),
+        // Refinement planes off the grid's lines, outside the box, coarser or not growing.
+        (
+            penny.replace("(axis: X, at: 1.0, factor: 16.0)", "(axis: X, at: 1.05, factor: 16.0)"),
+            &["mesh.refine[0].at", "no grid line", "1 and 1.1 m"],
+        ),
+        (
+            penny.replace("(axis: Y, at: 1.0, factor: 16.0)", "(axis: Y, at: 12.0, factor: 16.0)"),
+            &["mesh.refine[1].at", "outside the box"],
+        ),
+        (
+            penny.replace("(axis: Z, at: 0.0, factor: 16.0)", "(axis: Z, at: 0.0, factor: 0.5)"),
+            &["mesh.refine[2].factor", "[1, 1000]"],
+        ),
+        (
+            penny.replace(
+                "(axis: X, at: 1.0, factor: 16.0)",
+                "(axis: X, at: 1.0, factor: 16.0, ratio: 1.0)",
+            ),
+            &["mesh.refine[0].ratio", "(1, 10]"],
         ),
         // A turned grid's sides are oblique: no rollers.
         (

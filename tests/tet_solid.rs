@@ -23,13 +23,27 @@ use hydrofrac_core::tetmesh::TetMesh;
 const RHO: f64 = 2700.0;
 
 fn graded() -> TetMesh {
-    // 8 m x 6 m x 4 m, cells of 0.5 m around the centre growing by 1.4 per cell outwards.
+    // 8 m x 6 m x 4 m, cells of 0.5 m around the centre growing by 1.4 per cell outwards,
+    // refined 6 times towards the planes x = 4 m and z = 2 m (growing back by 1.5), and 3
+    // times towards the box's side y = 0.
+    use hydrofrac::scenario::{Axis, Refine};
+    let r = |axis, at, factor| Refine {
+        axis,
+        at,
+        factor,
+        ratio: 1.5,
+    };
     TetMesh::graded_box(
         [0.0, 0.0, 0.0],
         [8.0, 6.0, 4.0],
         0.5,
         [3.0, 2.0, 1.5, 5.0, 4.0, 2.5],
         1.4,
+        &[
+            r(Axis::X, 4.0, 6.0),
+            r(Axis::Z, 2.0, 6.0),
+            r(Axis::Y, 0.0, 3.0),
+        ],
     )
     .expect("valid box")
 }
@@ -440,6 +454,7 @@ fn penny_split(cells_per_radius: f64) -> (f64, usize, usize) {
         h,
         [0.0, 0.0, -0.5, 1.5, 1.5, 0.5],
         1.25,
+        &[],
     )
     .expect("box");
     let volume = |m: &TetMesh| -> f64 {

@@ -432,6 +432,7 @@ fn a_distorted_gmsh_tetrahedral_mesh_passes_the_patch_test() {
         0.25,
         [1.5, 1.0, 0.5, 2.5, 2.0, 1.5],
         1.3,
+        &[],
     )
     .unwrap();
     let b = m.bbox;

@@ -12,6 +12,7 @@
 
 use crate::error::SetupError;
 use crate::mesh::graded_axis;
+use crate::scenario::Refine;
 use crate::tet4;
 use std::collections::HashMap;
 
@@ -54,6 +55,63 @@ pub fn scene_coords(frame: Option<&[[f64; 3]; 3]>, g: [f64; 3]) -> [f64; 3] {
         Some(r) => std::array::from_fn(|i| (0..3).map(|j| r[i][j] * g[j]).sum()),
         None => g,
     }
+}
+
+/// The grid lines `line` (increasing, m) refined towards the line at `at` (m; one of them, to
+/// 1e-9 of the span): on each side, with s the spacing of the first cell there, cells of
+/// s / `factor` growing by `ratio` per cell while they are smaller than s, their run stretched
+/// or shrunk to end on the old line nearest its end (a change of at most half an old cell over
+/// the run), and the old lines inside it dropped. The cells next to the plane are then `factor` times finer, and the
+/// grid outside the run is unchanged. The error names the nearest lines when `at` is on none.
+pub fn refine_axis(line: &[f64], at: f64, factor: f64, ratio: f64) -> Result<Vec<f64>, String> {
+    let span = line[line.len() - 1] - line[0];
+    let Some(i0) = line.iter().position(|&x| (x - at).abs() <= 1e-9 * span) else {
+        let k = line.partition_point(|&x| x < at).clamp(1, line.len() - 1);
+        return Err(format!(
+            "the plane at {at} m is on no grid line of its axis (the nearest are {} and {} m): \
+             put it on the fine region's lines, its edge plus a whole number of h",
+            line[k - 1],
+            line[k]
+        ));
+    };
+    let at = line[i0];
+    let mut out = vec![at];
+    for dir in [-1.0f64, 1.0] {
+        // The old lines on this side, by their distance from the plane.
+        let side: Vec<f64> = if dir < 0.0 {
+            line[..i0].iter().rev().map(|&x| at - x).collect()
+        } else {
+            line[i0 + 1..].iter().map(|&x| x - at).collect()
+        };
+        let Some(&s) = side.first() else { continue };
+        let mut offs = Vec::new();
+        let (mut o, mut c) = (0.0, s / factor);
+        while c < s * (1.0 - 1e-9) {
+            o += c;
+            offs.push(o);
+            c *= ratio;
+        }
+        let mut keep = 0;
+        if let Some(&t) = offs.last() {
+            // The old line nearest the run's end (at least the first), where it now ends.
+            let j = (0..side.len())
+                .min_by(|&a, &b| (side[a] - t).abs().total_cmp(&(side[b] - t).abs()))
+                .unwrap_or(0);
+            let scale = side[j] / t;
+            offs.pop();
+            out.extend(offs.iter().map(|&o| at + dir * o * scale));
+            keep = j;
+        }
+        out.extend(side[keep..].iter().map(|&d| at + dir * d));
+    }
+    out.sort_by(f64::total_cmp);
+    // The plane and the old lines keep their exact values.
+    for x in &mut out {
+        if let Some(&y) = line.iter().find(|&&y| (y - *x).abs() <= 1e-12 * span) {
+            *x = y;
+        }
+    }
+    Ok(out)
 }
 
 impl TetMesh {
@@ -145,13 +203,15 @@ impl TetMesh {
 
     /// Graded box: cells of side `h` inside `fine` = [x0, y0, z0, x1, y1, z1] (m), growing by
     /// `ratio` per cell towards the domain [origin, origin + size] (the 2D `Graded` mesh's rule
-    /// on each axis, [`graded_axis`]).
+    /// on each axis, [`graded_axis`]), then refined towards the planes `refine`, in order
+    /// ([`refine_axis`]).
     pub fn graded_box(
         origin: [f64; 3],
         size: [f64; 3],
         h: f64,
         fine: [f64; 6],
         ratio: f64,
+        refine: &[Refine],
     ) -> Result<Self, SetupError> {
         let line = |d: usize, what: &str| {
             graded_axis(
@@ -164,11 +224,13 @@ impl TetMesh {
                 what,
             )
         };
-        Self::tensor(
-            &line(0, "fine x")?,
-            &line(1, "fine y")?,
-            &line(2, "fine z")?,
-        )
+        let mut ls = [line(0, "fine x")?, line(1, "fine y")?, line(2, "fine z")?];
+        for (i, r) in refine.iter().enumerate() {
+            let d = r.axis.index();
+            ls[d] = refine_axis(&ls[d], r.at, r.factor, r.ratio)
+                .map_err(|why| SetupError::invalid(&format!("mesh.refine[{i}].at"), why))?;
+        }
+        Self::tensor(&ls[0], &ls[1], &ls[2])
     }
 
     /// Turn the mesh about the point (0, 0, 0) by the smallest rotation that takes the z axis
@@ -432,5 +494,52 @@ impl TetMesh {
             }
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::refine_axis;
+
+    #[test]
+    fn refine_axis_grades_towards_the_plane_and_keeps_the_grid_elsewhere() {
+        // Lines every 0.1 m on [0, 1.5], then growing: refine at 1.0 by 8, ratio 1.5.
+        let mut line: Vec<f64> = (0..=15).map(|k| k as f64 * 0.1).collect();
+        line.extend([1.65, 1.85, 2.1]);
+        let out = refine_axis(&line, 1.0, 8.0, 1.5).unwrap();
+        // Increasing, the plane and both ends kept exactly.
+        assert!(out.windows(2).all(|w| w[1] > w[0]), "{out:?}");
+        assert!(out.contains(&line[10]));
+        assert_eq!((out[0], *out.last().unwrap()), (0.0, 2.1));
+        let i = out.iter().position(|&x| x == line[10]).unwrap();
+        // Next to the plane the cells are h / 8 times the run's stretch: the six cells of
+        // 0.0125 (1 + 1.5 + ... + 1.5^5) = 0.260 m end on the old line nearest, 0.3 m away.
+        let scale = 0.3 / (0.0125 * (1.5f64.powi(6) - 1.0) / 0.5);
+        for side in [-1i64, 1] {
+            let mut prev = out[i];
+            for m in 0..6 {
+                let x = out[(i as i64 + side * (m + 1)) as usize];
+                let want = 0.0125 * 1.5f64.powi(m as i32) * scale;
+                assert!(
+                    ((x - prev).abs() - want).abs() < 1e-12,
+                    "cell {m}: {x} {prev}"
+                );
+                prev = x;
+            }
+            // Then the old grid, untouched.
+            assert!((prev - (1.0 + side as f64 * 0.3)).abs() < 1e-12);
+        }
+        for &x in line.iter().filter(|&&x| (x - 1.0).abs() > 0.3 - 1e-9) {
+            assert!(out.contains(&x), "old line {x} lost");
+        }
+        // At the end of the axis: one side only.
+        let end = refine_axis(&line, 0.0, 4.0, 2.0).unwrap();
+        assert_eq!(end[0], 0.0);
+        assert!((end[1] - 0.025 * 0.1 / 0.075).abs() < 1e-12, "{end:?}");
+        // A factor at or under the ratio changes nothing; off a line is refused, naming the
+        // nearest lines.
+        assert_eq!(refine_axis(&line, 0.5, 1.2, 1.5).unwrap(), line);
+        let e = refine_axis(&line, 0.55, 8.0, 1.5).unwrap_err();
+        assert!(e.contains("0.5 and 0.6"), "{e}");
     }
 }

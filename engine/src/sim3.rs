@@ -46,8 +46,9 @@ pub fn build_tet_mesh(spec: &MeshSpec) -> Result<TetMesh, SetupError> {
             ratio,
             round,
             tilt,
+            ref refine,
         } => {
-            let mut m = TetMesh::graded_box(origin, size, h, fine, ratio)?;
+            let mut m = TetMesh::graded_box(origin, size, h, fine, ratio, refine)?;
             if let Some(r) = round {
                 m.round_about(r.center, r.radius)?;
             }

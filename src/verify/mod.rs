@@ -211,7 +211,7 @@ pub fn cases() -> Vec<Case> {
         },
         Case {
             name: "penny",
-            about: "3D engine: scenarios/penny.ron (a quarter penny crack opened by node splitting, front on the circle), R/h = 4 to 16, quasi-static and explicit side by side: opened volume and centre opening (first order)",
+            about: "3D engine: scenarios/penny.ron (a quarter penny crack opened by node splitting, front on the circle), its mesh graded towards the front (R/h = 4 to 20) beside the uniform one (R/h = 4 to 16, quasi-static and explicit side by side): opened volume and centre opening (first order)",
             run: solid3d_cases::penny_engine,
         },
         Case {

@@ -106,11 +106,63 @@ pub enum MeshSpec {
         /// refused.
         #[serde(default)]
         tilt: Option<[f64; 3]>,
+        /// Grid planes towards which the cells shrink, in order (before `round` and `tilt`):
+        /// for a disc, its plane and the lines its front lies on (`x`, `y` = the round centre
+        /// plus or minus the radius), where the linear tetrahedra's error comes from. Each
+        /// takes the first cells on both sides of its plane down to `factor` times smaller,
+        /// growing back by `ratio` per cell (`TetMesh::refine_axis`).
+        #[serde(default)]
+        refine: Vec<Refine>,
     },
     /// 3D: a tetrahedral mesh from a Gmsh `.msh` file (ASCII 2.2 or 4.1, 4-node tetrahedra),
     /// path relative to the scenario file. The box's sides are the bounding box's faces: a
     /// boundary face on one of its planes takes that side's condition, the others are free.
     Gmsh3 { file: String },
+}
+
+/// A grid axis of a box.
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq, Eq)]
+pub enum Axis {
+    X,
+    Y,
+    Z,
+}
+
+impl Axis {
+    /// 0, 1 or 2.
+    pub fn index(self) -> usize {
+        match self {
+            Axis::X => 0,
+            Axis::Y => 1,
+            Axis::Z => 2,
+        }
+    }
+}
+
+/// One of [`MeshSpec::GradedBox`]'s `refine` planes: the grid plane `axis` = `at` (m, on one
+/// of the grid's lines along that axis), next to which the cells are `factor` (>= 1,
+/// dimensionless) times finer than the grid's spacing there, growing by `ratio` (> 1) per cell
+/// until they reach it again.
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Refine {
+    pub axis: Axis,
+    pub at: f64,
+    pub factor: f64,
+    #[serde(default = "default_refine_ratio")]
+    pub ratio: f64,
+}
+
+fn default_refine_ratio() -> f64 {
+    1.5
+}
+
+impl Refine {
+    /// Grid lines the plane adds at most: on each side a run of ceil(ln(factor) / ln(ratio))
+    /// cells, which replaces at least one old cell.
+    pub fn extra_lines(&self) -> f64 {
+        2.0 * (self.factor.ln() / self.ratio.ln()).ceil()
+    }
 }
 
 /// [`MeshSpec::GradedBox`]'s `round`: the centre (x, y) and radius of the circle, m.
@@ -188,10 +240,21 @@ impl MeshSpec {
             }
             MeshSpec::Box { size, h, .. } | MeshSpec::GradedBox { size, h, .. } => {
                 // Graded: the 2D `Graded` bound on each axis (at most the uniform box's).
+                // Refined: each plane's added lines on its axis.
                 let n: [f64; 3] = match *self {
-                    MeshSpec::GradedBox { fine, ratio, .. } => std::array::from_fn(|d| {
+                    MeshSpec::GradedBox {
+                        fine,
+                        ratio,
+                        ref refine,
+                        ..
+                    } => std::array::from_fn(|d| {
                         graded_cells(fine[d + 3] - fine[d], size[d], h, ratio)
                             .min((size[d] / h).ceil())
+                            + refine
+                                .iter()
+                                .filter(|r| r.axis.index() == d)
+                                .map(Refine::extra_lines)
+                                .sum::<f64>()
                     }),
                     _ => size.map(|l| (l / h).ceil()),
                 };
@@ -369,6 +432,47 @@ impl MeshSpec {
                     "mesh.tilt",
                     "the direction the grid's z axis turns to must not be (0, 0, 0)",
                 ));
+            }
+        }
+        if let MeshSpec::GradedBox { ref refine, .. } = *self {
+            for (i, r) in refine.iter().enumerate() {
+                let d = r.axis.index();
+                let field = |f: &str| format!("mesh.refine[{i}].{f}");
+                finite(&field("at"), r.at)?;
+                let tol = 1e-9 * size[d];
+                if r.at < origin[d] - tol || r.at > origin[d] + size[d] + tol {
+                    return Err(SetupError::invalid(
+                        &field("at"),
+                        format!(
+                            "the plane {:?} = {} m is outside the box ({} to {} m)",
+                            r.axis,
+                            r.at,
+                            origin[d],
+                            origin[d] + size[d]
+                        ),
+                    ));
+                }
+                finite(&field("factor"), r.factor)?;
+                if !(1.0..=1000.0).contains(&r.factor) {
+                    return Err(SetupError::invalid(
+                        &field("factor"),
+                        format!(
+                            "how many times finer the cells next to the plane are must be in \
+                             [1, 1000], got {}",
+                            r.factor
+                        ),
+                    ));
+                }
+                finite(&field("ratio"), r.ratio)?;
+                if !(r.ratio > 1.0 && r.ratio <= 10.0) {
+                    return Err(SetupError::invalid(
+                        &field("ratio"),
+                        format!(
+                            "the growth ratio away from the plane must be in (1, 10], got {}",
+                            r.ratio
+                        ),
+                    ));
+                }
             }
         }
         if let MeshSpec::GradedBox { round: Some(r), .. } = *self {

@@ -37,7 +37,7 @@ pub use fracture::{
 pub use material::{
     Boundary, Coords, Damping, Gravity, InitialState, MAX_DENSITY, MAX_YOUNG, Material, Pin, SideBc,
 };
-pub use mesh::{GMSH_BYTES_PER_TRIANGLE, MeshCounts, MeshSpec, Round};
+pub use mesh::{Axis, GMSH_BYTES_PER_TRIANGLE, MeshCounts, MeshSpec, Refine, Round};
 pub use output::{CheckpointEvery, Field, MAX_NAME_LEN, OutputSpec, SystemsSpec, check_run_name};
 pub use parse::parse_ron;
 pub use production::{ProductionSpec, ProductionStage};
