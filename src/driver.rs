@@ -1041,7 +1041,9 @@ pub(crate) fn flow_json<E: crate::dim::Element>(sim: &Simulation<E>) -> Option<s
 
 /// `summary.json` `mass_scaling` (`None` without `time.selective_mass_scaling`): the critical
 /// steps with and without it, the nodes it made heavier and the mass it added.
-fn mass_scaling_json(sim: &Simulation) -> Option<serde_json::Value> {
+pub(crate) fn mass_scaling_json<E: crate::dim::Element>(
+    sim: &crate::sim::Simulation<E>,
+) -> Option<serde_json::Value> {
     sim.params().time.selective.map(|j| {
         let (nodes, added) = sim.raised_masses();
         let total: f64 = sim.solid().mass.iter().sum();

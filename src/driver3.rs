@@ -175,13 +175,20 @@ fn summary_3d(sim: &Simulation<Tet4>, stepped: &Stepped) -> serde_json::Value {
         "frames": sim.output().map_or(0, |o| o.frames),
         "mesh": sim.mesh_info(),
         "fracture": fracture_3d(sim),
+        "mass_scaling": crate::driver::mass_scaling_json(sim),
         "flow": crate::driver::flow_json(sim),
         "stress_mean": stress(mean),
         "stress_min": stress(min),
         "stress_max": stress(max),
         "systems": systems_json(sim.schedule(), &stepped.rows),
     });
-    for key in ["dt_critical", "quasi_static", "fracture", "flow"] {
+    for key in [
+        "dt_critical",
+        "quasi_static",
+        "fracture",
+        "flow",
+        "mass_scaling",
+    ] {
         if s[key].is_null() {
             s.as_object_mut().expect("object").remove(key);
         }

@@ -248,9 +248,10 @@ fn what_3d_lacks_and_boundaries_of_the_wrong_dimension_are_refused_by_field() {
                 .replace("front: Normal(0.0), ", ""),
             &["boundary", "InSitu3"],
         ),
+        // Mass scaling runs in 3D; its own checks apply.
         (
-            base.replace("time: (", "time: (mass_scaling: true, "),
-            &["time.mass_scaling", "not in 3D yet"],
+            base.replace("time: (", "time: (selective_mass_scaling: Some(0.5), "),
+            &["time.selective_mass_scaling", "at least 1"],
         ),
         (
             base.replace("damping:", "fracture: (strength: 5e6), damping:"),

@@ -80,6 +80,25 @@ enum Pass {
 }
 
 impl<E: Element> Simulation<E> {
+    /// The nodes whose mass in the view is above their lumped mass (`time.mass_scaling`,
+    /// `time.selective_mass_scaling`), and the mass they add, kg/m. Reads the components:
+    /// for summaries, not for the step.
+    pub fn raised_masses(&self) -> (usize, f64) {
+        let v = &self.solid.view;
+        let mut out = (0, 0.0);
+        for (&e, &m) in v.node_entity.iter().zip(&v.mass) {
+            let own = self
+                .model
+                .world
+                .get::<&hydrofrac_components::NodeMass>(e)
+                .map_or(m, |n| n.0);
+            if m > own {
+                out.0 += 1;
+                out.1 += m - own;
+            }
+        }
+        out
+    }
     /// The fracture flow part (`None` without flow).
     pub fn flow(&self) -> Option<&FlowPart> {
         self.flow.as_ref()
@@ -686,25 +705,6 @@ impl Simulation {
     /// The quasi-static solver, to change its settings (tolerance, W updates) before a run.
     pub fn quasi_static_mut(&mut self) -> Option<&mut quasi_static::QuasiStatic> {
         self.solid.quasi_static.as_mut()
-    }
-    /// The nodes whose mass in the view is above their lumped mass (`time.mass_scaling`,
-    /// `time.selective_mass_scaling`), and the mass they add, kg/m. Reads the components:
-    /// for summaries, not for the step.
-    pub fn raised_masses(&self) -> (usize, f64) {
-        let v = &self.solid.view;
-        let mut out = (0, 0.0);
-        for (&e, &m) in v.node_entity.iter().zip(&v.mass) {
-            let own = self
-                .model
-                .world
-                .get::<&hydrofrac_components::NodeMass>(e)
-                .map_or(m, |n| n.0);
-            if m > own {
-                out.0 += 1;
-                out.1 += m - own;
-            }
-        }
-        out
     }
     /// Names of the time-series columns of this scene.
     pub fn series_columns(&self) -> Vec<String> {

@@ -210,6 +210,37 @@ pub fn critical_step_3d(view: &SolidView<Tet4>, p: &RunParams) -> f64 {
     2.0 / w2.sqrt()
 }
 
+/// The fictitious masses a 3D run asks for (explicit rock), on the view just built, and the
+/// critical step after them, s: `time.selective_mass_scaling = Some(f)` raises the nodes
+/// whose Gershgorin bound is shorter than f times `dt_crit` (`solid::raise_masses_3d`; the
+/// step becomes f dt_crit, recorded in `p.time.selective`); `time.mass_scaling` gives every
+/// node Underwood's mass for `dt_crit` (`solid::scale_masses_3d`; the step is unchanged).
+/// Body forces keep the true density (they are set from the model, not the view's masses).
+fn scale_masses_3d(
+    view: &mut SolidView<Tet4>,
+    p: &mut RunParams,
+    t: &hydrofrac_core::scenario::TimeControl,
+    dt_crit: f64,
+) -> f64 {
+    let k_fluid = if p.coupled {
+        p.k_fluid() / p.residual_aperture
+    } else {
+        0.0
+    };
+    let rows = solid::gershgorin_rows_3d(view, &p.solid, p.joint.k_max(), k_fluid);
+    if let Some(f) = t.selective_mass_scaling {
+        let s = hydrofrac_core::params::SelectiveScaling {
+            dt_crit: f * dt_crit,
+            dt_unscaled: dt_crit,
+        };
+        solid::raise_masses_3d(view, &rows, s.dt_crit);
+        p.time.selective = Some(s);
+        return s.dt_crit;
+    }
+    solid::scale_masses_3d(view, &rows, dt_crit);
+    dt_crit
+}
+
 impl Simulation<Tet4> {
     /// Set up a validated scenario with a 3D mesh; `extra_disable` adds system names to
     /// switch off.
@@ -219,13 +250,16 @@ impl Simulation<Tet4> {
     ) -> Result<Self, SetupError> {
         let scenario = scenario.into_inner();
         let (model, mesh_info) = build_model_3d(&scenario)?;
-        let p = RunParams::resolve(&scenario, model.material);
-        let view = SolidView::<Tet4>::build_3d(&model);
+        let mut p = RunParams::resolve(&scenario, model.material);
+        let mut view = SolidView::<Tet4>::build_3d(&model);
         // The quasi-static scheme has no stability bound (and the element eigenvalues cost).
-        let dt_crit = match scenario.time.solid_scheme {
+        let mut dt_crit = match scenario.time.solid_scheme {
             SolidScheme::Explicit => critical_step_3d(&view, &p),
             SolidScheme::QuasiStatic => f64::INFINITY,
         };
+        if scenario.time.mass_scaling || scenario.time.selective_mass_scaling.is_some() {
+            dt_crit = scale_masses_3d(&mut view, &mut p, &scenario.time, dt_crit);
+        }
         let mut flow = p.coupled.then(|| {
             let fv = hydrofrac_core::flow::FlowView::build_3d(&model, &p.fluid);
             let mut f = FlowPart::new(fv, &p, Default::default(), true);

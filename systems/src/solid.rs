@@ -231,6 +231,81 @@ pub fn gershgorin_rows(
     row
 }
 
+/// Each node's Gershgorin row sum sum_j |K_ij| of a 3D scene's stiffness, the largest of its
+/// three dofs (N/m): the elements' TET4 stiffness; per joint sister pair a bound of its
+/// springs, k_max I between the two nodes (N/m; `k_max` = max(K_n, K_t) l / 3 per pair as
+/// `contact_3d` sets it, which bounds every contact state in the Loewner order), so 2 k_max
+/// on each; and, with `k_fluid` > 0 (Pa/m: the fluid's bulk modulus over the residual
+/// aperture, coupled runs), a full cell's k_fluid A0 acting on the opening along face p's
+/// reference normal n, whose matrix has entries k_fluid A0 n_d n_e / 9 between every two of
+/// the joint's six nodes. The 3D home of the bound that [`scale_masses_3d`] and
+/// [`raise_masses_3d`] use (2D: [`gershgorin_rows`]).
+pub fn gershgorin_rows_3d(
+    v: &SolidView<hydrofrac_core::dim::Tet4>,
+    p: &SolidParams,
+    k_max: f64,
+    k_fluid: f64,
+) -> Vec<f64> {
+    use hydrofrac_core::model3::{joint_area0_3d, joint_len0_3d};
+    use hydrofrac_core::tet4;
+    let mut row = vec![[0.0f64; 3]; v.n_nodes()];
+    for (c, g) in v.conn.iter().zip(&v.geom) {
+        let k = tet4::stiffness(g, p);
+        for a in 0..4 {
+            for d in 0..3 {
+                let r: f64 = (0..12).map(|j| k[(3 * a + d, j)].abs()).sum();
+                row[c[a] as usize][d] += r;
+            }
+        }
+    }
+    for (j, nodes) in v.joint_nodes.iter().enumerate() {
+        let kp = 2.0 * k_max * joint_len0_3d(v, j) / 3.0;
+        for &n in nodes {
+            for r in &mut row[n as usize] {
+                *r += kp;
+            }
+        }
+        if k_fluid > 0.0 {
+            let x = [0, 1, 2].map(|a| v.x0[nodes[a] as usize]);
+            let nn = tet4::cross(tet4::sub(x[1], x[0]), tet4::sub(x[2], x[0]));
+            let n = nn.map(|c| c / tet4::norm(nn));
+            let l1 = n[0].abs() + n[1].abs() + n[2].abs();
+            let w = k_fluid * joint_area0_3d(v, j) / 9.0 * 6.0 * l1;
+            for &m in nodes {
+                for d in 0..3 {
+                    row[m as usize][d] += w * n[d].abs();
+                }
+            }
+        }
+    }
+    row.iter().map(|r| r[0].max(r[1]).max(r[2])).collect()
+}
+
+/// [`scale_masses`] in 3D: node i gets m_i = R_i dt_crit^2 / 4 (kg) with R_i its row sum from
+/// [`gershgorin_rows_3d`], so any step up to `dt_crit` (s) is stable and every node relaxes
+/// at about the same rate. Serial, in the view's order: deterministic.
+pub fn scale_masses_3d(v: &mut SolidView<hydrofrac_core::dim::Tet4>, rows: &[f64], dt_crit: f64) {
+    for ((m, im), r) in v.mass.iter_mut().zip(&mut v.inv_mass).zip(rows) {
+        let need = 0.25 * r * dt_crit * dt_crit;
+        if need > 0.0 {
+            *m = need;
+            *im = 1.0 / need;
+        }
+    }
+}
+
+/// [`raise_masses`] in 3D: m_i = max(m_i, R_i dt_crit^2 / 4) (kg), R_i from
+/// [`gershgorin_rows_3d`]; nodes already that heavy keep their masses.
+pub fn raise_masses_3d(v: &mut SolidView<hydrofrac_core::dim::Tet4>, rows: &[f64], dt_crit: f64) {
+    for ((m, im), r) in v.mass.iter_mut().zip(&mut v.inv_mass).zip(rows) {
+        let need = 0.25 * r * dt_crit * dt_crit;
+        if *m > 0.0 && need > *m {
+            *m = need;
+            *im = 1.0 / need;
+        }
+    }
+}
+
 /// Quantities reduced over the nodes during integration.
 #[derive(Clone, Copy, Debug, Default, serde::Serialize, serde::Deserialize)]
 pub struct StepStats {

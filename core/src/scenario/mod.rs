@@ -529,9 +529,6 @@ impl Scenario {
                 "a 3D mesh takes three components, (gx, gy, gz) in m/s^2 with z up",
             ));
         }
-        if self.time.mass_scaling || self.time.selective_mass_scaling.is_some() {
-            return not_yet("time.mass_scaling", "mass scaling");
-        }
         Ok(())
     }
 
