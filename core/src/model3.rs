@@ -739,9 +739,9 @@ pub struct FrontSif {
 /// Pa), so each sister node pair of the disc's joints at s gives K(s) = (E' / 8) sqrt(2 pi / s)
 /// w. The linear elements hold the square root only some cells away from the front, so K(s)
 /// is fitted by a straight line over the pairs with s in `window` (m) and taken at s = 0 (the
-/// extrapolation of the displacement correlation method). The front is cut into `bins` equal
-/// stretches of the angles where the disc has pairs; a stretch with fewer than two distances
-/// gives none. w is the pair's offset along the disc's normal, s = R minus its distance from
+/// extrapolation of the displacement correlation method). The front is cut into equal
+/// stretches of about `stretch_deg` degrees over the angles where the disc has pairs (at least
+/// one); a stretch with fewer than two distances gives none. w is the pair's offset along the disc's normal, s = R minus its distance from
 /// the centre in the disc's plane (reference positions). The in-plane axes: e1 = the normal x
 /// z (x where the normal is along z), e2 = n x e1.
 pub fn front_sif_3d(
@@ -749,7 +749,7 @@ pub fn front_sif_3d(
     disc: &crate::scenario::Disc,
     e_prime: f64,
     window: [f64; 2],
-    bins: usize,
+    stretch_deg: f64,
 ) -> Vec<FrontSif> {
     let n = disc.unit_normal();
     let e1 = {
@@ -780,11 +780,12 @@ pub fn front_sif_3d(
         }
     }
     let pts: Vec<(f64, f64, f64)> = seen.into_values().collect();
-    if pts.is_empty() || bins == 0 {
+    if pts.is_empty() {
         return Vec::new();
     }
     let lo = pts.iter().fold(f64::INFINITY, |m, p| m.min(p.0));
     let hi = pts.iter().fold(f64::NEG_INFINITY, |m, p| m.max(p.0));
+    let bins = ((hi - lo) / stretch_deg).round().max(1.0) as usize;
     let width = (hi - lo) / bins as f64;
     (0..bins)
         .filter_map(|b| {

@@ -487,7 +487,7 @@ pub fn penny_engine(quick: bool) -> anyhow::Result<CaseResult> {
                 radius: 1.0,
             };
             let want_k = 2.0 * p / std::f64::consts::PI.sqrt();
-            let sif = crate::model3::front_sif_3d(v, &disc, e1, [2.0 * h, 5.0 * h], 6);
+            let sif = crate::model3::front_sif_3d(v, &disc, e1, [2.0 * h, 5.0 * h], 15.0);
             anyhow::ensure!(!sif.is_empty(), "no K_I along the front at R/h = {c}");
             let ek = sif
                 .iter()
