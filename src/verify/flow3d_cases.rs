@@ -237,11 +237,14 @@ pub fn penny_flow(quick: bool) -> anyhow::Result<CaseResult> {
         let fp = sim.params().fluid;
         let a_r = sim.params().residual_aperture;
         let v = &f.view;
-        let area: f64 = v.length.iter().sum();
-        let p_rest: f64 = (0..v.n_cells())
-            .map(|k| v.length[k] * v.pressure[k])
-            .sum::<f64>()
-            / area;
+        // The cells' area-weighted mean pressure, Pa (in 3D `length` holds each cell's area).
+        let mean_pressure = |v: &crate::flow::FlowView| {
+            (0..v.n_cells())
+                .map(|k| v.length[k] * v.pressure[k])
+                .sum::<f64>()
+                / v.length.iter().sum::<f64>()
+        };
+        let p_rest = mean_pressure(v);
         let (pmin, pmax) = v
             .pressure
             .iter()
@@ -357,10 +360,7 @@ pub fn penny_flow(quick: bool) -> anyhow::Result<CaseResult> {
         );
         let (ss, wall_s) = run(&scaled_text)?;
         let fs = ss.flow().expect("flow");
-        let p_s: f64 = (0..fs.view.n_cells())
-            .map(|k| fs.view.length[k] * fs.view.pressure[k])
-            .sum::<f64>()
-            / area;
+        let p_s = mean_pressure(&fs.view);
         let es = p_s / p_pred - 1.0;
         res.rows.push(Row {
             case: "penny_flow",
