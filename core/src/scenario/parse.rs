@@ -252,6 +252,26 @@ fn read_overridden(
     })
 }
 
+/// `text` cut at its top-level commas (not those inside brackets or parentheses); empty
+/// pieces (a trailing comma) left out.
+fn split_top(text: &str) -> Vec<&str> {
+    let (mut out, mut depth, mut start) = (Vec::new(), 0i32, 0);
+    for (i, c) in text.char_indices() {
+        match c {
+            '(' | '[' | '{' => depth += 1,
+            ')' | ']' | '}' => depth -= 1,
+            ',' if depth == 0 => {
+                out.push(&text[start..i]);
+                start = i + 1;
+            }
+            _ => {}
+        }
+    }
+    out.push(&text[start..]);
+    out.retain(|p| !p.trim().is_empty());
+    out
+}
+
 /// A serde path as the scenario's fields are named in messages: enum variant wrappers left out
 /// (`mesh.Graded.ratio` is `mesh.ratio`, as `--set` and the validation name it).
 fn display_path(path: &str) -> String {
@@ -263,11 +283,42 @@ fn display_path(path: &str) -> String {
 
 /// Read an override VALUE: JSON (`3e10`, `true`, `[1, 2]`, `{"Time": 5.0}`), a newtype or
 /// struct variant written as in RON (`Local(0.5)`, `Time(5.0)`, `Regular(width: 10.0, height:
-/// 10.0, h: 1.0)`), an optional value (`Some(6.0)`, `Some(Local(0.5))`), or else a plain
-/// string (unit variants: `None`).
+/// 10.0, h: 1.0)`), an optional value (`Some(6.0)`, `Some(Local(0.5))`), a RON list or
+/// struct of these (`[(axis: X, at: 1.0, factor: 8.0)]`), or else a plain string (unit
+/// variants: `None`, `X`).
 fn override_value(text: &str) -> serde_json::Value {
     if let Ok(v) = serde_json::from_str(text) {
         return v;
+    }
+    // A RON list: its items read one by one.
+    if let Some(inner) = text.strip_prefix('[').and_then(|t| t.strip_suffix(']')) {
+        return serde_json::Value::Array(
+            split_top(inner)
+                .into_iter()
+                .map(|item| override_value(item.trim()))
+                .collect(),
+        );
+    }
+    // A RON struct `(key: value, ...)`: a table of its values read one by one; a RON tuple
+    // `(1.0, 2.0)`: a list.
+    if let Some(inner) = text.strip_prefix('(').and_then(|t| t.strip_suffix(')')) {
+        let items = split_top(inner);
+        let fields: Option<serde_json::Map<String, serde_json::Value>> = items
+            .iter()
+            .map(|f| {
+                let (k, v) = f.split_once(':')?;
+                Some((k.trim().to_string(), override_value(v.trim())))
+            })
+            .collect();
+        match fields {
+            Some(obj) if !obj.is_empty() => return serde_json::Value::Object(obj),
+            _ if !items.is_empty() && items.iter().all(|f| !f.contains(':')) => {
+                return serde_json::Value::Array(
+                    items.iter().map(|f| override_value(f.trim())).collect(),
+                );
+            }
+            _ => {}
+        }
     }
     if let Some((name, rest)) = text.split_once('(')
         && let Some(inner) = rest.strip_suffix(')')

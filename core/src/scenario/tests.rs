@@ -162,6 +162,43 @@ fn overrides_reach_into_variants_and_validate() {
         .unwrap();
     assert_eq!(o.damping, Damping::Local(0.5));
     assert_eq!(o.time.end, End::Time(2.5));
+    // A list of structs with unit variants as RON writes it; an empty list.
+    let box3 = Scenario::parse(
+        "(name: \"b\", mesh: GradedBox(size: (4.0, 4.0, 4.0), h: 0.5, \
+         fine: (1.0, 1.0, 1.0, 3.0, 3.0, 3.0), ratio: 1.2), \
+         material: (young: 2e10, poisson: 0.2, density: 2700.0), \
+         boundary: InSitu3(sxx: -1e6, syy: -1e6, szz: -1e6), time: (end: Static(tol: 1e-8)))",
+        "b.ron",
+    )
+    .unwrap();
+    let o = box3
+        .with_overrides(&[
+            "mesh.refine=[(axis: X, at: 2.0, factor: 4.0), (axis: Z, at: 1.5, factor: 2.0, \
+             ratio: 1.3),]"
+                .into(),
+        ])
+        .unwrap();
+    let MeshSpec::GradedBox { refine, .. } = o.mesh.as_ref().unwrap() else {
+        panic!("a graded box");
+    };
+    assert_eq!(refine.len(), 2);
+    assert_eq!(
+        (refine[0].axis, refine[0].at, refine[0].ratio),
+        (Axis::X, 2.0, 1.5)
+    );
+    assert_eq!(
+        (refine[1].axis, refine[1].factor, refine[1].ratio),
+        (Axis::Z, 2.0, 1.3)
+    );
+    let o = o.with_overrides(&["mesh.refine=[]".into()]).unwrap();
+    // A tuple as RON writes it.
+    let o = o
+        .with_overrides(&["mesh.fine=(0.5, 0.5, 0.5, 3.5, 3.5, 3.5)".into()])
+        .unwrap();
+    assert!(
+        matches!(o.mesh, Some(MeshSpec::GradedBox { fine, .. }) if fine == [0.5, 0.5, 0.5, 3.5, 3.5, 3.5])
+    );
+    assert!(matches!(o.mesh, Some(MeshSpec::GradedBox { ref refine, .. }) if refine.is_empty()));
     // An optional number as RON writes it.
     let o = sc
         .with_overrides(&["time.selective_mass_scaling=Some(4.0)".into()])
