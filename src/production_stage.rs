@@ -218,7 +218,7 @@ fn fictitious_masses(sim: &mut Simulation, dt: f64) -> f64 {
     let mut dt_node: Vec<f64> = rows
         .iter()
         .zip(&v.mass)
-        .map(|(r, m)| (r[0].max(r[1]), m))
+        .map(|(&r, m)| (r, m))
         .filter(|(gi, m)| *gi > 0.0 && **m > 0.0)
         .map(|(gi, m)| 2.0 * (m / gi).sqrt())
         .collect();

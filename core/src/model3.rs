@@ -741,9 +741,10 @@ pub struct FrontSif {
 /// is fitted by a straight line over the pairs with s in `window` (m) and taken at s = 0 (the
 /// extrapolation of the displacement correlation method). The front is cut into equal
 /// stretches of about `stretch_deg` degrees over the angles where the disc has pairs (at least
-/// one); a stretch with fewer than two distances gives none. w is the pair's offset along the disc's normal, s = R minus its distance from
-/// the centre in the disc's plane (reference positions). The in-plane axes: e1 = the normal x
-/// z (x where the normal is along z), e2 = n x e1.
+/// one); a stretch with fewer than two distances gives none. w is the pair's offset along the
+/// disc's normal, s = R minus its distance from the centre in the disc's plane (reference
+/// positions). The in-plane axes: e1 = the normal x z (x where the normal is along z),
+/// e2 = n x e1.
 pub fn front_sif_3d(
     v: &SolidView<Tet4>,
     disc: &crate::scenario::Disc,
@@ -754,10 +755,11 @@ pub fn front_sif_3d(
     let n = disc.unit_normal();
     let e1 = {
         let c = cross(n, [0.0, 0.0, 1.0]);
-        if norm(c) < 1e-9 {
+        let l = norm(c);
+        if l < 1e-9 {
             [1.0, 0.0, 0.0]
         } else {
-            c.map(|x| x / norm(c))
+            c.map(|x| x / l)
         }
     };
     let e2 = cross(n, e1);

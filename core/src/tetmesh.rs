@@ -61,8 +61,9 @@ pub fn scene_coords(frame: Option<&[[f64; 3]; 3]>, g: [f64; 3]) -> [f64; 3] {
 /// 1e-9 of the span): on each side, with s the spacing of the first cell there, cells of
 /// s / `factor` growing by `ratio` per cell while they are smaller than s, their run stretched
 /// or shrunk to end on the old line nearest its end (a change of at most half an old cell over
-/// the run), and the old lines inside it dropped. The cells next to the plane are then `factor` times finer, and the
-/// grid outside the run is unchanged. The error names the nearest lines when `at` is on none.
+/// the run), and the old lines inside it dropped. The cells next to the plane are then
+/// `factor` times finer, and the old lines outside the run keep their exact values. The error
+/// names the nearest lines when `at` is on none.
 pub fn refine_axis(line: &[f64], at: f64, factor: f64, ratio: f64) -> Result<Vec<f64>, String> {
     let span = line[line.len() - 1] - line[0];
     let Some(i0) = line.iter().position(|&x| (x - at).abs() <= 1e-9 * span) else {
@@ -77,12 +78,13 @@ pub fn refine_axis(line: &[f64], at: f64, factor: f64, ratio: f64) -> Result<Vec
     let at = line[i0];
     let mut out = vec![at];
     for dir in [-1.0f64, 1.0] {
-        // The old lines on this side, by their distance from the plane.
-        let side: Vec<f64> = if dir < 0.0 {
-            line[..i0].iter().rev().map(|&x| at - x).collect()
+        // The old lines on this side, nearest first, and their distances from the plane.
+        let old: Vec<f64> = if dir < 0.0 {
+            line[..i0].iter().rev().copied().collect()
         } else {
-            line[i0 + 1..].iter().map(|&x| x - at).collect()
+            line[i0 + 1..].to_vec()
         };
+        let side: Vec<f64> = old.iter().map(|&x| (x - at).abs()).collect();
         let Some(&s) = side.first() else { continue };
         let mut offs = Vec::new();
         let (mut o, mut c) = (0.0, s / factor);
@@ -102,15 +104,9 @@ pub fn refine_axis(line: &[f64], at: f64, factor: f64, ratio: f64) -> Result<Vec
             out.extend(offs.iter().map(|&o| at + dir * o * scale));
             keep = j;
         }
-        out.extend(side[keep..].iter().map(|&d| at + dir * d));
+        out.extend(&old[keep..]);
     }
     out.sort_by(f64::total_cmp);
-    // The plane and the old lines keep their exact values.
-    for x in &mut out {
-        if let Some(&y) = line.iter().find(|&&y| (y - *x).abs() <= 1e-12 * span) {
-            *x = y;
-        }
-    }
     Ok(out)
 }
 

@@ -224,7 +224,9 @@ pub fn build_model(
 pub fn scale_masses(view: &mut hydrofrac_core::view::SolidView, p: &RunParams, dt_crit: f64) {
     use hydrofrac_systems::solid;
     if p.time.mass_scaling {
-        solid::scale_masses(view, &p.solid, p.joint.k_max(), dt_crit);
+        let k = p.joint.k_max();
+        let rows = solid::gershgorin_rows(view, &p.solid, |_| k);
+        solid::scale_masses(view, &rows, dt_crit);
     }
     if let Some(s) = &p.time.selective {
         let k = hydrofrac_core::stability::joint_spring(

@@ -212,9 +212,9 @@ pub fn critical_step_3d(view: &SolidView<Tet4>, p: &RunParams) -> f64 {
 
 /// The fictitious masses a 3D run asks for (explicit rock), on the view just built, and the
 /// critical step after them, s: `time.selective_mass_scaling = Some(f)` raises the nodes
-/// whose Gershgorin bound is shorter than f times `dt_crit` (`solid::raise_masses_3d`; the
+/// whose Gershgorin bound is shorter than f times `dt_crit` (`solid::raise_masses`; the
 /// step becomes f dt_crit, recorded in `p.time.selective`); `time.mass_scaling` gives every
-/// node Underwood's mass for `dt_crit` (`solid::scale_masses_3d`; the step is unchanged).
+/// node Underwood's mass for `dt_crit` (`solid::scale_masses`; the step is unchanged).
 /// Body forces keep the true density (they are set from the model, not the view's masses).
 fn scale_masses_3d(
     view: &mut SolidView<Tet4>,
@@ -233,11 +233,11 @@ fn scale_masses_3d(
             dt_crit: f * dt_crit,
             dt_unscaled: dt_crit,
         };
-        solid::raise_masses_3d(view, &rows, s.dt_crit);
+        solid::raise_masses(view, &rows, s.dt_crit);
         p.time.selective = Some(s);
         return s.dt_crit;
     }
-    solid::scale_masses_3d(view, &rows, dt_crit);
+    solid::scale_masses(view, &rows, dt_crit);
     dt_crit
 }
 

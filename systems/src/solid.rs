@@ -149,32 +149,31 @@ pub fn damping<E: Element>(v: &mut SolidView<E>, p: &SolidParams, dt: f64) {
 }
 
 /// Mass scaling for static relaxation (`time.mass_scaling`, Underwood's fictitious masses):
-/// node i gets m_i = R_i dt_crit^2 / 4, kg/m, with R_i the larger of its two Gershgorin row
-/// sums sum_j |K_ij| of the stiffness (elements, plus `k_joint` per joint face at the node, the
-/// contact's row sum; N/m per m). Then lambda_max(M^-1 K) <= max_i R_i / m_i = 4 / dt_crit^2:
-/// any step up to `dt_crit` (s) is stable, and every node relaxes at about the same rate, so
-/// large elements of a graded mesh stop slowing the relaxation. Serial, fixed order:
-/// deterministic.
-pub fn scale_masses(v: &mut SolidView, p: &SolidParams, k_joint: f64, dt_crit: f64) {
-    let row = gershgorin_rows(v, p, |_| k_joint);
-    for (i, r) in row.iter().enumerate() {
-        let m = 0.25 * r[0].max(r[1]) * dt_crit * dt_crit;
-        if m > 0.0 {
-            v.mass[i] = m;
-            v.inv_mass[i] = 1.0 / m;
+/// node i gets m_i = R_i dt_crit^2 / 4 (kg/m in 2D, kg in 3D), with R_i its Gershgorin row sum
+/// `rows[i]` ([`gershgorin_rows`], [`gershgorin_rows_3d`]). Then
+/// lambda_max(M^-1 K) <= max_i R_i / m_i = 4 / dt_crit^2: any step up to `dt_crit` (s) is
+/// stable, and every node relaxes at about the same rate, so large elements of a graded mesh
+/// stop slowing the relaxation. Serial, fixed order: deterministic.
+pub fn scale_masses<E: Element>(v: &mut SolidView<E>, rows: &[f64], dt_crit: f64) {
+    for ((m, im), r) in v.mass.iter_mut().zip(&mut v.inv_mass).zip(rows) {
+        let need = 0.25 * r * dt_crit * dt_crit;
+        if need > 0.0 {
+            *m = need;
+            *im = 1.0 / need;
         }
     }
 }
 
 /// Raise each node's mass to what makes the step `dt_crit` (s) stable for it by Gershgorin's
-/// bound: m_i = max(m_i, g_i dt_crit^2 / 4), kg/m, with g_i the larger of the node's two
-/// `rows` ([`gershgorin_rows`]). Then lambda_max(M^-1 K) <= max_i g_i / m_i <= 4 / dt_crit^2,
-/// so central difference is stable at any step up to `dt_crit`, and nodes already that heavy
-/// keep their masses. Used by `time.selective_mass_scaling` and by the production stage's
-/// relaxation (`production::fictitious_masses`). Serial, in the view's order: deterministic.
-pub fn raise_masses(v: &mut SolidView, rows: &[[f64; 2]], dt_crit: f64) {
+/// bound: m_i = max(m_i, g_i dt_crit^2 / 4) (kg/m in 2D, kg in 3D), with g_i its row sum
+/// `rows[i]` ([`gershgorin_rows`], [`gershgorin_rows_3d`]). Then
+/// lambda_max(M^-1 K) <= max_i g_i / m_i <= 4 / dt_crit^2, so central difference is stable at
+/// any step up to `dt_crit`, and nodes already that heavy keep their masses. Used by
+/// `time.selective_mass_scaling` and by the production stage's relaxation
+/// (`production::fictitious_masses`). Serial, in the view's order: deterministic.
+pub fn raise_masses<E: Element>(v: &mut SolidView<E>, rows: &[f64], dt_crit: f64) {
     for ((m, im), r) in v.mass.iter_mut().zip(&mut v.inv_mass).zip(rows) {
-        let need = r[0].max(r[1]) * dt_crit * dt_crit / 4.0;
+        let need = r * dt_crit * dt_crit / 4.0;
         if *m > 0.0 && need > *m {
             *m = need;
             *im = 1.0 / need;
@@ -182,17 +181,13 @@ pub fn raise_masses(v: &mut SolidView, rows: &[[f64; 2]], dt_crit: f64) {
     }
 }
 
-/// Each node's Gershgorin row sums sum_j |K_ij| of the stiffness, per dof (N/m per m): the
-/// elements' CST stiffness, plus `k_joint(L)` (Pa, L the joint's reference length, m) per
-/// joint face at the node (the contact's row sum:
-/// its springs act on the faces' mean displacements with coefficients +-1/2). The one home of
-/// the bound that [`scale_masses`], [`raise_masses`] and the production stage's relaxation
+/// Each node's Gershgorin row sum sum_j |K_ij| of the stiffness, the larger of its two dofs'
+/// (N/m per m): the elements' CST stiffness, plus `k_joint(L)` (Pa, L the joint's reference
+/// length, m) per joint face at the node (the contact's row sum: its springs act on the faces'
+/// mean displacements with coefficients +-1/2). The 2D home of the bound that
+/// [`scale_masses`], [`raise_masses`] and the production stage's relaxation
 /// (`production::fictitious_masses`) use.
-pub fn gershgorin_rows(
-    v: &SolidView,
-    p: &SolidParams,
-    k_joint: impl Fn(f64) -> f64,
-) -> Vec<[f64; 2]> {
+pub fn gershgorin_rows(v: &SolidView, p: &SolidParams, k_joint: impl Fn(f64) -> f64) -> Vec<f64> {
     let mut row = vec![[0.0f64; 2]; v.n_nodes()];
     let d = [
         [p.lam2g, p.lam, 0.0],
@@ -228,7 +223,7 @@ pub fn gershgorin_rows(
             row[n as usize][1] += k;
         }
     }
-    row
+    row.iter().map(|r| r[0].max(r[1])).collect()
 }
 
 /// Each node's Gershgorin row sum sum_j |K_ij| of a 3D scene's stiffness, the largest of its
@@ -238,8 +233,8 @@ pub fn gershgorin_rows(
 /// on each; and, with `k_fluid` > 0 (Pa/m: the fluid's bulk modulus over the residual
 /// aperture, coupled runs), a full cell's k_fluid A0 acting on the opening along face p's
 /// reference normal n, whose matrix has entries k_fluid A0 n_d n_e / 9 between every two of
-/// the joint's six nodes. The 3D home of the bound that [`scale_masses_3d`] and
-/// [`raise_masses_3d`] use (2D: [`gershgorin_rows`]).
+/// the joint's six nodes. The 3D home of the bound that [`scale_masses`] and
+/// [`raise_masses`] use (2D: [`gershgorin_rows`]).
 pub fn gershgorin_rows_3d(
     v: &SolidView<hydrofrac_core::dim::Tet4>,
     p: &SolidParams,
@@ -279,31 +274,6 @@ pub fn gershgorin_rows_3d(
         }
     }
     row.iter().map(|r| r[0].max(r[1]).max(r[2])).collect()
-}
-
-/// [`scale_masses`] in 3D: node i gets m_i = R_i dt_crit^2 / 4 (kg) with R_i its row sum from
-/// [`gershgorin_rows_3d`], so any step up to `dt_crit` (s) is stable and every node relaxes
-/// at about the same rate. Serial, in the view's order: deterministic.
-pub fn scale_masses_3d(v: &mut SolidView<hydrofrac_core::dim::Tet4>, rows: &[f64], dt_crit: f64) {
-    for ((m, im), r) in v.mass.iter_mut().zip(&mut v.inv_mass).zip(rows) {
-        let need = 0.25 * r * dt_crit * dt_crit;
-        if need > 0.0 {
-            *m = need;
-            *im = 1.0 / need;
-        }
-    }
-}
-
-/// [`raise_masses`] in 3D: m_i = max(m_i, R_i dt_crit^2 / 4) (kg), R_i from
-/// [`gershgorin_rows_3d`]; nodes already that heavy keep their masses.
-pub fn raise_masses_3d(v: &mut SolidView<hydrofrac_core::dim::Tet4>, rows: &[f64], dt_crit: f64) {
-    for ((m, im), r) in v.mass.iter_mut().zip(&mut v.inv_mass).zip(rows) {
-        let need = 0.25 * r * dt_crit * dt_crit;
-        if *m > 0.0 && need > *m {
-            *m = need;
-            *im = 1.0 / need;
-        }
-    }
 }
 
 /// Quantities reduced over the nodes during integration.

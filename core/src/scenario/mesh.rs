@@ -158,8 +158,8 @@ fn default_refine_ratio() -> f64 {
 }
 
 impl Refine {
-    /// Grid lines the plane adds at most: on each side a run of ceil(ln(factor) / ln(ratio))
-    /// cells, which replaces at least one old cell.
+    /// Grid lines the plane adds at most: on each side its run of ceil(ln(factor) / ln(ratio))
+    /// cells, whose last line is an old one.
     pub fn extra_lines(&self) -> f64 {
         2.0 * (self.factor.ln() / self.ratio.ln()).ceil()
     }

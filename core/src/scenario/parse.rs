@@ -252,12 +252,31 @@ fn read_overridden(
     })
 }
 
-/// `text` cut at its top-level commas (not those inside brackets or parentheses); empty
-/// pieces (a trailing comma) left out.
+/// The fields `key: value, ...` of a RON struct's inside as a JSON table, each value read by
+/// [`override_value`]; `None` unless there is one and every top-level piece is an identifier,
+/// a colon and a value.
+fn ron_fields(inner: &str) -> Option<serde_json::Value> {
+    let fields = split_top(inner)
+        .into_iter()
+        .map(|f| {
+            let (k, v) = f.split_once(':')?;
+            let k = k.trim();
+            let ident = k.starts_with(|c: char| c.is_ascii_alphabetic() || c == '_')
+                && k.chars().all(|c| c.is_ascii_alphanumeric() || c == '_');
+            ident.then(|| (k.to_string(), override_value(v.trim())))
+        })
+        .collect::<Option<serde_json::Map<_, _>>>()?;
+    (!fields.is_empty()).then_some(serde_json::Value::Object(fields))
+}
+
+/// `text` cut at its top-level commas (not those inside brackets, parentheses or quotes);
+/// empty pieces (a trailing comma) left out.
 fn split_top(text: &str) -> Vec<&str> {
-    let (mut out, mut depth, mut start) = (Vec::new(), 0i32, 0);
+    let (mut out, mut depth, mut start, mut quoted) = (Vec::new(), 0i32, 0, false);
     for (i, c) in text.char_indices() {
         match c {
+            '"' => quoted = !quoted,
+            _ if quoted => {}
             '(' | '[' | '{' => depth += 1,
             ')' | ']' | '}' => depth -= 1,
             ',' if depth == 0 => {
@@ -299,25 +318,16 @@ fn override_value(text: &str) -> serde_json::Value {
                 .collect(),
         );
     }
-    // A RON struct `(key: value, ...)`: a table of its values read one by one; a RON tuple
-    // `(1.0, 2.0)`: a list.
+    // A RON struct `(key: value, ...)`: a table; a RON tuple `(1.0, 2.0)`: a list.
     if let Some(inner) = text.strip_prefix('(').and_then(|t| t.strip_suffix(')')) {
+        if let Some(obj) = ron_fields(inner) {
+            return obj;
+        }
         let items = split_top(inner);
-        let fields: Option<serde_json::Map<String, serde_json::Value>> = items
-            .iter()
-            .map(|f| {
-                let (k, v) = f.split_once(':')?;
-                Some((k.trim().to_string(), override_value(v.trim())))
-            })
-            .collect();
-        match fields {
-            Some(obj) if !obj.is_empty() => return serde_json::Value::Object(obj),
-            _ if !items.is_empty() && items.iter().all(|f| !f.contains(':')) => {
-                return serde_json::Value::Array(
-                    items.iter().map(|f| override_value(f.trim())).collect(),
-                );
-            }
-            _ => {}
+        if !items.is_empty() && items.iter().all(|f| !f.contains(':')) {
+            return serde_json::Value::Array(
+                items.iter().map(|f| override_value(f.trim())).collect(),
+            );
         }
     }
     if let Some((name, rest)) = text.split_once('(')
@@ -329,15 +339,12 @@ fn override_value(text: &str) -> serde_json::Value {
         if name == "Some" {
             return override_value(inner.trim());
         }
-        // A struct variant's fields (`Conforming(width: 100.0, h: 2.0, ...)`) as a table.
-        let fields = match ron::from_str::<ron::Value>(&format!("({inner})")) {
-            Ok(v @ ron::Value::Map(_)) if inner.contains(':') => serde_json::to_value(v).ok(),
-            _ => None,
-        };
+        // A struct variant's fields (`Conforming(width: 100.0, h: 2.0, ...)`) as a table, or
+        // a newtype variant's value (`Local(0.5)`).
         let mut obj = serde_json::Map::new();
         obj.insert(
             name.to_string(),
-            fields.unwrap_or_else(|| override_value(inner.trim())),
+            ron_fields(inner).unwrap_or_else(|| override_value(inner.trim())),
         );
         return serde_json::Value::Object(obj);
     }
