@@ -156,10 +156,11 @@ pub struct ElemGeom {
 }
 
 /// Precomputed geometry of a linear tetrahedron in the reference configuration: volume V (m^3)
-/// and the four constant shape-function gradients (1/m), packed as
-/// `[V, dN0/dx, dN0/dy, dN0/dz, dN1/dx, ..]` (`hydrofrac_core::dim::Tet4`'s view geometry).
+/// and the constant shape-function gradients of nodes 1 to 3 (1/m; node 0's is minus their
+/// sum), packed as `[V, dN1/dx, dN1/dy, dN1/dz, dN2/dx, ..]` (`hydrofrac_core::dim::Tet4`'s
+/// view geometry).
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
-pub struct TetGeom(pub [f64; 13]);
+pub struct TetGeom(pub [f64; 10]);
 
 /// Cauchy stress of the element, Pa, tension positive: [sigma_xx, sigma_yy, sigma_xy] in 2D
 /// (sigma_zz = nu (sigma_xx + sigma_yy) in plane strain), [xx, yy, zz, xy, yz, zx] in 3D.

@@ -122,28 +122,29 @@ impl Element for Cst {
     }
 }
 
-/// The linear tetrahedron (3D). Geometry: [`tet4::TetGeometry`], the volume (m^3) and the four
-/// shape-function gradients (1/m); the component packs it (`TetGeom`).
+/// The linear tetrahedron (3D). Geometry: [`tet4::TetGeometry`], the volume (m^3) and the
+/// shape-function gradients of nodes 1 to 3 (1/m; node 0's is minus their sum); the component
+/// packs it (`TetGeom`).
 #[derive(
     Clone, Copy, Debug, Default, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize,
 )]
 pub struct Tet4;
 
-/// A TET4's packed geometry: volume, then the four shape-function gradients.
+/// A TET4's packed geometry: volume, then the shape-function gradients of nodes 1 to 3.
 #[inline(always)]
-pub fn tet_geometry(g: &[f64; 13]) -> tet4::TetGeometry {
+pub fn tet_geometry(g: &[f64; 10]) -> tet4::TetGeometry {
     tet4::TetGeometry {
         volume: g[0],
-        grad: [0, 1, 2, 3].map(|a| [g[1 + 3 * a], g[2 + 3 * a], g[3 + 3 * a]]),
+        grad: [0, 1, 2].map(|k| [g[1 + 3 * k], g[2 + 3 * k], g[3 + 3 * k]]),
     }
 }
 
 /// Pack a TET4's geometry as the view holds it.
-pub fn pack_tet_geometry(g: &tet4::TetGeometry) -> [f64; 13] {
-    let mut p = [0.0; 13];
+pub fn pack_tet_geometry(g: &tet4::TetGeometry) -> [f64; 10] {
+    let mut p = [0.0; 10];
     p[0] = g.volume;
-    for a in 0..4 {
-        p[1 + 3 * a..4 + 3 * a].copy_from_slice(&g.grad[a]);
+    for k in 0..3 {
+        p[1 + 3 * k..4 + 3 * k].copy_from_slice(&g.grad[k]);
     }
     p
 }
