@@ -126,6 +126,14 @@ enum SweepCommand {
         /// Members run at a time [default: the number of CPUs]
         #[arg(long)]
         jobs: Option<usize>,
+        /// Threads of each member [default: the CPUs / --jobs, at least 1; RAYON_NUM_THREADS
+        /// when set]. The results are the same bits for any count.
+        #[arg(long)]
+        threads: Option<usize>,
+        /// Run only these members, in this order: ids and ranges, e.g. `60-95`, or `95-60`
+        /// for the last first, or `0,5,9-12` (to split a study between machines)
+        #[arg(long)]
+        members: Option<String>,
         /// Run the members that failed before again (else they are skipped)
         #[arg(long)]
         retry_failed: bool,
@@ -356,9 +364,11 @@ fn sweep_command(command: SweepCommand) -> Result<ExitCode> {
         SweepCommand::Run {
             dir,
             jobs,
+            threads,
+            members,
             retry_failed,
             quiet,
-        } => sweep_run_command(&dir, jobs, retry_failed, quiet),
+        } => sweep_run_command(&dir, jobs, threads, members, retry_failed, quiet),
         SweepCommand::Member { dir, id, quiet } => {
             // A signal during the member's setup ends it at once (as `run` does); its
             // status stays `running`, which a later `sweep run` runs again.
@@ -553,35 +563,53 @@ fn systems_command() -> Result<ExitCode> {
 fn sweep_run_command(
     dir: &std::path::Path,
     jobs: Option<usize>,
+    threads: Option<usize>,
+    members: Option<String>,
     retry_failed: bool,
     quiet: bool,
 ) -> Result<ExitCode> {
     use hydrofrac::sweep;
     let mut out = std::io::stdout().lock();
-    let jobs = jobs.unwrap_or_else(|| {
-        std::thread::available_parallelism().map_or(1, std::num::NonZeroUsize::get)
-    });
+    let cpus = std::thread::available_parallelism().map_or(1, std::num::NonZeroUsize::get);
+    let jobs = jobs.unwrap_or(cpus);
     if jobs == 0 {
         anyhow::bail!("--jobs 0: at least 1");
     }
+    if threads == Some(0) {
+        anyhow::bail!("--threads 0: at least 1");
+    }
+    // Each member is a process with its own thread pool: without a share, `--jobs N` runs
+    // N pools of every CPU each. The user's RAYON_NUM_THREADS, when set, is theirs.
+    let threads = threads.or_else(|| {
+        std::env::var_os("RAYON_NUM_THREADS")
+            .is_none()
+            .then(|| (cpus / jobs).max(1))
+    });
     let opts = sweep::LocalOptions {
         jobs,
         retry_failed,
         quiet,
         stop: Some(install_stop_handlers()?),
         exe: std::env::current_exe()?,
+        members,
+        threads,
     };
     let s = sweep::run_local(dir, &opts)?;
     let _ = writeln!(
         out,
         "{} members: {} run now, {} finished before, {} failed now, {} failed before \
-         (not retried), {} not run",
+         (not retried), {} not run{}",
         s.total,
         s.ok,
         s.skipped,
         s.failed.len(),
         s.skipped_failed,
-        s.not_run
+        s.not_run,
+        if s.not_selected > 0 {
+            format!(" ({} not selected by --members)", s.not_selected)
+        } else {
+            String::new()
+        }
     );
     if let Some(sig) = s.interrupted_by {
         let _ = writeln!(

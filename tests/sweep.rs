@@ -194,6 +194,75 @@ fn local_runner_records_a_failure_goes_on_and_skips_finished_members() {
 }
 
 #[test]
+fn selected_members_run_in_the_order_given_each_on_its_share_of_threads() {
+    let file = sweep_file("members", FOUR, COLLECT);
+    let dir = tmp("members-dir");
+    ok(&plan(&file, &dir));
+    // `--members 3-1`: members 3, 2, 1 in that order (one line each without a terminal),
+    // member 0 left as it is.
+    let o = bin()
+        .args(["sweep", "run", "--jobs", "1", "--members", "3-1"])
+        .arg(&dir)
+        .output()
+        .unwrap();
+    let out = ok(&o);
+    assert!(
+        out.contains("3 run now, 0 finished before, 0 failed now, 0 failed before (not retried), 0 not run (1 not selected by --members)"),
+        "{out}"
+    );
+    let err = stderr(&o);
+    let order: Vec<&str> = err
+        .lines()
+        .filter_map(|l| l.strip_prefix("member ")?.split(':').next())
+        .collect();
+    assert_eq!(order, ["3", "2", "1"], "{err}");
+    assert!(!dir.join("members/0000/status.json").exists());
+    // Bad lists are refused before anything runs.
+    for (spec, needle) in [
+        ("4", "member 4 does not exist (the plan has members 0 to 3)"),
+        ("1-2,2", "member 2 is listed twice"),
+        ("a", "`a` in `a` is not a member id"),
+        ("1,,2", "an empty entry"),
+    ] {
+        let o = bin()
+            .args(["sweep", "run", "--members", spec])
+            .arg(&dir)
+            .output()
+            .unwrap();
+        assert_refused(&o, &[needle]);
+        assert!(!dir.join("members/0000/status.json").exists());
+    }
+    let o = bin()
+        .args(["sweep", "run", "--threads", "0"])
+        .arg(&dir)
+        .output()
+        .unwrap();
+    assert_refused(&o, &["--threads 0: at least 1"]);
+    // Each member's process gets its share of the threads: a stand-in executable records
+    // the RAYON_NUM_THREADS it was given (and fails, so nothing is recorded as done).
+    let exe = dir.join("stand-in.sh");
+    std::fs::write(
+        &exe,
+        "#!/bin/sh\necho \"$4 ${RAYON_NUM_THREADS:-unset}\" >> \"$3/threads.txt\"\nexit 1\n",
+    )
+    .unwrap();
+    use std::os::unix::fs::PermissionsExt;
+    std::fs::set_permissions(&exe, std::fs::Permissions::from_mode(0o755)).unwrap();
+    let opts = hydrofrac::sweep::LocalOptions {
+        jobs: 1,
+        retry_failed: false,
+        quiet: true,
+        stop: None,
+        exe: exe.clone(),
+        members: Some("0".into()),
+        threads: Some(3),
+    };
+    let s = hydrofrac::sweep::run_local(&dir, &opts).unwrap();
+    assert_eq!((s.failed.len(), s.not_selected), (1, 3));
+    assert_eq!(read(dir.join("threads.txt")), "0 3\n");
+}
+
+#[test]
 fn pooled_members_are_summarised_by_group() {
     // Pooled over the cell length, the four members make two groups, one per viscosity; the
     // steady rate does not depend on the cell length, so each group's min, median and max

@@ -28,7 +28,8 @@ use std::path::{Path, PathBuf};
 pub use collect::{CollectOptions, CollectReport, collect, extract};
 pub use plan::{MemberPlan, Plan, plan_sweep};
 pub use run::{
-    LocalOptions, MemberOutcome, MemberStatus, RunSummary, read_status, run_local, run_member,
+    LocalOptions, MemberOutcome, MemberStatus, RunSummary, parse_members, read_status, run_local,
+    run_member,
 };
 pub use slurm::{SlurmOptions, SlurmReport, write_slurm};
 pub use spec::{BaseKind, Combine, SweepSpec, Values, Vary};

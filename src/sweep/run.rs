@@ -231,6 +231,8 @@ pub struct RunSummary {
     pub failed: Vec<(usize, String)>,
     /// Not run (or not finished) because a signal stopped the runner.
     pub not_run: usize,
+    /// Left out by `--members`.
+    pub not_selected: usize,
     pub interrupted_by: Option<usize>,
 }
 
@@ -247,6 +249,53 @@ pub struct LocalOptions {
     pub stop: Option<StopFlag>,
     /// The `hydrofrac` executable each member runs in.
     pub exe: PathBuf,
+    /// Run only these members, in this order (`--members`, [`parse_members`]); `None`: all,
+    /// in plan order.
+    pub members: Option<String>,
+    /// Threads each member's process uses (`RAYON_NUM_THREADS` in its environment); `None`:
+    /// the member's own default (every CPU). Results are the same bits for any count.
+    pub threads: Option<usize>,
+}
+
+/// Parse a `--members` list: ids and ranges separated by commas, `A-B` from A to B inclusive
+/// (descending when A > B), e.g. `95-60,3`. Each id below `total`, none twice.
+pub fn parse_members(spec: &str, total: usize) -> Result<Vec<usize>, String> {
+    let mut out = Vec::new();
+    let mut seen = vec![false; total];
+    for part in spec.split(',').map(str::trim) {
+        let id = |t: &str| -> Result<usize, String> {
+            let k: usize = t
+                .trim()
+                .parse()
+                .map_err(|_| format!("`{t}` in `{part}` is not a member id"))?;
+            if k >= total {
+                return Err(format!(
+                    "member {k} does not exist (the plan has members 0 to {})",
+                    total.saturating_sub(1)
+                ));
+            }
+            Ok(k)
+        };
+        let ids: Vec<usize> = match part.split_once('-') {
+            Some((a, b)) => {
+                let (a, b) = (id(a)?, id(b)?);
+                if a <= b {
+                    (a..=b).collect()
+                } else {
+                    (b..=a).rev().collect()
+                }
+            }
+            None if part.is_empty() => return Err("an empty entry".into()),
+            None => vec![id(part)?],
+        };
+        for k in ids {
+            if std::mem::replace(&mut seen[k], true) {
+                return Err(format!("member {k} is listed twice"));
+            }
+            out.push(k);
+        }
+    }
+    Ok(out)
 }
 
 /// Run the sweep in `dir` on this machine: every member not finished, `jobs` at a time, each
@@ -259,7 +308,16 @@ pub fn run_local(dir: &Path, opts: &LocalOptions) -> Result<RunSummary, SweepErr
         ..Default::default()
     };
     let mut pending = Vec::new();
-    for m in &plan.members {
+    let order: Vec<usize> = match &opts.members {
+        Some(spec) => {
+            let list = parse_members(spec, plan.members.len())
+                .map_err(|why| SweepError::Other(format!("--members {spec}: {why}")))?;
+            summary.not_selected = plan.members.len() - list.len();
+            list
+        }
+        None => (0..plan.members.len()).collect(),
+    };
+    for m in order.iter().map(|&k| &plan.members[k]) {
         match read_status(&dir.join(&m.dir)) {
             Some(s) if s.is_done(&m.fingerprint) => summary.skipped += 1,
             Some(s)
@@ -270,12 +328,13 @@ pub fn run_local(dir: &Path, opts: &LocalOptions) -> Result<RunSummary, SweepErr
             _ => pending.push(m.id),
         }
     }
-    let bar = runner_bar(opts.quiet, summary.total as u64);
-    bar.set_position((summary.total - pending.len()) as u64);
+    let selected = summary.total - summary.not_selected;
+    let bar = runner_bar(opts.quiet, selected as u64);
+    bar.set_position((selected - pending.len()) as u64);
     // Without a terminal (a log file, `nohup`, a batch job) the bar is not drawn: one line
     // per member instead.
     let log_lines = !opts.quiet && !std::io::stderr().is_terminal();
-    let done = AtomicUsize::new(summary.total - pending.len());
+    let done = AtomicUsize::new(selected - pending.len());
     let next = AtomicUsize::new(0);
     let results: Mutex<Vec<(usize, MemberOutcome)>> = Mutex::new(Vec::new());
     let spawn_error: Mutex<Option<SweepError>> = Mutex::new(None);
@@ -308,7 +367,7 @@ pub fn run_local(dir: &Path, opts: &LocalOptions) -> Result<RunSummary, SweepErr
                                 eprintln!(
                                     "member {id}: {what} in {:.0} s ({n} of {} members done)",
                                     t0.elapsed().as_secs_f64(),
-                                    summary.total
+                                    selected
                                 );
                             }
                             results.lock().expect("results").push((id, o));
@@ -360,7 +419,11 @@ fn spawn_member(
     let log_path = mdir.join("log.txt");
     let log = std::fs::File::create(&log_path).map_err(|e| SweepError::io(&log_path, e))?;
     let log2 = log.try_clone().map_err(|e| SweepError::io(&log_path, e))?;
-    let mut child = Command::new(&opts.exe)
+    let mut cmd = Command::new(&opts.exe);
+    if let Some(t) = opts.threads {
+        cmd.env("RAYON_NUM_THREADS", t.to_string());
+    }
+    let mut child = cmd
         .args(["sweep", "member"])
         .arg(dir)
         .arg(id.to_string())
