@@ -262,6 +262,69 @@ fn selected_members_run_in_the_order_given_each_on_its_share_of_threads() {
     assert_eq!(read(dir.join("threads.txt")), "0 3\n");
 }
 
+/// `scripts/study-record.sh` (docs/study.md, "The record"): finished members saved from one
+/// sweep folder and restored into a fresh plan are skipped there, and the record itself
+/// collects to the same table rows.
+#[test]
+fn a_study_record_carries_finished_members_to_a_fresh_plan() {
+    let file = sweep_file("record", FOUR, COLLECT);
+    let (a, rec, b) = (tmp("record-a"), tmp("record-rec"), tmp("record-b"));
+    ok(&plan(&file, &a));
+    ok(&bin()
+        .args(["sweep", "run", "--quiet", "--members", "0,2"])
+        .arg(&a)
+        .output()
+        .unwrap());
+    let script = root().join("scripts/study-record.sh");
+    let run = |args: &[&std::ffi::OsStr]| {
+        let o = std::process::Command::new("bash")
+            .arg(&script)
+            .args(args)
+            .output()
+            .unwrap();
+        (
+            o.status.success(),
+            String::from_utf8_lossy(&o.stdout).into_owned() + &stderr(&o),
+        )
+    };
+    let (good, out) = run(&[
+        "save".as_ref(),
+        a.as_os_str(),
+        rec.as_os_str(),
+        "abc1234".as_ref(),
+    ]);
+    assert!(good && out.contains("recorded 2 finished members"), "{out}");
+    assert_eq!(
+        read(rec.join("members.txt")),
+        "0000 abc1234\n0002 abc1234\n"
+    );
+    // A fresh plan of the same sweep takes the record; the next run runs only the others.
+    ok(&plan(&file, &b));
+    let (good, out) = run(&["restore".as_ref(), rec.as_os_str(), b.as_os_str()]);
+    assert!(good && out.contains("restored 2 members"), "{out}");
+    let out = ok(&sweep(&["run", "--quiet"], &b));
+    assert!(out.contains("2 run now, 2 finished before"), "{out}");
+    // The record collects as the folder it came from (same rows for its members).
+    ok(&sweep(&["collect", "--no-figures"], &rec));
+    ok(&sweep(&["collect", "--no-figures"], &a));
+    let (ra, rr) = (
+        read(a.join("collect/table.csv")),
+        read(rec.join("collect/table.csv")),
+    );
+    assert_eq!(ra, rr);
+    assert_eq!(ra.lines().filter(|l| l.contains(",ok,")).count(), 2, "{ra}");
+    // A record of another plan is refused.
+    let other = sweep_file(
+        "record-other",
+        FOUR.replace("8.9e-4", "9e-4").as_str(),
+        COLLECT,
+    );
+    let c = tmp("record-c");
+    ok(&plan(&other, &c));
+    let (good, out) = run(&["restore".as_ref(), rec.as_os_str(), c.as_os_str()]);
+    assert!(!good && out.contains("planned from other files"), "{out}");
+}
+
 #[test]
 fn pooled_members_are_summarised_by_group() {
     // Pooled over the cell length, the four members make two groups, one per viscosity; the
