@@ -125,8 +125,8 @@ pub struct TipState {
     pub delta: [f64; 2],
     /// The J-integral, J/m^2.
     pub j: f64,
-    /// The displacement-correlation screen passed this tip over (K_dc < `DC_SCREEN` K_Ic):
-    /// the integrals were not evaluated and the K fields are 0.
+    /// The criterion's screen passed this tip over (K_dc < `DC_SCREEN` K_Ic, or a tip not
+    /// `trusted`): the integrals were not evaluated and the K fields are 0.
     pub screened: bool,
 }
 
@@ -143,12 +143,17 @@ pub struct Tips {
     pub near_tip: Vec<bool>,
     near_marked: Vec<u32>,
     /// Tip evaluations so far (one per tip per criterion pass), and those of them that the
-    /// displacement-correlation screen passed over (`measure`).
+    /// screen passed over (`measure`: the displacement-correlation estimate below
+    /// [`DC_SCREEN`] K_Ic, or a tip not `trusted`).
     pub evaluations: u64,
     pub screened: u64,
     /// Skip the integrals at tips whose displacement-correlation estimate is below
-    /// [`DC_SCREEN`] K_Ic (default on; off to compare).
+    /// [`DC_SCREEN`] K_Ic, and at tips not `trusted`, in the criterion's passes (default on;
+    /// off to compare).
     pub no_screen: bool,
+    /// Evaluate the tips not `trusted` in the criterion's passes too (default off; on to
+    /// compare: their K decides nothing, so the run is the same to the bit).
+    pub keep_untrusted: bool,
 }
 
 /// A tip's integrals are evaluated only when the displacement-correlation estimate from the
@@ -912,8 +917,11 @@ impl Tips {
                 let du = [up[0] - lo[0], up[1] - lo[1]];
                 let delta = [du[0] * d2[0] + du[1] * d2[1], du[0] * d1[0] + du[1] * d1[1]];
                 if let Some(k_ic) = screen_below {
+                    // An untrusted tip's K decides nothing (`mark` and the rings pass it
+                    // over; the summary measures every tip again, unscreened), nor does a
+                    // tip far below K_Ic.
                     let k_dc = 0.125 * e_prime * (2.0 * PI / t.b).sqrt() * delta[0].hypot(delta[1]);
-                    if k_dc < DC_SCREEN * k_ic {
+                    if (!t.trusted && !self.keep_untrusted) || k_dc < DC_SCREEN * k_ic {
                         screened += 1;
                         return TipState {
                             node: t.node,
