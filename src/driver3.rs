@@ -261,12 +261,11 @@ fn front_json(sim: &Simulation<Tet4>) -> Vec<serde_json::Value> {
         let o = crate::model3::opening_3d(v);
         (2.0 * o.area / v.joint_nodes.len().max(1) as f64).sqrt()
     });
-    let m = &sim.params().material;
-    let e1 = m.young / (1.0 - m.poisson * m.poisson);
+    let e_prime = sim.params().e_prime;
     let window = [2.0 * h, 5.0 * h];
     let mut out = Vec::new();
     for (i, d) in f.discs.iter().enumerate() {
-        let sif = crate::model3::front_sif_3d(v, d, e1, window, 15.0);
+        let sif = crate::model3::front_sif_3d(v, d, e_prime, window, 15.0);
         if sif.is_empty() {
             continue;
         }

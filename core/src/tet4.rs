@@ -191,8 +191,8 @@ pub fn element_vector(u: [[f64; 3]; 4]) -> SVector<f64, 12> {
 /// A regular tetrahedron has 70.5 degrees everywhere; a Kuhn cube's six have 45, 60 and 90.
 pub fn dihedral_angles(g: &TetGeometry) -> [f64; 6] {
     const PAIRS: [(usize, usize); 6] = [(2, 3), (1, 3), (1, 2), (0, 3), (0, 2), (0, 1)];
+    let gr = g.grads();
     PAIRS.map(|(k, l)| {
-        let gr = g.grads();
         let (a, b) = (gr[k], gr[l]);
         (-dot(a, b) / (norm(a) * norm(b)))
             .clamp(-1.0, 1.0)
@@ -258,11 +258,12 @@ mod tests {
         // sum_a N_a = 1 and sum_a x_a grad N_a = I: exact for any tetrahedron, to round-off.
         let x = skew();
         let g = geometry(x).expect("valid");
+        let gr = g.grads();
         for d in 0..3 {
-            let s: f64 = g.grads().iter().map(|b| b[d]).sum();
+            let s: f64 = gr.iter().map(|b| b[d]).sum();
             assert!(s.abs() < 1e-13, "sum of dN/dx_{d} = {s}");
             for e in 0..3 {
-                let m: f64 = (0..4).map(|a| x[a][e] * g.grads()[a][d]).sum();
+                let m: f64 = (0..4).map(|a| x[a][e] * gr[a][d]).sum();
                 let want = if d == e { 1.0 } else { 0.0 };
                 assert!((m - want).abs() < 1e-13, "x_{e} gradient along {d}: {m}");
             }
