@@ -12,14 +12,16 @@
 //! one sparse LU per iteration).
 //!
 //! Example II: a step of the shipped network's stimulation on the quasi-static rock with
-//! implicit dynamics (`time.inertia: BackwardEuler`, no selective mass scaling; about 40,000
-//! rock unknowns and the network's cells, some hundred joints sliding), after 20 steps from
-//! the start, each Newton iteration's direction from the full matrix's sparse LU: factored at
-//! every iteration (`factor_every_iteration`), or an earlier factor reused as BiCGSTAB's
-//! preconditioner while that converges in a few iterations (`reuse_factor`, the default).
-//! Each sample is one step (about 4 Newton iterations; the counts are printed), so the two
-//! rows' ratio is the cost ratio of a Newton iteration. The state moves on with every step,
-//! the same way in both rows. `HYDROFRAC_BENCH_EXAMPLE2=0` skips it (a minute of set-up).
+//! implicit dynamics (`time.inertia: BackwardEuler`, no selective mass scaling; about 28,000
+//! unknowns, some hundred joints sliding), after 20 steps from the start, each Newton
+//! iteration's direction from the full matrix's sparse LU: without pivoting on the pattern's
+//! symmetric fill (`static_pivots`, the default, `hydrofrac_core::static_lu`), or faer's LU
+//! with partial pivoting factored at every iteration (`pivoted_factor_every_iteration`) or
+//! with an earlier factor reused as BiCGSTAB's preconditioner while that converges in a few
+//! iterations (`pivoted_reuse_factor`, the default before the static pivots). Each sample is
+//! one step (about 4 Newton iterations; the counts are printed), so the rows' ratios are the
+//! cost ratios of a Newton iteration. The state moves on with every step, the same way in
+//! every row. `HYDROFRAC_BENCH_EXAMPLE2=0` skips it (a minute of set-up).
 //!
 //! Run: `cargo bench --bench quasi_static`.
 
@@ -139,10 +141,15 @@ fn example2(c: &mut Criterion) {
     .to_vec();
     let mut group = c.benchmark_group("example2_quasi_static_step");
     common::ten_samples(&mut group, 1, 20);
-    for (name, reuse) in [("factor_every_iteration", false), ("reuse_factor", true)] {
+    for (name, static_lu, reuse) in [
+        ("static_pivots", true, false),
+        ("pivoted_factor_every_iteration", false, false),
+        ("pivoted_reuse_factor", false, true),
+    ] {
         let sc = Scenario::load(&path, &overrides).unwrap();
         let mut sim = Simulation::new(sc, &[]).unwrap();
-        sim.quasi_static_mut().unwrap().reuse_lu = reuse;
+        let qs = sim.quasi_static_mut().unwrap();
+        (qs.static_lu, qs.reuse_lu) = (static_lu, reuse);
         for _ in 0..20 {
             sim.step_once().unwrap();
         }
@@ -151,11 +158,12 @@ fn example2(c: &mut Criterion) {
         let after = sim.quasi_static_counts().unwrap();
         let steps = (after.steps - before.steps).max(1);
         eprintln!(
-            "{name}: {} steps, {:.2} Newton iterations per step, {} factorisations, {} reuses \
-             ({} BiCGSTAB iterations)",
+            "{name}: {} steps, {:.2} Newton iterations per step, {} factorisations ({} with \
+             pivoting), {} reuses ({} BiCGSTAB iterations)",
             steps,
             (after.newton_iterations - before.newton_iterations) as f64 / steps as f64,
             after.lu_factorisations - before.lu_factorisations,
+            after.lu_pivoted - before.lu_pivoted,
             after.lu_reused - before.lu_reused,
             after.krylov_iterations - before.krylov_iterations,
         );

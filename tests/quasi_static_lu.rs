@@ -63,11 +63,13 @@ fn lu_and_cholesky_give_the_same_slip() {
 /// 30 m, pump at (0, 15) m) and a fracture at 45 degrees ahead of it, (12, 11)-(18, 17) m, along
 /// the mesh's diagonals, which slides from the start (in situ shear 5 MPa against 0.8 MPa of
 /// friction at 3 degrees); fixed steps of 1 ms to 0.1 s. Same injected volume to 1e-6 relative (both
-/// converge to 1e-10; the tolerance of the W-update test) and the same splits, with the LU
-/// path's directions partly from BiCGSTAB on an earlier factor.
+/// converge to 1e-10; the tolerance of the W-update test) and the same splits. The LU path
+/// twice: by default each direction from the factor without pivoting
+/// (`hydrofrac_core::static_lu`; no fallback to pivoting on this run), and with that off,
+/// faer's LU with partial pivoting, its directions partly from BiCGSTAB on an earlier factor.
 #[test]
 fn lu_and_cholesky_agree_on_a_coupled_sliding_run() {
-    let run = |linear: &str| {
+    let run = |linear: &str, static_lu: bool| {
         let text = format!(
             r#"(
             name: "coupled_lu",
@@ -85,6 +87,7 @@ fn lu_and_cholesky_agree_on_a_coupled_sliding_run() {
         );
         let sc = Scenario::parse(&text, "coupled_lu.ron").unwrap();
         let mut sim = Simulation::new(sc.validate().unwrap(), &[]).unwrap();
+        sim.quasi_static_mut().unwrap().static_lu = static_lu;
         let mut slid = false;
         while sim.finish().is_none() {
             sim.step_once().unwrap();
@@ -100,27 +103,36 @@ fn lu_and_cholesky_agree_on_a_coupled_sliding_run() {
             sim.quasi_static_counts().unwrap(),
         )
     };
-    let (inj_c, splits_c, slid_c, c) = run("Cholesky");
-    let (inj_l, splits_l, slid_l, l) = run("Lu");
+    let (inj_c, splits_c, slid_c, c) = run("Cholesky", true);
+    let (inj_l, splits_l, slid_l, l) = run("Lu", true);
+    let (inj_p, splits_p, slid_p, pv) = run("Lu", false);
     assert!(
-        slid_c && slid_l,
+        slid_c && slid_l && slid_p,
         "no joint slid: the comparison would not cover friction"
     );
     assert_eq!(c.lu_factorisations, 0);
-    // Every LU-path direction is a factorisation or a reuse of an earlier factor of the same
-    // pattern (BiCGSTAB), and the reuse does happen on this run.
+    // Without pivoting: every direction is a factorisation (no reuse of a factor that cheap),
+    // none needed pivoting.
+    assert_eq!(l.lu_factorisations, l.newton_iterations, "{l:?}");
+    assert_eq!((l.lu_pivoted, l.lu_reused), (0, 0), "{l:?}");
+    // With partial pivoting: every direction is a factorisation or a reuse of an earlier
+    // factor of the same pattern (BiCGSTAB), and the reuse does happen on this run.
     assert_eq!(
-        l.lu_factorisations + l.lu_reused,
-        l.newton_iterations,
-        "{l:?}"
+        pv.lu_factorisations + pv.lu_reused,
+        pv.newton_iterations,
+        "{pv:?}"
     );
-    assert!(l.lu_reused > 0, "{l:?}");
-    println!("{l:?}");
+    assert_eq!(pv.lu_pivoted, pv.lu_factorisations, "{pv:?}");
+    assert!(pv.lu_reused > 0, "{pv:?}");
+    println!("{l:?}\n{pv:?}");
     assert_eq!(splits_l, splits_c);
-    assert!(
-        (inj_l - inj_c).abs() <= 1e-6 * inj_c,
-        "injected {inj_l} (LU) vs {inj_c} (Cholesky)"
-    );
+    assert_eq!(splits_p, splits_c);
+    for (inj, what) in [(inj_l, "LU without pivoting"), (inj_p, "LU with pivoting")] {
+        assert!(
+            (inj - inj_c).abs() <= 1e-6 * inj_c,
+            "injected {inj} ({what}) vs {inj_c} (Cholesky)"
+        );
+    }
 }
 
 /// The regression of issue 12's slip_inclined: on the snapped zigzag at b/h = 10 the Newton

@@ -37,6 +37,7 @@ pub mod snap;
 pub mod sparse;
 pub mod split;
 pub mod stability;
+pub mod static_lu;
 pub mod tet4;
 pub mod tetmesh;
 pub mod timing;

@@ -34,7 +34,7 @@
 use crate::RunError;
 use crate::fracture::{contact, fluid_pressure, joint_frame};
 use crate::quasi_static_flow::{FlowRows, FlowStep};
-use crate::quasi_static_lu::{Direction, FullTangent, JointTangent};
+use crate::quasi_static_lu::{Direction, FullTangent, JointTangent, LuOptions};
 use crate::solid::{StepStats, external_load, internal_force, strain_energy};
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::llt::factor::LltRegularization;
@@ -110,6 +110,10 @@ pub struct QsCounts {
     /// ([`Linear::Lu`]), and the symbolic analyses of its pattern.
     pub lu_factorisations: u64,
     pub lu_symbolic: u64,
+    /// Of `lu_factorisations`, those that needed partial pivoting: the factor without
+    /// pivoting ([`hydrofrac_core::static_lu`]) refused a pivot or left a residual above
+    /// [`crate::quasi_static_lu::STATIC_TOL`].
+    pub lu_pivoted: u64,
     /// Newton iterations whose direction came from BiCGSTAB preconditioned by an earlier
     /// iteration's LU factor of the same pattern instead of a new factorisation
     /// (`systems::quasi_static_lu`), and their BiCGSTAB iterations.
@@ -200,6 +204,10 @@ pub struct QuasiStatic {
     /// Whether a Newton direction on the LU path may come from BiCGSTAB preconditioned by
     /// an earlier factor of the same pattern (default on; off for comparison).
     pub reuse_lu: bool,
+    /// Whether the LU path factors without pivoting first, on the pattern's symmetric fill
+    /// ([`hydrofrac_core::static_lu`]; default on; off for comparison: faer's LU with
+    /// partial pivoting at every factorisation).
+    pub static_lu: bool,
     lu_rhs: Vec<f64>,
     /// `time.inertia: BackwardEuler`: the state at the start of the step being solved.
     pub step_start: Option<StepStart>,
@@ -348,6 +356,7 @@ impl QuasiStatic {
             linear: Linear::Auto,
             full: None,
             reuse_lu: true,
+            static_lu: true,
             lu_rhs: Vec::new(),
             step_start: None,
             factored_shift: 0.0,
@@ -677,10 +686,16 @@ impl QuasiStatic {
             &tangent,
             flow.as_ref().map(|f| (f, &self.rows)),
             &mut self.lu_rhs,
-            self.reuse_lu,
+            LuOptions {
+                reuse: self.reuse_lu,
+                static_pivots: self.static_lu,
+            },
         )?;
         match direction {
-            Direction::Factored => self.counts.lu_factorisations += 1,
+            Direction::Factored { pivoted } => {
+                self.counts.lu_factorisations += 1;
+                self.counts.lu_pivoted += u64::from(pivoted);
+            }
             Direction::Reused { iterations } => {
                 self.counts.lu_reused += 1;
                 self.counts.krylov_iterations += iterations as u64;

@@ -54,6 +54,7 @@ use faer::sparse::linalg::lu::{LuRef, NumericLu, SymbolicLu};
 use faer::{Conj, MatMut, MatRef, Par};
 use hydrofrac_core::params::RunParams;
 use hydrofrac_core::sparse::SparsePattern;
+use hydrofrac_core::static_lu::StaticLu;
 use hydrofrac_core::view::SolidView;
 
 const NONE: usize = usize::MAX;
@@ -82,15 +83,22 @@ pub(crate) struct FullTangent {
     g_slots: Vec<[usize; 8]>,
     /// Per slot of the flow pattern, its slot in the full pattern.
     j_slots: Vec<usize>,
-    symbolic: SymbolicLu<usize>,
+    /// The LU without pivoting on the pattern's symmetric fill, tried first at every
+    /// factorisation ([`hydrofrac_core::static_lu`]), and its solve's scratch.
+    static_lu: StaticLu,
+    static_work: Vec<f64>,
+    /// faer's LU with partial pivoting (COLAMD): its symbolic analysis and workspace, made at
+    /// the first factorisation the static pivots refuse or do not solve accurately.
+    pivoted: Option<(SymbolicLu<usize>, MemBuffer)>,
     numeric: NumericLu<usize, f64>,
-    /// Whether `numeric` holds a factor of this pattern (of an earlier iterate).
-    factored: bool,
+    /// Which factor of this pattern (of an earlier iterate) is held, if any.
+    held: Held,
     /// Whether the last reuse of the factor took more than [`REUSE_REFACTOR_AFTER`]
     /// iterations or failed: the next iteration factors afresh.
     stale: bool,
     values: Vec<f64>,
-    mem: MemBuffer,
+    /// The right-hand side kept for the residual check of a factor without pivoting.
+    rhs_keep: Vec<f64>,
     /// BiCGSTAB's workspace (allocated at the first reuse), its solution and A x for the
     /// residual check (kept, so a reuse allocates nothing).
     krylov_mem: Option<MemBuffer>,
@@ -98,13 +106,45 @@ pub(crate) struct FullTangent {
     krylov_ax: Vec<f64>,
 }
 
-/// How a Newton direction was found: a fresh factor, or BiCGSTAB preconditioned by an older
-/// factor in that many iterations.
+/// How a Newton direction was found: a fresh factor (without pivoting, or with partial
+/// pivoting where the static pivots failed), or BiCGSTAB preconditioned by an older factor in
+/// that many iterations.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) enum Direction {
-    Factored,
+    Factored { pivoted: bool },
     Reused { iterations: usize },
 }
+
+/// How [`FullTangent::factor_and_solve`] may find a direction.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct LuOptions {
+    /// Try BiCGSTAB on an earlier factor with partial pivoting first (not on a factor without
+    /// pivoting: that one costs about eight of its solves, and a reuse takes two a
+    /// BiCGSTAB iteration).
+    pub reuse: bool,
+    /// Factor without pivoting first ([`StaticLu`]).
+    pub static_pivots: bool,
+}
+
+/// The factor a [`FullTangent`] holds.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Held {
+    None,
+    /// [`StaticLu`]: pivots on the diagonal in the fill-reducing order.
+    Static,
+    /// faer's LU with partial pivoting.
+    Pivoted,
+}
+
+/// Relative residual |b - A x| / |b| a direction from the factor without pivoting must reach
+/// (after at most [`STATIC_REFINE`] steps of iterative refinement), else the matrix is factored
+/// again with partial pivoting. The Newton iteration's own tolerance is 1e-10 of the forces'
+/// scale, and [`REUSE_TOL`] is what an inexact direction may leave.
+pub const STATIC_TOL: f64 = REUSE_TOL;
+
+/// Iterative refinement steps (one residual and one solve each) a direction from the factor
+/// without pivoting may take to reach [`STATIC_TOL`].
+pub const STATIC_REFINE: usize = 2;
 
 /// The most BiCGSTAB iterations on an older factor before the matrix is factored afresh
 /// (each costs two solves with the factor and two products with the matrix; on Example II
@@ -125,8 +165,13 @@ pub const REUSE_TOL: f64 = 1e-9;
 /// An LU factor of an earlier Newton matrix of the same pattern as a preconditioner
 /// (faer's `Precond`: x = (L U)^-1 b).
 struct OldFactor<'a> {
-    lu: LuRef<'a, usize, f64>,
+    lu: OldLu<'a>,
     n: usize,
+}
+
+enum OldLu<'a> {
+    Pivoted(LuRef<'a, usize, f64>),
+    Static(&'a StaticLu),
 }
 
 impl std::fmt::Debug for OldFactor<'_> {
@@ -137,9 +182,10 @@ impl std::fmt::Debug for OldFactor<'_> {
 
 impl LinOp<f64> for OldFactor<'_> {
     fn apply_scratch(&self, rhs_ncols: usize, par: Par) -> StackReq {
-        self.lu
-            .symbolic()
-            .solve_in_place_scratch::<f64>(rhs_ncols, par)
+        match &self.lu {
+            OldLu::Pivoted(lu) => lu.symbolic().solve_in_place_scratch::<f64>(rhs_ncols, par),
+            OldLu::Static(_) => StackReq::EMPTY,
+        }
     }
     fn nrows(&self) -> usize {
         self.n
@@ -155,7 +201,22 @@ impl LinOp<f64> for OldFactor<'_> {
         stack: &mut MemStack,
     ) {
         out.copy_from(rhs);
-        self.lu.solve_in_place_with_conj(Conj::No, out, par, stack);
+        match &self.lu {
+            OldLu::Pivoted(lu) => lu.solve_in_place_with_conj(Conj::No, out, par, stack),
+            OldLu::Static(lu) => {
+                let mut x = vec![0.0; self.n];
+                let mut work = Vec::new();
+                for j in 0..out.ncols() {
+                    for i in 0..self.n {
+                        x[i] = out[(i, j)];
+                    }
+                    lu.solve_in_place(&mut x, &mut work);
+                    for i in 0..self.n {
+                        out[(i, j)] = x[i];
+                    }
+                }
+            }
+        }
     }
     fn conj_apply(
         &self,
@@ -274,7 +335,7 @@ impl FullTangent {
                 .map(|(&r, &c)| slot(n + r, n + c))
                 .collect();
         }
-        let (symbolic, mem) = pattern.symbolic_lu()?;
+        let static_lu = StaticLu::new(&pattern)?;
         Ok(FullTangent {
             key,
             n,
@@ -285,12 +346,14 @@ impl FullTangent {
             mass_slots,
             g_slots,
             j_slots,
-            symbolic,
+            static_lu,
+            static_work: Vec::new(),
+            pivoted: None,
             numeric: NumericLu::new(),
-            factored: false,
+            held: Held::None,
             stale: false,
             values: Vec::new(),
-            mem,
+            rhs_keep: Vec::new(),
             krylov_mem: None,
             krylov_x: Vec::new(),
             krylov_ax: Vec::new(),
@@ -315,19 +378,19 @@ impl FullTangent {
         states: &[JointTangent],
         flow: Option<(&FlowStep, &FlowRows)>,
         rhs: &mut [f64],
-        reuse: bool,
+        options: LuOptions,
     ) -> Result<Direction, String> {
         self.assemble(v, p, shift, states, flow);
-        if reuse
-            && self.factored
+        if options.reuse
+            && self.held == Held::Pivoted
             && !self.stale
             && let Some(iterations) = self.reuse_solve(rhs)
         {
             self.stale = iterations > REUSE_REFACTOR_AFTER;
             return Ok(Direction::Reused { iterations });
         }
-        self.factor_solve(states, rhs)?;
-        Ok(Direction::Factored)
+        let pivoted = self.factor_solve(states, rhs, options.static_pivots)?;
+        Ok(Direction::Factored { pivoted })
     }
 
     /// BiCGSTAB on the assembled matrix with the older factor as right preconditioner:
@@ -336,10 +399,15 @@ impl FullTangent {
     fn reuse_solve(&mut self, rhs: &mut [f64]) -> Option<usize> {
         let len = rhs.len();
         let a = SparseColMatRef::new(self.pattern.as_ref(), &self.values);
-        let pre = OldFactor {
-            lu: LuRef::new_unchecked(&self.symbolic, &self.numeric),
-            n: len,
+        let lu = match self.held {
+            Held::Static => OldLu::Static(&self.static_lu),
+            Held::Pivoted => {
+                let (symbolic, _) = self.pivoted.as_ref()?;
+                OldLu::Pivoted(LuRef::new_unchecked(symbolic, &self.numeric))
+            }
+            Held::None => return None,
         };
+        let pre = OldFactor { lu, n: len };
         let ident = IdentityPrecond { dim: len };
         let mem = match &mut self.krylov_mem {
             Some(m) => m,
@@ -376,43 +444,61 @@ impl FullTangent {
         // The true residual, checked (faer 0.24's BiCGSTAB leaves its residual
         // uninitialised when told the initial guess is zero, so the guess is passed as
         // "maybe non-zero"; this check keeps any such surprise out of the Newton direction).
-        let mut r2 = 0.0;
+        let x = std::mem::take(&mut self.krylov_x);
+        let (r2, b2) = self.residual2(&x, rhs);
+        self.krylov_x = x;
+        if r2.is_nan() || r2 > 100.0 * REUSE_TOL * REUSE_TOL * b2 {
+            return None;
+        }
+        rhs.copy_from_slice(&self.krylov_x);
+        Some(info.iter_count)
+    }
+
+    /// |b - A x|^2 and |b|^2 for the assembled matrix A; `krylov_ax` holds b - A x after.
+    fn residual2(&mut self, x: &[f64], b: &[f64]) -> (f64, f64) {
         let ax = &mut self.krylov_ax;
         ax.clear();
-        ax.resize(len, 0.0);
+        ax.extend_from_slice(b);
         let (cp, ri) = (
             self.pattern.as_ref().col_ptr(),
             self.pattern.as_ref().row_idx(),
         );
-        for c in 0..len {
+        for c in 0..x.len() {
             for k in cp[c]..cp[c + 1] {
-                ax[ri[k]] += self.values[k] * x[c];
+                ax[ri[k]] -= self.values[k] * x[c];
             }
         }
-        let mut b2 = 0.0;
-        for (a, b) in ax.iter().zip(rhs.iter()) {
-            r2 += (a - b) * (a - b);
-            b2 += b * b;
-        }
-        if r2.is_nan() || r2 > 100.0 * REUSE_TOL * REUSE_TOL * b2 {
-            return None;
-        }
-        rhs.copy_from_slice(x);
-        Some(info.iter_count)
+        let r2 = ax.iter().map(|r| r * r).sum();
+        let b2 = b.iter().map(|v| v * v).sum();
+        (r2, b2)
     }
 
-    /// Factor the assembled matrix and solve it for `rhs` in place.
-    fn factor_solve(&mut self, states: &[JointTangent], rhs: &mut [f64]) -> Result<(), String> {
-        self.factored = false;
+    /// Factor the assembled matrix and solve it for `rhs` in place: without pivoting first
+    /// ([`StaticLu`], its direction refined to [`STATIC_TOL`]), else with partial pivoting.
+    /// Returns whether the pivoting LU was needed.
+    fn factor_solve(
+        &mut self,
+        states: &[JointTangent],
+        rhs: &mut [f64],
+        static_pivots: bool,
+    ) -> Result<bool, String> {
+        self.held = Held::None;
         self.stale = false;
+        if static_pivots && self.static_solve(rhs) {
+            self.held = Held::Static;
+            return Ok(false);
+        }
+        if self.pivoted.is_none() {
+            self.pivoted = Some(self.pattern.symbolic_lu()?);
+        }
+        let (symbolic, mem) = self.pivoted.as_mut().expect("made above");
         let a = SparseColMatRef::new(self.pattern.as_ref(), &self.values);
-        let lu = self
-            .symbolic
+        let lu = symbolic
             .factorize_numeric_lu::<f64>(
                 &mut self.numeric,
                 a,
                 Par::Seq,
-                MemStack::new(&mut self.mem),
+                MemStack::new(mem),
                 Default::default(),
             )
             .map_err(|e| singular(&format!("{e:?}"), states))?;
@@ -421,7 +507,7 @@ impl FullTangent {
             Conj::No,
             MatMut::from_column_major_slice_mut(rhs, len, 1),
             Par::Seq,
-            MemStack::new(&mut self.mem),
+            MemStack::new(mem),
         );
         if let Some(i) = rhs.iter().position(|x| !x.is_finite()) {
             return Err(singular(
@@ -429,8 +515,48 @@ impl FullTangent {
                 states,
             ));
         }
-        self.factored = true;
-        Ok(())
+        self.held = Held::Pivoted;
+        Ok(true)
+    }
+
+    /// The direction from [`StaticLu`] with up to [`STATIC_REFINE`] refinement steps: `true`
+    /// with `rhs` replaced by it, or `false` with `rhs` unchanged (a pivot refused, or the
+    /// residual above [`STATIC_TOL`]).
+    fn static_solve(&mut self, rhs: &mut [f64]) -> bool {
+        if self.static_lu.factor(&self.values).is_err() {
+            return false;
+        }
+        self.rhs_keep.clear();
+        self.rhs_keep.extend_from_slice(rhs);
+        let b = std::mem::take(&mut self.rhs_keep);
+        let mut x = b.clone();
+        self.static_lu.solve_in_place(&mut x, &mut self.static_work);
+        let mut ok = false;
+        for refine in 0..=STATIC_REFINE {
+            let (r2, b2) = self.residual2(&x, &b);
+            if !r2.is_finite() {
+                break;
+            }
+            if r2 <= STATIC_TOL * STATIC_TOL * b2 {
+                ok = true;
+                break;
+            }
+            if refine == STATIC_REFINE {
+                break;
+            }
+            let mut dx = std::mem::take(&mut self.krylov_ax);
+            self.static_lu
+                .solve_in_place(&mut dx, &mut self.static_work);
+            for (xi, d) in x.iter_mut().zip(&dx) {
+                *xi += d;
+            }
+            self.krylov_ax = dx;
+        }
+        self.rhs_keep = b;
+        if ok {
+            rhs.copy_from_slice(&x);
+        }
+        ok
     }
 
     /// The full Newton matrix's values at the current iterate (`factor_and_solve`).
