@@ -69,7 +69,7 @@ fn lu_and_cholesky_give_the_same_slip() {
 /// faer's LU with partial pivoting, its directions partly from BiCGSTAB on an earlier factor.
 #[test]
 fn lu_and_cholesky_agree_on_a_coupled_sliding_run() {
-    let run = |linear: &str, static_lu: bool| {
+    let run = |linear: &str, static_lu: bool, pivot_tol: f64| {
         let text = format!(
             r#"(
             name: "coupled_lu",
@@ -87,7 +87,8 @@ fn lu_and_cholesky_agree_on_a_coupled_sliding_run() {
         );
         let sc = Scenario::parse(&text, "coupled_lu.ron").unwrap();
         let mut sim = Simulation::new(sc.validate().unwrap(), &[]).unwrap();
-        sim.quasi_static_mut().unwrap().static_lu = static_lu;
+        let qs = sim.quasi_static_mut().unwrap();
+        (qs.static_lu, qs.static_pivot_tol) = (static_lu, pivot_tol);
         let mut slid = false;
         while sim.finish().is_none() {
             sim.step_once().unwrap();
@@ -103,9 +104,16 @@ fn lu_and_cholesky_agree_on_a_coupled_sliding_run() {
             sim.quasi_static_counts().unwrap(),
         )
     };
-    let (inj_c, splits_c, slid_c, c) = run("Cholesky", true);
-    let (inj_l, splits_l, slid_l, l) = run("Lu", true);
-    let (inj_p, splits_p, slid_p, pv) = run("Lu", false);
+    let tol = hydrofrac::static_lu::PIVOT_TOL;
+    let (inj_c, splits_c, slid_c, c) = run("Cholesky", true, tol);
+    let (inj_l, splits_l, slid_l, l) = run("Lu", true, tol);
+    let (inj_p, splits_p, slid_p, pv) = run("Lu", false, tol);
+    // Every pivot refused (tolerance 1 of the largest diagonal entry): each factorisation
+    // falls back to partial pivoting, which is then reused like the pivoting run's.
+    let (inj_f, splits_f, _, fb) = run("Lu", true, 1.0);
+    assert!(fb.lu_factorisations > 0, "{fb:?}");
+    assert_eq!(fb.lu_pivoted, fb.lu_factorisations, "{fb:?}");
+    assert_eq!(splits_f, splits_c);
     assert!(
         slid_c && slid_l && slid_p,
         "no joint slid: the comparison would not cover friction"
@@ -127,7 +135,11 @@ fn lu_and_cholesky_agree_on_a_coupled_sliding_run() {
     println!("{l:?}\n{pv:?}");
     assert_eq!(splits_l, splits_c);
     assert_eq!(splits_p, splits_c);
-    for (inj, what) in [(inj_l, "LU without pivoting"), (inj_p, "LU with pivoting")] {
+    for (inj, what) in [
+        (inj_l, "LU without pivoting"),
+        (inj_p, "LU with pivoting"),
+        (inj_f, "LU without pivoting refused, then with pivoting"),
+    ] {
         assert!(
             (inj - inj_c).abs() <= 1e-6 * inj_c,
             "injected {inj} ({what}) vs {inj_c} (Cholesky)"

@@ -208,6 +208,9 @@ pub struct QuasiStatic {
     /// ([`hydrofrac_core::static_lu`]; default on; off for comparison: faer's LU with
     /// partial pivoting at every factorisation).
     pub static_lu: bool,
+    /// Its smallest pivot relative to the largest diagonal entry
+    /// ([`hydrofrac_core::static_lu::PIVOT_TOL`]; tests raise it to take the fallback).
+    pub static_pivot_tol: f64,
     lu_rhs: Vec<f64>,
     /// `time.inertia: BackwardEuler`: the state at the start of the step being solved.
     pub step_start: Option<StepStart>,
@@ -357,6 +360,7 @@ impl QuasiStatic {
             full: None,
             reuse_lu: true,
             static_lu: true,
+            static_pivot_tol: hydrofrac_core::static_lu::PIVOT_TOL,
             lu_rhs: Vec::new(),
             step_start: None,
             factored_shift: 0.0,
@@ -688,7 +692,7 @@ impl QuasiStatic {
             &mut self.lu_rhs,
             LuOptions {
                 reuse: self.reuse_lu,
-                static_pivots: self.static_lu,
+                static_pivots: self.static_lu.then_some(self.static_pivot_tol),
             },
         )?;
         match direction {

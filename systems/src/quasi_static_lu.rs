@@ -116,14 +116,15 @@ pub(crate) enum Direction {
 }
 
 /// How [`FullTangent::factor_and_solve`] may find a direction.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) struct LuOptions {
     /// Try BiCGSTAB on an earlier factor with partial pivoting first (not on a factor without
     /// pivoting: that one costs about eight of its solves, and a reuse takes two a
     /// BiCGSTAB iteration).
     pub reuse: bool,
-    /// Factor without pivoting first ([`StaticLu`]).
-    pub static_pivots: bool,
+    /// Factor without pivoting first ([`StaticLu`]), refusing pivots below this times the
+    /// largest diagonal entry (`None`: not at all).
+    pub static_pivots: Option<f64>,
 }
 
 /// The factor a [`FullTangent`] holds.
@@ -480,11 +481,13 @@ impl FullTangent {
         &mut self,
         states: &[JointTangent],
         rhs: &mut [f64],
-        static_pivots: bool,
+        static_pivots: Option<f64>,
     ) -> Result<bool, String> {
         self.held = Held::None;
         self.stale = false;
-        if static_pivots && self.static_solve(rhs) {
+        if let Some(tol) = static_pivots
+            && self.static_solve(rhs, tol)
+        {
             self.held = Held::Static;
             return Ok(false);
         }
@@ -522,7 +525,8 @@ impl FullTangent {
     /// The direction from [`StaticLu`] with up to [`STATIC_REFINE`] refinement steps: `true`
     /// with `rhs` replaced by it, or `false` with `rhs` unchanged (a pivot refused, or the
     /// residual above [`STATIC_TOL`]).
-    fn static_solve(&mut self, rhs: &mut [f64]) -> bool {
+    fn static_solve(&mut self, rhs: &mut [f64], pivot_tol: f64) -> bool {
+        self.static_lu.pivot_tol = pivot_tol;
         if self.static_lu.factor(&self.values).is_err() {
             return false;
         }
