@@ -222,6 +222,7 @@ impl StaticLu {
     /// the largest diagonal entry (or was not finite).
     pub fn factor(&mut self, values: &[f64]) -> Result<(), String> {
         self.factored = false;
+        assert_eq!(values.len(), self.slot.len(), "values of another pattern");
         self.val.fill(0.0);
         for (&k, &a) in self.slot.iter().zip(values) {
             self.val[k] += a;
