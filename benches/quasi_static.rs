@@ -141,15 +141,16 @@ fn example2(c: &mut Criterion) {
     .to_vec();
     let mut group = c.benchmark_group("example2_quasi_static_step");
     common::ten_samples(&mut group, 1, 20);
-    for (name, static_lu, reuse) in [
-        ("static_pivots", true, false),
-        ("pivoted_factor_every_iteration", false, false),
-        ("pivoted_reuse_factor", false, true),
+    let tol = Some(hydrofrac::static_lu::PIVOT_TOL);
+    for (name, static_pivots, reuse) in [
+        ("static_pivots", tol, false),
+        ("pivoted_factor_every_iteration", None, false),
+        ("pivoted_reuse_factor", None, true),
     ] {
         let sc = Scenario::load(&path, &overrides).unwrap();
         let mut sim = Simulation::new(sc, &[]).unwrap();
         let qs = sim.quasi_static_mut().unwrap();
-        (qs.static_lu, qs.reuse_lu) = (static_lu, reuse);
+        (qs.static_pivots, qs.reuse_lu) = (static_pivots, reuse);
         for _ in 0..20 {
             sim.step_once().unwrap();
         }

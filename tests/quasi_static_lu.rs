@@ -69,7 +69,7 @@ fn lu_and_cholesky_give_the_same_slip() {
 /// faer's LU with partial pivoting, its directions partly from BiCGSTAB on an earlier factor.
 #[test]
 fn lu_and_cholesky_agree_on_a_coupled_sliding_run() {
-    let run = |linear: &str, static_lu: bool, pivot_tol: f64| {
+    let run = |linear: &str, static_pivots: Option<f64>| {
         let text = format!(
             r#"(
             name: "coupled_lu",
@@ -87,8 +87,7 @@ fn lu_and_cholesky_agree_on_a_coupled_sliding_run() {
         );
         let sc = Scenario::parse(&text, "coupled_lu.ron").unwrap();
         let mut sim = Simulation::new(sc.validate().unwrap(), &[]).unwrap();
-        let qs = sim.quasi_static_mut().unwrap();
-        (qs.static_lu, qs.static_pivot_tol) = (static_lu, pivot_tol);
+        sim.quasi_static_mut().unwrap().static_pivots = static_pivots;
         let mut slid = false;
         while sim.finish().is_none() {
             sim.step_once().unwrap();
@@ -104,13 +103,13 @@ fn lu_and_cholesky_agree_on_a_coupled_sliding_run() {
             sim.quasi_static_counts().unwrap(),
         )
     };
-    let tol = hydrofrac::static_lu::PIVOT_TOL;
-    let (inj_c, splits_c, slid_c, c) = run("Cholesky", true, tol);
-    let (inj_l, splits_l, slid_l, l) = run("Lu", true, tol);
-    let (inj_p, splits_p, slid_p, pv) = run("Lu", false, tol);
+    let tol = Some(hydrofrac::static_lu::PIVOT_TOL);
+    let (inj_c, splits_c, slid_c, c) = run("Cholesky", tol);
+    let (inj_l, splits_l, slid_l, l) = run("Lu", tol);
+    let (inj_p, splits_p, slid_p, pv) = run("Lu", None);
     // Every pivot refused (tolerance 1 of the largest diagonal entry): each factorisation
     // falls back to partial pivoting, which is then reused like the pivoting run's.
-    let (inj_f, splits_f, _, fb) = run("Lu", true, 1.0);
+    let (inj_f, splits_f, _, fb) = run("Lu", Some(1.0));
     assert!(fb.lu_factorisations > 0, "{fb:?}");
     assert_eq!(fb.lu_pivoted, fb.lu_factorisations, "{fb:?}");
     assert_eq!(splits_f, splits_c);

@@ -61,6 +61,8 @@ pub struct StaticLu {
     /// the index (into its own rows) of its first row at or after begin[s].
     desc_ptr: Vec<usize>,
     desc: Vec<(usize, usize)>,
+    /// The most rows below one supernode (the solve's scratch beside the permuted vector).
+    max_below: usize,
     /// Local row of each permuted row in the supernode being assembled (scratch).
     pos: Vec<usize>,
     tmp: Vec<f64>,
@@ -183,6 +185,7 @@ impl StaticLu {
             desc_ptr[s + 1] += desc_ptr[s];
         }
         let desc = pairs.into_iter().map(|(_, d, i)| (d, i)).collect();
+        let max_below = row_ptr.windows(2).map(|w| w[1] - w[0]).max().unwrap_or(0);
         Ok(StaticLu {
             n,
             perm,
@@ -195,21 +198,12 @@ impl StaticLu {
             slot,
             desc_ptr,
             desc,
+            max_below,
             pos: vec![0; n],
             tmp: Vec::new(),
             factored: false,
             pivot_tol: PIVOT_TOL,
         })
-    }
-
-    /// Unknowns.
-    pub fn n(&self) -> usize {
-        self.n
-    }
-
-    /// Values held by the factor (L and U), a measure of its memory (8 bytes each).
-    pub fn len_val(&self) -> usize {
-        self.val.len()
     }
 
     /// Whether the last [`StaticLu::factor`] succeeded.
@@ -354,14 +348,15 @@ impl StaticLu {
         Ok(())
     }
 
-    /// Solve A x = b in place with the factor (`x` holds b on entry); `work` is scratch.
+    /// Solve A x = b in place with the factor (`x` holds b on entry); `work` is scratch
+    /// (kept by the caller, so a solve allocates nothing once it has grown).
     pub fn solve_in_place(&self, x: &mut [f64], work: &mut Vec<f64>) {
         assert!(self.factored, "solve with a factor that failed");
         let n = self.n;
         work.clear();
         work.extend(self.perm.iter().map(|&i| x[i]));
-        let y = work;
-        let mut g = vec![0.0; 0];
+        work.resize(n + self.max_below, 0.0);
+        let (y, g) = work.split_at_mut(n);
         for s in 0..self.begin.len() - 1 {
             let (w, ld) = self.dims(s);
             let b = ld - w;
@@ -376,13 +371,11 @@ impl StaticLu {
             let mut xs = MatMut::from_column_major_slice_mut(&mut y[bs..bs + w], w, 1);
             solve_unit_lower_triangular_in_place(diag, xs.rb_mut(), Par::Seq);
             if b > 0 {
-                g.clear();
-                g.resize(b, 0.0);
-                let gm = MatMut::from_column_major_slice_mut(&mut g, b, 1);
+                let gm = MatMut::from_column_major_slice_mut(&mut g[..b], b, 1);
                 matmul(gm, Accum::Replace, below, xs.rb(), 1.0, Par::Seq);
                 for (&r, &v) in self.rows[self.row_ptr[s]..self.row_ptr[s + 1]]
                     .iter()
-                    .zip(&g)
+                    .zip(&g[..b])
                 {
                     y[r] -= v;
                 }
@@ -393,12 +386,12 @@ impl StaticLu {
             let b = ld - w;
             let bs = self.begin[s];
             if b > 0 {
-                g.clear();
-                g.extend(
-                    self.rows[self.row_ptr[s]..self.row_ptr[s + 1]]
-                        .iter()
-                        .map(|&r| y[r]),
-                );
+                for (gi, &r) in g
+                    .iter_mut()
+                    .zip(&self.rows[self.row_ptr[s]..self.row_ptr[s + 1]])
+                {
+                    *gi = y[r];
+                }
                 let up = MatRef::from_column_major_slice_with_stride(
                     &self.val[self.u_ptr[s]..self.l_ptr[s + 1]],
                     b,
@@ -410,7 +403,7 @@ impl StaticLu {
                     xs,
                     Accum::Add,
                     up.transpose(),
-                    MatRef::from_column_major_slice(&g, b, 1),
+                    MatRef::from_column_major_slice(&g[..b], b, 1),
                     -1.0,
                     Par::Seq,
                 );

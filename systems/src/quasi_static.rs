@@ -204,13 +204,12 @@ pub struct QuasiStatic {
     /// Whether a Newton direction on the LU path may come from BiCGSTAB preconditioned by
     /// an earlier factor of the same pattern (default on; off for comparison).
     pub reuse_lu: bool,
-    /// Whether the LU path factors without pivoting first, on the pattern's symmetric fill
-    /// ([`hydrofrac_core::static_lu`]; default on; off for comparison: faer's LU with
-    /// partial pivoting at every factorisation).
-    pub static_lu: bool,
-    /// Its smallest pivot relative to the largest diagonal entry
-    /// ([`hydrofrac_core::static_lu::PIVOT_TOL`]; tests raise it to take the fallback).
-    pub static_pivot_tol: f64,
+    /// The LU path factors without pivoting first, on the pattern's symmetric fill
+    /// ([`hydrofrac_core::static_lu`]), refusing pivots below this times the largest
+    /// diagonal entry (default [`hydrofrac_core::static_lu::PIVOT_TOL`]; tests raise it to
+    /// take the fallback). `None`, for comparison: faer's LU with partial pivoting at every
+    /// factorisation.
+    pub static_pivots: Option<f64>,
     lu_rhs: Vec<f64>,
     /// `time.inertia: BackwardEuler`: the state at the start of the step being solved.
     pub step_start: Option<StepStart>,
@@ -359,8 +358,7 @@ impl QuasiStatic {
             linear: Linear::Auto,
             full: None,
             reuse_lu: true,
-            static_lu: true,
-            static_pivot_tol: hydrofrac_core::static_lu::PIVOT_TOL,
+            static_pivots: Some(hydrofrac_core::static_lu::PIVOT_TOL),
             lu_rhs: Vec::new(),
             step_start: None,
             factored_shift: 0.0,
@@ -692,7 +690,7 @@ impl QuasiStatic {
             &mut self.lu_rhs,
             LuOptions {
                 reuse: self.reuse_lu,
-                static_pivots: self.static_lu.then_some(self.static_pivot_tol),
+                static_pivots: self.static_pivots,
             },
         )?;
         match direction {

@@ -91,8 +91,9 @@ pub(crate) struct FullTangent {
     /// the first factorisation the static pivots refuse or do not solve accurately.
     pivoted: Option<(SymbolicLu<usize>, MemBuffer)>,
     numeric: NumericLu<usize, f64>,
-    /// Which factor of this pattern (of an earlier iterate) is held, if any.
-    held: Held,
+    /// Whether `numeric` holds a pivoting factor of this pattern (of an earlier iterate),
+    /// which BiCGSTAB may reuse.
+    pivoted_held: bool,
     /// Whether the last reuse of the factor took more than [`REUSE_REFACTOR_AFTER`]
     /// iterations or failed: the next iteration factors afresh.
     stale: bool,
@@ -127,16 +128,6 @@ pub(crate) struct LuOptions {
     pub static_pivots: Option<f64>,
 }
 
-/// The factor a [`FullTangent`] holds.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Held {
-    None,
-    /// [`StaticLu`]: pivots on the diagonal in the fill-reducing order.
-    Static,
-    /// faer's LU with partial pivoting.
-    Pivoted,
-}
-
 /// Relative residual |b - A x| / |b| a direction from the factor without pivoting must reach
 /// (after at most [`STATIC_REFINE`] steps of iterative refinement), else the matrix is factored
 /// again with partial pivoting. The Newton iteration's own tolerance is 1e-10 of the forces'
@@ -166,13 +157,8 @@ pub const REUSE_TOL: f64 = 1e-9;
 /// An LU factor of an earlier Newton matrix of the same pattern as a preconditioner
 /// (faer's `Precond`: x = (L U)^-1 b).
 struct OldFactor<'a> {
-    lu: OldLu<'a>,
+    lu: LuRef<'a, usize, f64>,
     n: usize,
-}
-
-enum OldLu<'a> {
-    Pivoted(LuRef<'a, usize, f64>),
-    Static(&'a StaticLu),
 }
 
 impl std::fmt::Debug for OldFactor<'_> {
@@ -183,10 +169,9 @@ impl std::fmt::Debug for OldFactor<'_> {
 
 impl LinOp<f64> for OldFactor<'_> {
     fn apply_scratch(&self, rhs_ncols: usize, par: Par) -> StackReq {
-        match &self.lu {
-            OldLu::Pivoted(lu) => lu.symbolic().solve_in_place_scratch::<f64>(rhs_ncols, par),
-            OldLu::Static(_) => StackReq::EMPTY,
-        }
+        self.lu
+            .symbolic()
+            .solve_in_place_scratch::<f64>(rhs_ncols, par)
     }
     fn nrows(&self) -> usize {
         self.n
@@ -202,22 +187,7 @@ impl LinOp<f64> for OldFactor<'_> {
         stack: &mut MemStack,
     ) {
         out.copy_from(rhs);
-        match &self.lu {
-            OldLu::Pivoted(lu) => lu.solve_in_place_with_conj(Conj::No, out, par, stack),
-            OldLu::Static(lu) => {
-                let mut x = vec![0.0; self.n];
-                let mut work = Vec::new();
-                for j in 0..out.ncols() {
-                    for i in 0..self.n {
-                        x[i] = out[(i, j)];
-                    }
-                    lu.solve_in_place(&mut x, &mut work);
-                    for i in 0..self.n {
-                        out[(i, j)] = x[i];
-                    }
-                }
-            }
-        }
+        self.lu.solve_in_place_with_conj(Conj::No, out, par, stack);
     }
     fn conj_apply(
         &self,
@@ -351,7 +321,7 @@ impl FullTangent {
             static_work: Vec::new(),
             pivoted: None,
             numeric: NumericLu::new(),
-            held: Held::None,
+            pivoted_held: false,
             stale: false,
             values: Vec::new(),
             rhs_keep: Vec::new(),
@@ -383,7 +353,7 @@ impl FullTangent {
     ) -> Result<Direction, String> {
         self.assemble(v, p, shift, states, flow);
         if options.reuse
-            && self.held == Held::Pivoted
+            && self.pivoted_held
             && !self.stale
             && let Some(iterations) = self.reuse_solve(rhs)
         {
@@ -400,15 +370,11 @@ impl FullTangent {
     fn reuse_solve(&mut self, rhs: &mut [f64]) -> Option<usize> {
         let len = rhs.len();
         let a = SparseColMatRef::new(self.pattern.as_ref(), &self.values);
-        let lu = match self.held {
-            Held::Static => OldLu::Static(&self.static_lu),
-            Held::Pivoted => {
-                let (symbolic, _) = self.pivoted.as_ref()?;
-                OldLu::Pivoted(LuRef::new_unchecked(symbolic, &self.numeric))
-            }
-            Held::None => return None,
+        let (symbolic, _) = self.pivoted.as_ref()?;
+        let pre = OldFactor {
+            lu: LuRef::new_unchecked(symbolic, &self.numeric),
+            n: len,
         };
-        let pre = OldFactor { lu, n: len };
         let ident = IdentityPrecond { dim: len };
         let mem = match &mut self.krylov_mem {
             Some(m) => m,
@@ -483,12 +449,11 @@ impl FullTangent {
         rhs: &mut [f64],
         static_pivots: Option<f64>,
     ) -> Result<bool, String> {
-        self.held = Held::None;
+        self.pivoted_held = false;
         self.stale = false;
         if let Some(tol) = static_pivots
             && self.static_solve(rhs, tol)
         {
-            self.held = Held::Static;
             return Ok(false);
         }
         if self.pivoted.is_none() {
@@ -518,7 +483,7 @@ impl FullTangent {
                 states,
             ));
         }
-        self.held = Held::Pivoted;
+        self.pivoted_held = true;
         Ok(true)
     }
 
@@ -530,14 +495,14 @@ impl FullTangent {
         if self.static_lu.factor(&self.values).is_err() {
             return false;
         }
-        self.rhs_keep.clear();
-        self.rhs_keep.extend_from_slice(rhs);
-        let b = std::mem::take(&mut self.rhs_keep);
-        let mut x = b.clone();
-        self.static_lu.solve_in_place(&mut x, &mut self.static_work);
+        // b kept aside (no allocation per iteration); x is solved in `rhs` itself.
+        let mut b = std::mem::take(&mut self.rhs_keep);
+        b.clear();
+        b.extend_from_slice(rhs);
+        self.static_lu.solve_in_place(rhs, &mut self.static_work);
         let mut ok = false;
         for refine in 0..=STATIC_REFINE {
-            let (r2, b2) = self.residual2(&x, &b);
+            let (r2, b2) = self.residual2(rhs, &b);
             if !r2.is_finite() {
                 break;
             }
@@ -548,18 +513,19 @@ impl FullTangent {
             if refine == STATIC_REFINE {
                 break;
             }
+            // residual2 left b - A x in krylov_ax: solve it for the correction.
             let mut dx = std::mem::take(&mut self.krylov_ax);
             self.static_lu
                 .solve_in_place(&mut dx, &mut self.static_work);
-            for (xi, d) in x.iter_mut().zip(&dx) {
+            for (xi, d) in rhs.iter_mut().zip(&dx) {
                 *xi += d;
             }
             self.krylov_ax = dx;
         }
-        self.rhs_keep = b;
-        if ok {
-            rhs.copy_from_slice(&x);
+        if !ok {
+            rhs.copy_from_slice(&b);
         }
+        self.rhs_keep = b;
         ok
     }
 
