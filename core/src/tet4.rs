@@ -71,19 +71,50 @@ pub fn geometry(x: [[f64; 3]; 4]) -> Option<TetGeometry> {
 pub fn strain(g: &TetGeometry, u: [[f64; 3]; 4]) -> [f64; 6] {
     // H = grad u, H[i][j] = du_i / dx_j = sum_a u_a,i dN_a/dx_j; with grad N_0 = -(sum of
     // the others), H = sum_{k=1..3} (u_k - u_0)_i dN_k/dx_j: 27 products instead of 36.
+    // Column j of H is sum_k (u_k - u_0) dN_k/dx_j: written over four lanes (the fourth
+    // unused) so that the compiler can use whole vector registers; each entry is the same
+    // sum in the same order as written out by component.
     let g = &g.grad;
-    let du: [[f64; 3]; 3] = std::array::from_fn(|k| std::array::from_fn(|i| u[k + 1][i] - u[0][i]));
-    let h: [[f64; 3]; 3] = std::array::from_fn(|i| {
-        std::array::from_fn(|j| du[0][i] * g[0][j] + du[1][i] * g[1][j] + du[2][i] * g[2][j])
+    let u0 = lanes(u[0]);
+    let du: [Lanes; 3] = std::array::from_fn(|k| lane_sub(lanes(u[k + 1]), u0));
+    let h: [Lanes; 3] = std::array::from_fn(|j| {
+        lane_add(
+            lane_add(lane_scale(du[0], g[0][j]), lane_scale(du[1], g[1][j])),
+            lane_scale(du[2], g[2][j]),
+        )
     });
+    // h[j][i] = H[i][j].
     [
         h[0][0],
         h[1][1],
         h[2][2],
-        h[0][1] + h[1][0],
-        h[1][2] + h[2][1],
-        h[2][0] + h[0][2],
+        h[1][0] + h[0][1],
+        h[2][1] + h[1][2],
+        h[0][2] + h[2][0],
     ]
+}
+
+/// Four f64 lanes: a 3-vector and an unused fourth lane (see [`strain`]).
+type Lanes = [f64; 4];
+
+#[inline(always)]
+fn lanes(v: [f64; 3]) -> Lanes {
+    [v[0], v[1], v[2], 0.0]
+}
+
+#[inline(always)]
+fn lane_add(a: Lanes, b: Lanes) -> Lanes {
+    [a[0] + b[0], a[1] + b[1], a[2] + b[2], a[3] + b[3]]
+}
+
+#[inline(always)]
+fn lane_sub(a: Lanes, b: Lanes) -> Lanes {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2], a[3] - b[3]]
+}
+
+#[inline(always)]
+fn lane_scale(a: Lanes, s: f64) -> Lanes {
+    [a[0] * s, a[1] * s, a[2] * s, a[3] * s]
 }
 
 /// Isotropic Hooke's law in 3D: stress (Pa, Voigt) from strain (Voigt, engineering shear).
@@ -112,18 +143,26 @@ pub fn forces(g: &TetGeometry, s: [f64; 6]) -> [[f64; 3]; 4] {
 /// element's forces sum to zero to round-off.
 #[inline(always)]
 pub fn forces_flat(g: &TetGeometry, s: [f64; 6]) -> [f64; 12] {
+    // f_k = -V sigma grad N_k = sum_j (-V sigma)_{:, j} dN_k/dx_j, over the columns of the
+    // symmetric stress in four lanes (as in [`strain`]).
     let sv = s.map(|x| -g.volume * x);
-    let mut f = [0.0; 12];
-    for (k, b) in g.grad.iter().enumerate() {
-        let a = 3 * (k + 1);
-        f[a] = b[0] * sv[0] + b[1] * sv[3] + b[2] * sv[5];
-        f[a + 1] = b[0] * sv[3] + b[1] * sv[1] + b[2] * sv[4];
-        f[a + 2] = b[0] * sv[5] + b[1] * sv[4] + b[2] * sv[2];
-    }
-    for d in 0..3 {
-        f[d] = -(f[3 + d] + f[6 + d] + f[9 + d]);
-    }
-    f
+    let col = [
+        [sv[0], sv[3], sv[5], 0.0],
+        [sv[3], sv[1], sv[4], 0.0],
+        [sv[5], sv[4], sv[2], 0.0],
+    ];
+    let fk: [Lanes; 3] = std::array::from_fn(|k| {
+        let b = &g.grad[k];
+        lane_add(
+            lane_add(lane_scale(col[0], b[0]), lane_scale(col[1], b[1])),
+            lane_scale(col[2], b[2]),
+        )
+    });
+    let f0 = lane_add(lane_add(fk[0], fk[1]), fk[2]);
+    [
+        -f0[0], -f0[1], -f0[2], fk[0][0], fk[0][1], fk[0][2], fk[1][0], fk[1][1], fk[1][2],
+        fk[2][0], fk[2][1], fk[2][2],
+    ]
 }
 
 /// Strain-displacement matrix B (6 x 12): eps = B u with u = [u0x, u0y, u0z, u1x, ...].
@@ -251,6 +290,58 @@ mod tests {
             [0.2, 0.9, 0.3],
             [0.4, 0.3, 1.1],
         ]
+    }
+
+    #[test]
+    fn lane_form_gives_the_bits_of_the_component_form() {
+        // The strain and forces written over four lanes sum the same products in the same
+        // order as written out by component (the form before the lanes), so the bits agree.
+        let p = params();
+        let mut seed = 0x9e37_79b9_7f4a_7c15_u64;
+        let mut next = || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+        };
+        for _ in 0..2000 {
+            let x0 = skew();
+            let x: [[f64; 3]; 4] = std::array::from_fn(|a| x0[a].map(|c| c + 0.2 * next()));
+            let Some(g) = geometry(x) else { continue };
+            let u: [[f64; 3]; 4] =
+                std::array::from_fn(|_| [next(), next(), next()].map(|c| 1e-3 * c));
+            // The component form.
+            let gr = &g.grad;
+            let du: [[f64; 3]; 3] =
+                std::array::from_fn(|k| std::array::from_fn(|i| u[k + 1][i] - u[0][i]));
+            let h: [[f64; 3]; 3] = std::array::from_fn(|i| {
+                std::array::from_fn(|j| {
+                    du[0][i] * gr[0][j] + du[1][i] * gr[1][j] + du[2][i] * gr[2][j]
+                })
+            });
+            let e = [
+                h[0][0],
+                h[1][1],
+                h[2][2],
+                h[0][1] + h[1][0],
+                h[1][2] + h[2][1],
+                h[2][0] + h[0][2],
+            ];
+            assert_eq!(strain(&g, u).map(f64::to_bits), e.map(f64::to_bits));
+            let s = hooke(e, &p);
+            let sv = s.map(|x| -g.volume * x);
+            let mut f = [0.0; 12];
+            for (k, b) in gr.iter().enumerate() {
+                let a = 3 * (k + 1);
+                f[a] = b[0] * sv[0] + b[1] * sv[3] + b[2] * sv[5];
+                f[a + 1] = b[0] * sv[3] + b[1] * sv[1] + b[2] * sv[4];
+                f[a + 2] = b[0] * sv[5] + b[1] * sv[4] + b[2] * sv[2];
+            }
+            for d in 0..3 {
+                f[d] = -(f[3 + d] + f[6 + d] + f[9 + d]);
+            }
+            assert_eq!(forces_flat(&g, s).map(f64::to_bits), f.map(f64::to_bits));
+        }
     }
 
     #[test]

@@ -25,31 +25,32 @@ pub const NODE_CHUNK: usize = 4096;
 /// read.
 pub fn internal_force<E: Element>(v: &mut SolidView<E>, p: &SolidParams) {
     if rayon::current_num_threads() == 1 {
-        let (conn, geom, u) = (&v.conn, &v.geom, &v.u);
-        let force = &mut v.force;
-        force.fill(E::Vector::default());
-        for ((s, c), g) in v.stress.iter_mut().zip(conn).zip(geom) {
-            *s = E::stress(g, c, u, p);
-            let fe = E::forces(g, s);
-            let fe = fe.as_ref();
-            for (a, &n) in c.as_ref().iter().enumerate() {
-                let f = &mut force[n as usize];
-                for d in 0..E::D {
-                    f[d] += fe[E::D * a + d];
-                }
-            }
+        let (conn, geom, u) = (&v.conn[..], &v.geom[..], &v.u[..]);
+        let (stress, force) = (&mut v.stress[..], &mut v.force[..]);
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU has AVX2 (checked just above).
+            unsafe { scatter_avx2::<E>(conn, geom, u, stress, force, p) };
+            return;
         }
+        scatter::<E>(conn, geom, u, stress, force, p);
         return;
     }
-    let (conn, geom, u) = (&v.conn, &v.geom, &v.u);
+    let (conn, geom, u) = (&v.conn, &v.geom, &v.u[..]);
+    #[cfg(target_arch = "x86_64")]
+    let avx2 = std::arch::is_x86_feature_detected!("avx2");
     v.stress
-        .par_iter_mut()
-        .zip(v.elem_force.par_iter_mut())
-        .zip(conn.par_iter().zip(geom.par_iter()))
-        .with_min_len(ELEM_GRAIN)
+        .par_chunks_mut(ELEM_GRAIN)
+        .zip(v.elem_force.par_chunks_mut(ELEM_GRAIN))
+        .zip(conn.par_chunks(ELEM_GRAIN).zip(geom.par_chunks(ELEM_GRAIN)))
         .for_each(|((s, f), (c, g))| {
-            *s = E::stress(g, c, u, p);
-            *f = E::forces(g, s);
+            #[cfg(target_arch = "x86_64")]
+            if avx2 {
+                // SAFETY: the CPU has AVX2 (checked above).
+                unsafe { element_forces_avx2::<E>(c, g, u, s, f, p) };
+                return;
+            }
+            element_forces::<E>(c, g, u, s, f, p);
         });
     let ef = &v.elem_force;
     let per = E::D * E::NODES;
@@ -69,6 +70,76 @@ pub fn internal_force<E: Element>(v: &mut SolidView<E>, p: &SolidParams) {
             }
             *f = acc;
         });
+}
+
+/// [`element_forces`] compiled for AVX2 (as [`scatter_avx2`]).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn element_forces_avx2<E: Element>(
+    conn: &[E::Conn],
+    geom: &[E::Geom],
+    u: &[E::Vector],
+    stress: &mut [E::Stress],
+    forces: &mut [E::Forces],
+    p: &SolidParams,
+) {
+    element_forces::<E>(conn, geom, u, stress, forces, p)
+}
+
+/// Element stresses and forces of a block of elements (the several-thread internal force,
+/// before the gather by node).
+#[inline(always)]
+fn element_forces<E: Element>(
+    conn: &[E::Conn],
+    geom: &[E::Geom],
+    u: &[E::Vector],
+    stress: &mut [E::Stress],
+    forces: &mut [E::Forces],
+    p: &SolidParams,
+) {
+    for (((s, f), c), g) in stress.iter_mut().zip(forces).zip(conn).zip(geom) {
+        *s = E::stress(g, c, u, p);
+        *f = E::forces(g, s);
+    }
+}
+
+/// [`scatter`] compiled for AVX2 (no FMA, so the same bits: every product and sum is the same
+/// IEEE operation, three-operand and wider).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn scatter_avx2<E: Element>(
+    conn: &[E::Conn],
+    geom: &[E::Geom],
+    u: &[E::Vector],
+    stress: &mut [E::Stress],
+    force: &mut [E::Vector],
+    p: &SolidParams,
+) {
+    scatter::<E>(conn, geom, u, stress, force, p)
+}
+
+/// The one-thread internal force: each element's forces scattered into its nodes.
+#[inline(always)]
+fn scatter<E: Element>(
+    conn: &[E::Conn],
+    geom: &[E::Geom],
+    u: &[E::Vector],
+    stress: &mut [E::Stress],
+    force: &mut [E::Vector],
+    p: &SolidParams,
+) {
+    force.fill(E::Vector::default());
+    for ((s, c), g) in stress.iter_mut().zip(conn).zip(geom) {
+        *s = E::stress(g, c, u, p);
+        let fe = E::forces(g, s);
+        let fe = fe.as_ref();
+        for (a, &n) in c.as_ref().iter().enumerate() {
+            let f = &mut force[n as usize];
+            for d in 0..E::D {
+                f[d] += fe[E::D * a + d];
+            }
+        }
+    }
 }
 
 /// Recompute element stresses from the current displacements (the stress kept by
