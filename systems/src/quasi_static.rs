@@ -50,8 +50,8 @@ use hydrofrac_core::view::SolidView;
 pub const DEFAULT_TOL: f64 = hydrofrac_core::scenario::DEFAULT_NEWTON_TOL;
 /// Newton iterations before the run stops with an error.
 pub const MAX_ITER: usize = 60;
-/// Halvings the coupled line search tries after the full step and the first kink (the last
-/// is taken whatever its merit).
+/// Halvings the coupled line search tries after the full step and the first kink (when none
+/// of them meets the Armijo condition, the trial of lowest merit is taken).
 pub const LINE_SEARCH_HALVINGS: i32 = 10;
 /// Newton iterations of a step without flow after which each update is damped by the line
 /// search (coupled steps search from the first): cycling between contact states (a joint
@@ -1208,6 +1208,11 @@ struct Work {
 /// of the pressure law on the way, else halving. The kinks (a cell filling or
 /// draining, a joint opening or closing, sliding or sticking) would otherwise make
 /// Newton cycle.
+/// When no trial meets the condition, the one of lowest merit is taken (evaluated again
+/// unless it was the last). Before, the last, smallest halving was taken whatever its merit:
+/// on Example I cross quasi-static a step after a split then alternated between the full
+/// step and a 2^-10 step that raised the merit several times over, in a two-cycle that
+/// ran to the iteration cap.
 /// Returns the residual of the accepted trial (the iterate), whose forces are left in `rhs`.
 #[allow(clippy::too_many_arguments)]
 fn line_search(
@@ -1237,18 +1242,40 @@ fn line_search(
         .chain(kink.map(|(a, c)| (a, Some(c))))
         .chain((1..=LINE_SEARCH_HALVINGS).map(|k| (0.5f64.powi(k), None)));
     work.rhs_try.resize(rhs.len(), 0.0);
-    for (alpha, at) in candidates {
-        v.u.copy_from_slice(&work.u_base);
+    let (u_base, rhs_try) = (&work.u_base, &mut work.rhs_try);
+    // One trial: u = base + alpha du (and the cells' y), evaluated into `rhs_try`.
+    let mut trial = |v: &mut SolidView,
+                     qs: &mut QuasiStatic,
+                     flow: &mut Option<FlowStep>,
+                     alpha: f64,
+                     at: Option<usize>| {
+        v.u.copy_from_slice(u_base);
         let dof = &qs.structure.as_ref().expect("structure").dof;
         add_update(v, dof, rhs, alpha);
         if coupled {
             qs.rows.set_trial(alpha, at);
         }
-        let e = evaluate(v, qs, flow, held, p, lf, joint0, &mut work.rhs_try);
+        let e = evaluate(v, qs, flow, held, p, lf, joint0, rhs_try);
+        (e, e.0 / tol2 + phi_of(&qs.rows))
+    };
+    // The lowest merit seen and its trial; the last trial.
+    let mut best: Option<(f64, f64, Option<usize>)> = None;
+    let mut last = (f64::NAN, None);
+    for (alpha, at) in candidates {
+        let (e, merit) = trial(v, qs, flow, alpha, at);
         evaluated = Some(e);
-        if e.0 / tol2 + phi_of(&qs.rows) <= (1.0 - 1e-4 * alpha) * phi0 {
+        last = (alpha, at);
+        if merit <= (1.0 - 1e-4 * alpha) * phi0 {
+            best = None;
             break;
         }
+        if best.is_none_or(|b| merit < b.0) {
+            best = Some((merit, alpha, at));
+        }
+    }
+    // No trial met the condition: take the one of lowest merit.
+    if let Some((_, alpha, at)) = best.filter(|b| (b.1, b.2) != last) {
+        evaluated = Some(trial(v, qs, flow, alpha, at).0);
     }
     // The iterate is the last trial: its residual is the next iteration's.
     std::mem::swap(rhs, &mut work.rhs_try);
