@@ -1209,10 +1209,8 @@ struct Work {
 /// draining, a joint opening or closing, sliding or sticking) would otherwise make
 /// Newton cycle.
 /// When no trial meets the condition, the one of lowest merit is taken (evaluated again
-/// unless it was the last). Before, the last, smallest halving was taken whatever its merit:
-/// on Example I cross quasi-static a step after a split then alternated between the full
-/// step and a 2^-10 step that raised the merit several times over, in a two-cycle that
-/// ran to the iteration cap.
+/// unless it was the last): taking the smallest halving whatever its merit made Newton
+/// two-cycle to its cap (`docs/schemes.md`, the coupled step's line search).
 /// Returns the residual of the accepted trial (the iterate), whose forces are left in `rhs`.
 #[allow(clippy::too_many_arguments)]
 fn line_search(
