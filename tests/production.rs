@@ -457,8 +457,9 @@ fn settling_scene(rock: &str) -> Scenario {
 /// The quasi-static rock settles at 12 and 15 MPa and ends in a static equilibrium (its
 /// residual below `production.static_tol`), with no relaxation fallback; its rates match the
 /// dynamic relaxation's (`rock: Explicit`, the other path to a static state) within 2 %.
-/// Measured (2026-12-07, 11 s for both rocks): 87 and 197 settling steps, rates 2.7355e-3 and
-/// 3.6010e-3 m^2/s against the relaxation's 2.7325e-3 and 3.6331e-3 (+0.11 and -0.88 %); 9 MPa
+/// Measured (2026-12-07, 12 s for both rocks): 72 and 206 settling steps, rates 2.7353e-3 and
+/// 3.6082e-3 m^2/s against the relaxation's 2.7325e-3 and 3.6331e-3 (+0.10 and -0.69 %; with
+/// every settling step solved to the tolerance 87 and 197 steps, +0.11 and -0.88 %); 9 MPa
 /// needs no settling and matches to 2.5e-4. The bound is not tighter because with friction the
 /// equilibrium depends on the path to it (relaxation's fictitious dynamics against the rock's
 /// own motion; 0.74 % on Example II, docs/example2.md); a settling that stopped short of
