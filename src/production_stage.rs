@@ -401,7 +401,7 @@ pub const SETTLE_CAP_STEPS: u32 = 5;
 pub const SETTLE_STATIC_TRY: f64 = 1e-2;
 
 /// The relative residual to which [`settle`] solves its steps while the static residual is
-/// above 100 times `time.newton_tol` (then, and for its static tries, to `newton_tol`): the
+/// above 100 times `production.static_tol` (then, and for its static tries, to it): the
 /// march's intermediate states are a path to the equilibrium, not the answer. Most long steps
 /// that failed at the tolerance stalled between 1e-5 and 1e-4, a few joints flipping between
 /// stick and slip. On Example II's production stage (from its 60 s checkpoint) 0.80 of the
