@@ -460,10 +460,11 @@ fn settling_scene(rock: &str) -> Scenario {
 /// Measured (2026-12-07, 12 s for both rocks): 72 and 206 settling steps, rates 2.7353e-3 and
 /// 3.6082e-3 m^2/s against the relaxation's 2.7325e-3 and 3.6331e-3 (+0.10 and -0.69 %; with
 /// every settling step solved to the tolerance 87 and 197 steps, +0.11 and -0.88 %); 9 MPa
-/// needs no settling and matches to 2.5e-4. The bound is not tighter because with friction the
-/// equilibrium depends on the path to it (relaxation's fictitious dynamics against the rock's
-/// own motion; 0.74 % on Example II, docs/example2.md); a settling that stopped short of
-/// equilibrium fails the residual check instead.
+/// needs no settling and matches to 2.5e-4, held to 2e-3 as in `same_production_on` (two
+/// solvers of one static problem). The settled states' bound is not tighter because with
+/// friction the equilibrium depends on the path to it (relaxation's fictitious dynamics
+/// against the rock's own motion; 0.74 % on Example II, docs/example2.md); a settling that
+/// stopped short of equilibrium fails the residual check instead.
 #[test]
 fn settling_reaches_the_relaxations_equilibria() {
     let mut rates = Vec::new();
@@ -502,8 +503,9 @@ fn settling_reaches_the_relaxations_equilibria() {
     }
     for (k, dp) in [9e6, 12e6, 15e6].iter().enumerate() {
         let rel = (rates[0][k] - rates[1][k]).abs() / rates[1][k];
+        let bound = if *dp > 10e6 { 2e-2 } else { 2e-3 };
         assert!(
-            rel < 2e-2,
+            rel < bound,
             "{:.0} MPa: settled {:.6e} vs relaxed {:.6e} m^2/s (rel {rel:.2e})",
             dp / 1e6,
             rates[0][k],
