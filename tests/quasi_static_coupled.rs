@@ -190,6 +190,7 @@ fn updated_coupling_matrix_matches_the_full_solve() {
     let (upd, inj_upd, splits_upd) = run(hydrofrac::systems::quasi_static::MAX_W_UPDATES);
     assert_eq!(full.w_updates, 0);
     assert!(upd.w_updates >= 1, "no update was made: {upd:?}");
+    assert_eq!(upd.w_updates_refused, 0, "an update was not exact: {upd:?}");
     assert!(
         upd.coupling_solves < full.coupling_solves,
         "{} column solves with updates, {} without",
