@@ -20,7 +20,7 @@
 pub use hydrofrac_components as components;
 pub use hydrofrac_core::{
     atomic, conforming, dim, element, error, flow, fractures, gmsh, mesh, model, model3, network,
-    output, params, plot, reservoir, resources, scenario, snap, sparse, split, stability,
+    output, params, plot, reservoir, resources, scenario, snap, sparse, split, split3, stability,
     static_lu, tet4, tetmesh, timing, union_find, view,
 };
 pub use hydrofrac_engine::{checkpoint, schedule, setup, sim, sim3};

@@ -47,6 +47,7 @@ mod shear_crack;
 mod sneddon;
 mod solid_verification;
 mod split;
+mod split3d;
 mod sweep;
 mod tet_solid;
 mod three_d;

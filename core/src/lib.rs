@@ -36,6 +36,7 @@ pub mod scenario;
 pub mod snap;
 pub mod sparse;
 pub mod split;
+pub mod split3;
 pub mod stability;
 pub mod static_lu;
 pub mod tet4;

@@ -1,0 +1,315 @@
+//! Node splitting in 3D at run time (`core/src/split3.rs`, `open_faces`) against the split of
+//! a pre-existing fracture made on the mesh before it becomes entities
+//! (`TetMesh::split_along`, checked in `tet_solid.rs`): the same faces must give the same
+//! topology (which tetrahedra share a node, the sister face pairs and their orientation) and
+//! the same nodal masses to round-off, whether opened at once or ring by ring. Invariants
+//! (`check_invariants_3d`) and mass conservation are asserted after every split.
+
+use hecs::Entity;
+use hydrofrac::components::*;
+use hydrofrac::model::Model;
+use hydrofrac::model3::{NodeRef3, TetNodes};
+use hydrofrac::scenario::Material;
+use hydrofrac::split3::{check_invariants_3d, open_faces};
+use hydrofrac::tetmesh::TetMesh;
+use std::collections::{BTreeMap, BTreeSet, HashMap};
+
+const ROCK: Material = Material {
+    young: 50e9,
+    poisson: 0.25,
+    density: 2700.0,
+};
+
+/// The unit cube at h = 1/8 (3,072 tetrahedra).
+fn cube() -> TetMesh {
+    TetMesh::regular_box([0.0; 3], [1.0; 3], 0.125).expect("box")
+}
+
+/// The interior faces on the plane z = 0.5 whose centroid lies within `r` of (0.5, 0.5)
+/// (`r` above the half-width: the whole plane), as sorted node triples.
+fn disc_faces(m: &TetMesh, r: f64) -> BTreeSet<[u32; 3]> {
+    m.faces()
+        .into_iter()
+        .filter(|(f, ts)| {
+            let x = f.map(|k| m.nodes[k as usize]);
+            let c = [0, 1].map(|d| (x[0][d] + x[1][d] + x[2][d]) / 3.0);
+            ts.len() == 2
+                && x.iter().all(|q| (q[2] - 0.5).abs() < 1e-12)
+                && (c[0] - 0.5).hypot(c[1] - 0.5) < r
+        })
+        .map(|(f, _)| f)
+        .collect()
+}
+
+/// The face entities of a model on the given sorted node triples (mesh numbering = stable ids).
+fn face_entities(model: &Model, faces: &BTreeSet<[u32; 3]>) -> Vec<Entity> {
+    let w = &model.world;
+    w.query::<(Entity, &FaceNodes)>()
+        .iter()
+        .filter(|(_, f)| {
+            let mut k = f.0.map(|n| w.get::<&StableId>(n).expect("node").0 as u32);
+            k.sort_unstable();
+            faces.contains(&k)
+        })
+        .map(|(e, _)| e)
+        .collect()
+}
+
+/// A description of a 3D model's topology that names no entity: per tetrahedron (by stable
+/// id) its four nodes, each as (reference position, the smallest stable id of the tetrahedra
+/// that use that node, its mass); and the joints as (p's tetrahedron, q's tetrahedron, p's
+/// node positions in order).
+type Node = ([u64; 3], u64, f64);
+type Joints = BTreeSet<(u64, u64, [[u64; 3]; 3])>;
+
+fn topology(model: &Model) -> (BTreeMap<u64, [Node; 4]>, Joints) {
+    let w = &model.world;
+    let mut first: HashMap<Entity, u64> = HashMap::new();
+    for (id, tn) in w.query::<(&StableId, &TetNodes)>().iter() {
+        for n in tn.0 {
+            let e = first.entry(n).or_insert(id.0);
+            *e = (*e).min(id.0);
+        }
+    }
+    let bits = |n: Entity| w.get::<&NodeRef3>(n).expect("node").0.map(f64::to_bits);
+    let tets = w
+        .query::<(&StableId, &TetNodes)>()
+        .iter()
+        .map(|(id, tn)| {
+            let node = |n: Entity| (bits(n), first[&n], w.get::<&NodeMass>(n).expect("m").0);
+            (id.0, tn.0.map(node))
+        })
+        .collect();
+    // A pre-existing fracture's face with all its nodes on the front is a joint on one face
+    // entity (`split_along` keeps it); a run-time split leaves such a face waiting.
+    let joints = w
+        .query::<&FaceJoint>()
+        .iter()
+        .filter(|j| j.faces[0] != j.faces[1])
+        .map(|j| {
+            let tet = |f: Entity| {
+                let t = w.get::<&EdgeElems>(f).expect("face").0[0].expect("tet");
+                w.get::<&StableId>(t).expect("tet").0
+            };
+            let p = w.get::<&FaceNodes>(j.faces[0]).expect("face").0;
+            (tet(j.faces[0]), tet(j.faces[1]), p.map(bits))
+        })
+        .collect();
+    (tets, joints)
+}
+
+/// Two topologies equal, node masses to `tol` relative.
+fn assert_same(a: &(BTreeMap<u64, [Node; 4]>, Joints), b: &(BTreeMap<u64, [Node; 4]>, Joints)) {
+    assert_eq!(a.0.len(), b.0.len());
+    for ((ta, na), (tb, nb)) in a.0.iter().zip(&b.0) {
+        assert_eq!(ta, tb);
+        for (x, y) in na.iter().zip(nb) {
+            assert_eq!((x.0, x.1), (y.0, y.1), "tetrahedron {ta}: nodes differ");
+            assert!(
+                (x.2 - y.2).abs() <= 1e-12 * x.2,
+                "tetrahedron {ta}: node mass {} against {}",
+                x.2,
+                y.2
+            );
+        }
+    }
+    assert_eq!(a.1, b.1, "joints differ");
+}
+
+/// Rock mass in the solid (kg) and rho times the tetrahedra's volume.
+fn masses(model: &Model) -> (f64, f64) {
+    let w = &model.world;
+    let nodes: f64 = w
+        .query::<(&NodeMass, &NodeLink)>()
+        .iter()
+        .filter(|(_, l)| l.in_solid)
+        .map(|(m, _)| m.0)
+        .sum();
+    let volume: f64 = w
+        .query::<&TetGeom>()
+        .iter()
+        .map(|g| hydrofrac::dim::tet_geometry(&g.0).volume)
+        .sum();
+    (nodes, ROCK.density * volume)
+}
+
+fn assert_mass_conserved(model: &Model) {
+    let (nodes, rock) = masses(model);
+    assert!(
+        (nodes - rock).abs() < 1e-12 * rock,
+        "{nodes} against {rock}"
+    );
+}
+
+/// The number of pieces the rock falls into (tetrahedra connected through shared nodes).
+fn pieces(model: &Model) -> usize {
+    let w = &model.world;
+    let tets: Vec<[Entity; 4]> = w.query::<&TetNodes>().iter().map(|t| t.0).collect();
+    let mut uf = hydrofrac::union_find::UnionFind::new(tets.len());
+    let mut owner: HashMap<Entity, usize> = HashMap::new();
+    for (i, t) in tets.iter().enumerate() {
+        for n in t {
+            match owner.get(n) {
+                Some(&j) => uf.union(i, j),
+                None => {
+                    owner.insert(*n, i);
+                }
+            }
+        }
+    }
+    (0..tets.len())
+        .map(|i| uf.find(i))
+        .collect::<BTreeSet<_>>()
+        .len()
+}
+
+/// The disc split on the mesh (the pre-existing path) as a model.
+fn split_on_mesh(faces: &BTreeSet<[u32; 3]>) -> Model {
+    let mut m = cube();
+    let list: Vec<[u32; 3]> = faces.iter().copied().collect();
+    let mut split = m.split_along(&list).expect("interior faces");
+    m.orient_sisters(&mut split);
+    let mut model = Model::from_tet_mesh(&m, ROCK).expect("model");
+    model.add_face_joints(&split);
+    model
+}
+
+#[test]
+fn a_disc_opened_at_run_time_matches_the_split_on_the_mesh() {
+    let faces = disc_faces(&cube(), 0.3);
+    assert!(faces.len() > 30, "{} faces", faces.len());
+    let reference = split_on_mesh(&faces);
+    check_invariants_3d(&reference).expect("reference invariants");
+    let mut model = Model::from_tet_mesh(&cube(), ROCK).expect("model");
+    let nodes_before = model.world.query::<&NodeRef3>().iter().count();
+    let ready = face_entities(&model, &faces);
+    assert_eq!(ready.len(), faces.len());
+    let report = open_faces(&mut model, &ready, 1e-4, 2.5);
+    check_invariants_3d(&model).expect("invariants");
+    assert_mass_conserved(&model);
+    // An interior disc: every face with a node inside the disc opens (the others, all three
+    // nodes on the front, wait), every node inside splits in two, the front's nodes stay
+    // shared.
+    let waiting = reference
+        .world
+        .query::<&FaceJoint>()
+        .iter()
+        .filter(|j| j.faces[0] == j.faces[1])
+        .count();
+    assert!(waiting < faces.len() / 4, "{waiting} waiting");
+    let opened = faces.len() - waiting;
+    assert_eq!(report.opened_edges, opened);
+    assert_eq!(report.joints.len(), opened);
+    assert_eq!(report.cells.len(), opened);
+    let nodes_after = model.world.query::<&NodeRef3>().iter().count();
+    assert_eq!(nodes_after - nodes_before, report.daughters);
+    assert_eq!(report.daughters, report.split_nodes);
+    assert_same(&topology(&model), &topology(&reference));
+    // The new cells: empty, of the given aperture and time, one per joint.
+    for &c in &report.cells {
+        let fluid = *model.world.get::<&CellFluid>(c).expect("cell");
+        let origin = *model.world.get::<&CellOrigin>(c).expect("cell");
+        assert_eq!((fluid.aperture, fluid.mass), (1e-4, 0.0));
+        assert_eq!((origin.kind, origin.created_t), (CellKind::New, 2.5));
+    }
+    // The flow network sees one triangle per cell on the root nodes: the nodes of the disc.
+    let tc = hydrofrac::flow::faces::cell_triangles(&model);
+    assert_eq!(tc.tris.len(), opened);
+    let on_disc: BTreeSet<u64> = report
+        .joints
+        .iter()
+        .flat_map(|&j| {
+            let f = model.world.get::<&FaceJoint>(j).expect("joint").faces[0];
+            model.world.get::<&FaceNodes>(f).expect("face").0
+        })
+        .map(|n| {
+            let r = hydrofrac::split::root(&model.world, n);
+            model.world.get::<&StableId>(r).expect("node").0
+        })
+        .collect();
+    assert_eq!(tc.nodes.len(), on_disc.len());
+    assert!(
+        on_disc.iter().all(|&id| id < nodes_before as u64),
+        "roots are mesh nodes"
+    );
+    // Splitting again is a no-op: the faces are fracture faces now.
+    let again = open_faces(&mut model, &ready, 1e-4, 3.0);
+    assert_eq!(again.opened_edges, 0);
+    assert_eq!(pieces(&model), 1);
+}
+
+#[test]
+fn a_disc_grown_ring_by_ring_matches_the_disc_opened_at_once() {
+    let radii = [0.13, 0.2, 0.3, 0.41];
+    let all = disc_faces(&cube(), radii[3]);
+    let reference = split_on_mesh(&all);
+    let mut model = Model::from_tet_mesh(&cube(), ROCK).expect("model");
+    let mut joints = 0;
+    for r in radii {
+        // The faces of the disc so far: those opened are fracture faces now and are ignored;
+        // those that waited (all nodes on the last front) are ready again.
+        let ready = face_entities(&model, &disc_faces(&cube(), r));
+        let report = open_faces(&mut model, &ready, 1e-4, r);
+        joints += report.joints.len();
+        check_invariants_3d(&model).expect("invariants");
+        assert_mass_conserved(&model);
+    }
+    assert!(joints >= 60, "{joints} joints");
+    assert_eq!(joints, topology(&reference).1.len());
+    assert_same(&topology(&model), &topology(&reference));
+}
+
+#[test]
+fn a_plane_across_the_box_cuts_it_in_two() {
+    let plane = disc_faces(&cube(), 10.0);
+    let mut model = Model::from_tet_mesh(&cube(), ROCK).expect("model");
+    let ready = face_entities(&model, &plane);
+    let report = open_faces(&mut model, &ready, 1e-4, 0.0);
+    check_invariants_3d(&model).expect("invariants");
+    assert_mass_conserved(&model);
+    // Every node of the plane (9 x 9) splits, the box falls into two pieces.
+    assert_eq!(report.split_nodes, 81);
+    assert_eq!(report.opened_edges, plane.len());
+    assert_eq!(pieces(&model), 2);
+    assert_same(&topology(&model), &topology(&split_on_mesh(&plane)));
+}
+
+#[test]
+fn a_ready_face_alone_in_the_rock_waits() {
+    // One face inside the rock: all three of its nodes are on its own front, so none splits
+    // and the face waits for the fracture to reach it (as a 2D edge with both ends interior).
+    let one: BTreeSet<[u32; 3]> = disc_faces(&cube(), 0.06).into_iter().take(1).collect();
+    assert_eq!(one.len(), 1);
+    let mut model = Model::from_tet_mesh(&cube(), ROCK).expect("model");
+    let ready = face_entities(&model, &one);
+    let before = topology(&model);
+    let report = open_faces(&mut model, &ready, 1e-4, 0.0);
+    assert_eq!(report.split_nodes, 0);
+    assert_eq!(report.opened_edges, 0);
+    assert_same(&topology(&model), &before);
+    check_invariants_3d(&model).expect("invariants");
+}
+
+#[test]
+fn the_invariant_check_catches_a_broken_split() {
+    // The check must be able to fail: relink one tetrahedron of an opened disc back to its
+    // face's other side, so that a side is two faces and another none.
+    let faces = disc_faces(&cube(), 0.3);
+    let mut model = Model::from_tet_mesh(&cube(), ROCK).expect("model");
+    let ready = face_entities(&model, &faces);
+    let report = open_faces(&mut model, &ready, 1e-4, 0.0);
+    let j = *model
+        .world
+        .get::<&FaceJoint>(report.joints[0])
+        .expect("joint");
+    let q = model.world.get::<&FaceNodes>(j.faces[1]).expect("face").0;
+    let p = model.world.get::<&FaceNodes>(j.faces[0]).expect("face").0;
+    let tq = model.world.get::<&EdgeElems>(j.faces[1]).expect("face").0[0].expect("tet");
+    let nodes = model.world.get::<&TetNodes>(tq).expect("tet").0;
+    let moved = nodes.map(|n| match q.iter().position(|&x| x == n) {
+        Some(a) => p[a],
+        None => n,
+    });
+    model.world.get::<&mut TetNodes>(tq).expect("tet").0 = moved;
+    assert!(check_invariants_3d(&model).is_err());
+}
