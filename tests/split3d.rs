@@ -313,3 +313,91 @@ fn the_invariant_check_catches_a_broken_split() {
     model.world.get::<&mut TetNodes>(tq).expect("tet").0 = moved;
     assert!(check_invariants_3d(&model).is_err());
 }
+
+/// A 2 m cube of tetrahedra (h = 0.25 m, 8 layers) under the uniform in-situ stress
+/// `szz` (Pa, tension positive; sxx = syy = -1 MPa) from the first step, with a small disc on
+/// z = 1 m, the strength test at `threshold` (Pa) and the explicit rock.
+fn slab_scene(szz: f64, threshold: f64) -> hydrofrac::sim::Simulation<hydrofrac::dim::Tet4> {
+    let text = format!(
+        "(name: \"slabs\", mesh: Box(size: (2.0, 2.0, 2.0), h: 0.25),
+          material: (young: 20e9, poisson: 0.2, density: 2700.0),
+          boundary: InSitu3(sxx: -1e6, syy: -1e6, szz: {szz:e}), initial_state: InSitu,
+          fracture: Some((discs: [(center: (1.0, 1.0, 1.0), normal: (0.0, 0.0, 1.0),
+                                   radius: 0.3)],
+                          strength: Some({threshold:e}), face_stress: Elements)),
+          time: (end: Time(1.0), max_steps: 10), damping: Local(0.8),
+          output: (frame_every: 0, series_every: 1))"
+    );
+    let sc = hydrofrac::scenario::Scenario::parse(&text, "slabs.ron").expect("parses");
+    hydrofrac::sim::Simulation::new_3d(sc.validate().expect("valid"), &[]).expect("set up")
+}
+
+#[test]
+fn the_face_stress_of_a_uniform_field_is_exact() {
+    // Under the in-situ state every tetrahedron holds the same stress, so every internal face
+    // reads n.sigma.n of it: the Kuhn cube's faces have n_z^2 = 1 (horizontal), 1/2, 1/3 or
+    // 0, so sigma_n = sxx (n_x^2 + n_y^2) + szz n_z^2 exactly (to round-off).
+    let (sxx, szz) = (-1e6, 3e6);
+    let mut sim = slab_scene(szz, 1e12);
+    sim.step_once().expect("step");
+    let v = sim.solid();
+    assert!(v.edge_entity.len() > 3000, "{} faces", v.edge_entity.len());
+    let mut horizontal = 0;
+    for k in 0..v.edge_entity.len() {
+        let n = v.face_normal[k];
+        assert!((n[0].hypot(n[1]).hypot(n[2]) - 1.0).abs() < 1e-14);
+        let expected = sxx * (n[0] * n[0] + n[1] * n[1]) + szz * n[2] * n[2];
+        let got = v.edge_sigma_n[k];
+        assert!(
+            (got - expected).abs() < 1e-9 * szz,
+            "face {k}: {got} against {expected}"
+        );
+        assert!(!v.edge_ready[k]);
+        horizontal += usize::from(n[2].abs() > 1.0 - 1e-12);
+    }
+    // 7 inner planes of 8 x 8 squares, two triangles each, less the disc's opened faces (a
+    // disc face with all three nodes on its front has a joint but stays one rock face).
+    let disc = (0..v.joint_entity.len())
+        .filter(|&k| v.joint_nodes[k][..3] != v.joint_nodes[k][3..])
+        .count();
+    assert!(disc < v.joint_entity.len(), "the disc has closed faces");
+    assert_eq!(horizontal + disc, 7 * 64 * 2, "{horizontal} + {disc}");
+}
+
+#[test]
+fn tension_above_the_strength_opens_every_horizontal_plane() {
+    // szz = 3 MPa against a threshold of 2 MPa: only the horizontal faces (n_z^2 = 1) reach it
+    // (the next, n_z^2 = 1/2, read 1 MPa), all of them in the first step. Every node of the
+    // seven inner planes then has its tetrahedra above and below cut apart: the cube falls into
+    // its eight layers, with a joint on every horizontal face.
+    let mut sim = slab_scene(3e6, 2e6);
+    let faces_before = sim.solid().edge_entity.len();
+    let disc = sim.solid().joint_entity.len();
+    let v = sim.solid();
+    let closed = (0..disc)
+        .filter(|&k| v.joint_nodes[k][..3] == v.joint_nodes[k][3..])
+        .count();
+    assert!(closed > 0);
+    sim.step_once().expect("step");
+    let model = sim.model();
+    check_invariants_3d(model).expect("invariants");
+    assert_mass_conserved(model);
+    assert_eq!(pieces(model), 8);
+    let v = sim.solid();
+    assert_eq!(v.joint_entity.len(), 7 * 64 * 2);
+    // The disc's closed faces opened too, their joints taking the new sisters.
+    assert_eq!(
+        faces_before - v.edge_entity.len(),
+        7 * 64 * 2 - (disc - closed)
+    );
+    assert!((0..v.joint_entity.len()).all(|k| v.joint_nodes[k][..3] != v.joint_nodes[k][3..]));
+    // No horizontal rock face is left, and nothing else was marked.
+    assert!(v.face_normal.iter().all(|n| n[2].abs() < 1.0 - 1e-12));
+    sim.step_once().expect("step");
+    assert_eq!(sim.solid().joint_entity.len(), 7 * 64 * 2);
+    // Below the strength nothing opens.
+    let mut held = slab_scene(1.9e6, 2e6);
+    held.step_once().expect("step");
+    held.step_once().expect("step");
+    assert_eq!(held.solid().joint_entity.len(), disc);
+}

@@ -255,7 +255,32 @@ fn what_3d_lacks_and_boundaries_of_the_wrong_dimension_are_refused_by_field() {
         ),
         (
             base.replace("damping:", "fracture: (strength: 5e6), damping:"),
-            &["fracture", "not in 3D yet"],
+            &["fracture.face_stress", "Elements"],
+        ),
+        // Growth in 3D: the strength test with the explicit rock, so far.
+        (
+            base.replace(
+                "damping:",
+                "fracture: (criterion: Some(Toughness(k_ic: 1e6)), face_stress: Elements), \
+                 damping:",
+            ),
+            &["fracture.criterion", "toughness", "not in 3D yet"],
+        ),
+        (
+            base.replace(
+                "damping:",
+                "fracture: (strength: 5e6, face_stress: Elements), damping:",
+            )
+            .replace("time: (", "time: (solid_scheme: QuasiStatic, "),
+            &["time.solid_scheme", "quasi-static", "not in 3D yet"],
+        ),
+        (
+            base.replace(
+                "damping:",
+                "fracture: (strength: 5e6, face_stress: Elements), damping:",
+            )
+            .replace("output: (", "output: (checkpoint_every: Some(Steps(10)), "),
+            &["output.checkpoint_every", "not in 3D yet"],
         ),
         (
             base.replace(

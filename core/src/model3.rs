@@ -590,6 +590,7 @@ impl SolidView<Tet4> {
             .collect();
         v.push_elem_rows(elems);
         v.set_incidence();
+        v.push_internal_faces(world);
         let mut joints: Vec<(u64, Entity, FaceJoint, JointState<CornerShear>)> = world
             .query::<(Entity, &StableId, &FaceJoint, &JointState<CornerShear>)>()
             .iter()
@@ -611,6 +612,46 @@ impl SolidView<Tet4> {
             v.joint_state.push(st);
         }
         v
+    }
+
+    /// The internal faces that are still rock (two tetrahedra, not a fracture's), in stable-id
+    /// order: the strength criterion's candidates ([`SolidView::face_normal`]).
+    fn push_internal_faces(&mut self, world: &hecs::World) {
+        let dense: std::collections::HashMap<Entity, u32> = self
+            .elem_entity
+            .iter()
+            .enumerate()
+            .map(|(i, &e)| (e, i as u32))
+            .collect();
+        // (stable id, entity, nodes, tetrahedra, criterion state)
+        type Row = (u64, Entity, [Entity; 3], [Entity; 2], EdgeState);
+        let mut faces: Vec<Row> = world
+            .query::<(Entity, &StableId, &FaceNodes, &EdgeElems, &EdgeState)>()
+            .iter()
+            .filter_map(|(e, id, f, el, st)| match el.0 {
+                [Some(a), Some(b)] if !st.opened => Some((id.0, e, f.0, [a, b], *st)),
+                _ => None,
+            })
+            .collect();
+        faces.sort_unstable_by_key(|f| f.0);
+        for (_, e, nodes, [a, b], st) in faces {
+            let x = nodes.map(|n| world.get::<&NodeRef3>(n).expect("node").0);
+            let nn = cross(sub(x[1], x[0]), sub(x[2], x[0]));
+            let mut n = nn.map(|c| c / norm(nn));
+            // From a to b: away from a's fourth node.
+            let ta = world.get::<&TetNodes>(a).expect("tetrahedron").0;
+            if let Some(&o) = ta.iter().find(|m| !nodes.contains(m)) {
+                let xo = world.get::<&NodeRef3>(o).expect("node").0;
+                if dot(n, sub(xo, x[0])) > 0.0 {
+                    n = n.map(|c| -c);
+                }
+            }
+            self.edge_entity.push(e);
+            self.edge_elems.push([dense[&a], dense[&b]]);
+            self.face_normal.push(n);
+            self.edge_sigma_n.push(st.sigma_n);
+            self.edge_ready.push(st.fracture_ready);
+        }
     }
 
     /// Copy the hot state back into the components: displacement, velocity and the element

@@ -19,7 +19,10 @@
 //!   that face p's (x1 - x0) x (x2 - x0) points out of p's tetrahedron (the convention of
 //!   [`FaceJoint`] and `TetMesh::orient_sisters`). Each opened face gets a joint
 //!   ([`FaceJoint`]) and a flow cell ([`FaceCell`]) of the given initial aperture, created at
-//!   the given time, empty. A ready face that no split separates waits, as in 2D.
+//!   the given time, empty. A ready face that no split separates waits, as in 2D. A
+//!   pre-existing fracture's face whose three nodes all lay on its front (`split_along` gives
+//!   it a joint on the one face, closed) keeps its joint and cell when it opens: the joint
+//!   takes the new sister.
 //!
 //! Deterministic: candidates, groups, daughters and opened faces follow stable ids.
 
@@ -147,9 +150,19 @@ pub fn open_faces(model: &mut Model, ready: &[Entity], aperture: f64, t: f64) ->
         let new = nodes.map(|n| node_for(&split, n, a));
         model.world.get::<&mut FaceNodes>(f).expect("face").0 = new;
     }
+    // A pre-existing fracture's face whose nodes all lay on its front has a joint on that one
+    // face (and a flow cell in coupled runs): opened now, the joint takes the new sister.
+    let closed_joint: HashMap<Entity, Entity> = model
+        .world
+        .query::<(Entity, &FaceJoint)>()
+        .iter()
+        .filter(|(_, j)| j.faces[0] == j.faces[1])
+        .map(|(e, j)| (j.faces[0], e))
+        .collect();
     // `faces_at` is in stable-id order, so `opened` is too.
     for f in opened {
-        open_face(model, &split, f, (aperture, t), &mut report);
+        let joint = closed_joint.get(&f).copied();
+        open_face(model, &split, f, (aperture, t), joint, &mut report);
     }
     model.topology_generation += 1;
     report
@@ -258,12 +271,14 @@ fn spawn_daughters(
 
 /// Opens the ready face `f`: it becomes face p (its first tetrahedron's side), a sister face q
 /// is spawned for the second, both turned so that p's normal points towards q; then the joint
-/// of the pair and its flow cell.
+/// of the pair and its flow cell, or, where `f` already had a closed joint (`joint`), that
+/// joint takes the pair (its cell stays).
 fn open_face(
     model: &mut Model,
     split: &HashMap<Entity, SplitNode>,
     f: Entity,
     (aperture, t): (f64, f64),
+    joint: Option<Entity>,
     report: &mut SplitReport,
 ) {
     let nodes = model.world.get::<&FaceNodes>(f).expect("face").0;
@@ -302,6 +317,11 @@ fn open_face(
         },
     );
     let fq = model.world.spawn(sister);
+    report.opened_edges += 1;
+    if let Some(je) = joint {
+        model.world.get::<&mut FaceJoint>(je).expect("joint").faces = [f, fq];
+        return;
+    }
     let jid = model.next_joint_id;
     model.next_joint_id += 1;
     let joint: FaceJointBundle = (
@@ -326,7 +346,6 @@ fn open_face(
     );
     report.cells.push(model.world.spawn(cell));
     report.joints.push(je);
-    report.opened_edges += 1;
 }
 
 /// Topology invariants of a 3D model; returns the first violation found:

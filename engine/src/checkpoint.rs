@@ -50,7 +50,7 @@ use std::path::Path;
 /// First bytes of every checkpoint file.
 pub const MAGIC: &[u8; 8] = b"HFCKPT\0\n";
 /// Version of the layout of [`State`]; bumped whenever a saved type changes.
-pub const FORMAT_VERSION: u32 = 10;
+pub const FORMAT_VERSION: u32 = 11;
 /// The latest checkpoint in the output folder, and the one before it.
 pub const FILE: &str = "checkpoint.ckpt";
 pub const PREV_FILE: &str = "checkpoint.prev.ckpt";

@@ -419,8 +419,17 @@ impl Simulation<Tet4> {
                         self.write(frame, row)?;
                     }
                 }
+                SystemId::FractureCriterion => {
+                    if let Some(threshold) = p.criterion.and_then(|c| c.kind.strength()) {
+                        self.fracture.ready_edges = fracture::fracture_criterion_3d(v, threshold);
+                    }
+                }
+                SystemId::Split => {
+                    let t1 = monitor::step_end(t0, clock);
+                    self.split_3d(t1);
+                }
                 // Not in a 3D scene's schedule (no data): `Scenario::check_3d`.
-                SystemId::FractureCriterion | SystemId::Split | SystemId::Seismicity => {}
+                SystemId::Seismicity => {}
             }
         }
         Ok(())
@@ -560,6 +569,89 @@ impl Simulation<Tet4> {
             c.extend(output::flow_columns(f, &self.params));
         }
         c
+    }
+
+    /// `split` in 3D at time `t1` (the step's end): the faces the criterion marked open by node
+    /// splitting ([`hydrofrac_core::split3::open_faces`]); the state is synced into the
+    /// components first and the views are rebuilt after, with the critical step of the new
+    /// topology (the step shortened when it needs to be, as in 2D). A prescribed face pressure
+    /// (`fracture.pressure`) acts on the new faces too. Returns whether faces opened.
+    fn split_3d(&mut self, t1: f64) -> bool {
+        let v = &self.solid.view;
+        let ready: Vec<hecs::Entity> = (0..v.edge_entity.len())
+            .filter(|&k| v.edge_ready[k])
+            .map(|k| v.edge_entity[k])
+            .collect();
+        let key = (ready.len(), self.model.topology_generation);
+        if ready.is_empty() || self.fracture.last_idle_split == Some(key) {
+            return false;
+        }
+        {
+            use hydrofrac_core::view::ModelView;
+            Tet4::write_back(&self.solid.view, &mut self.model, &self.params.solid);
+        }
+        if let Some(f) = &self.flow {
+            f.view.write_back(&mut self.model, &self.params.fluid);
+        }
+        let face_pressure = self.params.face_pressure;
+        if let Some(fp) = face_pressure {
+            // Off the old faces (their nodes' loads are shared among daughters by volume,
+            // which is not where a pressure acts), then onto every face after the split.
+            self.model.apply_face_pressure3(-fp);
+        }
+        let r = hydrofrac_core::split3::open_faces(
+            &mut self.model,
+            &ready,
+            self.params.residual_aperture,
+            t1,
+        );
+        if let Some(fp) = face_pressure {
+            self.model.apply_face_pressure3(fp);
+        }
+        self.fracture.splits += r.split_nodes;
+        self.fracture.opened_edges += r.opened_edges;
+        if r.opened_edges == 0 {
+            self.fracture.last_idle_split = Some(key);
+        }
+        self.rebuild_views_3d(t1);
+        r.opened_edges > 0
+    }
+
+    /// Rebuild the 3D views from the components after a topology change, the explicit
+    /// scheme's critical step with them (the step shortened when the new joints need it,
+    /// unless the user forced `time.dt`).
+    fn rebuild_views_3d(&mut self, t1: f64) {
+        let p = &self.params;
+        self.solid.view = SolidView::<Tet4>::build_3d(&self.model);
+        let has_load = self.solid.view.has_load();
+        self.schedule.set_data(SystemId::ExternalLoad, has_load);
+        if let Some(f) = self.flow.as_mut() {
+            f.view = hydrofrac_core::flow::FlowView::build_3d(&self.model, &p.fluid);
+            f.view.set_bc_kinds(&p.flow_boundaries);
+            f.dt_crit = f.view.critical_step(&p.fluid);
+            if let Some(c) = f.coupling.as_mut() {
+                *c = Coupling::build_3d(
+                    &self.model,
+                    &self.solid.view.joint_entity,
+                    &f.view,
+                    &p.fluid,
+                    c.a_r,
+                );
+            }
+        }
+        if self.solid.linear.is_none() {
+            let bound = critical_step_3d(&self.solid.view, p);
+            self.solid.dt_crit = bound;
+            let safe = p.time.safety * bound;
+            let clock = &mut self.clock;
+            if !clock.forced(p) && safe < clock.dt {
+                clock.dt = safe;
+                if let hydrofrac_core::scenario::End::Time(te) = p.time.end {
+                    let left = ((te - t1) / safe - 1e-9).ceil().max(0.0) as u64;
+                    clock.steps_to_end = Some(clock.step + 1 + left);
+                }
+            }
+        }
     }
 
     /// Copy the hot state into the ECS components, and bring the view's element stresses to

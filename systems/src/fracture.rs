@@ -13,6 +13,37 @@ use hydrofrac_core::view::SolidView;
 use rayon::prelude::*;
 use std::collections::BinaryHeap;
 
+/// `fracture_criterion` in 3D (seed (7) on the faces of tetrahedra): the normal stress
+/// n.sigma.n across every internal rock face ([`SolidView::face_normal`]), sigma the mean of
+/// its two tetrahedra's stresses (Voigt `[xx, yy, zz, xy, yz, zx]`, Pa, tension positive);
+/// a face is marked ready when it reaches `threshold` = lambda*T0 (Pa). Returns the number of
+/// ready faces. In a uniform stress field the face stress is exact.
+pub fn fracture_criterion_3d(v: &mut SolidView<Tet4>, threshold: f64) -> usize {
+    let (stress, elems, normal) = (&v.stress, &v.edge_elems, &v.face_normal);
+    v.edge_sigma_n
+        .par_iter_mut()
+        .zip(v.edge_ready.par_iter_mut())
+        .enumerate()
+        .with_min_len(4096)
+        .for_each(|(k, (sn, ready))| {
+            let [a, b] = elems[k].map(|e| stress[e as usize]);
+            let s: [f64; 6] = std::array::from_fn(|i| 0.5 * (a[i] + b[i]));
+            *sn = normal_stress_3d(s, normal[k]);
+            *ready = *sn >= threshold;
+        });
+    v.edge_ready.iter().filter(|r| **r).count()
+}
+
+/// Normal stress n.sigma.n across a face with unit normal n, Pa, for sigma in Voigt order
+/// `[xx, yy, zz, xy, yz, zx]`.
+#[inline(always)]
+pub fn normal_stress_3d(s: [f64; 6], n: [f64; 3]) -> f64 {
+    s[0] * n[0] * n[0]
+        + s[1] * n[1] * n[1]
+        + s[2] * n[2] * n[2]
+        + 2.0 * (s[3] * n[0] * n[1] + s[4] * n[1] * n[2] + s[5] * n[2] * n[0])
+}
+
 /// Normal stress n.sigma.n across a face with unit normal n, Pa, for sigma = [sxx, syy, sxy].
 #[inline(always)]
 pub fn normal_stress(s: [f64; 3], n: [f64; 2]) -> f64 {

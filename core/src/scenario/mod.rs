@@ -466,11 +466,39 @@ impl Scenario {
             ))
         };
         if let Some(f) = &self.fracture {
-            // The 3D fracture so far: pre-existing discs under a prescribed pressure, with
-            // the joints' contact; no criterion, no segments, no networks.
+            // The 3D fracture so far: pre-existing discs under a prescribed pressure or the
+            // fluid, with the joints' contact; growth by the strength test on the faces with
+            // the explicit rock; no segments, no networks.
             let refuse = |field: &str, what: &str| not_yet(&format!("fracture.{field}"), what);
+            if matches!(f.criterion, Some(CriterionSpec::Toughness { .. })) {
+                return refuse("criterion", "the toughness criterion (issue 39)");
+            }
             if f.strength.is_some() || f.criterion.is_some() {
-                return refuse("criterion", "fracture growth (issue 39)");
+                if f.face_stress == FaceStress::Patch {
+                    return refuse(
+                        "face_stress",
+                        "the patch face stress (the default; 3D reads the mean of the face's \
+                         two tetrahedra: set `face_stress: Elements`)",
+                    );
+                }
+                if f.tip_handover == Some(true) {
+                    return refuse("tip_handover", "the tip hand-over");
+                }
+                if self.time.solid_scheme == SolidScheme::QuasiStatic {
+                    return not_yet(
+                        "time.solid_scheme",
+                        "fracture growth with the quasi-static rock (use the explicit rock)",
+                    );
+                }
+                if self.time.mass_scaling || self.time.selective_mass_scaling.is_some() {
+                    return not_yet("time.mass_scaling", "mass scaling with fracture growth");
+                }
+                if self.output.checkpoint_every.is_some() {
+                    return not_yet(
+                        "output.checkpoint_every",
+                        "a checkpoint of a growing 3D fracture",
+                    );
+                }
             }
             if !f.preexisting.is_empty() || f.file.is_some() || f.random.is_some() {
                 return Err(SetupError::invalid(
