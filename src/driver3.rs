@@ -230,7 +230,7 @@ fn fracture_3d(sim: &Simulation<Tet4>) -> Option<serde_json::Value> {
                 .is_ok_and(|l| l.mother.is_some())
         })
         .count();
-    Some(json!({
+    let mut out = json!({
         "joints": v.joint_nodes.len(),
         "daughters": daughters,
         "area": o.area,
@@ -243,7 +243,16 @@ fn fracture_3d(sim: &Simulation<Tet4>) -> Option<serde_json::Value> {
         "joints_closed": closed,
         "joints_sliding": sliding,
         "front": front_json(sim),
-    }))
+    });
+    // Growth (a criterion): the faces ready at the last check, the nodes split and the faces
+    // opened during the run.
+    if sim.params().criterion.is_some() {
+        let fr = sim.fracture();
+        out["ready_faces"] = json!(fr.ready_edges);
+        out["splits"] = json!(fr.splits);
+        out["opened_faces"] = json!(fr.opened_edges);
+    }
+    Some(out)
 }
 
 /// `summary.json` `fracture.front`: per disc, K_I along its front (Pa m^1/2) by displacement

@@ -517,9 +517,24 @@ impl Model {
     /// the reference geometry: face p's nodes get -p A n / 3 each, face q's +p A n / 3 (n face
     /// p's unit normal towards q, A its area), N.
     pub fn apply_face_pressure3(&mut self, p: f64) {
-        let joints: Vec<FaceJoint> = self.world.query::<&FaceJoint>().iter().copied().collect();
+        let loads = self.face_pressure_loads3(p);
+        self.add_loads3(&loads, 1.0);
+        self.topology_generation += 1;
+    }
+
+    /// The nodal forces of a uniform pressure `p` (Pa) on both faces of every 3D joint, N: on
+    /// each face, p times its area along its outward normal, a third to each node (face p
+    /// pushed against its normal, face q along it), joint by joint in stable-id order.
+    pub fn face_pressure_loads3(&self, p: f64) -> Vec<(Entity, [f64; 3])> {
+        let mut joints: Vec<(u64, FaceJoint)> = self
+            .world
+            .query::<(&StableId, &FaceJoint)>()
+            .iter()
+            .map(|(id, j)| (id.0, *j))
+            .collect();
+        joints.sort_unstable_by_key(|j| j.0);
         let mut loads: Vec<(Entity, [f64; 3])> = Vec::new();
-        for j in joints {
+        for (_, j) in joints {
             let nodes = j
                 .faces
                 .map(|f| self.world.get::<&FaceNodes>(f).expect("face").0);
@@ -531,13 +546,17 @@ impl Model {
                 }
             }
         }
+        loads
+    }
+
+    /// Add `scale` times the given nodal forces (N) to the nodes' loads, in the list's order.
+    pub fn add_loads3(&mut self, loads: &[(Entity, [f64; 3])], scale: f64) {
         for (e, f) in loads {
-            let mut bc = self.world.get::<&mut NodeBc3>(e).expect("node");
+            let mut bc = self.world.get::<&mut NodeBc3>(*e).expect("node");
             for d in 0..3 {
-                bc.load[d] += f[d];
+                bc.load[d] += scale * f[d];
             }
         }
-        self.topology_generation += 1;
     }
 }
 

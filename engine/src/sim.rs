@@ -147,6 +147,10 @@ impl<E: Element> Simulation<E> {
         &self.scenario
     }
 
+    /// The fracture systems' state (criterion marks, split counts, tips).
+    pub fn fracture(&self) -> &FractureState {
+        &self.fracture
+    }
     pub fn model(&self) -> &Model {
         &self.model
     }
@@ -681,9 +685,6 @@ impl Simulation {
     }
     pub fn flow_mut(&mut self) -> Option<&mut FlowPart> {
         self.flow.as_mut()
-    }
-    pub fn fracture(&self) -> &FractureState {
-        &self.fracture
     }
 
     /// The fracture systems' state, to change (e.g. `tips.no_screen` for a comparison).

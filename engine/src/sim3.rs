@@ -593,28 +593,43 @@ impl Simulation<Tet4> {
         if let Some(f) = &self.flow {
             f.view.write_back(&mut self.model, &self.params.fluid);
         }
-        let face_pressure = self.params.face_pressure;
-        if let Some(fp) = face_pressure {
-            // Off the old faces (their nodes' loads are shared among daughters by volume,
-            // which is not where a pressure acts), then onto every face after the split.
-            self.model.apply_face_pressure3(-fp);
-        }
+        // A prescribed face pressure: its loads before the split, which `open_faces` shares
+        // among a split node's daughters by volume (not where a pressure acts); they are taken
+        // off again after a split and the pressure put on every face as it is then.
+        let pressure = self
+            .params
+            .face_pressure
+            .map(|fp| (fp, self.model.face_pressure_loads3(fp)));
         let r = hydrofrac_core::split3::open_faces(
             &mut self.model,
             &ready,
             self.params.residual_aperture,
             t1,
         );
-        if let Some(fp) = face_pressure {
-            self.model.apply_face_pressure3(fp);
-        }
         self.fracture.splits += r.split_nodes;
         self.fracture.opened_edges += r.opened_edges;
-        if r.opened_edges == 0 {
+        if r.split_nodes == 0 {
+            // Nothing changed (the ready faces wait for the fracture to reach them): not
+            // tried again until the marks change.
             self.fracture.last_idle_split = Some(key);
+            return false;
+        }
+        if let Some((fp, before)) = pressure {
+            let share: std::collections::HashMap<hecs::Entity, &[(hecs::Entity, f64)]> =
+                r.daughters_of.iter().map(|(m, ds)| (*m, &ds[..])).collect();
+            let mut off: Vec<(hecs::Entity, [f64; 3])> = Vec::with_capacity(before.len());
+            for (n, f) in before {
+                match share.get(&n) {
+                    Some(ds) => off.extend(ds.iter().map(|&(d, s)| (d, f.map(|c| c * s)))),
+                    None => off.push((n, f)),
+                }
+            }
+            self.model.add_loads3(&off, -1.0);
+            let now = self.model.face_pressure_loads3(fp);
+            self.model.add_loads3(&now, 1.0);
         }
         self.rebuild_views_3d(t1);
-        r.opened_edges > 0
+        true
     }
 
     /// Rebuild the 3D views from the components after a topology change, the explicit
