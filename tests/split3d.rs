@@ -409,7 +409,13 @@ fn tension_above_the_strength_opens_every_horizontal_plane() {
 /// 0.5 m on z = 1.5 m under the face pressure `p` (Pa), the strength test at 0 (a face opens
 /// when its normal stress turns tensile), explicit rock, 4 ms.
 fn pressurised_disc(p: f64) -> hydrofrac::sim::Simulation<hydrofrac::dim::Tet4> {
-    let text = format!(
+    let text = pressurised_disc_text(p);
+    let sc = hydrofrac::scenario::Scenario::parse(&text, "pgrow.ron").expect("parses");
+    hydrofrac::sim::Simulation::new_3d(sc.validate().expect("valid"), &[]).expect("set up")
+}
+
+fn pressurised_disc_text(p: f64) -> String {
+    format!(
         "(name: \"pgrow\", mesh: Box(size: (3.0, 3.0, 3.0), h: 0.125),
           material: (young: 20e9, poisson: 0.2, density: 2700.0),
           boundary: InSitu3(sxx: -6e6, syy: -6e6, szz: -2e6), initial_state: InSitu,
@@ -418,13 +424,50 @@ fn pressurised_disc(p: f64) -> hydrofrac::sim::Simulation<hydrofrac::dim::Tet4> 
                           pressure: {p:e}, strength: Some(0.0), face_stress: Elements)),
           damping: Local(0.8), time: (end: Time(0.004), safety: 0.9),
           output: (frame_every: 0, series_every: 100))"
-    );
-    let sc = hydrofrac::scenario::Scenario::parse(&text, "pgrow.ron").expect("parses");
-    hydrofrac::sim::Simulation::new_3d(sc.validate().expect("valid"), &[]).expect("set up")
+    )
 }
 
-/// Per joint of the view: |n_z| of face p and the centroid's distance from the disc's axis.
-fn joint_planes(v: &hydrofrac::view::SolidView<hydrofrac::dim::Tet4>) -> Vec<(f64, f64)> {
+#[test]
+fn a_growing_disc_restarts_from_its_checkpoint_bit_for_bit() {
+    // The pressurised disc at 8 MPa with a checkpoint every 50 steps; the whole run grows it
+    // early and the restart from the last checkpoint (after the growth) must end with the
+    // same bits: the grown topology, its joints and the split counts are in the checkpoint.
+    let dir = crate::support_cli::tmp("grow3d");
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("pgrow.ron");
+    std::fs::write(&path, pressurised_disc_text(8e6)).unwrap();
+    let sets = ["--set", "output.checkpoint_every=Steps(50)"];
+    let whole = dir.join("whole");
+    let a = crate::support_cli::run_ok(&path, &whole, &sets);
+    assert!(a["fracture"]["splits"].as_u64().unwrap() > 0, "{a}");
+    let part = dir.join("part");
+    let ckpt = whole.join("checkpoint.ckpt");
+    let mut extra = sets.to_vec();
+    extra.extend(["--restart", ckpt.to_str().unwrap()]);
+    let b = crate::support_cli::run_ok(&path, &part, &extra);
+    assert_eq!(b["restarted_from"]["bit_identical"], true, "{b}");
+    let from = b["restarted_from"]["step"].as_u64().unwrap();
+    assert!(from >= 150, "restarted from step {from}");
+    for key in ["steps", "time", "residual", "nodes"] {
+        assert_eq!(a[key], b[key], "{key}");
+    }
+    for key in [
+        "joints",
+        "splits",
+        "opened_faces",
+        "opened_volume",
+        "max_opening",
+    ] {
+        assert_eq!(a["fracture"][key], b["fracture"][key], "{key}");
+    }
+}
+
+/// Per joint of the view: |n_z| of face p and the centroid's distance from the vertical axis
+/// through `axis` (x, y).
+fn joint_planes_about(
+    v: &hydrofrac::view::SolidView<hydrofrac::dim::Tet4>,
+    axis: [f64; 2],
+) -> Vec<(f64, f64)> {
     (0..v.joint_nodes.len())
         .map(|k| {
             let x = [0, 1, 2].map(|a| v.x0[v.joint_nodes[k][a] as usize]);
@@ -432,7 +475,7 @@ fn joint_planes(v: &hydrofrac::view::SolidView<hydrofrac::dim::Tet4>) -> Vec<(f6
                 hydrofrac::tet4::sub(x[1], x[0]),
                 hydrofrac::tet4::sub(x[2], x[0]),
             );
-            let c = [0, 1].map(|d| (x[0][d] + x[1][d] + x[2][d]) / 3.0 - 1.5);
+            let c = [0, 1].map(|d| (x[0][d] + x[1][d] + x[2][d]) / 3.0 - axis[d]);
             (n[2].abs() / hydrofrac::tet4::norm(n), c[0].hypot(c[1]))
         })
         .collect()
@@ -451,7 +494,7 @@ fn a_pressurised_disc_grows_in_its_plane() {
     check_invariants_3d(model).expect("invariants");
     assert_mass_conserved(model);
     let v = sim.solid();
-    let planes = joint_planes(v);
+    let planes = joint_planes_about(v, [1.5, 1.5]);
     let grown = &planes[before..];
     assert!(grown.len() >= 8, "{} new joints", grown.len());
     // The net pressure (6 MPa against szz = -2 MPa) opens the faces ahead of the front in the
@@ -464,4 +507,58 @@ fn a_pressurised_disc_grows_in_its_plane() {
     let mut held = pressurised_disc(6e6);
     held.run(|_| {}).expect("runs");
     assert_eq!(held.solid().joint_nodes.len(), before);
+}
+
+#[test]
+fn water_injected_into_a_disc_grows_it_and_fills_the_new_cells() {
+    // A 2 m cube (h = 0.125 m) under sxx = syy = -6 MPa, szz = -2 MPa; a disc of radius
+    // 0.375 m on z = 1 m, full of water at 2 MPa, fed 4e-3 m^3/s at its centre for 20 ms; the
+    // strength test at 0; explicit rock, explicit flow sub-steps.
+    let text = "(name: \"inj\", mesh: Box(size: (2.0, 2.0, 2.0), h: 0.125),
+          material: (young: 20e9, poisson: 0.2, density: 2700.0),
+          boundary: InSitu3(sxx: -6e6, syy: -6e6, szz: -2e6), initial_state: InSitu,
+          fracture: Some((discs: [(center: (1.0, 1.0, 1.0), normal: (0.0, 0.0, 1.0),
+                                   radius: 0.375)],
+                          residual_aperture: 1e-4, strength: Some(0.0), face_stress: Elements)),
+          initial_fluid: Full(2e6),
+          flow_boundaries: [(name: \"well\", at: Node((1.0, 1.0, 1.0)), kind: Rate(4e-3))],
+          damping: Local(0.8), time: (end: Time(0.02), safety: 0.9),
+          output: (frame_every: 0, series_every: 100))";
+    let sc = hydrofrac::scenario::Scenario::parse(text, "inj.ron").expect("parses");
+    let mut sim =
+        hydrofrac::sim::Simulation::new_3d(sc.validate().expect("valid"), &[]).expect("set up");
+    let (joints0, cells0) = (
+        sim.solid().joint_nodes.len(),
+        sim.flow().expect("flow").view.n_cells(),
+    );
+    sim.run(|_| {}).expect("runs");
+    check_invariants_3d(sim.model()).expect("invariants");
+    assert_mass_conserved(sim.model());
+    let v = sim.solid();
+    let grown = &joint_planes_about(v, [1.0, 1.0])[joints0..];
+    assert!(grown.len() >= 16, "{} new joints", grown.len());
+    for &(nz, r) in grown {
+        assert!(nz > 1.0 - 1e-12, "a new joint off the plane (|n_z| = {nz})");
+        assert!(
+            r > 0.25 && r < 0.375 + 4.0 * 0.125,
+            "a new joint at r = {r}"
+        );
+    }
+    // One cell per joint; the water reached new cells; its mass balance (injected = stored,
+    // no outlet) to round-off.
+    let f = sim.flow().expect("flow");
+    assert_eq!(f.view.n_cells(), v.joint_nodes.len());
+    assert!(f.view.n_cells() > cells0);
+    // New cells are created empty, at zero pressure until full; some are full and
+    // pressurised by now.
+    let full_new = (cells0..f.view.n_cells())
+        .filter(|&c| f.view.pressure[c] > 0.0)
+        .count();
+    assert!(full_new > 0, "no new cell filled");
+    let (injected, _, stored, err) = sim.flow_balance().expect("balance");
+    assert!((injected - 8e-5).abs() < 1e-12, "{injected}");
+    assert!(
+        (stored - injected).abs() < 1e-9 * injected && err < 1e-12,
+        "{stored} {err}"
+    );
 }

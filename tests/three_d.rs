@@ -276,14 +276,6 @@ fn what_3d_lacks_and_boundaries_of_the_wrong_dimension_are_refused_by_field() {
         ),
         (
             base.replace(
-                "damping:",
-                "fracture: (strength: 5e6, face_stress: Elements), damping:",
-            )
-            .replace("output: (", "output: (checkpoint_every: Some(Steps(10)), "),
-            &["output.checkpoint_every", "not in 3D yet"],
-        ),
-        (
-            base.replace(
                 "fine: (1.5, 1.0, 0.5, 2.5, 2.0, 1.5)",
                 "fine: (1.5, 1.0, 0.5, 5.5, 2.0, 1.5)",
             ),

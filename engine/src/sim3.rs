@@ -502,7 +502,7 @@ impl Simulation<Tet4> {
             dt_crit: self.solid.dt_crit,
             qs_counts: None,
             flow: self.flow.clone(),
-            fracture: FractureState::default(),
+            fracture: self.fracture.clone(),
             effort: self.effort,
             cells_at_start: 0,
             next_checkpoint_time: self.next_checkpoint_time,
@@ -516,9 +516,12 @@ impl Simulation<Tet4> {
     /// continues bit for bit; the quasi-static solve factorises its matrix again for the joints'
     /// states, so it continues to its tolerance.
     pub fn restore(&mut self, state: crate::checkpoint::State<Tet4>) -> Result<(), String> {
-        if state.solid_view.n_nodes() != self.solid.view.n_nodes()
-            || state.solid_view.n_elems() != self.solid.view.n_elems()
-            || state.solid_view.joint_nodes != self.solid.view.joint_nodes
+        // A growing fracture adds nodes, joints and cells; the tetrahedra stay.
+        let growing = self.params.criterion.is_some();
+        if state.solid_view.n_elems() != self.solid.view.n_elems()
+            || (!growing
+                && (state.solid_view.n_nodes() != self.solid.view.n_nodes()
+                    || state.solid_view.joint_nodes != self.solid.view.joint_nodes))
         {
             return Err("its mesh or fractures differ from this scenario's".into());
         }
@@ -528,9 +531,8 @@ impl Simulation<Tet4> {
             state.topology_generation,
             state.next_ids,
         )?;
-        if state.flow.as_ref().map(|f| f.view.n_cells())
-            != self.flow.as_ref().map(|f| f.view.n_cells())
-        {
+        let cells = |f: Option<&FlowPart>| f.map(|f| (!growing).then(|| f.view.n_cells()));
+        if cells(state.flow.as_ref()) != cells(self.flow.as_ref()) {
             return Err("its fracture flow cells differ from this scenario's".into());
         }
         self.clock = state.clock;
@@ -540,6 +542,9 @@ impl Simulation<Tet4> {
         self.solid.dt_crit = state.dt_crit;
         self.effort = state.effort;
         self.next_checkpoint_time = state.next_checkpoint_time;
+        self.fracture = state.fracture;
+        let has_load = self.solid.view.has_load();
+        self.schedule.set_data(SystemId::ExternalLoad, has_load);
         Ok(())
     }
 

@@ -493,12 +493,6 @@ impl Scenario {
                 if self.time.mass_scaling || self.time.selective_mass_scaling.is_some() {
                     return not_yet("time.mass_scaling", "mass scaling with fracture growth");
                 }
-                if self.output.checkpoint_every.is_some() {
-                    return not_yet(
-                        "output.checkpoint_every",
-                        "a checkpoint of a growing 3D fracture",
-                    );
-                }
             }
             if !f.preexisting.is_empty() || f.file.is_some() || f.random.is_some() {
                 return Err(SetupError::invalid(
