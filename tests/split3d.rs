@@ -562,3 +562,29 @@ fn water_injected_into_a_disc_grows_it_and_fills_the_new_cells() {
         "{stored} {err}"
     );
 }
+
+#[test]
+fn a_growing_disc_gives_the_same_bits_on_one_and_two_threads() {
+    // The criterion's face pass runs in parallel and the internal force scatters on one thread
+    // but gathers on two: the grown fracture and the displacements must not depend on it.
+    let run = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .expect("pool");
+        pool.install(|| {
+            let mut sim = pressurised_disc(8e6);
+            sim.run(|_| {}).expect("runs");
+            let v = sim.solid();
+            (v.u.clone(), v.joint_nodes.clone(), v.edge_sigma_n.clone())
+        })
+    };
+    let (a, b) = (run(1), run(2));
+    assert!(a.1.len() > 100, "{} joints: the disc grew", a.1.len());
+    assert!(
+        a.1 == b.1,
+        "the grown joints differ between 1 and 2 threads"
+    );
+    assert!(a.0 == b.0, "displacements differ between 1 and 2 threads");
+    assert!(a.2 == b.2, "face stresses differ between 1 and 2 threads");
+}
