@@ -335,18 +335,8 @@ fn open_mother_edge(
     let ends = en.map(|n| root(&model.world, n));
     let cid = model.next_cell_id;
     model.next_cell_id += 1;
-    let cell_bundle: CellBundle = (
-        StableId(cid),
-        CellNodes(ends),
-        CellFluid {
-            aperture,
-            ..Default::default()
-        },
-        CellOrigin {
-            kind: CellKind::New,
-            created_t: t,
-        },
-    );
+    let (fluid, origin) = new_cell_state(aperture, t);
+    let cell_bundle: CellBundle = (StableId(cid), CellNodes(ends), fluid, origin);
     let cell = model.world.spawn(cell_bundle);
     let jid = model.next_joint_id;
     model.next_joint_id += 1;
@@ -362,6 +352,21 @@ fn open_mother_edge(
     report.joints.push(model.world.spawn(joint_bundle));
     report.cells.push(cell);
     report.opened_edges += 1;
+}
+
+/// The fluid state and origin of a flow cell a split creates at time `t` (s): empty, of
+/// hydraulic aperture `aperture` (m); the same in 2D and 3D.
+pub fn new_cell_state(aperture: f64, t: f64) -> (CellFluid, CellOrigin) {
+    (
+        CellFluid {
+            aperture,
+            ..Default::default()
+        },
+        CellOrigin {
+            kind: CellKind::New,
+            created_t: t,
+        },
+    )
 }
 
 /// Open the given internal solid edges by node splitting. `aperture` is the initial hydraulic

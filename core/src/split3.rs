@@ -332,18 +332,8 @@ fn open_face(
     let je = model.world.spawn(joint);
     let cid = model.next_cell_id;
     model.next_cell_id += 1;
-    let cell: FaceCellBundle = (
-        StableId(cid),
-        FaceCell(je),
-        CellFluid {
-            aperture,
-            ..Default::default()
-        },
-        CellOrigin {
-            kind: CellKind::New,
-            created_t: t,
-        },
-    );
+    let (fluid, origin) = crate::split::new_cell_state(aperture, t);
+    let cell: FaceCellBundle = (StableId(cid), FaceCell(je), fluid, origin);
     report.cells.push(model.world.spawn(cell));
     report.joints.push(je);
 }
@@ -362,7 +352,7 @@ pub fn check_invariants_3d(model: &Model) -> Result<(), String> {
     let in_solid = |n: Entity| w.get::<&NodeLink>(n).map(|l| l.in_solid).unwrap_or(false);
     let pos = |n: Entity| w.get::<&NodeRef3>(n).map(|x| x.0);
     let mut sides: BTreeMap<[Entity; 3], usize> = BTreeMap::new();
-    for (el, id, tn) in w.query::<(Entity, &StableId, &TetNodes)>().iter() {
+    for (id, tn) in w.query::<(&StableId, &TetNodes)>().iter() {
         let nodes = tn.0;
         if nodes.iter().any(|&n| !w.contains(n) || !in_solid(n)) {
             return Err(format!(
@@ -374,22 +364,12 @@ pub fn check_invariants_3d(model: &Model) -> Result<(), String> {
         if crate::tet4::signed_volume(x[0], x[1], x[2], x[3]) <= 0.0 {
             return Err(format!("tetrahedron {} is not positive", id.0));
         }
-        for skip in 0..4 {
-            let mut k = [0; 3].map(|_| nodes[0]);
-            let mut j = 0;
-            for (i, &n) in nodes.iter().enumerate() {
-                if i != skip {
-                    k[j] = n;
-                    j += 1;
-                }
-            }
-            k.sort_unstable();
+        for k in crate::tet4::sorted_sides(nodes) {
             sides.insert(k, 0);
         }
-        let _ = el;
     }
-    for (f, id, fnodes, tets, st) in w
-        .query::<(Entity, &StableId, &FaceNodes, &EdgeElems, &EdgeState)>()
+    for (id, fnodes, tets, st) in w
+        .query::<(&StableId, &FaceNodes, &EdgeElems, &EdgeState)>()
         .iter()
     {
         if st.opened {
@@ -413,7 +393,6 @@ pub fn check_invariants_3d(model: &Model) -> Result<(), String> {
                 return Err(format!("face {} is not a side of its tetrahedron", id.0));
             }
         }
-        let _ = f;
     }
     if let Some((k, _)) = sides.iter().find(|(_, c)| **c != 1) {
         let ids: Vec<u64> = k.iter().map(|&n| stable(w, n)).collect();

@@ -37,6 +37,23 @@ impl TetGeometry {
     }
 }
 
+/// The four sides of a tetrahedron given by its nodes, each as the sorted triple of the nodes
+/// off one corner (corner 0's side first).
+pub fn sorted_sides<T: Copy + Ord>(t: [T; 4]) -> [[T; 3]; 4] {
+    std::array::from_fn(|skip| {
+        let mut f = [t[0]; 3];
+        let mut m = 0;
+        for (a, &n) in t.iter().enumerate() {
+            if a != skip {
+                f[m] = n;
+                m += 1;
+            }
+        }
+        f.sort_unstable();
+        f
+    })
+}
+
 /// Signed volume of the tetrahedron (a, b, c, d), positive when positively oriented, m^3.
 pub fn signed_volume(a: [f64; 3], b: [f64; 3], c: [f64; 3], d: [f64; 3]) -> f64 {
     let e = |p: [f64; 3]| [p[0] - a[0], p[1] - a[1], p[2] - a[2]];

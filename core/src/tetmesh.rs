@@ -275,16 +275,7 @@ impl TetMesh {
     pub fn faces(&self) -> HashMap<[u32; 3], Vec<u32>> {
         let mut faces: HashMap<[u32; 3], Vec<u32>> = HashMap::new();
         for (t, tet) in self.tets.iter().enumerate() {
-            for skip in 0..4 {
-                let mut f = [0u32; 3];
-                let mut m = 0;
-                for (a, &n) in tet.iter().enumerate() {
-                    if a != skip {
-                        f[m] = n;
-                        m += 1;
-                    }
-                }
-                f.sort_unstable();
+            for f in tet4::sorted_sides(*tet) {
                 faces.entry(f).or_default().push(t as u32);
             }
         }
