@@ -405,9 +405,10 @@ fn tension_above_the_strength_opens_every_horizontal_plane() {
     assert_eq!(held.solid().joint_entity.len(), disc);
 }
 
-/// A 3 m cube (h = 0.125 m) under sxx = syy = -6 MPa, szz = -2 MPa, with a disc of radius
-/// 0.5 m on z = 1.5 m under the face pressure `p` (Pa), the strength test at 0 (a face opens
-/// when its normal stress turns tensile), explicit rock, 4 ms.
+/// `scenarios/disc_growth.ron`: a 3 m cube (h = 0.125 m) under sxx = syy = -6 MPa,
+/// szz = -2 MPa, with a disc of radius 0.5 m on z = 1.5 m under the face pressure `p` (Pa),
+/// the strength test at 0 (a face opens when its normal stress turns tensile), explicit rock,
+/// 4 ms.
 fn pressurised_disc(p: f64) -> hydrofrac::sim::Simulation<hydrofrac::dim::Tet4> {
     let text = pressurised_disc_text(p);
     let sc = hydrofrac::scenario::Scenario::parse(&text, "pgrow.ron").expect("parses");
@@ -415,16 +416,13 @@ fn pressurised_disc(p: f64) -> hydrofrac::sim::Simulation<hydrofrac::dim::Tet4> 
 }
 
 fn pressurised_disc_text(p: f64) -> String {
-    format!(
-        "(name: \"pgrow\", mesh: Box(size: (3.0, 3.0, 3.0), h: 0.125),
-          material: (young: 20e9, poisson: 0.2, density: 2700.0),
-          boundary: InSitu3(sxx: -6e6, syy: -6e6, szz: -2e6), initial_state: InSitu,
-          fracture: Some((discs: [(center: (1.5, 1.5, 1.5), normal: (0.0, 0.0, 1.0),
-                                   radius: 0.5)],
-                          pressure: {p:e}, strength: Some(0.0), face_stress: Elements)),
-          damping: Local(0.8), time: (end: Time(0.004), safety: 0.9),
-          output: (frame_every: 0, series_every: 100))"
-    )
+    // The shipped `scenarios/disc_growth.ron` at face pressure `p`, without frames.
+    let text = std::fs::read_to_string(crate::support_cli::scenario("disc_growth.ron")).unwrap();
+    for part in ["pressure: 8e6", "frame_every: 100"] {
+        assert!(text.contains(part), "disc_growth.ron has no `{part}`");
+    }
+    text.replace("pressure: 8e6", &format!("pressure: {p:e}"))
+        .replace("frame_every: 100", "frame_every: 0")
 }
 
 #[test]
