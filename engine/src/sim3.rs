@@ -662,15 +662,7 @@ impl Simulation<Tet4> {
         if self.solid.linear.is_none() {
             let bound = critical_step_3d(&self.solid.view, p);
             self.solid.dt_crit = bound;
-            let safe = p.time.safety * bound;
-            let clock = &mut self.clock;
-            if !clock.forced(p) && safe < clock.dt {
-                clock.dt = safe;
-                if let hydrofrac_core::scenario::End::Time(te) = p.time.end {
-                    let left = ((te - t1) / safe - 1e-9).ceil().max(0.0) as u64;
-                    clock.steps_to_end = Some(clock.step + 1 + left);
-                }
-            }
+            hydrofrac_systems::split::shorten_to(&mut self.clock, p, bound, t1);
         }
     }
 

@@ -75,6 +75,12 @@ pub fn shorten_step(
         ),
     };
     solid.dt_crit = bound;
+    shorten_to(clock, p, bound, t);
+}
+
+/// Lower the step to `safety` times the critical step `bound` (s) when it is longer (unless
+/// the user forced `time.dt`), and recount a timed run's steps to its end from time `t`.
+pub fn shorten_to(clock: &mut Clock, p: &RunParams, bound: f64, t: f64) {
     let safe = p.time.safety * bound;
     if !clock.forced(p) && safe < clock.dt {
         clock.dt = safe;
