@@ -7,14 +7,7 @@ use hydrofrac::sim::Simulation;
 use crate::support_cli as cli;
 use crate::support_scenes as scenes;
 
-/// `f` on a rayon pool of `threads` threads.
-fn on_threads<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> T {
-    rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .unwrap()
-        .install(f)
-}
+use crate::support_bits::on_threads;
 
 fn run(threads: usize) -> (Vec<[f64; 2]>, Vec<[f64; 3]>, f64) {
     let text = std::fs::read_to_string("scenarios/insitu_stress.ron").unwrap();

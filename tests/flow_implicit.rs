@@ -218,11 +218,7 @@ fn newton_failure_names_step_cell_and_residual() {
 #[test]
 fn implicit_same_bits_for_any_thread_count() {
     let run = |threads: usize| {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap();
-        pool.install(|| {
+        crate::support_bits::on_threads(threads, || {
             let (sim, ..) = fc::mass_balance_run(2.0, Some(Some(1e-3))).unwrap();
             let f = sim.flow().unwrap();
             let mut bits: Vec<u64> = f.view.excess.iter().map(|x| x.to_bits()).collect();

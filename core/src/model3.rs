@@ -609,7 +609,6 @@ impl SolidView<Tet4> {
             .collect();
         v.push_elem_rows(elems);
         v.set_incidence();
-        v.push_internal_faces(world);
         let mut joints: Vec<(u64, Entity, FaceJoint, JointState<CornerShear>)> = world
             .query::<(Entity, &StableId, &FaceJoint, &JointState<CornerShear>)>()
             .iter()
@@ -634,8 +633,10 @@ impl SolidView<Tet4> {
     }
 
     /// The internal faces that are still rock (two tetrahedra, not a fracture's), in stable-id
-    /// order: the strength criterion's candidates ([`SolidView::face_normal`]).
-    fn push_internal_faces(&mut self, world: &hecs::World) {
+    /// order: the strength criterion's candidates ([`SolidView::face_normal`] and the `edge_*`
+    /// rows). A run with a criterion adds them to the view it builds; without one the view
+    /// has none (about 100 bytes per tetrahedron saved).
+    pub fn push_internal_faces(&mut self, world: &hecs::World) {
         let dense: std::collections::HashMap<Entity, u32> = self
             .elem_entity
             .iter()
@@ -648,7 +649,7 @@ impl SolidView<Tet4> {
             .query::<(Entity, &StableId, &FaceNodes, &EdgeElems, &EdgeState)>()
             .iter()
             .filter_map(|(e, id, f, el, st)| match el.0 {
-                [Some(a), Some(b)] if !st.opened => Some((id.0, e, f.0, [a, b], *st)),
+                [Some(a), Some(b)] => Some((id.0, e, f.0, [a, b], *st)),
                 _ => None,
             })
             .collect();

@@ -32,7 +32,7 @@ pub struct SplitReport {
     pub daughters_of: Vec<(Entity, Vec<(Entity, f64)>)>,
 }
 
-fn stable(world: &hecs::World, e: Entity) -> u64 {
+pub(crate) fn stable(world: &hecs::World, e: Entity) -> u64 {
     world.get::<&StableId>(e).map(|s| s.0).unwrap_or(u64::MAX)
 }
 

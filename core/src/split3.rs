@@ -29,15 +29,11 @@
 use crate::dim::tet_geometry;
 use crate::model::Model;
 use crate::model3::{NodeBc3, NodeRef3, NodeState3, TetNodes};
-use crate::split::{SplitReport, root};
+use crate::split::{SplitReport, root, stable};
 use crate::union_find::UnionFind;
 use hecs::Entity;
 use hydrofrac_components::*;
 use std::collections::{BTreeMap, BTreeSet, HashMap};
-
-fn stable(world: &hecs::World, e: Entity) -> u64 {
-    world.get::<&StableId>(e).map(|s| s.0).unwrap_or(u64::MAX)
-}
 
 /// The tetrahedra of a face, `[Some, Some]` when internal.
 fn face_tets(world: &hecs::World, f: Entity) -> [Option<Entity>; 2] {
@@ -47,7 +43,6 @@ fn face_tets(world: &hecs::World, f: Entity) -> [Option<Entity>; 2] {
 /// A split node: its tetrahedra's groups (tetrahedron -> group, group 0 keeps the node) and
 /// its nodes per group (the node itself for group 0, daughters after).
 struct SplitNode {
-    node: Entity,
     group_of: BTreeMap<Entity, usize>,
     nodes: Vec<Entity>,
 }
@@ -69,10 +64,11 @@ pub fn open_faces(model: &mut Model, ready: &[Entity], aperture: f64, t: f64) ->
     let ready: BTreeSet<(u64, Entity)> = ready
         .iter()
         .filter(|&&f| {
-            let st = world.get::<&EdgeState>(f);
-            let internal = world.get::<&FaceNodes>(f).is_ok()
-                && matches!(face_tets(world, f), [Some(_), Some(_)]);
-            matches!(st, Ok(s) if !s.opened) && internal
+            world.get::<&FaceNodes>(f).is_ok()
+                && matches!(
+                    world.get::<&EdgeElems>(f).map(|e| e.0),
+                    Ok([Some(_), Some(_)])
+                )
         })
         .map(|&f| (stable(world, f), f))
         .collect();
@@ -88,13 +84,7 @@ pub fn open_faces(model: &mut Model, ready: &[Entity], aperture: f64, t: f64) ->
         .collect();
     let wanted: BTreeSet<Entity> = candidates.values().copied().collect();
     let mut node_faces: HashMap<Entity, Vec<(u64, Entity)>> = HashMap::new();
-    for (f, id, fnodes, st) in world
-        .query::<(Entity, &StableId, &FaceNodes, &EdgeState)>()
-        .iter()
-    {
-        if st.opened {
-            continue;
-        }
+    for (f, id, fnodes) in world.query::<(Entity, &StableId, &FaceNodes)>().iter() {
         for n in fnodes.0 {
             if wanted.contains(&n) {
                 node_faces.entry(n).or_default().push((id.0, f));
@@ -256,16 +246,8 @@ fn spawn_daughters(
         report
             .daughters_of
             .push((n, nodes.iter().copied().zip(shares).collect()));
-        split.insert(
-            n,
-            SplitNode {
-                node: n,
-                group_of,
-                nodes,
-            },
-        );
+        split.insert(n, SplitNode { group_of, nodes });
     }
-    debug_assert!(split.iter().all(|(k, s)| *k == s.node));
     split
 }
 
@@ -368,13 +350,7 @@ pub fn check_invariants_3d(model: &Model) -> Result<(), String> {
             sides.insert(k, 0);
         }
     }
-    for (id, fnodes, tets, st) in w
-        .query::<(&StableId, &FaceNodes, &EdgeElems, &EdgeState)>()
-        .iter()
-    {
-        if st.opened {
-            continue;
-        }
+    for (id, fnodes, tets) in w.query::<(&StableId, &FaceNodes, &EdgeElems)>().iter() {
         let mut k = fnodes.0;
         k.sort_unstable();
         match sides.get_mut(&k) {

@@ -67,9 +67,10 @@ pub struct SolidView<E: Element = Cst> {
     /// normalised to 1 per edge. The fracture criterion's face stress is their weighted mean.
     pub patch_ptr: Vec<u32>,
     pub patch: Vec<(u32, f64)>,
-    /// 3D: the unit normal of internal face k (the `edge_*` rows are then the internal faces,
-    /// `edge_nodes` and the patches left empty), pointing from its first tetrahedron to its
-    /// second, in the reference configuration. Empty in 2D.
+    /// 3D with a fracture criterion: the unit normal of internal face k (the `edge_*` rows are
+    /// then the internal faces, `edge_nodes` and the patches left empty), pointing from its
+    /// first tetrahedron to its second, in the reference configuration
+    /// (`SolidView::push_internal_faces`). Empty in 2D and in 3D runs without a criterion.
     pub face_normal: Vec<[f64; 3]>,
     /// Normal stress across the edge, Pa (tension positive), and the fracture-ready mark.
     pub edge_sigma_n: Vec<f64>,

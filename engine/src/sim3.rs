@@ -241,6 +241,16 @@ fn scale_masses_3d(
     dt_crit
 }
 
+/// The TET4 view of a 3D model, with the strength test's candidate faces when the run has a
+/// criterion ([`SolidView::push_internal_faces`]).
+fn view_3d(model: &Model, p: &RunParams) -> SolidView<Tet4> {
+    let mut view = SolidView::<Tet4>::build_3d(model);
+    if p.criterion.is_some() {
+        view.push_internal_faces(&model.world);
+    }
+    view
+}
+
 impl Simulation<Tet4> {
     /// Set up a validated scenario with a 3D mesh; `extra_disable` adds system names to
     /// switch off.
@@ -251,7 +261,7 @@ impl Simulation<Tet4> {
         let scenario = scenario.into_inner();
         let (model, mesh_info) = build_model_3d(&scenario)?;
         let mut p = RunParams::resolve(&scenario, model.material);
-        let mut view = SolidView::<Tet4>::build_3d(&model);
+        let mut view = view_3d(&model, &p);
         // The quasi-static scheme has no stability bound (and the element eigenvalues cost).
         let mut dt_crit = match scenario.time.solid_scheme {
             SolidScheme::Explicit => critical_step_3d(&view, &p),
@@ -580,8 +590,8 @@ impl Simulation<Tet4> {
     /// splitting ([`hydrofrac_core::split3::open_faces`]); the state is synced into the
     /// components first and the views are rebuilt after, with the critical step of the new
     /// topology (the step shortened when it needs to be, as in 2D). A prescribed face pressure
-    /// (`fracture.pressure`) acts on the new faces too. Returns whether faces opened.
-    fn split_3d(&mut self, t1: f64) -> bool {
+    /// (`fracture.pressure`) acts on the new faces too.
+    fn split_3d(&mut self, t1: f64) {
         let v = &self.solid.view;
         let ready: Vec<hecs::Entity> = (0..v.edge_entity.len())
             .filter(|&k| v.edge_ready[k])
@@ -589,7 +599,7 @@ impl Simulation<Tet4> {
             .collect();
         let key = (ready.len(), self.model.topology_generation);
         if ready.is_empty() || self.fracture.last_idle_split == Some(key) {
-            return false;
+            return;
         }
         {
             use hydrofrac_core::view::ModelView;
@@ -617,7 +627,7 @@ impl Simulation<Tet4> {
             // Nothing changed (the ready faces wait for the fracture to reach them): not
             // tried again until the marks change.
             self.fracture.last_idle_split = Some(key);
-            return false;
+            return;
         }
         if let Some((fp, before)) = pressure {
             let share: std::collections::HashMap<hecs::Entity, &[(hecs::Entity, f64)]> =
@@ -634,7 +644,6 @@ impl Simulation<Tet4> {
             self.model.add_loads3(&now, 1.0);
         }
         self.rebuild_views_3d(t1);
-        true
     }
 
     /// Rebuild the 3D views from the components after a topology change, the explicit
@@ -642,7 +651,7 @@ impl Simulation<Tet4> {
     /// unless the user forced `time.dt`).
     fn rebuild_views_3d(&mut self, t1: f64) {
         let p = &self.params;
-        self.solid.view = SolidView::<Tet4>::build_3d(&self.model);
+        self.solid.view = view_3d(&self.model, p);
         let has_load = self.solid.view.has_load();
         self.schedule.set_data(SystemId::ExternalLoad, has_load);
         if let Some(f) = self.flow.as_mut() {

@@ -6,13 +6,18 @@ use hydrofrac::sim::{Finish, Simulation};
 /// count, the steps taken and the first boundary's injected volume.
 pub type RunBits = (Vec<u64>, Vec<u64>, u64, u64, u64);
 
-/// Build a simulation with `make` and run it to its end time in a pool of `threads` threads.
-pub fn run_bits(threads: usize, make: impl Fn() -> Simulation + Send + Sync) -> RunBits {
-    let pool = rayon::ThreadPoolBuilder::new()
+/// `f` on a rayon pool of `threads` threads.
+pub fn on_threads<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> T {
+    rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
-        .unwrap();
-    pool.install(|| {
+        .unwrap()
+        .install(f)
+}
+
+/// Build a simulation with `make` and run it to its end time in a pool of `threads` threads.
+pub fn run_bits(threads: usize, make: impl Fn() -> Simulation + Send + Sync) -> RunBits {
+    on_threads(threads, || {
         let mut sim = make();
         assert_eq!(sim.run(|_| {}).unwrap(), Finish::EndTime);
         let f = sim.flow().unwrap();
