@@ -597,6 +597,15 @@ fn discs_off_the_mesh_and_fractures_of_the_wrong_dimension_are_refused_by_field(
                 .to_string(),
             &["fracture.discs", "2D"],
         ),
+        (
+            "(name: \"flat\", mesh: Regular(width: 4.0, height: 4.0, h: 1.0),
+              material: (young: 2e10, poisson: 0.2, density: 2700.0),
+              boundary: Sides(bottom: Fixed),
+              fracture: Some((strength: Some(1e6), grow_in: DiscPlanes)),
+              time: (end: Static(tol: 1e-8)))"
+                .to_string(),
+            &["fracture.grow_in", "2D"],
+        ),
         // Refinement planes off the grid's lines, outside the box, coarser or not growing.
         (
             penny.replace("(axis: X, at: 1.0, factor: 16.0)", "(axis: X, at: 1.05, factor: 16.0)"),

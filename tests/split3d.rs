@@ -516,6 +516,65 @@ fn a_pressurised_disc_grows_in_its_plane() {
 }
 
 #[test]
+fn growth_kept_to_the_disc_planes_stays_on_them() {
+    // The pressurised disc at 8 MPa under an isotropic -2 MPa: no stress favours the disc's
+    // plane, and the strength test on every face opens faces off it. With `grow_in:
+    // DiscPlanes` the candidates are the faces of the plane z = 1.5 m only, and the disc grows
+    // there.
+    let base = pressurised_disc_text(8e6);
+    for part in ["sxx: -6e6, syy: -6e6", "face_stress: Elements,"] {
+        assert!(base.contains(part), "disc_growth.ron has no `{part}`");
+    }
+    let isotropic = base.replace("sxx: -6e6, syy: -6e6", "sxx: -2e6, syy: -2e6");
+    let confined = isotropic.replace(
+        "face_stress: Elements,",
+        "face_stress: Elements, grow_in: DiscPlanes,",
+    );
+    let run = |text: &str| {
+        let sc = hydrofrac::scenario::Scenario::parse(text, "iso.ron").expect("parses");
+        let mut sim =
+            hydrofrac::sim::Simulation::new_3d(sc.validate().expect("valid"), &[]).expect("set up");
+        let before = sim.solid().joint_nodes.len();
+        sim.run(|_| {}).expect("runs");
+        check_invariants_3d(sim.model()).expect("invariants");
+        assert_mass_conserved(sim.model());
+        (before, sim)
+    };
+    // The first 1.5 ms suffice: eight faces off the plane have opened by then (and nothing in
+    // it); the whole 4 ms open about 700 (a minute of splitting).
+    assert!(isotropic.contains("end: Time(0.004)"));
+    let (before, anywhere) = run(&isotropic.replace("end: Time(0.004)", "end: Time(0.0015)"));
+    let off = joint_planes_about(anywhere.solid(), [1.5, 1.5])[before..]
+        .iter()
+        .filter(|&&(nz, _)| nz < 1.0 - 1e-12)
+        .count();
+    assert!(
+        off > 0,
+        "the premise: off-plane faces open when any face may"
+    );
+    let (before, kept) = run(&confined);
+    let v = kept.solid();
+    assert!(!v.face_normal.is_empty());
+    for (k, n) in v.face_normal.iter().enumerate() {
+        let z = v.edge_elems[k].map(|e| {
+            let c = v.conn[e as usize];
+            c.iter().map(|&a| v.x0[a as usize][2]).sum::<f64>() / 4.0
+        });
+        assert!(
+            n[2].abs() > 1.0 - 1e-12,
+            "candidate {k} off the plane: {n:?}"
+        );
+        assert!(
+            (z[0] - 1.5) * (z[1] - 1.5) < 0.0,
+            "candidate {k} not between the sides"
+        );
+    }
+    let grown = &joint_planes_about(v, [1.5, 1.5])[before..];
+    assert!(grown.len() >= 8, "{} new joints", grown.len());
+    assert!(grown.iter().all(|&(nz, _)| nz > 1.0 - 1e-12));
+}
+
+#[test]
 fn water_injected_into_a_disc_grows_it_and_fills_the_new_cells() {
     // A 2 m cube (h = 0.125 m) under sxx = syy = -6 MPa, szz = -2 MPa; a disc of radius
     // 0.375 m on z = 1 m, full of water at 2 MPa, fed 4e-3 m^3/s at its centre for 20 ms; the
@@ -589,4 +648,13 @@ fn a_growing_disc_gives_the_same_bits_on_one_and_two_threads() {
     );
     assert!(a.0 == b.0, "displacements differ between 1 and 2 threads");
     assert!(a.2 == b.2, "face stresses differ between 1 and 2 threads");
+}
+
+#[test]
+fn the_radial_hydraulic_fracture_follows_the_viscosity_vertex() {
+    // `verify radial_m --quick`: scenarios/radial_m.ron at h = 1 m (8 elements per radius at
+    // 0.2 s), its radius, well opening and net pressure against the M vertex within the bounds
+    // the case states, and its mass balance to round-off.
+    let r = hydrofrac::verify::radial_cases::radial_m(true).expect("runs");
+    assert!(r.passed(), "{:?}\n{}", r.failures(), r.notes.join("\n"));
 }

@@ -635,8 +635,10 @@ impl SolidView<Tet4> {
     /// The internal faces that are still rock (two tetrahedra, not a fracture's), in stable-id
     /// order: the strength criterion's candidates ([`SolidView::face_normal`] and the `edge_*`
     /// rows). A run with a criterion adds them to the view it builds; without one the view
-    /// has none (about 100 bytes per tetrahedron saved).
-    pub fn push_internal_faces(&mut self, world: &hecs::World) {
+    /// has none (about 100 bytes per tetrahedron saved). `planes` (a point and a unit normal
+    /// each, m; `fracture.grow_in: DiscPlanes`): when not empty, only the faces whose three
+    /// nodes lie on one of them (within 1e-6 of the face's longest edge) are candidates.
+    pub fn push_internal_faces(&mut self, world: &hecs::World, planes: &[([f64; 3], [f64; 3])]) {
         let dense: std::collections::HashMap<Entity, u32> = self
             .elem_entity
             .iter()
@@ -656,6 +658,9 @@ impl SolidView<Tet4> {
         faces.sort_unstable_by_key(|f| f.0);
         for (_, e, nodes, [a, b], st) in faces {
             let x = nodes.map(|n| world.get::<&NodeRef3>(n).expect("node").0);
+            if !planes.is_empty() && !planes.iter().any(|pl| on_plane(&x, pl)) {
+                continue;
+            }
             let nn = cross(sub(x[1], x[0]), sub(x[2], x[0]));
             let mut n = nn.map(|c| c / norm(nn));
             // From a to b: away from a's fourth node.
@@ -902,4 +907,14 @@ pub fn opening_3d(v: &SolidView<Tet4>) -> Opening3 {
         }
     }
     o
+}
+
+/// Whether the triangle `x` lies on the plane `(point, unit normal)`: each corner within 1e-6 of
+/// the triangle's longest edge of it (m).
+fn on_plane(x: &[[f64; 3]; 3], plane: &([f64; 3], [f64; 3])) -> bool {
+    let edge = (0..3)
+        .map(|i| norm(sub(x[(i + 1) % 3], x[i])))
+        .fold(0.0, f64::max);
+    x.iter()
+        .all(|&c| dot(plane.1, sub(c, plane.0)).abs() <= 1e-6 * edge)
 }

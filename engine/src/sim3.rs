@@ -22,7 +22,7 @@ use hydrofrac_core::error::SetupError;
 use hydrofrac_core::model::Model;
 use hydrofrac_core::params::RunParams;
 use hydrofrac_core::scenario::{
-    Boundary, InitialFluid, InitialState, MeshSpec, SolidScheme, schedule_factor,
+    Boundary, GrowIn, InitialFluid, InitialState, MeshSpec, Scenario, SolidScheme, schedule_factor,
 };
 use hydrofrac_core::tetmesh::TetMesh;
 use hydrofrac_core::view::SolidView;
@@ -242,13 +242,27 @@ fn scale_masses_3d(
 }
 
 /// The TET4 view of a 3D model, with the strength test's candidate faces when the run has a
-/// criterion ([`SolidView::push_internal_faces`]).
-fn view_3d(model: &Model, p: &RunParams) -> SolidView<Tet4> {
+/// criterion ([`SolidView::push_internal_faces`]; only those on the discs' planes with
+/// `fracture.grow_in: DiscPlanes`).
+fn view_3d(model: &Model, p: &RunParams, sc: &Scenario) -> SolidView<Tet4> {
     let mut view = SolidView::<Tet4>::build_3d(model);
     if p.criterion.is_some() {
-        view.push_internal_faces(&model.world);
+        view.push_internal_faces(&model.world, &growth_planes(sc));
     }
     view
+}
+
+/// The planes fractures may grow in (`fracture.grow_in`): a point and the unit normal of each
+/// disc with `DiscPlanes`, none (anywhere) otherwise.
+fn growth_planes(sc: &Scenario) -> Vec<([f64; 3], [f64; 3])> {
+    match &sc.fracture {
+        Some(f) if f.grow_in == GrowIn::DiscPlanes => f
+            .discs
+            .iter()
+            .map(|d| (d.center, d.unit_normal()))
+            .collect(),
+        _ => Vec::new(),
+    }
 }
 
 impl Simulation<Tet4> {
@@ -261,7 +275,7 @@ impl Simulation<Tet4> {
         let scenario = scenario.into_inner();
         let (model, mesh_info) = build_model_3d(&scenario)?;
         let mut p = RunParams::resolve(&scenario, model.material);
-        let mut view = view_3d(&model, &p);
+        let mut view = view_3d(&model, &p, &scenario);
         // The quasi-static scheme has no stability bound (and the element eigenvalues cost).
         let mut dt_crit = match scenario.time.solid_scheme {
             SolidScheme::Explicit => critical_step_3d(&view, &p),
@@ -651,7 +665,7 @@ impl Simulation<Tet4> {
     /// unless the user forced `time.dt`).
     fn rebuild_views_3d(&mut self, t1: f64) {
         let p = &self.params;
-        self.solid.view = view_3d(&self.model, p);
+        self.solid.view = view_3d(&self.model, p, &self.scenario);
         let has_load = self.solid.view.has_load();
         self.schedule.set_data(SystemId::ExternalLoad, has_load);
         if let Some(f) = self.flow.as_mut() {

@@ -4,7 +4,7 @@
 //! Cases: solid (`docs/verification.md` R1-R4) `patch`, `insitu`, `mms`, `stability`; flow
 //! `cubic_law`, `diffusion`, `mass_balance`, `pump_curve`, `steady`, `flow_stability`; fracture
 //! (R5, R7b, R8, R12b) `sneddon`, `sif`,
-//! `friction`, `slip_inclined`; 3D `mms3d`, `penny3d`; coupled (R6) `kgd`, `kgd_k`, `kgd_mk`, `kgd_confinement`; the seed's
+//! `friction`, `slip_inclined`; 3D `mms3d`, `penny3d`, `radial_m`; coupled (R6) `kgd`, `kgd_k`, `kgd_mk`, `kgd_confinement`; the seed's
 //! Example I (R9) `example1`, and with selective mass scaling `mass_scaling`; reservoir: upscaling `oda`, continuum heat (R17)
 //! `heat_continuum`, discrete heat (R15, R16) `lauwerier`, `gringarten`, the two against each other
 //! `heat_models`; reliability: `extreme` (corners of the parameter space: finite and bounded,
@@ -22,6 +22,7 @@ pub mod heat_continuum_cases;
 pub mod heat_discrete_cases;
 pub mod heat_models_cases;
 pub mod inclined3d_cases;
+pub mod radial_cases;
 pub mod seismicity_cases;
 pub mod shear_crack_cases;
 pub mod sif_cases;
@@ -228,6 +229,11 @@ pub fn cases() -> Vec<Case> {
             name: "penny_flow",
             about: "3D coupled: scenarios/penny_injection.ron (water pumped into the quarter penny, explicit TET4 and flow on the triangles) at rest against the static penny on the same mesh: rest pressure from the fluid's mass, pressure spread, opened volume, R/h = 4 and 6",
             run: flow3d_cases::penny_flow,
+        },
+        Case {
+            name: "radial_m",
+            about: "3D growth: scenarios/radial_m.ron (water pumped into a quarter disc, explicit TET4, strength test on the disc's plane, node splitting) against the viscosity-dominated radial vertex (Savitski and Detournay 2002), 8 and 16 elements per radius: radius, well opening and net pressure at 0.1 and 0.2 s, front spread",
+            run: radial_cases::radial_m,
         },
         Case {
             name: "penny3d",

@@ -37,6 +37,14 @@ pub struct FractureSpec {
     /// written. No effect under `Toughness`, which marks edges at the tips itself.
     #[serde(default)]
     pub tip_handover: Option<bool>,
+    /// 3D only: where fractures may grow. `Anywhere` (default): the criterion tests every
+    /// internal rock face. `DiscPlanes`: only the faces that lie on a disc's plane (its normal
+    /// along the disc's, its centroid on the plane, anywhere on that plane), so the discs grow
+    /// in their planes and nowhere else: the planar growth of the radial hydraulic-fracture
+    /// benchmark (as PyFrac grows its fronts in one plane and GEOS's penny-shaped cases confine
+    /// the split to a fracture region).
+    #[serde(default)]
+    pub grow_in: GrowIn,
     /// Residual hydraulic aperture a_r, m (seed: 0.5 mm).
     #[serde(default = "default_residual_aperture")]
     pub residual_aperture: f64,
@@ -95,6 +103,7 @@ impl FractureSpec {
             criterion: None,
             face_stress: Default::default(),
             tip_handover: None,
+            grow_in: GrowIn::Anywhere,
             residual_aperture,
             preexisting,
             discs: Vec::new(),
@@ -132,6 +141,16 @@ pub enum FaceStress {
     #[default]
     Patch,
     Elements,
+}
+
+/// Where fractures may grow in 3D (`fracture.grow_in`).
+#[derive(Clone, Copy, Debug, Default, Serialize, Deserialize, PartialEq, Eq)]
+pub enum GrowIn {
+    /// Every internal rock face is a candidate.
+    #[default]
+    Anywhere,
+    /// Only the faces on the planes of the scenario's discs.
+    DiscPlanes,
 }
 
 fn default_friction() -> f64 {

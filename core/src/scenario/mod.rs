@@ -31,8 +31,8 @@ pub use flow::{
     schedule_factor,
 };
 pub use fracture::{
-    CriterionSpec, DEFAULT_RESIDUAL_APERTURE, Disc, FaceStress, FractureSpec, MAX_ROCK_FRACTURES,
-    PreFracture, RockNetwork, read_fracture_csv,
+    CriterionSpec, DEFAULT_RESIDUAL_APERTURE, Disc, FaceStress, FractureSpec, GrowIn,
+    MAX_ROCK_FRACTURES, PreFracture, RockNetwork, read_fracture_csv,
 };
 pub use material::{
     Boundary, Coords, Damping, Gravity, InitialState, MAX_DENSITY, MAX_YOUNG, Material, Pin, SideBc,
@@ -433,6 +433,16 @@ impl Scenario {
                 return Err(SetupError::invalid(
                     "fracture.discs",
                     "discs are 3D fractures: this mesh is 2D (use `preexisting` segments)",
+                ));
+            }
+            if self
+                .fracture
+                .as_ref()
+                .is_some_and(|f| f.grow_in != GrowIn::Anywhere)
+            {
+                return Err(SetupError::invalid(
+                    "fracture.grow_in",
+                    "`DiscPlanes` keeps 3D growth on the discs' planes: this mesh is 2D",
                 ));
             }
             if let Some(i) = self
