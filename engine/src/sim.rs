@@ -279,6 +279,7 @@ impl Simulation {
                 view,
                 stats: StepStats::default(),
                 dt_crit,
+                dt_elements: f64::INFINITY,
                 quasi_static: qs,
                 linear: None,
             },

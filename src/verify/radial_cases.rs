@@ -78,8 +78,9 @@ pub struct RadialSample {
     pub p: f64,
     pub p_exact: f64,
     /// The spread of the front: over nine 10-degree sectors, the largest centroid radius of
-    /// the open faces, (max - min) / mean.
+    /// the open faces, (max - min) / mean, and max - min (m).
     pub spread: f64,
+    pub front_range: f64,
     /// Joints (fracture faces) in the quarter.
     pub faces: usize,
 }
@@ -213,6 +214,7 @@ fn sample(
         p,
         p_exact,
         spread: (hi - lo) / mean,
+        front_range: hi - lo,
         faces: nj,
     }
 }
@@ -274,6 +276,14 @@ pub fn radial_m(quick: bool) -> anyhow::Result<CaseResult> {
             "h = {h} m: {} tetrahedra, {} steps, {:.1} s",
             run.tetrahedra, run.steps, run.wall
         ));
+        // The front stays circular to within one element: a staircase of h-sized faces.
+        for s in &run.samples {
+            res.check_max(
+                format!("front's radius range over h at h = {h} m, t = {:.1} s", s.t),
+                s.front_range / h,
+                1.0,
+            );
+        }
         let end = run.samples.last().expect("samples");
         let e = end.errors();
         for (k, m) in ["radius", "opening", "pressure"].iter().enumerate() {

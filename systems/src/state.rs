@@ -15,6 +15,10 @@ pub struct SolidPart<E: Element = Cst> {
     /// Critical solid step (elements, joints, fluid stiffness; [`hydrofrac_core::stability::solid`]), s;
     /// infinite without a solid.
     pub dt_crit: f64,
+    /// 3D, explicit rock: the elements' own part of `dt_crit` (the smallest tetrahedron's exact
+    /// critical step), s, kept across splits, which change joints and nodal masses but no
+    /// tetrahedron; infinite where unused (2D, the quasi-static rock).
+    pub dt_elements: f64,
     /// `time.solid_scheme: QuasiStatic` in 2D: the equilibrium solver with joint contact and
     /// coupled flow.
     pub quasi_static: Option<QuasiStatic>,
