@@ -606,6 +606,20 @@ fn discs_off_the_mesh_and_fractures_of_the_wrong_dimension_are_refused_by_field(
                 .to_string(),
             &["fracture.grow_in", "2D"],
         ),
+        // The toughness criterion in 3D grows fronts in the discs' planes only, with no
+        // initiation away from them.
+        (
+            std::fs::read_to_string(cli::scenario("radial_k.ron"))
+                .unwrap()
+                .replace("grow_in: DiscPlanes,", ""),
+            &["fracture.criterion", "DiscPlanes"],
+        ),
+        (
+            std::fs::read_to_string(cli::scenario("radial_k.ron"))
+                .unwrap()
+                .replace("Toughness(k_ic: 20e6)", "Toughness(k_ic: 20e6, initiation: Some(1e6))"),
+            &["fracture.criterion.initiation"],
+        ),
         // Refinement planes off the grid's lines, outside the box, coarser or not growing.
         (
             penny.replace("(axis: X, at: 1.0, factor: 16.0)", "(axis: X, at: 1.05, factor: 16.0)"),

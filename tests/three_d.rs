@@ -257,7 +257,8 @@ fn what_3d_lacks_and_boundaries_of_the_wrong_dimension_are_refused_by_field() {
             base.replace("damping:", "fracture: (strength: 5e6), damping:"),
             &["fracture.face_stress", "Elements"],
         ),
-        // Growth in 3D: the strength test with the explicit rock, so far.
+        // Growth in 3D: the toughness criterion only in the discs' planes, the explicit rock
+        // only, so far.
         (
             base.replace(
                 "damping:",

@@ -20,7 +20,7 @@ use crate::sim::Simulation;
 use hydrofrac_core::dim::Tet4;
 use hydrofrac_core::error::SetupError;
 use hydrofrac_core::model::Model;
-use hydrofrac_core::params::RunParams;
+use hydrofrac_core::params::{Criterion, RunParams};
 use hydrofrac_core::scenario::{
     Boundary, GrowIn, InitialFluid, InitialState, MeshSpec, Scenario, SolidScheme, schedule_factor,
 };
@@ -460,11 +460,19 @@ impl Simulation<Tet4> {
                         self.write(frame, row)?;
                     }
                 }
-                SystemId::FractureCriterion => {
-                    if let Some(threshold) = p.criterion.and_then(|c| c.kind.strength()) {
+                SystemId::FractureCriterion => match p.criterion.map(|c| c.kind) {
+                    // On the fronts, in the discs' planes (`Scenario::check_3d`).
+                    Some(Criterion::Toughness { k_ic, .. }) => {
+                        let (ready, _) = hydrofrac_systems::toughness3d::toughness_criterion_3d(
+                            v, p.e_prime, k_ic,
+                        );
+                        self.fracture.ready_edges = ready;
+                    }
+                    Some(Criterion::Strength { threshold, .. }) => {
                         self.fracture.ready_edges = fracture::fracture_criterion_3d(v, threshold);
                     }
-                }
+                    None => {}
+                },
                 SystemId::Split => {
                     let t1 = monitor::step_end(t0, clock);
                     self.split_3d(t1);

@@ -4,7 +4,7 @@
 //! Cases: solid (`docs/verification.md` R1-R4) `patch`, `insitu`, `mms`, `stability`; flow
 //! `cubic_law`, `diffusion`, `mass_balance`, `pump_curve`, `steady`, `flow_stability`; fracture
 //! (R5, R7b, R8, R12b) `sneddon`, `sif`,
-//! `friction`, `slip_inclined`; 3D `mms3d`, `penny3d`, `radial_m`; coupled (R6) `kgd`, `kgd_k`, `kgd_mk`, `kgd_confinement`; the seed's
+//! `friction`, `slip_inclined`; 3D `mms3d`, `penny3d`, `radial_m`, `radial_k`; coupled (R6) `kgd`, `kgd_k`, `kgd_mk`, `kgd_confinement`; the seed's
 //! Example I (R9) `example1`, and with selective mass scaling `mass_scaling`; reservoir: upscaling `oda`, continuum heat (R17)
 //! `heat_continuum`, discrete heat (R15, R16) `lauwerier`, `gringarten`, the two against each other
 //! `heat_models`; reliability: `extreme` (corners of the parameter space: finite and bounded,
@@ -234,6 +234,11 @@ pub fn cases() -> Vec<Case> {
             name: "radial_m",
             about: "3D growth: scenarios/radial_m.ron (water pumped into a quarter disc, explicit TET4, strength test on the disc's plane, node splitting) against the viscosity-dominated radial vertex (Savitski and Detournay 2002), 8 and 16 elements per radius: radius, well opening and net pressure at 0.1 and 0.2 s, front spread",
             run: radial_cases::radial_m,
+        },
+        Case {
+            name: "radial_k",
+            about: "3D growth: scenarios/radial_k.ron (as radial_m with water's viscosity, grown by the toughness criterion on the front: displacement correlation at the front nodes) against the toughness-dominated radial vertex, 8 and 16 elements per radius",
+            run: radial_cases::radial_k,
         },
         Case {
             name: "penny3d",

@@ -1,9 +1,11 @@
 //! The radial (penny-shaped) hydraulic fracture (issue 39, item 4): water pumped at a constant
-//! rate into a small disc grows it in its plane; the viscosity-dominated (M) vertex of
-//! Savitski and Detournay (2002) gives its radius, opening and pressure against time
-//! (`docs/verification.md` R21). The run is the engine's own, `scenarios/radial_m.ron`: the
-//! explicit TET4 rock, the strength test on the faces of the disc's plane
-//! (`fracture.grow_in: DiscPlanes`), node splitting, new cells filled by the implicit flow.
+//! rate into a small disc grows it in its plane; the viscosity-dominated (M) and the
+//! toughness-dominated (K) vertices of Savitski and Detournay (2002) give its radius, opening
+//! and pressure against time (`docs/verification.md` R21, R22). The runs are the engine's own,
+//! `scenarios/radial_m.ron` (the strength test) and `scenarios/radial_k.ron` (the toughness
+//! criterion on the front, `systems::toughness3d`): the explicit TET4 rock, growth on the
+//! faces of the disc's plane (`fracture.grow_in: DiscPlanes`), node splitting, new cells
+//! filled by the implicit flow.
 
 use super::{CaseResult, Row};
 use crate::dim::Tet4;
@@ -12,6 +14,35 @@ use crate::sim::Simulation;
 use std::time::Instant;
 
 const RADIAL_M_RON: &str = include_str!("../../scenarios/radial_m.ron");
+const RADIAL_K_RON: &str = include_str!("../../scenarios/radial_k.ron");
+
+/// Which vertex a run is compared with.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Vertex {
+    /// Viscosity-dominated: `scenarios/radial_m.ron`, [`viscosity_vertex`].
+    Viscosity,
+    /// Toughness-dominated: `scenarios/radial_k.ron`, [`toughness_vertex`].
+    Toughness,
+}
+
+/// The K vertex's radius R (m), and its opening w (m) and net pressure p (Pa) at rho = r / R
+/// in [0, 1), at time t (s) for E' (Pa), the whole fracture's rate Q0 (m^3/s) and K_Ic
+/// (Pa sqrt(m)), K' = 4 sqrt(2 / pi) K_Ic (Savitski and Detournay 2002): the pressure is
+/// uniform and the opening elliptical,
+///   R = (3 Q0 E' t / (sqrt(2) pi K'))^(2/5),
+///   w = (3 / (8 pi))^(1/5) (Q0 K'^4 t / E'^4)^(1/5) sqrt(1 - rho^2),
+///   p = (pi / 8) (pi / 12)^(1/5) (K'^6 / (E' Q0 t))^(1/5).
+pub fn toughness_vertex(e_prime: f64, q0: f64, k_ic: f64, t: f64, rho: f64) -> [f64; 3] {
+    use std::f64::consts::PI;
+    let kp = 4.0 * (2.0 / PI).sqrt() * k_ic;
+    [
+        (3.0 * q0 * e_prime * t / (2f64.sqrt() * PI * kp)).powf(0.4),
+        (3.0 / (8.0 * PI)).powf(0.2)
+            * (q0 * kp.powi(4) * t / e_prime.powi(4)).powf(0.2)
+            * (1.0 - rho * rho).max(0.0).sqrt(),
+        PI / 8.0 * (PI / 12.0).powf(0.2) * (kp.powi(6) / (e_prime * q0 * t)).powf(0.2),
+    ]
+}
 
 /// The M vertex's radius R (m), and its opening w (m) and net pressure p (Pa) at
 /// rho = r / R in (0, 1), at time t (s) for E' (Pa), the whole fracture's rate Q0 (m^3/s) and
@@ -70,6 +101,9 @@ pub struct RadialSample {
     /// vertex's.
     pub r: f64,
     pub r_exact: f64,
+    /// The fluid front's radius from the area of the cells with fluid (pressure above zero;
+    /// new cells arrive empty), m. The vertex has no lag: both radii are its R.
+    pub r_fluid: f64,
     /// The well cell's opening (the mean of its corners), m, and the vertex's at its centroid.
     pub w: f64,
     pub w_exact: f64,
@@ -107,10 +141,23 @@ pub struct RadialRun {
     pub tetrahedra: usize,
 }
 
-/// Run `scenarios/radial_m.ron` at `h` (m), sampling at `at` (s).
-pub fn radial_run(h: f64, at: &[f64]) -> anyhow::Result<RadialRun> {
-    let sc = Scenario::parse(RADIAL_M_RON, "scenarios/radial_m.ron")?
-        .with_overrides(&[format!("mesh.h={h}")])?;
+/// Run `scenarios/radial_m.ron` (`Vertex::Viscosity`) or `radial_k.ron` at `h` (m), sampling
+/// at `at` (s).
+pub fn radial_run(vertex: Vertex, h: f64, at: &[f64]) -> anyhow::Result<RadialRun> {
+    let (text, name) = match vertex {
+        Vertex::Viscosity => (RADIAL_M_RON, "scenarios/radial_m.ron"),
+        Vertex::Toughness => (RADIAL_K_RON, "scenarios/radial_k.ron"),
+    };
+    let sc = Scenario::parse(text, name)?.with_overrides(&[format!("mesh.h={h}")])?;
+    let k_ic = match sc.fracture.as_ref().and_then(|f| f.criterion) {
+        Some(crate::scenario::CriterionSpec::Toughness { k_ic, .. }) => k_ic,
+        _ => 0.0,
+    };
+    // The vertex at time t and rho: [R, w, p].
+    let exact = move |e_prime: f64, q0: f64, mu_prime: f64, t: f64, rho: f64| match vertex {
+        Vertex::Viscosity => viscosity_vertex(e_prime, q0, mu_prime, t, rho),
+        Vertex::Toughness => toughness_vertex(e_prime, q0, k_ic, t, rho),
+    };
     let mat = sc.material.expect("radial_m has a material");
     let e_prime = mat.young / (1.0 - mat.poisson * mat.poisson);
     let mu_prime = 12.0 * sc.fluid.viscosity;
@@ -138,7 +185,8 @@ pub fn radial_run(h: f64, at: &[f64]) -> anyhow::Result<RadialRun> {
     while sim.clock().finish.is_none() {
         sim.step_once()?;
         if sim.time() >= at[next] * (1.0 - 1e-9) || sim.clock().finish.is_some() {
-            samples.push(sample(&sim, sim.time(), e_prime, q0, mu_prime, s0));
+            let vertex = |t, rho| exact(e_prime, q0, mu_prime, t, rho);
+            samples.push(sample(&sim, sim.time(), vertex, s0));
             next += 1;
             if next == at.len() {
                 break;
@@ -163,13 +211,12 @@ pub fn radial_run(h: f64, at: &[f64]) -> anyhow::Result<RadialRun> {
     })
 }
 
-/// The fracture now against the M vertex at time `t`.
+/// The fracture now against the vertex (`vertex(t, rho)`: [R, w, p]) at time `t` (s); `s0`
+/// the confining stress, Pa.
 fn sample(
     sim: &Simulation<Tet4>,
     t: f64,
-    e_prime: f64,
-    q0: f64,
-    mu_prime: f64,
+    vertex: impl Fn(f64, f64) -> [f64; 3],
     s0: f64,
 ) -> RadialSample {
     let v = sim.solid();
@@ -182,7 +229,12 @@ fn sample(
     };
     let area: f64 = (0..nj).map(|k| crate::model3::joint_area0_3d(v, k)).sum();
     let r = (4.0 * area / std::f64::consts::PI).sqrt();
-    let r_exact = viscosity_vertex(e_prime, q0, mu_prime, t, 0.5)[0];
+    let wet: f64 = (0..nj)
+        .filter(|&k| f.view.pressure[c.joint_cell[k] as usize] > 0.0)
+        .map(|k| crate::model3::joint_area0_3d(v, k))
+        .sum();
+    let r_fluid = (4.0 * wet / std::f64::consts::PI).sqrt();
+    let r_exact = vertex(t, 0.5)[0];
     // The well cell: the joint whose centroid is nearest the well at the origin.
     let radius = |k: usize| {
         let x = centroid(k);
@@ -192,7 +244,7 @@ fn sample(
         .min_by(|&a, &b| radius(a).total_cmp(&radius(b)))
         .expect("joints");
     let rho = radius(well) / r_exact;
-    let [_, w_exact, p_exact] = viscosity_vertex(e_prime, q0, mu_prime, t, rho);
+    let [_, w_exact, p_exact] = vertex(t, rho);
     let w = crate::model3::joint_frame_3d(v, well).dn;
     let p = f.view.pressure[c.joint_cell[well] as usize] - s0;
     let mut outer = [0.0f64; 9];
@@ -209,6 +261,7 @@ fn sample(
         t,
         r,
         r_exact,
+        r_fluid,
         w,
         w_exact,
         p,
@@ -224,23 +277,57 @@ fn sample(
 /// radius): radius, the well cell's opening and net pressure against the M vertex, the front's
 /// spread, the mass balance.
 pub fn radial_m(quick: bool) -> anyhow::Result<CaseResult> {
+    radial_case(Vertex::Viscosity, "radial_m", quick)
+}
+
+/// `hydrofrac verify radial_k`: `scenarios/radial_k.ron` (the toughness criterion on the
+/// front) as `radial_m` against the K vertex (R = 8.0 m at 0.2 s).
+pub fn radial_k(quick: bool) -> anyhow::Result<CaseResult> {
+    radial_case(Vertex::Toughness, "radial_k", quick)
+}
+
+/// The bounds on the end time's errors [radius, opening, net pressure, fluid radius] at mesh
+/// size `h` (m). Measured on 2026-12-08 (2-core VM; the errors against the vertex at the
+/// well cell's centroid), at h = 1 m (8 elements per radius) and 0.5 m (16):
+/// - M vertex: radius -7.6 / +2.5 %, opening +22.9 / +3.7 %, net pressure +36.2 / +10.5 %,
+///   the fluid's radius -12.0 / -3.4 % (-0.4 % at 0.25 m, outside the case). The net pressure
+///   is 10.5 % high at 16 elements: the strength test on h-sized faces holds the tip like a
+///   toughness that vanishes only as h -> 0 (as on KGD, R6), and the M vertex has none.
+/// - K vertex: radius +8.4 / +4.3 %, opening +6.3 / +3.9 %, net pressure +21.1 / +17.0 %,
+///   the fluid's radius +7.5 / +4.0 %. The pressure stays high: the
+///   displacement correlation's factor (`toughness3d::DC_CALIBRATION`) is set on the static
+///   penny, where the K_I it gives drifts by 6 % between 8 and 16 elements per radius.
+///
+/// At h = 1 m the bounds are the measured errors with a margin of about a fifth; at 0.5 m the
+/// issue's 5 % where it is met, else the measured error with a margin.
+fn bounds(vertex: Vertex, h: f64) -> [f64; 4] {
+    match (vertex, h >= 1.0) {
+        (Vertex::Viscosity, true) => [0.1, 0.28, 0.44, 0.15],
+        (Vertex::Viscosity, false) => [0.05, 0.05, 0.12, 0.05],
+        (Vertex::Toughness, true) => [0.11, 0.08, 0.26, 0.15],
+        (Vertex::Toughness, false) => [0.05, 0.05, 0.21, 0.05],
+    }
+}
+
+fn radial_case(vertex: Vertex, name: &'static str, quick: bool) -> anyhow::Result<CaseResult> {
     let sizes: &[f64] = if quick { &[1.0] } else { &[1.0, 0.5] };
     let at = [0.1, 0.2];
     let mut res = CaseResult::default();
     let mut csv = String::from(
-        "h,t,elements_per_radius,faces,radius,radius_m,opening,opening_m,net_pressure,net_pressure_m,radius_error,opening_error,pressure_error,spread,tetrahedra,steps,wall_s\n",
+        "h,t,elements_per_radius,faces,radius,fluid_radius,radius_m,opening,opening_m,net_pressure,net_pressure_m,radius_error,opening_error,pressure_error,spread,tetrahedra,steps,wall_s\n",
     );
     let mut ends: Vec<(f64, [f64; 3])> = Vec::new();
     for (level, &h) in sizes.iter().enumerate() {
-        let run = radial_run(h, &at)?;
+        let run = radial_run(vertex, h, &at)?;
         for s in &run.samples {
             let e = s.errors();
             csv.push_str(&format!(
-                "{h},{:.4},{:.2},{},{:.4},{:.4},{:.5e},{:.5e},{:.5e},{:.5e},{:.4},{:.4},{:.4},{:.4},{},{},{:.2}\n",
+                "{h},{:.4},{:.2},{},{:.4},{:.4},{:.4},{:.5e},{:.5e},{:.5e},{:.5e},{:.4},{:.4},{:.4},{:.4},{},{},{:.2}\n",
                 s.t,
                 s.r_exact / h,
                 s.faces,
                 s.r,
+                s.r_fluid,
                 s.r_exact,
                 s.w,
                 s.w_exact,
@@ -255,14 +342,16 @@ pub fn radial_m(quick: bool) -> anyhow::Result<CaseResult> {
                 run.wall
             ));
             res.notes.push(format!(
-                "h = {h} m, t = {:.3} s ({:.1} elements per radius): R {:.3} / {:.3} m ({:+.1} %), \
-                 w {:.3} / {:.3} mm ({:+.1} %), p {:.2} / {:.2} MPa ({:+.1} %), front spread \
-                 {:.1} %",
+                "h = {h} m, t = {:.3} s ({:.1} elements per radius): R {:.3} / {:.3} m ({:+.1} %; \
+                 the fluid's {:.3} m, {:+.1} %), w {:.3} / {:.3} mm ({:+.1} %), p {:.2} / {:.2} \
+                 MPa ({:+.1} %), front spread {:.1} %",
                 s.t,
                 s.r_exact / h,
                 s.r,
                 s.r_exact,
                 100.0 * e[0],
+                s.r_fluid,
+                100.0 * (s.r_fluid / s.r_exact - 1.0),
                 1e3 * s.w,
                 1e3 * s.w_exact,
                 100.0 * e[1],
@@ -276,19 +365,25 @@ pub fn radial_m(quick: bool) -> anyhow::Result<CaseResult> {
             "h = {h} m: {} tetrahedra, {} steps, {:.1} s",
             run.tetrahedra, run.steps, run.wall
         ));
-        // The front stays circular to within one element: a staircase of h-sized faces.
+        // The front stays circular to within one element under the strength test (a staircase
+        // of h-sized faces; measured 0.58-0.81 h), two under the toughness criterion, which
+        // moves the front a node's ring at a time (1.20-1.65 h).
+        let range = match vertex {
+            Vertex::Viscosity => 1.0,
+            Vertex::Toughness => 2.0,
+        };
         for s in &run.samples {
             res.check_max(
                 format!("front's radius range over h at h = {h} m, t = {:.1} s", s.t),
                 s.front_range / h,
-                1.0,
+                range,
             );
         }
         let end = run.samples.last().expect("samples");
         let e = end.errors();
         for (k, m) in ["radius", "opening", "pressure"].iter().enumerate() {
             res.rows.push(Row {
-                case: "radial_m",
+                case: name,
                 level,
                 h,
                 unknowns: run.unknowns,
@@ -297,29 +392,34 @@ pub fn radial_m(quick: bool) -> anyhow::Result<CaseResult> {
                 wall_s: run.wall,
             });
         }
+        res.rows.push(Row {
+            case: name,
+            level,
+            h,
+            unknowns: run.unknowns,
+            metric: "fluid_radius".into(),
+            error: (end.r_fluid / end.r_exact - 1.0).abs(),
+            wall_s: run.wall,
+        });
+        res.check_max(
+            format!("|fluid radius error| at h = {h} m, t = 0.2 s"),
+            (end.r_fluid / end.r_exact - 1.0).abs(),
+            bounds(vertex, h)[3],
+        );
         res.check_max(format!("mass balance at h = {h} m"), run.balance, 1e-9);
         ends.push((h, e));
     }
-    check_radial_targets(&mut res, &ends);
-    res.files.push(("radial_m.csv".into(), csv));
+    check_radial_targets(&mut res, vertex, &ends);
+    res.files.push((format!("{name}.csv"), csv));
     Ok(res)
 }
 
-/// The bounds on the end time's errors, by mesh size (m). Measured on 2026-12-08 (2-core VM;
-/// the errors against the vertex at the well cell's centroid): h = 1 m (8 elements per
-/// radius): radius -7.6 %, opening +22.9 %, net pressure +36.2 %; h = 0.5 m (16): +2.5 %,
-/// +3.7 %, +10.5 %. The issue's 5 % at 15 elements holds for the radius and the opening; the
-/// net pressure is 10.5 % high there: the strength test on h-sized faces holds the tip like a
-/// toughness that vanishes only as h -> 0 (as on KGD, R6), and the M vertex has none. The
-/// bounds at h = 1 m are the measured errors with a margin of about a fifth; at 0.5 m the
-/// issue's 5 % for the radius and the opening, and 12 % for the pressure.
-fn check_radial_targets(res: &mut CaseResult, ends: &[(f64, [f64; 3])]) {
+/// The end time's errors against [`bounds`], and refinement: from 8 to 16 elements per radius
+/// the errors that converge must fall by a fifth at least (the M vertex's radius error changes
+/// sign; the K vertex's pressure falls by less, 0.81).
+fn check_radial_targets(res: &mut CaseResult, vertex: Vertex, ends: &[(f64, [f64; 3])]) {
     for &(h, e) in ends {
-        let bounds = if h >= 1.0 {
-            [0.1, 0.28, 0.44]
-        } else {
-            [0.05, 0.05, 0.12]
-        };
+        let bounds = bounds(vertex, h);
         for (k, m) in ["radius", "opening", "net pressure"].iter().enumerate() {
             res.check_max(
                 format!("|{m} error| at h = {h} m, t = 0.2 s"),
@@ -328,10 +428,12 @@ fn check_radial_targets(res: &mut CaseResult, ends: &[(f64, [f64; 3])]) {
             );
         }
     }
-    // Refinement brings the opening and the pressure closer (the radius's error changes sign
-    // between 8 and 16 elements per radius).
+    let converging: &[(usize, &str)] = match vertex {
+        Vertex::Viscosity => &[(1, "opening"), (2, "net pressure")],
+        Vertex::Toughness => &[(0, "radius"), (1, "opening")],
+    };
     if let [(_, a), (_, b)] = ends {
-        for (k, m) in [(1, "opening"), (2, "net pressure")] {
+        for &(k, m) in converging {
             res.check_max(
                 format!("{m} error at h = 0.5 m over h = 1 m"),
                 b[k].abs() / a[k].abs(),

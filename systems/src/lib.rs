@@ -39,6 +39,7 @@ pub mod split;
 pub mod state;
 pub mod sync;
 pub mod toughness;
+pub mod toughness3d;
 
 use hydrofrac_core::error::SetupError;
 

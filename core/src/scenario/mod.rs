@@ -480,11 +480,26 @@ impl Scenario {
             // fluid, with the joints' contact; growth by the strength test on the faces with
             // the explicit rock; no segments, no networks.
             let refuse = |field: &str, what: &str| not_yet(&format!("fracture.{field}"), what);
-            if matches!(f.criterion, Some(CriterionSpec::Toughness { .. })) {
-                return refuse("criterion", "the toughness criterion (issue 39)");
+            if let Some(CriterionSpec::Toughness { initiation, .. }) = f.criterion {
+                if f.grow_in != GrowIn::DiscPlanes {
+                    return refuse(
+                        "criterion",
+                        "the toughness criterion off the discs' planes (it grows fronts in \
+                         their planes: set `grow_in: DiscPlanes`)",
+                    );
+                }
+                if initiation.is_some() {
+                    return refuse(
+                        "criterion.initiation",
+                        "the strength test away from the fronts with the toughness criterion",
+                    );
+                }
             }
             if f.strength.is_some() || f.criterion.is_some() {
-                if f.face_stress == FaceStress::Patch {
+                // The strength test reads a face stress; the toughness criterion reads the
+                // openings behind the fronts.
+                let strength = !matches!(f.criterion, Some(CriterionSpec::Toughness { .. }));
+                if strength && f.face_stress == FaceStress::Patch {
                     return refuse(
                         "face_stress",
                         "the patch face stress (the default; 3D reads the mean of the face's \
