@@ -563,6 +563,7 @@ fn discs_off_the_mesh_and_fractures_of_the_wrong_dimension_are_refused_by_field(
     let dir = cli::tmp("refused");
     std::fs::create_dir_all(&dir).unwrap();
     let penny = std::fs::read_to_string(cli::scenario("penny.ron")).unwrap();
+    let radial_k = std::fs::read_to_string(cli::scenario("radial_k.ron")).unwrap();
     let cases: Vec<(String, &[&str])> = vec![
         // Between grid planes.
         (
@@ -609,15 +610,14 @@ fn discs_off_the_mesh_and_fractures_of_the_wrong_dimension_are_refused_by_field(
         // The toughness criterion in 3D grows fronts in the discs' planes only, with no
         // initiation away from them.
         (
-            std::fs::read_to_string(cli::scenario("radial_k.ron"))
-                .unwrap()
-                .replace("grow_in: DiscPlanes,", ""),
+            radial_k.replace("grow_in: DiscPlanes,", ""),
             &["fracture.criterion", "DiscPlanes"],
         ),
         (
-            std::fs::read_to_string(cli::scenario("radial_k.ron"))
-                .unwrap()
-                .replace("Toughness(k_ic: 20e6)", "Toughness(k_ic: 20e6, initiation: Some(1e6))"),
+            radial_k.replace(
+                "Toughness(k_ic: 20e6)",
+                "Toughness(k_ic: 20e6, initiation: Some(1e6))",
+            ),
             &["fracture.criterion.initiation"],
         ),
         // Refinement planes off the grid's lines, outside the box, coarser or not growing.

@@ -650,6 +650,79 @@ fn a_growing_disc_gives_the_same_bits_on_one_and_two_threads() {
     assert!(a.2 == b.2, "face stresses differ between 1 and 2 threads");
 }
 
+/// `scenarios/radial_k.ron` (h = 1 m) to 0.06 s, without frames: the toughness criterion has
+/// grown the front a few times by then.
+fn radial_k_short() -> String {
+    let text = std::fs::read_to_string(crate::support_cli::scenario("radial_k.ron")).unwrap();
+    for part in ["end: Time(0.2)", "frame_every: 2000"] {
+        assert!(text.contains(part), "radial_k.ron has no `{part}`");
+    }
+    text.replace("end: Time(0.2)", "end: Time(0.06)")
+        .replace("frame_every: 2000", "frame_every: 0")
+}
+
+#[test]
+fn a_front_grown_by_toughness_gives_the_same_bits_on_one_and_two_threads_and_after_a_restart() {
+    let text = radial_k_short();
+    let run = |threads: usize| {
+        crate::support_bits::on_threads(threads, || {
+            let sc = hydrofrac::scenario::Scenario::parse(&text, "rk.ron").expect("parses");
+            let mut sim = hydrofrac::sim::Simulation::new_3d(sc.validate().expect("valid"), &[])
+                .expect("set up");
+            let before = sim.solid().joint_nodes.len();
+            sim.run(|_| {}).expect("runs");
+            check_invariants_3d(sim.model()).expect("invariants");
+            let v = sim.solid();
+            let f = sim.flow().expect("flow");
+            (
+                before,
+                v.u.clone(),
+                v.joint_nodes.clone(),
+                f.view.pressure.clone(),
+            )
+        })
+    };
+    let (a, b) = (run(1), run(2));
+    assert!(
+        a.2.len() > a.0 + 10,
+        "{} -> {} joints: the front grew",
+        a.0,
+        a.2.len()
+    );
+    assert!(
+        a.2 == b.2,
+        "the grown joints differ between 1 and 2 threads"
+    );
+    assert!(a.1 == b.1, "displacements differ between 1 and 2 threads");
+    assert!(a.3 == b.3, "pressures differ between 1 and 2 threads");
+    // A checkpoint after growth; the restart ends with the whole run's bits.
+    let dir = crate::support_cli::tmp("growk");
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("rk.ron");
+    std::fs::write(&path, &text).unwrap();
+    let sets = ["--set", "output.checkpoint_every=Steps(4000)"];
+    let whole = dir.join("whole");
+    let x = crate::support_cli::run_ok(&path, &whole, &sets);
+    let mut extra = sets.to_vec();
+    let ckpt = whole.join("checkpoint.ckpt");
+    extra.extend(["--restart", ckpt.to_str().unwrap()]);
+    let y = crate::support_cli::run_ok(&path, &dir.join("part"), &extra);
+    assert_eq!(y["restarted_from"]["bit_identical"], true, "{y}");
+    assert!(y["restarted_from"]["step"].as_u64().unwrap() >= 4000);
+    for key in ["steps", "time", "residual", "nodes"] {
+        assert_eq!(x[key], y[key], "{key}");
+    }
+    for key in [
+        "joints",
+        "splits",
+        "opened_faces",
+        "opened_volume",
+        "max_opening",
+    ] {
+        assert_eq!(x["fracture"][key], y["fracture"][key], "{key}");
+    }
+}
+
 #[test]
 fn the_radial_hydraulic_fracture_follows_the_viscosity_vertex() {
     // `verify radial_m --quick`: scenarios/radial_m.ron at h = 1 m (8 elements per radius at
