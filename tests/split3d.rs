@@ -433,27 +433,27 @@ fn pressurised_disc_text(p: f64) -> String {
         .replace("frame_every: 100", "frame_every: 0")
 }
 
-#[test]
-fn a_growing_disc_restarts_from_its_checkpoint_bit_for_bit() {
-    // The pressurised disc at 8 MPa with a checkpoint every 50 steps; the whole run grows it
-    // early and the restart from the last checkpoint (after the growth) must end with the
-    // same bits: the grown topology, its joints and the split counts are in the checkpoint.
-    let dir = crate::support_cli::tmp("grow3d");
+/// Runs scenario `text` whole with a checkpoint every `every` steps (in a fresh folder named
+/// `name`), restarts from the last checkpoint, and asserts that the restart starts at step
+/// `from` or later and ends with the whole run's bits: steps, time, residual, nodes, and the
+/// fracture's joints, splits, opened faces, opened volume and largest opening. Returns the
+/// whole run's summary.
+fn assert_restart_matches(name: &str, text: &str, every: u64, from: u64) -> serde_json::Value {
+    let dir = crate::support_cli::tmp(name);
     std::fs::create_dir_all(&dir).unwrap();
-    let path = dir.join("pgrow.ron");
-    std::fs::write(&path, pressurised_disc_text(8e6)).unwrap();
-    let sets = ["--set", "output.checkpoint_every=Steps(50)"];
+    let path = dir.join("scene.ron");
+    std::fs::write(&path, text).unwrap();
+    let every = format!("output.checkpoint_every=Steps({every})");
+    let sets = ["--set", every.as_str()];
     let whole = dir.join("whole");
     let a = crate::support_cli::run_ok(&path, &whole, &sets);
-    assert!(a["fracture"]["splits"].as_u64().unwrap() > 0, "{a}");
-    let part = dir.join("part");
     let ckpt = whole.join("checkpoint.ckpt");
     let mut extra = sets.to_vec();
     extra.extend(["--restart", ckpt.to_str().unwrap()]);
-    let b = crate::support_cli::run_ok(&path, &part, &extra);
+    let b = crate::support_cli::run_ok(&path, &dir.join("part"), &extra);
     assert_eq!(b["restarted_from"]["bit_identical"], true, "{b}");
-    let from = b["restarted_from"]["step"].as_u64().unwrap();
-    assert!(from >= 150, "restarted from step {from}");
+    let step = b["restarted_from"]["step"].as_u64().unwrap();
+    assert!(step >= from, "restarted from step {step}");
     for key in ["steps", "time", "residual", "nodes"] {
         assert_eq!(a[key], b[key], "{key}");
     }
@@ -466,6 +466,16 @@ fn a_growing_disc_restarts_from_its_checkpoint_bit_for_bit() {
     ] {
         assert_eq!(a["fracture"][key], b["fracture"][key], "{key}");
     }
+    a
+}
+
+#[test]
+fn a_growing_disc_restarts_from_its_checkpoint_bit_for_bit() {
+    // The pressurised disc at 8 MPa with a checkpoint every 50 steps; the whole run grows it
+    // early and the restart from the last checkpoint (after the growth) must end with the
+    // same bits: the grown topology, its joints and the split counts are in the checkpoint.
+    let a = assert_restart_matches("grow3d", &pressurised_disc_text(8e6), 50, 150);
+    assert!(a["fracture"]["splits"].as_u64().unwrap() > 0, "{a}");
 }
 
 /// Per joint of the view: |n_z| of face p and the centroid's distance from the vertical axis
@@ -696,31 +706,7 @@ fn a_front_grown_by_toughness_gives_the_same_bits_on_one_and_two_threads_and_aft
     assert!(a.1 == b.1, "displacements differ between 1 and 2 threads");
     assert!(a.3 == b.3, "pressures differ between 1 and 2 threads");
     // A checkpoint after growth; the restart ends with the whole run's bits.
-    let dir = crate::support_cli::tmp("growk");
-    std::fs::create_dir_all(&dir).unwrap();
-    let path = dir.join("rk.ron");
-    std::fs::write(&path, &text).unwrap();
-    let sets = ["--set", "output.checkpoint_every=Steps(4000)"];
-    let whole = dir.join("whole");
-    let x = crate::support_cli::run_ok(&path, &whole, &sets);
-    let mut extra = sets.to_vec();
-    let ckpt = whole.join("checkpoint.ckpt");
-    extra.extend(["--restart", ckpt.to_str().unwrap()]);
-    let y = crate::support_cli::run_ok(&path, &dir.join("part"), &extra);
-    assert_eq!(y["restarted_from"]["bit_identical"], true, "{y}");
-    assert!(y["restarted_from"]["step"].as_u64().unwrap() >= 4000);
-    for key in ["steps", "time", "residual", "nodes"] {
-        assert_eq!(x[key], y[key], "{key}");
-    }
-    for key in [
-        "joints",
-        "splits",
-        "opened_faces",
-        "opened_volume",
-        "max_opening",
-    ] {
-        assert_eq!(x["fracture"][key], y["fracture"][key], "{key}");
-    }
+    assert_restart_matches("growk", &text, 4000, 4000);
 }
 
 #[test]
