@@ -251,6 +251,25 @@ fn fracture_3d(sim: &Simulation<Tet4>) -> Option<serde_json::Value> {
         out["ready_faces"] = json!(fr.ready_edges);
         out["splits"] = json!(fr.splits);
         out["opened_faces"] = json!(fr.opened_edges);
+        // A grown front is no longer the discs' circles: K_I at its front nodes instead
+        // (`systems::toughness3d::front_sif_nodes`, the toughness criterion's estimate).
+        out["front"] = json!([]);
+        let nodes =
+            hydrofrac_systems::toughness3d::front_sif_nodes(sim.solid(), sim.params().e_prime);
+        if !nodes.is_empty() {
+            let k: Vec<f64> = nodes.iter().map(|n| n.k).collect();
+            let (lo, hi) = k
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| {
+                    (a.min(x), b.max(x))
+                });
+            out["front_nodes"] = json!({
+                "count": k.len(),
+                "k_i_min": lo,
+                "k_i_mean": k.iter().sum::<f64>() / k.len() as f64,
+                "k_i_max": hi,
+            });
+        }
     }
     Some(out)
 }

@@ -706,7 +706,15 @@ fn a_front_grown_by_toughness_gives_the_same_bits_on_one_and_two_threads_and_aft
     assert!(a.1 == b.1, "displacements differ between 1 and 2 threads");
     assert!(a.3 == b.3, "pressures differ between 1 and 2 threads");
     // A checkpoint after growth; the restart ends with the whole run's bits.
-    assert_restart_matches("growk", &text, 4000, 4000);
+    let summary = assert_restart_matches("growk", &text, 4000, 4000);
+    // The grown front's K_I at its nodes in the summary (the discs' circles no longer are the
+    // front): positive, and none far above K_Ic = 20 MPa sqrt(m) (measured 9.7-15.4).
+    let f = &summary["fracture"];
+    assert_eq!(f["front"], serde_json::json!([]), "{f}");
+    let nodes = &f["front_nodes"];
+    assert!(nodes["count"].as_u64().unwrap() > 0, "{f}");
+    assert!(nodes["k_i_min"].as_f64().unwrap() > 0.0, "{f}");
+    assert!(nodes["k_i_max"].as_f64().unwrap() < 1.5 * 20e6, "{f}");
 }
 
 #[test]
