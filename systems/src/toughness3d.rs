@@ -10,9 +10,11 @@
 //! sister pair P that shares a fracture face with F gives K_P = C (E' / 8) sqrt(2 pi / s_P) w_P,
 //! with w_P the pair's offset along the face normal and s_P its distance behind the front:
 //! s_P = (x_F - x_P) . m, m the unit vector from the mean of those pairs to F (the front's
-//! outward normal, reference positions). K(F) is the mean of the K_P with s_P > 0. The
-//! linear elements do not hold the square root one element behind the front; C =
-//! [`DC_CALIBRATION`] corrects that on average (measured on Sneddon's penny, below).
+//! outward normal, reference positions). K(F) is the mean of the K_P with s_P > 0, then
+//! averaged over the front nodes within [`SMOOTH_CELLS`] cells of F (a staircase front's
+//! corners and straight runs see the square root at different distances). The linear
+//! elements do not hold the square root one element behind the front; C = [`DC_CALIBRATION`]
+//! corrects that on average (measured on Sneddon's penny, below).
 //!
 //! **Growth.** When K(F) >= K_Ic, the candidate faces (those of the discs' planes) that touch
 //! F are marked ready. With every face round it cut, F splits (`split`), the faces round it
