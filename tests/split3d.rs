@@ -764,8 +764,8 @@ fn front_stress_intensity_matches_sneddons_penny() {
     // The toughness criterion's K_I at the front nodes of a static quarter penny under 1 MPa
     // (a staircase front), against 2 p sqrt(R / pi). Measured (2026-12-08, with the factor
     // `DC_CALIBRATION` = 1.55 set from R/h = 16): mean 0.933 at R/h = 8 and 0.998 at 16, the
-    // nodes within 0.93-1.05 of it at 16 (0.87 at R/h = 4). The bounds: the mean within 2 %
-    // at 16 and 8 % at 8, every node within 8 % at 16.
+    // nodes within 0.93-1.05 of it at 16 and 0.85-0.99 at 8 (0.87 at R/h = 4). The bounds: the
+    // mean within 2 % at 16 and 8 % at 8, every node within 8 % at 16 and 20 % at 8.
     for (r, h, mean_tol, node_tol) in [(4.0, 0.5, 0.08, 0.2), (4.0, 0.25, 0.02, 0.08)] {
         let k = penny_front_ratios(r, h);
         assert!(k.len() >= 10, "{} front nodes", k.len());

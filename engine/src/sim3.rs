@@ -168,25 +168,19 @@ pub fn open_discs(
     Ok((Some(split), reports))
 }
 
-/// The critical step of central difference on the TET4 mesh, s: the smallest element's exact
-/// critical step with the lumped mass ([`hydrofrac_core::tet4::critical_step`]), which bounds
-/// the mesh's from below (Irons' element eigenvalue theorem), lowered by the joints
-/// ([`critical_step_3d_with`]).
-pub fn critical_step_3d(view: &SolidView<Tet4>, p: &RunParams) -> f64 {
-    critical_step_3d_with(view, p, elements_critical_step_3d(view, p))
-}
-
-/// The elements' part of [`critical_step_3d`], s: the smallest tetrahedron's exact critical
-/// step. A split changes no tetrahedron, so it is computed once per run (it is most of a
-/// rebuild's cost otherwise: 14 % of `radial_m.ron`'s run).
+/// The elements' part of [`critical_step_3d`], s: the smallest element's exact critical step
+/// with the lumped mass ([`hydrofrac_core::tet4::critical_step`]), which bounds the mesh's
+/// from below (Irons' element eigenvalue theorem). A split changes no tetrahedron, so a run
+/// computes it once (it was most of a rebuild's cost: 14 % of `radial_m.ron`'s run).
 pub fn elements_critical_step_3d(view: &SolidView<Tet4>, p: &RunParams) -> f64 {
     (0..view.n_elems())
         .map(|k| hydrofrac_core::tet4::critical_step(&view.geom[k], &p.solid, p.material.density))
         .fold(f64::INFINITY, f64::min)
 }
 
-/// [`critical_step_3d`] from the elements' part `elements` (s).
-pub fn critical_step_3d_with(view: &SolidView<Tet4>, p: &RunParams, elements: f64) -> f64 {
+/// The critical step of central difference on the TET4 mesh, s: the elements' part `elements`
+/// ([`elements_critical_step_3d`]) lowered by the joints' springs.
+pub fn critical_step_3d(view: &SolidView<Tet4>, p: &RunParams, elements: f64) -> f64 {
     if view.joint_nodes.is_empty() {
         return elements;
     }
@@ -289,13 +283,12 @@ impl Simulation<Tet4> {
         let mut p = RunParams::resolve(&scenario, model.material);
         let mut view = view_3d(&model, &p, &scenario);
         // The quasi-static scheme has no stability bound (and the element eigenvalues cost).
-        let dt_elements = match scenario.time.solid_scheme {
-            SolidScheme::Explicit => elements_critical_step_3d(&view, &p),
-            SolidScheme::QuasiStatic => f64::INFINITY,
-        };
-        let mut dt_crit = match scenario.time.solid_scheme {
-            SolidScheme::Explicit => critical_step_3d_with(&view, &p, dt_elements),
-            SolidScheme::QuasiStatic => f64::INFINITY,
+        let (dt_elements, mut dt_crit) = match scenario.time.solid_scheme {
+            SolidScheme::Explicit => {
+                let elements = elements_critical_step_3d(&view, &p);
+                (elements, critical_step_3d(&view, &p, elements))
+            }
+            SolidScheme::QuasiStatic => (f64::INFINITY, f64::INFINITY),
         };
         if scenario.time.mass_scaling || scenario.time.selective_mass_scaling.is_some() {
             dt_crit = scale_masses_3d(&mut view, &mut p, &scenario.time, dt_crit);
@@ -463,10 +456,10 @@ impl Simulation<Tet4> {
                 SystemId::FractureCriterion => match p.criterion.map(|c| c.kind) {
                     // On the fronts, in the discs' planes (`Scenario::check_3d`).
                     Some(Criterion::Toughness { k_ic, .. }) => {
-                        let (ready, _) = hydrofrac_systems::toughness3d::toughness_criterion_3d(
-                            v, p.e_prime, k_ic,
-                        );
-                        self.fracture.ready_edges = ready;
+                        self.fracture.ready_edges =
+                            hydrofrac_systems::toughness3d::toughness_criterion_3d(
+                                v, p.e_prime, k_ic,
+                            );
                     }
                     Some(Criterion::Strength { threshold, .. }) => {
                         self.fracture.ready_edges = fracture::fracture_criterion_3d(v, threshold);
@@ -708,7 +701,7 @@ impl Simulation<Tet4> {
             }
         }
         if self.solid.linear.is_none() {
-            let bound = critical_step_3d_with(&self.solid.view, p, self.solid.dt_elements);
+            let bound = critical_step_3d(&self.solid.view, p, self.solid.dt_elements);
             self.solid.dt_crit = bound;
             hydrofrac_systems::split::shorten_to(&mut self.clock, p, bound, t1);
         }

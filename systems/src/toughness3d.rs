@@ -44,8 +44,6 @@ pub struct FrontNode {
     pub node: u32,
     /// K_I, Pa sqrt(m).
     pub k: f64,
-    /// Sister pairs behind it that gave the estimate.
-    pub pairs: usize,
 }
 
 /// K_I at every front node of the view's fractures ([`FrontNode`], in node order).
@@ -104,7 +102,6 @@ pub fn front_sif_nodes(v: &SolidView<Tet4>, e_prime: f64) -> Vec<FrontNode> {
                     FrontNode {
                         node: f,
                         k: ks.iter().sum::<f64>() / ks.len() as f64,
-                        pairs: ks.len(),
                     },
                     h,
                 )
@@ -131,34 +128,22 @@ pub fn front_sif_nodes(v: &SolidView<Tet4>, e_prime: f64) -> Vec<FrontNode> {
 /// The radius, in cells, over which the front nodes' K_I are averaged.
 pub const SMOOTH_CELLS: f64 = 2.0;
 
-/// The shared corners of tetrahedra `a` and `b` (a face: three nodes).
-fn shared(v: &SolidView<Tet4>, [a, b]: [u32; 2]) -> Vec<u32> {
-    let (ca, cb) = (v.conn[a as usize], v.conn[b as usize]);
-    ca.into_iter().filter(|n| cb.contains(n)).collect()
-}
-
 /// `fracture_criterion` in 3D under `Toughness`: marks ready the candidate faces round the
-/// front nodes whose K_I reaches `k_ic` (Pa sqrt(m)) (module doc).
-/// The candidate faces are the view's `edge_*` rows (the discs' planes' faces). Returns the
-/// number of ready faces and the front's K_I.
-pub fn toughness_criterion_3d(
-    v: &mut SolidView<Tet4>,
-    e_prime: f64,
-    k_ic: f64,
-) -> (usize, Vec<FrontNode>) {
-    let front = front_sif_nodes(v, e_prime);
-    let growing: std::collections::BTreeSet<u32> = front
+/// front nodes whose K_I reaches `k_ic` (Pa sqrt(m)) (module doc). The candidate faces are the
+/// view's `edge_*` rows (the discs' planes' faces). Returns the number of ready faces.
+pub fn toughness_criterion_3d(v: &mut SolidView<Tet4>, e_prime: f64, k_ic: f64) -> usize {
+    let growing: std::collections::BTreeSet<u32> = front_sif_nodes(v, e_prime)
         .iter()
         .filter(|f| f.k >= k_ic)
         .map(|f| f.node)
         .collect();
     let mut ready = 0;
     for k in 0..v.edge_elems.len() {
-        let r = shared(v, v.edge_elems[k])
-            .iter()
-            .any(|n| growing.contains(n));
+        // A corner of the face: a node of both its tetrahedra.
+        let [a, b] = v.edge_elems[k].map(|e| v.conn[e as usize]);
+        let r = !growing.is_empty() && a.iter().any(|n| b.contains(n) && growing.contains(n));
         v.edge_ready[k] = r;
         ready += r as usize;
     }
-    (ready, front)
+    ready
 }
